@@ -1,0 +1,29 @@
+# Entry points; each installs what is missing first (scripts/setup is idempotent and fast).
+.PHONY: setup build run test unit integration lint bench clean
+
+setup:
+	@bash scripts/setup
+
+build: setup
+	@bash scripts/build
+
+run: build
+	scripts/rosenv roslaunch inspection_robot sim.launch
+
+test: build
+	@bash scripts/test all
+
+unit: build
+	@bash scripts/test unit
+
+integration: build
+	@bash scripts/test integration
+
+lint: setup
+	@bash scripts/test lint
+
+bench: build
+	@bash scripts/bench
+
+clean:
+	rm -rf .ws

@@ -1,0 +1,134 @@
+"""Command tables for the GeneralCmd/ControlService interfaces, and strict argument parsing.
+
+Every device node (cloud_terrace, robot_arm, camera_node, infrared_imager, robot_control ...)
+answers ``cmd``/``data`` strings with ``ack``/``data`` strings. This module owns the parts they
+share: dispatch by name, the failure reply for unknown commands, and parsers that turn malformed
+input into a clear reason instead of an exception deep inside a driver.
+"""
+import math
+import os
+from collections import namedtuple
+
+from inspection_robot.interface import ACK_FAILED, ACK_SUCCESS
+
+Reply = namedtuple("Reply", "ack data")
+
+
+class CommandError(Exception):
+    """A request that cannot be carried out; the message is the reason sent back to the caller."""
+
+
+def success(data=""):
+    return Reply(ACK_SUCCESS, str(data))
+
+
+def failed(reason):
+    return Reply(ACK_FAILED, str(reason))
+
+
+class CommandTable(object):
+    """Maps command names to handlers ``handler(data) -> Reply | str | None``.
+
+    A handler returning a string (or None) succeeds with that data; raising CommandError fails
+    with the reason. Anything else a handler raises is a bug and propagates to the node boundary.
+    """
+
+    def __init__(self, handlers=None):
+        self._handlers = dict(handlers or {})
+
+    def register(self, name, handler):
+        self._handlers[name] = handler
+
+    @property
+    def names(self):
+        return tuple(sorted(self._handlers))
+
+    def __contains__(self, name):
+        return name in self._handlers
+
+    def dispatch(self, cmd, data):
+        handler = self._handlers.get(cmd)
+        if handler is None:
+            return failed("unknown command '%s'" % (cmd,))
+        try:
+            result = handler(data)
+        except CommandError as err:
+            return failed(err)
+        if isinstance(result, Reply):
+            return result
+        return success("" if result is None else result)
+
+
+def split_fields(data, count, name="data"):
+    """Split comma-separated ``data`` into exactly ``count`` fields (no spaces allowed)."""
+    fields = str(data).split(",")
+    if len(fields) != count or any(f == "" for f in fields):
+        raise CommandError("%s must be %d comma-separated values, got '%s'" % (name, count, data))
+    for field in fields:
+        if field != field.strip():
+            raise CommandError("%s must not contain spaces, got '%s'" % (name, data))
+    return fields
+
+
+def parse_int(text, name, low=None, high=None):
+    """Parse a decimal integer within [low, high]; anything else raises CommandError."""
+    text = str(text)
+    if text != text.strip():
+        raise CommandError("%s must not contain spaces, got '%s'" % (name, text))
+    try:
+        value = int(text, 10)
+    except ValueError:
+        raise CommandError("%s must be an integer, got '%s'" % (name, text))
+    _check_range(value, name, low, high)
+    return value
+
+
+def parse_float(text, name, low=None, high=None):
+    """Parse a finite decimal number within [low, high]; NaN, inf and junk raise CommandError."""
+    text = str(text)
+    if text != text.strip():
+        raise CommandError("%s must not contain spaces, got '%s'" % (name, text))
+    try:
+        value = float(text)
+    except ValueError:
+        raise CommandError("%s must be a number, got '%s'" % (name, text))
+    if not math.isfinite(value):
+        raise CommandError("%s must be finite, got '%s'" % (name, text))
+    _check_range(value, name, low, high)
+    return value
+
+
+def parse_choice(text, name, choices):
+    """Return ``text`` if it is one of ``choices`` (compared as strings)."""
+    text = str(text)
+    allowed = [str(c) for c in choices]
+    if text not in allowed:
+        raise CommandError("%s must be one of %s, got '%s'" % (name, "|".join(allowed), text))
+    return text
+
+
+def _check_range(value, name, low, high):
+    if (low is not None and value < low) or (high is not None and value > high):
+        raise CommandError("%s out of range [%s, %s]: %s" % (name, low, high, value))
+
+
+def confine_path(path, roots):
+    """Resolve ``path`` and require it to lie inside one of ``roots`` (after symlinks and ``..``).
+
+    Returns the absolute real path. Relative paths are taken relative to the first root.
+    """
+    if not path:
+        raise CommandError("empty path")
+    if "\x00" in path:
+        raise CommandError("path contains a NUL byte")
+    if not roots:
+        raise CommandError("no allowed roots configured")
+    real_roots = [os.path.realpath(os.path.expanduser(r)) for r in roots]
+    candidate = os.path.expanduser(path)
+    if not os.path.isabs(candidate):
+        candidate = os.path.join(real_roots[0], candidate)
+    resolved = os.path.realpath(candidate)
+    for root in real_roots:
+        if resolved == root or resolved.startswith(root + os.sep):
+            return resolved
+    raise CommandError("path '%s' is outside the allowed roots (%s)" % (path, ", ".join(real_roots)))

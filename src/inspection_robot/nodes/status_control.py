@@ -1,0 +1,93 @@
+"""status_control: heartbeat and robot_status (INTERFACE.md section 4, "Heartbeat").
+
+Subscribes:  server_status (GeneralTopic) heartbeat from the backend
+             control_status (ControlStatus), nav_status (NavStatus), robot_odom (nav_msgs/Odometry)
+             diagnostics (diagnostic_msgs/DiagnosticArray): sensor alarms by hardware_id
+Publishes:   robot_status (RobotStatus) at ~rate and at once on any change
+Parameters:  ~heartbeat_timeout (s, 3.0), ~rate (Hz, 10.0),
+             ~stale_timeout/{control,nav,odom} (s, 1.0/2.0/1.0),
+             ~sensor_hardware_bits ({hardware_id: sensor_status bit}, {camera: 0, thermal_imager: 1})
+"""
+import rospy
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
+from nav_msgs.msg import Odometry
+
+from inspection_robot.msg import ControlStatus, GeneralTopic, NavStatus, RobotStatus
+from inspection_robot.status.merge import (CONTROL_FIELDS, Heartbeat, StatusMerger,
+                                           heartbeat_text_problem)
+
+
+class StatusControl(object):
+    def __init__(self, merger, rate_hz, sensor_hardware_bits):
+        self._merger = merger
+        self._sensor_bits = dict(sensor_hardware_bits)
+        self._last_published = None
+        self._pub = rospy.Publisher("robot_status", RobotStatus, queue_size=10)
+        rospy.Subscriber("server_status", GeneralTopic, self._on_server_status, queue_size=10)
+        rospy.Subscriber("control_status", ControlStatus, self._on_control_status, queue_size=10)
+        rospy.Subscriber("nav_status", NavStatus, self._on_nav_status, queue_size=10)
+        rospy.Subscriber("robot_odom", Odometry, self._on_odom, queue_size=10)
+        rospy.Subscriber("diagnostics", DiagnosticArray, self._on_diagnostics, queue_size=10)
+        self._timer = rospy.Timer(rospy.Duration(1.0 / rate_hz), self._on_timer)
+
+    @staticmethod
+    def _now():
+        return rospy.get_time()
+
+    def _on_server_status(self, msg):
+        problem = heartbeat_text_problem(msg.sender, msg.receiver, msg.data)
+        if problem:
+            rospy.logwarn_throttle(5.0, "server_status from %r malformed (%s); counted as heartbeat"
+                                   % (msg.sender[:40], problem))
+        self._merger.heartbeat.beat(self._now())
+        self._publish_if_changed()
+
+    def _on_control_status(self, msg):
+        fields = {name: getattr(msg, name) for name in ("mode",) + CONTROL_FIELDS}
+        for problem in self._merger.update_control(self._now(), fields):
+            rospy.logwarn_throttle(5.0, "control_status: %s; padded/truncated" % problem)
+        self._publish_if_changed()
+
+    def _on_nav_status(self, msg):
+        for problem in self._merger.update_nav(self._now(), msg.nav_warn, msg.position, msg.orientation):
+            rospy.logwarn_throttle(5.0, "nav_status: %s; keeping the last valid pose" % problem)
+        self._publish_if_changed()
+
+    def _on_odom(self, msg):
+        twist = msg.twist.twist
+        self._merger.update_odometry(self._now(), twist.linear.x, twist.angular.z)
+        self._publish_if_changed()
+
+    def _on_diagnostics(self, msg):
+        for status in msg.status:
+            bit = self._sensor_bits.get(status.hardware_id)
+            if bit is not None:
+                self._merger.set_sensor_bit(1 << int(bit), status.level >= DiagnosticStatus.ERROR)
+        self._publish_if_changed()
+
+    def _on_timer(self, _event):
+        self._publish(self._merger.robot_status(self._now()))
+
+    def _publish_if_changed(self):
+        status = self._merger.robot_status(self._now())
+        if status != self._last_published:
+            self._publish(status)
+
+    def _publish(self, status):
+        self._last_published = status
+        msg = RobotStatus(sender="status_control", **status)
+        msg.header.stamp = rospy.Time.now()
+        self._pub.publish(msg)
+
+
+def main():
+    rospy.init_node("status_control")
+    timeout = float(rospy.get_param("~heartbeat_timeout", 3.0))
+    rate_hz = float(rospy.get_param("~rate", 10.0))
+    stale = {"control": 1.0, "nav": 2.0, "odom": 1.0}
+    stale.update({k: float(v) for k, v in rospy.get_param("~stale_timeout", {}).items()})
+    sensor_bits = rospy.get_param("~sensor_hardware_bits", {"camera": 0, "thermal_imager": 1})
+    if rate_hz <= 0:
+        raise ValueError("~rate must be positive")
+    StatusControl(StatusMerger(Heartbeat(timeout), stale), rate_hz, sensor_bits)
+    rospy.spin()

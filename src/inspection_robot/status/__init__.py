@@ -1,0 +1,1 @@
+"""Heartbeat and robot_status merging (status_control)."""

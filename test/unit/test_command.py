@@ -1,0 +1,66 @@
+"""The shared command table and argument parsers."""
+import os
+
+import pytest
+
+from inspection_robot.command import (CommandError, CommandTable, confine_path, parse_choice,
+                                      parse_float, parse_int, split_fields, success)
+
+
+def test_dispatch_unknown_command_fails_with_its_name():
+    reply = CommandTable({"go": lambda data: "went " + data}).dispatch("fly", "x")
+    assert reply == ("failed", "unknown command 'fly'")
+
+
+def test_dispatch_success_and_command_error():
+    def bad(_data):
+        raise CommandError("angle out of range")
+    table = CommandTable({"go": lambda data: "went " + data, "bad": bad, "reply": lambda d: success("r")})
+    assert table.dispatch("go", "home") == ("success", "went home")
+    assert table.dispatch("bad", "") == ("failed", "angle out of range")
+    assert table.dispatch("reply", "") == ("success", "r")
+
+
+@pytest.mark.parametrize("text", ["abc", "1.5", "", " 3", "0x10"])
+def test_parse_int_rejects_junk(text):
+    with pytest.raises(CommandError):
+        parse_int(text, "speed")
+
+
+@pytest.mark.parametrize("text", ["nan", "inf", "-inf", "1e400", "abc", ""])
+def test_parse_float_rejects_non_finite_and_junk(text):
+    with pytest.raises(CommandError):
+        parse_float(text, "x")
+
+
+def test_ranges():
+    assert parse_int("-18000", "pan", -18000, 18000) == -18000
+    with pytest.raises(CommandError, match="out of range"):
+        parse_int("18001", "pan", -18000, 18000)
+    assert parse_float("2.5", "x", 0, 3) == 2.5
+    assert parse_choice("auto", "mode", ("auto", "manual")) == "auto"
+    with pytest.raises(CommandError, match="auto|manual"):
+        parse_choice("fast", "mode", ("auto", "manual"))
+
+
+@pytest.mark.parametrize("data,count", [("1,2,3", 2), ("1,,2", 3), ("1, 2", 2), ("", 1)])
+def test_split_fields_rejects_wrong_shapes(data, count):
+    with pytest.raises(CommandError):
+        split_fields(data, count)
+
+
+def test_split_fields():
+    assert split_fields("12300,-300", 2) == ["12300", "-300"]
+
+
+def test_confine_path(tmp_path):
+    root = tmp_path / "pictures"
+    root.mkdir()
+    assert confine_path(str(root / "a" / "b.jpg"), [str(root)]) == str(root / "a" / "b.jpg")
+    assert confine_path("rel/x.jpg", [str(root)]) == str(root / "rel" / "x.jpg")
+    for bad in [str(root / ".." / "escape.jpg"), "/etc/passwd", "", "../x"]:
+        with pytest.raises(CommandError):
+            confine_path(bad, [str(root)])
+    os.symlink("/etc", str(root / "link"))
+    with pytest.raises(CommandError):
+        confine_path(str(root / "link" / "passwd"), [str(root)])
