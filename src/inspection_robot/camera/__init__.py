@@ -1,0 +1,1 @@
+"""Visible camera: optics model, drivers (Hikvision ISAPI, simulated) and command handling."""
