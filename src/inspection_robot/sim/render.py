@@ -205,6 +205,7 @@ class Renderer(object):
         self.lighting_variation = float(lighting_variation)
         self._frame = 0
         self._face_cache = {}
+        self._noise_fields = {}
         rng = np.random.RandomState(world.seed)
         sun = np.array([0.4, -0.5, 0.75])
         self._sun = sun / np.linalg.norm(sun)
@@ -290,8 +291,8 @@ class Renderer(object):
         elev = -tilt - np.arctan((rows - camera.height / 2.0) / camera.focal_px)
         t = np.clip(elev / 0.8, 0.0, 1.0)[:, None]
         top, horizon = np.array([200, 150, 90], np.float32), np.array([235, 215, 190], np.float32)
-        column = (horizon * (1 - t) + top * t).astype(np.uint8)
-        return np.ascontiguousarray(np.broadcast_to(column[:, None, :], (camera.height, camera.width, 3)))
+        column = (horizon * (1 - t) + top * t).astype(np.uint8)[:, None, :]
+        return cv2.resize(column, (camera.width, camera.height), interpolation=cv2.INTER_NEAREST)
 
     def _post(self, img, frame_index):
         rng = np.random.RandomState((self.seed * 7919 + frame_index) % (2 ** 31))
@@ -302,8 +303,15 @@ class Renderer(object):
             gain = cv2.resize(corners, (img.shape[1], img.shape[0]), interpolation=cv2.INTER_LINEAR)
             img = cv2.multiply(img, cv2.merge([gain, gain, gain]), dtype=cv2.CV_8U)
         if self.noise_sigma > 0:
-            small = rng.normal(0.0, self.noise_sigma, (img.shape[0] // 2 + 1, img.shape[1] // 2 + 1, 3))
-            noise = cv2.resize(small.astype(np.float32), (img.shape[1], img.shape[0]),
+            # sensor noise in 2x2 cells, cut at a seeded offset from a field drawn once per size
+            half = (img.shape[0] // 2 + 1, img.shape[1] // 2 + 1)
+            field = self._noise_fields.get(half)
+            if field is None:
+                field_rng = np.random.RandomState(self.seed)
+                field = field_rng.normal(0.0, self.noise_sigma, (half[0] + 64, half[1] + 64, 3)).astype(np.float32)
+                self._noise_fields[half] = field
+            oy, ox = rng.randint(0, 64, 2)
+            noise = cv2.resize(field[oy:oy + half[0], ox:ox + half[1]], (img.shape[1], img.shape[0]),
                                interpolation=cv2.INTER_NEAREST)
             img = cv2.add(img, noise, dtype=cv2.CV_8U)
         return img
@@ -329,10 +337,9 @@ def _draw(img, camera, quad, texture):
     pts = np.round((poly - [x0, y0]) * painter._SCALE).astype(np.int32)
     cv2.fillConvexPoly(mask, pts, 255, cv2.LINE_8, painter.SUBPIXEL_SHIFT)
     roi = img[y0:y1, x0:x1]
-    if warped.ndim == 3:
-        np.copyto(roi, warped, where=(mask > 0)[..., None])
-    else:
-        np.copyto(roi, warped, where=mask > 0)
+    out = cv2.bitwise_and(warped, warped, dst=roi, mask=mask)   # masked: leaves the rest of roi as is
+    if out is not roi:   # the binding had to copy the strided view
+        roi[...] = out
 
 
 # --- thermal ----------------------------------------------------------------------------------
