@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from inspection_robot.camera.optics import ZoomOptics
-from inspection_robot.sim.render import (PinholeCamera, Renderer, ThermalRenderer, false_colour,
-                                         ground_truth)
+from inspection_robot.sim.render import PinholeCamera, Renderer, ThermalRenderer, ground_truth
+from inspection_robot.thermal.commands import false_colour
 from inspection_robot.sim.world import World, WorldError
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))

@@ -409,10 +409,3 @@ def _fill(frame, camera, quad, value):
         pts = np.round(poly * painter._SCALE).astype(np.int32)
         cv2.fillConvexPoly(frame, pts, float(value), cv2.LINE_8, painter.SUBPIXEL_SHIFT)
 
-
-def false_colour(frame, low=None, high=None):
-    """BGR false-colour picture of a radiometric frame (inferno palette, scaled to [low, high])."""
-    low = float(np.min(frame)) if low is None else float(low)
-    high = float(np.max(frame)) if high is None else float(high)
-    scaled = np.clip((frame - low) * (255.0 / max(high - low, 1e-6)), 0, 255).astype(np.uint8)
-    return cv2.applyColorMap(scaled, cv2.COLORMAP_INFERNO)
