@@ -75,15 +75,19 @@ class IsapiCamera(CameraDriver):
     def _get_xml(self, path):
         payload = self._request("GET", path)
         try:
-            return ElementTree.fromstring(payload)
+            root = ElementTree.fromstring(payload)
         except ElementTree.ParseError as err:
             raise CameraError("camera %s sent malformed XML for %s: %s" % (self._base, path, err))
+        # keep the camera's default namespace as a plain xmlns attribute (no ns0: prefixes on PUT)
+        namespace = root.tag[1:].split("}", 1)[0] if root.tag.startswith("{") else None
+        for element in root.iter():
+            element.tag = _local(element.tag)
+        if namespace:
+            root.set("xmlns", namespace)
+        return root
 
     def _put_xml(self, path, root):
-        # keep the camera's default namespace instead of ElementTree's ns0: prefixes
-        namespace = root.tag[1:].split("}", 1)[0] if root.tag.startswith("{") else None
-        text = ElementTree.tostring(root, encoding="unicode", default_namespace=namespace)
-        self._check_status(self._request("PUT", path, text), path)
+        self._check_status(self._request("PUT", path, ElementTree.tostring(root, encoding="unicode")), path)
 
     def _check_status(self, payload, path):
         """ISAPI answers PUTs with a ResponseStatus; statusCode 1 is OK."""
