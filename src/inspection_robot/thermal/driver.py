@@ -46,3 +46,20 @@ def load_driver_class(spec):
         return getattr(module, class_name)
     except AttributeError:
         raise ValueError("%s has no class %s" % (module_name, class_name))
+
+
+class NoImager(ThermalDriver):
+    """Stands in when no vendor plug-in is configured: every request fails, diagnostics show ERROR."""
+
+    supported = ("save_temperature", "capture_picture", "get_max_temperature", "get_spot_temperature",
+                 "get_high_temperature", "get_low_temperature", "auto_focus", "set_measure_spot")
+    REASON = "no thermal imager driver configured (~driver)"
+
+    def frame(self):
+        raise ThermalError(self.REASON)
+
+    def auto_focus(self):
+        raise ThermalError(self.REASON)
+
+    def probe(self):
+        raise ThermalError(self.REASON)
