@@ -65,8 +65,8 @@ class IsapiCamera(CameraDriver):
         except urllib.error.HTTPError as err:
             if err.code == 401:
                 raise CameraError("camera %s refused the credentials (HTTP 401, digest)" % self._base)
-            raise CameraError("camera %s answered HTTP %d to %s %s" % (self._base, err.code, method, url[len(self._base):]
-                                                                      if url.startswith(self._base) else url))
+            where = url[len(self._base):] if url.startswith(self._base) else url
+            raise CameraError("camera %s answered HTTP %d to %s %s" % (self._base, err.code, method, where))
         except (urllib.error.URLError, OSError) as err:
             reason = getattr(err, "reason", err)
             raise CameraError("camera unreachable at %s: %s" % (self._base, reason))
@@ -98,7 +98,8 @@ class IsapiCamera(CameraDriver):
         codes = _find_all(root, "statusCode")
         if codes and codes[0].text not in ("1", None):
             status = _find_all(root, "statusString")
-            raise CameraError("camera %s refused %s: %s" % (self._base, path, status[0].text if status else codes[0].text))
+            reason = status[0].text if status else codes[0].text
+            raise CameraError("camera %s refused %s: %s" % (self._base, path, reason))
 
     def _read(self, path, name):
         elements = _find_all(self._get_xml(path), name)

@@ -408,4 +408,3 @@ def _fill(frame, camera, quad, value):
     if len(poly) >= 3:
         pts = np.round(poly * painter._SCALE).astype(np.int32)
         cv2.fillConvexPoly(frame, pts, float(value), cv2.LINE_8, painter.SUBPIXEL_SHIFT)
-

@@ -167,7 +167,8 @@ class Face(object):
             value = "on" if value else "off"
         allowed = LAMP_VALUES if self.type == "lamp" else SWITCH_VALUES
         if str(value) not in allowed:
-            raise WorldError("%s %s: value must be one of %s, got '%s'" % (self.type, self.id, "|".join(allowed), value))
+            raise WorldError("%s %s: value must be one of %s, got '%s'"
+                             % (self.type, self.id, "|".join(allowed), value))
         return str(value)
 
     def set_value(self, value):
