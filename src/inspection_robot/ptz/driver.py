@@ -78,7 +78,7 @@ class PelcoHead(PanTiltHead):
         self._write_lock = threading.Lock()
         self._state_lock = threading.Lock()
         self._waiters = collections.defaultdict(collections.deque)   # reply cmd2 -> deque of slots
-        self._reader = pelco.FrameReader()
+        self._reader = pelco.FrameReader(accept=self._is_reply)
         self._stop = threading.Event()
         self._connected = threading.Event()
         self.reconnects = 0
@@ -162,9 +162,10 @@ class PelcoHead(PanTiltHead):
             slot["error"] = reason
             slot["event"].set()
 
+    def _is_reply(self, frame):
+        return frame.address == self.address and frame.cmd1 == 0 and frame.cmd2 in (pelco.REPLY_PAN, pelco.REPLY_TILT)
+
     def _dispatch(self, frame):
-        if frame.address != self.address:
-            return
         with self._state_lock:
             slots = self._waiters.get(frame.cmd2)
             slot = slots.popleft() if slots else None

@@ -10,6 +10,7 @@ pan 0..35999 clockwise from the front; tilt 0..9000 looking down, 27000..35999 l
 hundredths here so that conversions are exact: pan (-18000, 18000] counter-clockwise +, tilt
 [-9000, 9000] down +.
 """
+import math
 from collections import namedtuple
 
 SYNC = 0xFF
@@ -132,11 +133,13 @@ def stop(address):
 class FrameReader(object):
     """Turns a byte stream into frames; resynchronises on 0xFF after garbage or bad checksums.
 
-    A candidate frame with a wrong checksum drops only its leading 0xFF, so a real frame that
-    starts inside the rejected bytes (data bytes may be 0xFF) is still found.
+    A candidate frame with a wrong checksum, or that ``accept(frame)`` refuses (e.g. another
+    address: garbage can pass a one-byte checksum by chance), drops only its leading 0xFF, so a
+    real frame that starts inside the rejected bytes (data bytes may be 0xFF) is still found.
     """
 
-    def __init__(self, max_buffer=4096):
+    def __init__(self, accept=None, max_buffer=4096):
+        self._accept = accept
         self._buffer = bytearray()
         self._max_buffer = max_buffer
         self.frames = 0
@@ -164,7 +167,12 @@ class FrameReader(object):
                 self.discarded_bytes += 1
                 del buf[:1]
                 continue
-            frames.append(Frame(*buf[1:6]))
+            frame = Frame(*buf[1:6])
+            if self._accept is not None and not self._accept(frame):
+                self.discarded_bytes += 1
+                del buf[:1]
+                continue
+            frames.append(frame)
             self.frames += 1
             del buf[:FRAME_LENGTH]
         if len(buf) > self._max_buffer:   # cannot happen with 7-byte frames; belt and braces
@@ -225,3 +233,7 @@ def degrees_to_centi(degrees):
 
 def centi_to_degrees(centi):
     return centi / 100.0
+
+
+def centi_to_radians(centi):
+    return math.radians(centi / 100.0)

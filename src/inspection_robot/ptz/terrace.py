@@ -186,8 +186,10 @@ class Terrace(object):
             self._sleep(self.poll_period)
 
     # --- preset_rotate ----------------------------------------------------------------------
-    def rotate_by_pixel(self, optics, zoom, width, height, delta_x, delta_y):
-        """Centre the pixel (delta_x right +, delta_y up + from the picture centre)."""
+    def pixel_target(self, optics, zoom, width, height, delta_x, delta_y):
+        """Standard (pan, tilt) hundredths that centre the pixel (delta_x right +, delta_y up +
+        from the picture centre) of a ``width`` x ``height`` picture at ``zoom``; tilt is clamped
+        to the limits. Reads the current angles from the head."""
         if width <= 0 or height <= 0:
             raise CommandError("picture size must be positive, got %dx%d" % (width, height))
         if abs(delta_x) > width / 2.0 or abs(delta_y) > height / 2.0:
@@ -197,8 +199,7 @@ class Terrace(object):
                                          optics.focal_px(zoom, width), delta_x, delta_y)
         target_pan = pelco.wrap_pan_centi(pelco.degrees_to_centi(new_pan))
         target_tilt = min(max(pelco.degrees_to_centi(new_tilt), self.tilt_limits[0]), self.tilt_limits[1])
-        self.go_to(target_pan, target_tilt)
-        return format_centi(target_pan, target_tilt)
+        return target_pan, target_tilt
 
 
 def _pan_distance(a, b):
