@@ -36,6 +36,7 @@ class _Task(object):
         self.path = path
         self.stop = threading.Event()
         self.stopped_by = None
+        self.started = None
         self.samples = []
         self.thread = threading.Thread(target=target, args=(self,), name="arm_" + kind)
         self.thread.daemon = True
@@ -168,12 +169,13 @@ class ArmController(object):
         path = self._path(data)
         self._pose(0)     # fail now, not in the thread, if the arm does not answer
         task = self._start("record", path, self._record_loop)
+        task.started = self._clock()
         task.thread.start()
         return path
 
     def _record_loop(self, task):
         period = 1.0 / self.record_rate
-        start = self._clock()
+        start = task.started
         next_time = start
         while not task.stop.is_set():
             now = self._clock()
@@ -211,6 +213,10 @@ class ArmController(object):
         path = task.path if data == "" else self._path(data)
         task.stop.set()
         task.thread.join(2.0)
+        if task.stopped_by == "error":
+            raise CommandError("recording to %s had failed; nothing saved" % task.path)
+        # the pose at the moment of stop_orbit ends the trajectory, whatever the sampling phase
+        task.samples.append(trajectory.Sample(self._clock() - task.started, self._pose(0), self._pose(1)))
         try:
             trajectory.save(path, task.samples, self.record_rate)
         except trajectory.TrajectoryError as err:
