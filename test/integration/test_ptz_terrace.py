@@ -129,7 +129,8 @@ class TerraceTest(unittest.TestCase):
     def test_bad_input_fails_and_nothing_moves(self):
         self.assertEqual(self.call("set_angle", "1000,1000").ack, "success")
         before = self.sim_state()
-        cases = (("set_angle", "abc", "comma-separated"), ("set_angle", "abc,0", "pan must be an integer"), ("set_angle", "1,2,3", "2 comma-separated"),
+        cases = (("set_angle", "abc", "comma-separated"), ("set_angle", "abc,0", "pan must be an integer"),
+                 ("set_angle", "1,2,3", "2 comma-separated"),
                  ("set_pan_angle", "18001", "out of range"), ("set_pan_angle", "-18000", "out of range"),
                  ("set_tilt_angle", "9001", "out of range"), ("set_pan_angle", "123.5", "integer"),
                  ("set_pan_angle", "", "missing"), ("set_angle", "100, 200", "spaces"),
