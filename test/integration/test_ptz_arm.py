@@ -1,6 +1,7 @@
 #!/usr/bin/env python3
 """rostest: robot_arm with the simulated arm (every command via service and topic, record/play)."""
 import os
+import shutil
 import unittest
 
 import rospy
@@ -33,6 +34,10 @@ class ArmTest(unittest.TestCase):
             wait_subscribed(pub)
         cls.acks.wait_connected()
         cls.control.publish(ControlStatus(mode=0))
+
+    @classmethod
+    def tearDownClass(cls):
+        shutil.rmtree(cls.root, ignore_errors=True)
 
     def setUp(self):
         self.sim(cmd="fault", data="")
