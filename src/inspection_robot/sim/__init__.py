@@ -1,0 +1,1 @@
+"""Simulated devices and world behind the same interfaces as the real ones."""
