@@ -2,15 +2,13 @@
 
 Virtual obstacles are drawn into a layer of their own that only the planner sees; the static
 map published for localization is never modified. Inflation uses one exact Euclidean distance
-transform (SciPy) per change: cells closer than ``robot_radius`` to an obstacle are lethal, cells
+transform (OpenCV) per change: cells closer than ``robot_radius`` to an obstacle are lethal, cells
 within ``robot_radius + safety_margin`` carry a cost that decays linearly, so paths keep clear of
 walls when they can. Free space is labelled into 8-connected components once per change, so
 "goal unreachable" is answered exactly without searching.
 """
-import numpy as np
-from scipy import ndimage
-
 import cv2
+import numpy as np
 
 from inspection_robot.nav.gridmap import OCC_UNKNOWN
 
@@ -76,8 +74,8 @@ class Costmap(object):
         obstacles = self._static | self.virtual
         res = self.grid.resolution
         if obstacles.any():
-            # distance (m) from each cell centre to the nearest obstacle cell centre
-            dist = ndimage.distance_transform_edt(~obstacles).astype(np.float32) * res
+            # exact Euclidean distance (m) from each cell centre to the nearest obstacle cell centre
+            dist = cv2.distanceTransform((~obstacles).astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE) * res
         else:
             dist = np.full(self.shape, np.float32(1e9))
         lethal = dist < max(self.robot_radius, res * 0.5)
@@ -88,7 +86,7 @@ class Costmap(object):
             cost[near] += self.margin_cost * (1.0 - band[near])
         cost[lethal] = LETHAL
         self.cost = cost
-        self.labels, _ = ndimage.label(~lethal, structure=np.ones((3, 3), dtype=bool))
+        _count, self.labels = cv2.connectedComponents((~lethal).astype(np.uint8), connectivity=8)
 
     def free(self, row, col):
         return self.grid.contains(row, col) and np.isfinite(self.cost[row, col])

@@ -258,7 +258,8 @@ class MoveBase(object):
             write_json_atomic(self.cfg["last_pose_file"], pose_json(pose))
             self._last_saved_pose = pose
         except OSError as err:
-            rospy.logwarn_throttle(30.0, "move_base: cannot save last pose to %s: %s" % (self.cfg["last_pose_file"], err))
+            rospy.logwarn_throttle(30.0, "move_base: cannot save last pose to %s: %s"
+                                   % (self.cfg["last_pose_file"], err))
 
     def send(self, velocity_x, velocity_yaw, wheel_control):
         msg = MoveCmd(sender=SENDER_MOVE_BASE, velocity_x=velocity_x / MOVE_VELOCITY_X_UNIT_M_S,
