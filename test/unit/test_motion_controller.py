@@ -1,7 +1,7 @@
 """MotionController against the simulated chassis with a fake clock: the behaviour of robot_control."""
 import pytest
 
-from inspection_robot.interface import (LIGHT_CHARGE_RELAY, LIGHT_SOFT_ESTOP, MODE_JOY, MODE_SERVER, MODE_TASK,
+from inspection_robot.interface import (LIGHT_CHARGE_RELAY, LIGHT_SOFT_ESTOP, MODE_JOY, MODE_TASK,
                                         STOP_OBSTACLE, WHEEL_COLLISION_OFF, WHEEL_STEER, WHEEL_STRAIGHT)
 from inspection_robot.motion.controller import MotionController
 from inspection_robot.motion.velocity import VelocityLimits

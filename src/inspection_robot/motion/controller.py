@@ -258,4 +258,3 @@ class MotionController(object):
         reading = self.driver.imu_reading()
         return "%.2f,%.2f,%.2f,%d" % (math.degrees(reading.roll), math.degrees(reading.pitch),
                                       math.degrees(reading.yaw), 1 if reading.calibrated else 0)
-
