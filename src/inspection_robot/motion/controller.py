@@ -57,6 +57,10 @@ class MotionController(object):
         self.control_table = self._build_control_table()
         self.imu_table = self._build_imu_table()
 
+    def set_speaker(self, speak):
+        """``speak(words)`` publishes query_status' sentence."""
+        self._speak = speak
+
     def locked(self):
         """The controller's lock, for callers that touch the driver directly (simulator faults)."""
         return self._lock
