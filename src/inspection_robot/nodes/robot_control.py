@@ -83,7 +83,7 @@ class RobotControl(object):
         self._base_frame = base_frame
         self._voice_language = voice_language
         self._last_discrete = None
-        self._status_pub = rospy.Publisher("control_status", ControlStatus, queue_size=10)
+        self._status_pub = rospy.Publisher("control_status", ControlStatus, queue_size=50)
         self._odom_pub = rospy.Publisher("robot_odom", Odometry, queue_size=10)
         self._control_ack_pub = rospy.Publisher("control_ack", GeneralAck, queue_size=20)
         self._voice_pub = rospy.Publisher("voice_cmd", VoiceCmd, queue_size=10)
@@ -97,9 +97,9 @@ class RobotControl(object):
         controller.set_speaker(self._speak)
         self._imu_twin = CommandTwin(_ImuTable(controller), "imu_control", "imu_cmd", "imu_ack", NODE_NAME,
                                      busy_when_joystick=False)
-        rospy.Subscriber("mode_cmd", GeneralCmd, self._on_mode_cmd, queue_size=10)
+        rospy.Subscriber("mode_cmd", GeneralCmd, self._on_mode_cmd, queue_size=50)
         rospy.Subscriber("move_cmd", MoveCmd, self._on_move_cmd, queue_size=10)
-        rospy.Subscriber("control_cmd", GeneralCmd, self._on_control_cmd, queue_size=20)
+        rospy.Subscriber("control_cmd", GeneralCmd, self._on_control_cmd, queue_size=50)
         rospy.Subscriber("obstacle_status", ObstacleStatus, self._on_obstacle, queue_size=10)
         rospy.Subscriber("robot_status", RobotStatus, self._on_robot_status, queue_size=1)
         self._timer = rospy.Timer(rospy.Duration(1.0 / rate_hz), self._on_tick)
