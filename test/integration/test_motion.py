@@ -54,12 +54,12 @@ class MotionTest(unittest.TestCase):
 
     # --- helpers ---------------------------------------------------------------------------------
     def setUp(self):
+        self.robot_status_pub.publish(RobotStatus(offline_warn=0))
         for name in ("hard_estop", "bumper", "fall_left", "fall_right", "motor_disconnect", "joystick_link_lost"):
             self.fault(name, 0)
         self.obstacle_pub.publish(ObstacleStatus(obstacle=False))
         for cmd in ("disable_stop", "enable_collision", "enable_fallen", "enable_obstacle", "disable_charge"):
             self.control(cmd)
-        self.robot_status_pub.publish(RobotStatus(offline_warn=0))
         mode = self.status.wait(timeout=2.0).mode
         if mode != MODE_TASK:
             self.mode({MODE_JOY: "joy_control", MODE_SERVER: "server"}[mode], "release")
@@ -85,6 +85,17 @@ class MotionTest(unittest.TestCase):
 
     def mode(self, sender, cmd, data=""):
         self.mode_pub.publish(GeneralCmd(sender=sender, trans_id=self.next_id(), cmd=cmd, data=data))
+
+    def acquire(self, sender, data, mode):
+        """Acquire and wait for the mode; repeated because the online state (robot_status) travels on
+        another topic than mode_cmd, so a previous test's offline_warn may still be in force once."""
+        for _attempt in range(3):
+            self.mode(sender, "acquire", data)
+            try:
+                return self.status.wait(lambda m: m.mode == mode, 1.0, "mode %d" % mode)
+            except AssertionError:
+                continue
+        self.fail("could not acquire %s" % data)
 
     def move(self, sender, vx, wz=0.0, wheel=0):
         self.move_pub.publish(MoveCmd(sender=sender, velocity_x=vx, velocity_yaw=wz, wheel_control=wheel))
@@ -151,8 +162,7 @@ class MotionTest(unittest.TestCase):
         for mode, holder, acquire in ((MODE_TASK, "move_base", None), (MODE_SERVER, "server", ("server", "server")),
                                       (MODE_JOY, "joy_control", ("joy_control", "joy"))):
             if acquire:
-                self.mode(acquire[0], "acquire", acquire[1])
-                self.status.wait(lambda m: m.mode == mode, 2.0, "mode %d" % mode)
+                self.acquire(acquire[0], acquire[1], mode)
             since = rospy.get_time()
             for k, sender in enumerate(("move_base", "server", "joy_control", "intruder", "")):
                 if sender != holder:
@@ -240,8 +250,7 @@ class MotionTest(unittest.TestCase):
         self.status.wait(lambda m: m.mode == MODE_TASK and m.circuit_status & 0x02, 1.0, "task mode, bit b1")
 
     def test_offline_in_server_mode(self):
-        self.mode("server", "acquire", "server")
-        self.status.wait(lambda m: m.mode == MODE_SERVER, 2.0, "server mode")
+        self.acquire("server", "server", MODE_SERVER)
         self.start_moving("server")
         t0 = rospy.get_time()
         self.robot_status_pub.publish(RobotStatus(offline_warn=1))

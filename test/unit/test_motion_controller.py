@@ -236,3 +236,14 @@ def test_lamps_follow_safety(rig):
     ctl.on_control_cmd("server", "enable_stop", "")
     run(0.02)
     assert chassis.state().lamps == (True, False, False)
+
+
+def test_server_cannot_acquire_while_backend_offline(rig):
+    ctl, _chassis, _clock, _rec, _run, logs, _ = rig
+    ctl.on_offline(True)
+    assert not ctl.on_mode_cmd("server", "acquire", "server").accepted
+    assert ctl.mode == MODE_TASK and "backend offline" in logs[-1][1]
+    assert ctl.on_mode_cmd("joy_control", "acquire", "joy").changed
+    ctl.on_offline(False)
+    ctl.on_mode_cmd("joy_control", "release", "")
+    assert ctl.on_mode_cmd("server", "acquire", "server").changed

@@ -18,9 +18,9 @@ import math
 import threading
 
 from inspection_robot.command import CommandError, CommandTable, failed, success
-from inspection_robot.interface import (BATTERY_CHARGING, CIRCUIT_JOY_COMM_LOST, IMU_COMMANDS, MODE_JOY,
-                                        MODE_SERVER, WHEEL_STRAIGHT)
-from inspection_robot.motion.arbitration import ModeArbiter
+from inspection_robot.interface import (BATTERY_CHARGING, CIRCUIT_JOY_COMM_LOST, IMU_COMMANDS, MODE_CMD_ACQUIRE,
+                                        MODE_JOY, MODE_SERVER, WHEEL_STRAIGHT)
+from inspection_robot.motion.arbitration import Decision, ModeArbiter
 from inspection_robot.motion.chassis import ChassisError
 from inspection_robot.motion.odometry import Odometry
 from inspection_robot.motion.safety import SWITCHES, SafetyLatch
@@ -72,7 +72,10 @@ class MotionController(object):
     # --- inputs ------------------------------------------------------------------------------
     def on_mode_cmd(self, sender, cmd, data):
         with self._lock:
-            decision = self.arbiter.request(sender, cmd, data)
+            if self._offline and cmd == MODE_CMD_ACQUIRE and data == "server":
+                decision = Decision(False, False, "acquire server refused: backend offline (robot_status.offline_warn)")
+            else:
+                decision = self.arbiter.request(sender, cmd, data)
             self._log("info" if decision.accepted else "warn", "mode_cmd %s(%r) from %r: %s"
                       % (cmd, data, sender, decision.reason))
             if decision.changed:
