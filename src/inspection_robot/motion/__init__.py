@@ -1,0 +1,1 @@
+"""Motion and safety: mode arbitration, safety latches, velocity validation, odometry, chassis driver interface."""

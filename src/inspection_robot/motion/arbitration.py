@@ -1,0 +1,72 @@
+"""Mode arbitration (INTERFACE.md section 4, "Mode and motion"): who holds the robot, who may move it.
+
+Priority joystick (mode 2) > backend (mode 1) > task (mode 0); the robot boots in task mode.
+- ``acquire joy`` is accepted only from ``joy_control``, ``acquire server`` only from ``server``.
+  An acquire of a mode with lower priority than the current one is refused (the mode stays);
+  acquiring the mode one already holds succeeds without change; a higher-priority acquire
+  pre-empts the holder.
+- ``release`` is accepted only from the current holder's sender and always returns to task mode
+  (a pre-empted backend does not get the robot back: it must acquire again).
+- Only the holder's sender moves the robot: ``move_base`` in mode 0, ``server`` in 1,
+  ``joy_control`` in 2 (interface.MOVE_SENDER_BY_MODE).
+"""
+from collections import namedtuple
+
+from inspection_robot.interface import (MODE_BY_ACQUIRE_DATA, MODE_CMD_ACQUIRE, MODE_CMD_RELEASE, MODE_NAMES,
+                                        MODE_TASK, MOVE_SENDER_BY_MODE)
+
+Decision = namedtuple("Decision", "accepted changed reason")
+
+
+class ModeArbiter(object):
+    def __init__(self):
+        self.mode = MODE_TASK
+
+    def holder(self):
+        """The sender whose move_cmd moves the robot in the current mode."""
+        return MOVE_SENDER_BY_MODE[self.mode]
+
+    def may_move(self, sender):
+        return sender == self.holder()
+
+    def request(self, sender, cmd, data):
+        """Apply a mode_cmd; return a Decision (accepted, changed, reason for the log)."""
+        if cmd == MODE_CMD_ACQUIRE:
+            return self._acquire(sender, data)
+        if cmd == MODE_CMD_RELEASE:
+            return self._release(sender, data)
+        return Decision(False, False, "unknown mode_cmd '%s' (acquire|release)" % (cmd,))
+
+    def force_task(self):
+        """Return to task mode whatever the holder (backend offline, joystick link lost)."""
+        changed = self.mode != MODE_TASK
+        self.mode = MODE_TASK
+        return changed
+
+    def _acquire(self, sender, data):
+        wanted = MODE_BY_ACQUIRE_DATA.get(data)
+        if wanted is None:
+            return Decision(False, False, "acquire data must be joy|server, got '%s'" % (data,))
+        if sender != MOVE_SENDER_BY_MODE[wanted]:
+            return Decision(False, False, "sender '%s' may not acquire %s (only %s)"
+                            % (sender, data, MOVE_SENDER_BY_MODE[wanted]))
+        if wanted == self.mode:
+            return Decision(True, False, "already in %s mode" % data)
+        if wanted < self.mode:  # mode numbers are the priorities
+            return Decision(False, False, "acquire %s refused: %s mode has priority"
+                            % (data, MODE_NAMES[self.mode]))
+        self.mode = wanted
+        return Decision(True, True, "%s acquired %s mode" % (sender, data))
+
+    def _release(self, sender, data):
+        if data not in ("", "joy", "server"):
+            return Decision(False, False, "release data must be empty, joy or server, got '%s'" % (data,))
+        if self.mode == MODE_TASK:
+            return Decision(False, False, "release refused: already in task mode")
+        if data and MODE_BY_ACQUIRE_DATA[data] != self.mode:
+            return Decision(False, False, "release %s refused: mode is %s" % (data, MODE_NAMES[self.mode]))
+        if sender != self.holder():
+            return Decision(False, False, "release refused: '%s' does not hold %s mode"
+                            % (sender, MODE_NAMES[self.mode]))
+        self.mode = MODE_TASK
+        return Decision(True, True, "%s released; task mode" % sender)

@@ -1,0 +1,267 @@
+"""MotionController: arbitration + safety + validation + watchdog + odometry around a ChassisDriver.
+
+Pure logic (no rospy); robot_control wires it to topics. Every public method takes the one lock,
+so callbacks from several threads and the control timer see a consistent state, and a safety
+input stops the robot *in the call that delivers it* (not at the next control cycle).
+
+Motion rules:
+- A move_cmd moves the robot only if its sender holds the current mode (arbitration), it is
+  valid (velocity), and no stop reason is active (safety). A refused move_cmd from the holder
+  stops the robot (its intent is unknown); one from a non-holder is ignored.
+- The accepted target is sent to the driver at once and again every control cycle.
+- ``cmd_timeout`` s after the last accepted move_cmd the target is dropped and ``stop`` is sent
+  once (watchdog); then zero velocity every cycle.
+- Any stop (safety, mode change, timeout, offline) drops the target: motion resumes only with a
+  new move_cmd.
+"""
+import math
+import threading
+
+from inspection_robot.command import CommandError, CommandTable, failed, success
+from inspection_robot.interface import (BATTERY_CHARGING, CIRCUIT_JOY_COMM_LOST, IMU_COMMANDS, MODE_CMD_ACQUIRE,
+                                        MODE_JOY, MODE_SERVER, WHEEL_STRAIGHT)
+from inspection_robot.motion.arbitration import Decision, ModeArbiter
+from inspection_robot.motion.chassis import ChassisError
+from inspection_robot.motion.odometry import Odometry
+from inspection_robot.motion.safety import SWITCHES, SafetyLatch
+from inspection_robot.motion.status import control_status_fields
+from inspection_robot.motion.voice import status_sentence
+
+
+class MotionController(object):
+    """``driver``: a ChassisDriver; ``limits``: VelocityLimits; ``clock()``: monotonic seconds;
+    ``log(level, text)``: level is "info" or "warn"; ``speak(words)``: publishes a VoiceCmd."""
+
+    def __init__(self, driver, limits, cmd_timeout, clock, log=None, speak=None):
+        if not cmd_timeout > 0:
+            raise ValueError("cmd_timeout must be positive, got %r" % (cmd_timeout,))
+        self.driver = driver
+        self.limits = limits
+        self.cmd_timeout = float(cmd_timeout)
+        self._clock = clock
+        self._log = log or (lambda level, text: None)
+        self._speak = speak or (lambda words: None)
+        self._lock = threading.RLock()
+        self.arbiter = ModeArbiter()
+        self.safety = SafetyLatch()
+        self.odometry = Odometry()
+        self.target = None            # Velocity being followed, None = stopped
+        self.wheel_mode = WHEEL_STRAIGHT
+        self._last_cmd_time = None
+        self._last_tick = None
+        self._lamps = None
+        self._offline = False
+        self._chassis = driver.state()
+        self.stop_count = 0
+        driver.set_safety_listener(self.on_chassis_event)
+        self.control_table = self._build_control_table()
+        self.imu_table = self._build_imu_table()
+
+    def set_speaker(self, speak):
+        """``speak(words)`` publishes query_status' sentence."""
+        self._speak = speak
+
+    def locked(self):
+        """The controller's lock, for callers that touch the driver directly (simulator faults)."""
+        return self._lock
+
+    @property
+    def mode(self):
+        return self.arbiter.mode
+
+    # --- inputs ------------------------------------------------------------------------------
+    def on_mode_cmd(self, sender, cmd, data):
+        with self._lock:
+            if self._offline and cmd == MODE_CMD_ACQUIRE and data == "server":
+                decision = Decision(False, False, "acquire server refused: backend offline (robot_status.offline_warn)")
+            else:
+                decision = self.arbiter.request(sender, cmd, data)
+            self._log("info" if decision.accepted else "warn", "mode_cmd %s(%r) from %r: %s"
+                      % (cmd, data, sender, decision.reason))
+            if decision.changed:
+                self._stop("mode change")
+            return decision
+
+    def on_move_cmd(self, sender, velocity_x, velocity_yaw, wheel_control):
+        """Returns a Reply for the log: success, or failed with the reason the command was not obeyed."""
+        with self._lock:
+            if not self.arbiter.may_move(sender):
+                return failed("sender '%s' does not hold the robot (mode %d obeys '%s')"
+                              % (sender, self.mode, self.arbiter.holder()))
+            try:
+                velocity = self.limits.check(velocity_x, velocity_yaw, wheel_control)
+            except CommandError as err:
+                self._stop("refused move_cmd")
+                return failed("refused: %s; robot stopped" % err)
+            if self.safety.blocks():
+                self._stop_if_moving("safety")
+                return failed("motion refused: %s" % ",".join(self.safety.reasons()))
+            self.target = velocity
+            self.wheel_mode = velocity.wheel_mode
+            self._last_cmd_time = self._clock()
+            self.driver.send_velocity(velocity.x, velocity.yaw, velocity.wheel_mode)
+            return success("clamped" if velocity.clamped else "")
+
+    def on_obstacle(self, present):
+        with self._lock:
+            self.safety.set_obstacle(present)
+            if self.safety.blocks():
+                self._stop_if_moving("obstacle")
+
+    def on_offline(self, offline):
+        """robot_status.offline_warn: going offline in mode 1 stops and returns to task mode."""
+        with self._lock:
+            went_offline = offline and not self._offline
+            self._offline = bool(offline)
+            if went_offline and self.mode == MODE_SERVER:
+                self.arbiter.force_task()
+                self._stop("backend offline")
+                self._log("warn", "backend offline in mode 1: stopped, back to task mode")
+
+    def on_chassis_event(self):
+        """Safety listener of the driver: re-read the chassis and stop at once if needed."""
+        with self._lock:
+            self._refresh_chassis()
+
+    def on_control_cmd(self, sender, cmd, data):
+        with self._lock:
+            reply = self.control_table.dispatch(cmd, data)
+            self._log("info" if reply.ack == "success" else "warn",
+                      "control_cmd %s(%r) from %r: %s %s" % (cmd, data, sender, reply.ack, reply.data))
+            return reply
+
+    def on_imu_cmd(self, cmd, data):
+        with self._lock:
+            return self.imu_table.dispatch(cmd, data)
+
+    # --- control cycle -----------------------------------------------------------------------
+    def tick(self):
+        """One control cycle: safety inputs, watchdog, target to the driver, odometry, lamps."""
+        with self._lock:
+            now = self._clock()
+            self._refresh_chassis()
+            if self.target is not None and now - self._last_cmd_time > self.cmd_timeout:
+                self._stop("move_cmd timeout (%.2f s)" % self.cmd_timeout)
+            if self.target is not None:
+                self.driver.send_velocity(self.target.x, self.target.yaw, self.target.wheel_mode)
+            else:
+                self.driver.send_velocity(0.0, 0.0, self.wheel_mode)
+            state = self._chassis
+            if self._last_tick is not None:
+                self.odometry.update(state.velocity_x, state.velocity_yaw, now - self._last_tick)
+            self._last_tick = now
+            self._update_lamps(state)
+
+    def status(self):
+        """control_status fields (dict)."""
+        with self._lock:
+            return control_status_fields(self.mode, self.safety, self._chassis)
+
+    def shutdown(self):
+        with self._lock:
+            self.target = None
+            self.driver.stop()
+
+    # --- internals ---------------------------------------------------------------------------
+    def _refresh_chassis(self):
+        self._chassis = self.driver.state()
+        self.safety.update_chassis(self._chassis)
+        if self._chassis.circuit_status & CIRCUIT_JOY_COMM_LOST and self.mode == MODE_JOY:
+            self.arbiter.force_task()
+            self._stop("joystick link lost")
+            self._log("warn", "joystick link lost in mode 2: stopped, back to task mode")
+        if self.safety.blocks():
+            self._stop_if_moving(",".join(self.safety.reasons()))
+
+    def _stop_if_moving(self, reason):
+        if self.target is not None or abs(self._chassis.velocity_x) > 1e-4 or abs(self._chassis.velocity_yaw) > 1e-4:
+            self._stop(reason)
+
+    def _stop(self, reason):
+        was_moving = self.target is not None
+        self.target = None
+        self.driver.stop()
+        self.stop_count += 1
+        if was_moving:
+            self._log("info", "stop: %s" % reason)
+
+    def _update_lamps(self, state):
+        blocked = self.safety.blocks()
+        lamps = (blocked, not blocked, bool(state.battery_status & BATTERY_CHARGING))
+        if lamps != self._lamps:
+            self.driver.set_lamps(*lamps)
+            self._lamps = lamps
+
+    def _build_control_table(self):
+        """control_cmd: data is ignored (a safety command is never refused over a formatting detail)."""
+        table = CommandTable()
+        for name in SWITCHES:
+            table.register("enable_" + name, self._switch_handler(name, True))
+            table.register("disable_" + name, self._switch_handler(name, False))
+            table.register("switch_" + name, self._switch_handler(name, None))
+        table.register("enable_charge", lambda _d: self._charge(True))
+        table.register("disable_charge", lambda _d: self._charge(False))
+        table.register("enable_stop", self._enable_stop)
+        table.register("disable_stop", self._disable_stop)
+        table.register("query_status", self._query_status)
+        return table
+
+    def _switch_handler(self, name, enabled):
+        def handler(_data):
+            state = self.safety.set_switch(name, enabled)
+            if self.safety.blocks():
+                self._stop_if_moving(name)
+            return "%s %s" % (name, "enabled" if state else "disabled")
+        return handler
+
+    def _charge(self, closed):
+        self.driver.set_charge_relay(closed)
+        self._chassis = self.driver.state()
+        return "charge relay %s" % ("closed" if closed else "open")
+
+    def _enable_stop(self, _data):
+        self.safety.enable_stop()
+        self._stop("soft e-stop")
+        return "soft e-stop engaged"
+
+    def _disable_stop(self, _data):
+        self._chassis = self.driver.state()
+        self.safety.update_chassis(self._chassis)
+        self.safety.disable_stop()
+        return "soft e-stop released"
+
+    def _query_status(self, _data):
+        words = status_sentence(control_status_fields(self.mode, self.safety, self._chassis), self.safety.reasons())
+        self._speak(words)
+        return ",".join(words)
+
+    def _build_imu_table(self):
+        def no_data(handler):
+            def wrapped(data):
+                if data:
+                    raise CommandError("takes no data, got '%s'" % (data,))
+                return handler()
+            return wrapped
+        table = CommandTable({
+            "calibrate": no_data(self._imu_calibrate),
+            "reset": no_data(self._imu_reset),
+            "query": no_data(self._imu_query),
+        })
+        assert set(table.names) == set(IMU_COMMANDS)
+        return table
+
+    def _imu_calibrate(self):
+        try:
+            self.driver.imu_calibrate()
+        except ChassisError as err:
+            raise CommandError(str(err))
+        return "calibrated"
+
+    def _imu_reset(self):
+        self.driver.imu_reset()
+        return "reset"
+
+    def _imu_query(self):
+        reading = self.driver.imu_reading()
+        return "%.2f,%.2f,%.2f,%d" % (math.degrees(reading.roll), math.degrees(reading.pitch),
+                                      math.degrees(reading.yaw), 1 if reading.calibrated else 0)

@@ -1,0 +1,83 @@
+"""joy_control: joystick teleoperation (motion.joystick.JoyTeleop).
+
+Subscribes:  joy (sensor_msgs/Joy) from the ROS joy package or joystick_reader
+Publishes:   mode_cmd (GeneralCmd) acquire joy / release; control_cmd (GeneralCmd) enable_stop /
+             disable_stop; move_cmd (MoveCmd) at ~rate while the dead-man is held, one zero on release
+             or when joy is silent for ~joy_timeout; terrace_cmd (GeneralCmd) pan/tilt on stick change.
+             Every message has sender "joy_control" and an increasing trans_id.
+Parameters:  ~rate (Hz, 20.0), ~joy_timeout (s, 0.5), ~max_velocity_x (m/s, 0.8),
+             ~max_velocity_yaw (rad/s, 0.8), ~deadzone (0.1), ~terrace_speed ("mid_speed"),
+             ~axes ({velocity_x, velocity_yaw, pan, tilt}: Joy axis indices),
+             ~buttons ({deadman, acquire, release, estop, estop_release, steer_mode}: Joy button indices)
+"""
+import threading
+import time
+
+import rospy
+from sensor_msgs.msg import Joy
+
+from inspection_robot.interface import SENDER_JOY
+from inspection_robot.motion.joystick import JoyTeleop
+from inspection_robot.msg import GeneralCmd, MoveCmd
+
+
+class JoyControl(object):
+    def __init__(self, teleop, rate_hz):
+        self._teleop = teleop
+        self._lock = threading.Lock()
+        self._trans_id = 0
+        self._pubs = {
+            "mode": rospy.Publisher("mode_cmd", GeneralCmd, queue_size=10),
+            "control": rospy.Publisher("control_cmd", GeneralCmd, queue_size=10),
+            "terrace": rospy.Publisher("terrace_cmd", GeneralCmd, queue_size=10),
+            "move": rospy.Publisher("move_cmd", MoveCmd, queue_size=10),
+        }
+        rospy.Subscriber("joy", Joy, self._on_joy, queue_size=10)
+        self._timer = rospy.Timer(rospy.Duration(1.0 / rate_hz), self._on_tick)
+
+    def _on_joy(self, msg):
+        with self._lock:
+            actions = self._teleop.on_joy(msg.axes, msg.buttons, time.monotonic())
+        self._publish(actions)
+
+    def _on_tick(self, _event):
+        with self._lock:
+            actions = self._teleop.tick(time.monotonic())
+        self._publish(actions)
+
+    def _publish(self, actions):
+        for action in actions:
+            self._trans_id += 1
+            kind = action[0]
+            if kind == "move":
+                msg = MoveCmd(velocity_x=action[1], velocity_yaw=action[2], wheel_control=action[3])
+            elif kind == "mode":
+                msg = GeneralCmd(cmd=action[1], data=action[2])
+            elif kind == "terrace":
+                msg = GeneralCmd(cmd=action[1], data=action[2], receiver="cloud_terrace")
+            else:
+                msg = GeneralCmd(cmd=action[1], data="")
+            msg.sender = SENDER_JOY
+            msg.trans_id = self._trans_id
+            msg.header.stamp = rospy.Time.now()
+            self._pubs[kind].publish(msg)
+
+    def shutdown(self):
+        self._timer.shutdown()
+        with self._lock:
+            actions = self._teleop.tick(float("inf"))  # as if the stream went silent: one stop
+        self._publish(actions)
+
+
+def main():
+    rospy.init_node("joy_control")
+    rate_hz = float(rospy.get_param("~rate", 20.0))
+    if rate_hz <= 0:
+        raise ValueError("~rate must be positive")
+    teleop = JoyTeleop(rospy.get_param("~axes", {}), rospy.get_param("~buttons", {}),
+                       float(rospy.get_param("~max_velocity_x", 0.8)), float(rospy.get_param("~max_velocity_yaw", 0.8)),
+                       float(rospy.get_param("~deadzone", 0.1)), float(rospy.get_param("~joy_timeout", 0.5)),
+                       str(rospy.get_param("~terrace_speed", "mid_speed")))
+    node = JoyControl(teleop, rate_hz)
+    rospy.on_shutdown(node.shutdown)
+    rospy.spin()

@@ -1,0 +1,285 @@
+"""robot_control: mode arbitration, motion and safety (INTERFACE.md section 4, "Mode and motion").
+
+Drives the chassis through a motion.chassis.ChassisDriver. With ``~driver: sim`` the simulated
+chassis (sim.chassis.SimChassis) runs inside this process: robot_control then also offers the
+simulator's fault-injection service and ground truth (one process keeps the driver call
+in-process, as a vendor driver library would be; see docs/interface.md).
+
+Subscribes:  mode_cmd (GeneralCmd): acquire joy|server, release
+             move_cmd (MoveCmd): velocity_x 0.001 m/s, velocity_yaw 0.001 rad/s, wheel_control 0|1
+             control_cmd (GeneralCmd): enable_/disable_/switch_collision|fallen|obstacle,
+                 enable_/disable_charge, enable_stop, disable_stop, query_status
+             obstacle_status (ObstacleStatus), robot_status (RobotStatus: offline_warn)
+             imu_cmd (GeneralCmd): calibrate|reset|query
+Publishes:   control_status (ControlStatus) at ~status_rate and at once when a discrete field changes
+             control_ack (GeneralAck) the result of each control_cmd (project extension)
+             robot_odom (nav_msgs/Odometry, odom -> base_link) and TF odom -> base_link at ~rate
+             imu_ack (GeneralAck), voice_cmd (VoiceCmd) for query_status
+             sim only: sim/true_pose (geometry_msgs/PoseWithCovarianceStamped, frame map) at ~rate,
+                 sim/chassis_cmd (geometry_msgs/TwistStamped) every command reaching the driver
+Services:    imu_control (ControlService): twin of imu_cmd/imu_ack
+             sim only: sim/inject_fault (ControlService): cmd = fault (hard_estop, bumper, fall_left,
+                 fall_right, motor_disconnect, joystick_link_lost, stepper_comm, low_battery) or
+                 condition (at_dock), data 1|0; query; set_pose "x,y,yaw"
+Parameters:  ~driver ("sim" or "package.module:Class"), ~driver_params ({}): vendor constructor kwargs
+             ~rate (Hz, 50.0) control cycle; ~status_rate (Hz, 10.0)
+             ~cmd_timeout (s, 0.5)
+             ~max_velocity_x (m/s, 1.0), ~max_velocity_yaw (rad/s, 1.0)
+             ~refuse_velocity_x (m/s, 5.0), ~refuse_velocity_yaw (rad/s, 5.0)
+             ~odom_frame ("odom"), ~base_frame ("base_link"), ~publish_tf (true)
+             ~voice_language ("chinese")
+             ~sim ({}): SimChassis parameters; ~sim_world (config/sim_world.yaml, loaded by the launch
+                 file): the simulated robot starts at world.robot.start_pose ([x, y, yaw] in map)
+"""
+import importlib
+import math
+import time
+import traceback
+
+import rospy
+import tf2_ros
+from geometry_msgs.msg import PoseWithCovarianceStamped, TransformStamped, TwistStamped
+from nav_msgs.msg import Odometry
+
+from inspection_robot.interface import VOICE_LANGUAGES
+from inspection_robot.motion.controller import MotionController
+from inspection_robot.motion.velocity import VelocityLimits
+from inspection_robot.msg import ControlStatus, GeneralAck, GeneralCmd, MoveCmd, ObstacleStatus, RobotStatus, VoiceCmd
+from inspection_robot.nodes.twin import CommandTwin
+from inspection_robot.sim.chassis import SimChassis
+from inspection_robot.srv import ControlService, ControlServiceResponse
+
+NODE_NAME = "robot_control"
+# Fields whose change publishes control_status at once; analog ones (battery, temperatures) go at the fixed rate.
+DISCRETE_FIELDS = ("mode", "wheel_status", "light_status", "stop_status", "circuit_status", "battery_status",
+                   "motor_status", "motor_info")
+ODOM_POSE_COVARIANCE = (0.01, 0.01, 1e6, 1e6, 1e6, 0.02)
+ODOM_TWIST_COVARIANCE = (0.001, 0.001, 1e6, 1e6, 1e6, 0.002)
+
+
+def _diagonal(values):
+    cov = [0.0] * 36
+    for i, v in enumerate(values):
+        cov[i * 7] = v
+    return cov
+
+
+class _ImuTable(object):
+    """Adapter: CommandTwin dispatches imu commands through the controller (under its lock)."""
+
+    def __init__(self, controller):
+        self._controller = controller
+
+    def dispatch(self, cmd, data):
+        return self._controller.on_imu_cmd(cmd, data)
+
+
+class RobotControl(object):
+    def __init__(self, controller, rate_hz, status_rate_hz, odom_frame, base_frame, publish_tf,
+                 voice_language, sim=None):
+        self._ctl = controller
+        self._sim = sim
+        self._odom_frame = odom_frame
+        self._base_frame = base_frame
+        self._voice_language = voice_language
+        self._last_discrete = None
+        self._status_pub = rospy.Publisher("control_status", ControlStatus, queue_size=50)
+        self._odom_pub = rospy.Publisher("robot_odom", Odometry, queue_size=10)
+        self._control_ack_pub = rospy.Publisher("control_ack", GeneralAck, queue_size=20)
+        self._voice_pub = rospy.Publisher("voice_cmd", VoiceCmd, queue_size=10)
+        self._tf = tf2_ros.TransformBroadcaster() if publish_tf else None
+        if sim is not None:
+            self._true_pose_pub = rospy.Publisher("sim/true_pose", PoseWithCovarianceStamped, queue_size=10)
+            self._chassis_cmd_pub = rospy.Publisher("sim/chassis_cmd", TwistStamped, queue_size=100)
+            sim.add_command_listener(self._on_driver_command)
+            self._fault_table = sim.fault_table()
+            rospy.Service("sim/inject_fault", ControlService, self._on_inject_fault)
+        controller.set_speaker(self._speak)
+        self._imu_twin = CommandTwin(_ImuTable(controller), "imu_control", "imu_cmd", "imu_ack", NODE_NAME,
+                                     busy_when_joystick=False)
+        rospy.Subscriber("mode_cmd", GeneralCmd, self._on_mode_cmd, queue_size=50)
+        rospy.Subscriber("move_cmd", MoveCmd, self._on_move_cmd, queue_size=10)
+        rospy.Subscriber("control_cmd", GeneralCmd, self._on_control_cmd, queue_size=50)
+        rospy.Subscriber("obstacle_status", ObstacleStatus, self._on_obstacle, queue_size=10)
+        rospy.Subscriber("robot_status", RobotStatus, self._on_robot_status, queue_size=1)
+        self._timer = rospy.Timer(rospy.Duration(1.0 / rate_hz), self._on_tick)
+        self._status_timer = rospy.Timer(rospy.Duration(1.0 / status_rate_hz), self._on_status_timer)
+
+    # --- inputs: each applies its stop in this callback, before returning ----------------------
+    def _on_mode_cmd(self, msg):
+        self._guard("mode_cmd", self._ctl.on_mode_cmd, msg.sender, msg.cmd, msg.data)
+        self._publish_status_if_changed()
+
+    def _on_move_cmd(self, msg):
+        reply = self._guard("move_cmd", self._ctl.on_move_cmd, msg.sender, msg.velocity_x, msg.velocity_yaw,
+                            msg.wheel_control)
+        if reply is not None and reply.ack != "success":
+            rospy.logwarn_throttle(2.0, "%s: move_cmd from %r not obeyed: %s" % (NODE_NAME, msg.sender, reply.data))
+
+    def _on_control_cmd(self, msg):
+        reply = self._guard("control_cmd", self._ctl.on_control_cmd, msg.sender, msg.cmd, msg.data)
+        if reply is not None:
+            ack = GeneralAck(sender=NODE_NAME, receiver=msg.sender, trans_id=msg.trans_id, ack=reply.ack,
+                             data=reply.data)
+            ack.header.stamp = rospy.Time.now()
+            self._control_ack_pub.publish(ack)
+        self._publish_status_if_changed()
+
+    def _on_obstacle(self, msg):
+        self._guard("obstacle_status", self._ctl.on_obstacle, msg.obstacle)
+        self._publish_status_if_changed()
+
+    def _on_robot_status(self, msg):
+        self._guard("robot_status", self._ctl.on_offline, msg.offline_warn != 0)
+
+    def _on_inject_fault(self, req):
+        with self._ctl.locked():
+            reply = self._fault_table.dispatch(req.cmd, req.data)
+        rospy.loginfo("%s: sim/inject_fault %s(%r): %s %s" % (NODE_NAME, req.cmd, req.data, reply.ack, reply.data))
+        self._publish_status_if_changed()
+        return ControlServiceResponse(trans_id=req.trans_id, ack=reply.ack, data=reply.data)
+
+    def _guard(self, what, fn, *args):
+        try:
+            return fn(*args)
+        except Exception as err:  # boundary: one bad input must not kill the node; stop to be safe
+            rospy.logerr("%s: %s raised: %s\n%s" % (NODE_NAME, what, err, traceback.format_exc()))
+            self._emergency_stop()
+            return None
+
+    def _emergency_stop(self):
+        try:
+            self._ctl.shutdown()
+        except Exception as err:  # boundary: nothing more we can do than report it
+            rospy.logerr_throttle(1.0, "%s: driver stop failed: %s" % (NODE_NAME, err))
+
+    # --- outputs -----------------------------------------------------------------------------
+    def _on_tick(self, _event):
+        try:
+            self._ctl.tick()
+        except Exception as err:  # boundary: log, stop, keep the loop alive
+            rospy.logerr_throttle(1.0, "%s: control cycle failed: %s\n%s" % (NODE_NAME, err, traceback.format_exc()))
+            self._emergency_stop()
+            return
+        stamp = rospy.Time.now()
+        self._publish_odometry(stamp)
+        if self._sim is not None:
+            self._publish_true_pose(stamp)
+        self._publish_status_if_changed()
+
+    def _on_status_timer(self, _event):
+        self._publish_status(self._ctl.status())
+
+    def _publish_status_if_changed(self):
+        fields = self._ctl.status()
+        if tuple(_as_tuple(fields[n]) for n in DISCRETE_FIELDS) != self._last_discrete:
+            self._publish_status(fields)
+
+    def _publish_status(self, fields):
+        self._last_discrete = tuple(_as_tuple(fields[n]) for n in DISCRETE_FIELDS)
+        msg = ControlStatus(sender=NODE_NAME, **fields)
+        msg.header.stamp = rospy.Time.now()
+        self._status_pub.publish(msg)
+
+    def _publish_odometry(self, stamp):
+        odo = self._ctl.odometry
+        qx, qy, qz, qw = odo.quaternion()
+        msg = Odometry()
+        msg.header.stamp = stamp
+        msg.header.frame_id = self._odom_frame
+        msg.child_frame_id = self._base_frame
+        msg.pose.pose.position.x = odo.x
+        msg.pose.pose.position.y = odo.y
+        msg.pose.pose.orientation.z = qz
+        msg.pose.pose.orientation.w = qw
+        msg.pose.covariance = _diagonal(ODOM_POSE_COVARIANCE)
+        msg.twist.twist.linear.x = odo.velocity_x
+        msg.twist.twist.angular.z = odo.velocity_yaw
+        msg.twist.covariance = _diagonal(ODOM_TWIST_COVARIANCE)
+        self._odom_pub.publish(msg)
+        if self._tf is not None:
+            tf = TransformStamped()
+            tf.header = msg.header
+            tf.child_frame_id = self._base_frame
+            tf.transform.translation.x = odo.x
+            tf.transform.translation.y = odo.y
+            tf.transform.rotation.z = qz
+            tf.transform.rotation.w = qw
+            self._tf.sendTransform(tf)
+
+    def _publish_true_pose(self, stamp):
+        with self._ctl.locked():
+            (x, y, yaw), _velocity = self._sim.true_pose()
+        msg = PoseWithCovarianceStamped()
+        msg.header.stamp = stamp
+        msg.header.frame_id = "map"
+        msg.pose.pose.position.x = x
+        msg.pose.pose.position.y = y
+        msg.pose.pose.orientation.z = math.sin(yaw / 2.0)
+        msg.pose.pose.orientation.w = math.cos(yaw / 2.0)
+        self._true_pose_pub.publish(msg)
+
+    def _on_driver_command(self, velocity_x, velocity_yaw, _wheel_mode):
+        msg = TwistStamped()
+        msg.header.stamp = rospy.Time.now()
+        msg.header.frame_id = self._base_frame
+        msg.twist.linear.x = velocity_x
+        msg.twist.angular.z = velocity_yaw
+        self._chassis_cmd_pub.publish(msg)
+
+    def _speak(self, words):
+        msg = VoiceCmd(sender=NODE_NAME, language=self._voice_language, data=list(words))
+        msg.header.stamp = rospy.Time.now()
+        self._voice_pub.publish(msg)
+
+    def shutdown(self):
+        self._timer.shutdown()
+        self._ctl.shutdown()
+
+
+def _as_tuple(value):
+    return tuple(value) if isinstance(value, (list, tuple, bytes)) else value
+
+
+def _load_driver(spec, params):
+    """``package.module:Class`` -> Class(**params)."""
+    module_name, _, class_name = spec.partition(":")
+    if not module_name or not class_name:
+        raise ValueError("~driver must be 'sim' or 'package.module:Class', got %r" % (spec,))
+    return getattr(importlib.import_module(module_name), class_name)(**params)
+
+
+def _log(level, text):
+    (rospy.logwarn if level == "warn" else rospy.loginfo)("%s: %s" % (NODE_NAME, text))
+
+
+def main():
+    rospy.init_node(NODE_NAME)
+    driver_spec = str(rospy.get_param("~driver", "sim"))
+    rate_hz = float(rospy.get_param("~rate", 50.0))
+    status_rate_hz = float(rospy.get_param("~status_rate", 10.0))
+    cmd_timeout = float(rospy.get_param("~cmd_timeout", 0.5))
+    limits = VelocityLimits(float(rospy.get_param("~max_velocity_x", 1.0)),
+                            float(rospy.get_param("~max_velocity_yaw", 1.0)),
+                            float(rospy.get_param("~refuse_velocity_x", 5.0)),
+                            float(rospy.get_param("~refuse_velocity_yaw", 5.0)))
+    language = str(rospy.get_param("~voice_language", "chinese"))
+    if rate_hz <= 0 or status_rate_hz <= 0:
+        raise ValueError("~rate and ~status_rate must be positive")
+    if language not in VOICE_LANGUAGES:
+        raise ValueError("~voice_language must be one of %s" % (VOICE_LANGUAGES,))
+    sim = None
+    if driver_spec == "sim":
+        start_pose = [float(v) for v in rospy.get_param("~sim_world/world/robot/start_pose", [0.0, 0.0, 0.0])]
+        if len(start_pose) != 3:
+            raise ValueError("~start_pose must be [x, y, yaw]")
+        sim = driver = SimChassis(time.monotonic, start_pose, **rospy.get_param("~sim", {}))
+    else:
+        driver = _load_driver(driver_spec, rospy.get_param("~driver_params", {}))
+    controller = MotionController(driver, limits, cmd_timeout, time.monotonic, log=_log)
+    node = RobotControl(controller, rate_hz, status_rate_hz, str(rospy.get_param("~odom_frame", "odom")),
+                        str(rospy.get_param("~base_frame", "base_link")), bool(rospy.get_param("~publish_tf", True)),
+                        language, sim=sim)
+    rospy.on_shutdown(node.shutdown)
+    rospy.loginfo("%s: driver %s, %.0f Hz, cmd_timeout %.2f s" % (NODE_NAME, driver_spec, rate_hz, cmd_timeout))
+    rospy.spin()

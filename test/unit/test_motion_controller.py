@@ -1,0 +1,249 @@
+"""MotionController against the simulated chassis with a fake clock: the behaviour of robot_control."""
+import pytest
+
+from inspection_robot.interface import (LIGHT_CHARGE_RELAY, LIGHT_SOFT_ESTOP, MODE_JOY, MODE_TASK,
+                                        STOP_OBSTACLE, WHEEL_COLLISION_OFF, WHEEL_STEER, WHEEL_STRAIGHT)
+from inspection_robot.motion.controller import MotionController
+from inspection_robot.motion.velocity import VelocityLimits
+from inspection_robot.sim.chassis import SimChassis
+
+
+class FakeClock(object):
+    def __init__(self):
+        self.now = 0.0
+
+    def __call__(self):
+        return self.now
+
+
+class Recorder(object):
+    """Wraps the sim's command listener: every velocity command that reaches the driver."""
+
+    def __init__(self, chassis):
+        self.commands = []
+        chassis.add_command_listener(lambda vx, wz, mode: self.commands.append((vx, wz, mode)))
+
+    @property
+    def last(self):
+        return self.commands[-1]
+
+
+@pytest.fixture
+def rig():
+    clock = FakeClock()
+    chassis = SimChassis(clock, encoder_scale_error=0.0, max_accel_x=10.0, max_accel_yaw=10.0, switch_time=0.2)
+    logs, spoken = [], []
+    ctl = MotionController(chassis, VelocityLimits(1.0, 1.0, 5.0, 5.0), 0.5, clock,
+                           log=lambda level, text: logs.append((level, text)), speak=spoken.append)
+    rec = Recorder(chassis)
+
+    def run(seconds, period=0.02):
+        for _ in range(int(round(seconds / period))):
+            clock.now += period
+            ctl.tick()
+    return ctl, chassis, clock, rec, run, logs, spoken
+
+
+def test_boots_in_task_mode_and_obeys_move_base(rig):
+    ctl, chassis, _clock, rec, run, _logs, _ = rig
+    assert ctl.mode == MODE_TASK
+    assert ctl.on_move_cmd("move_base", 500, 0, 0).ack == "success"
+    assert rec.last == (0.5, 0.0, WHEEL_STRAIGHT)
+    run(0.2)
+    assert chassis.state().velocity_x == pytest.approx(0.5)
+    assert ctl.on_move_cmd("server", 300, 0, 0).ack == "failed"
+    assert ctl.on_move_cmd("joy_control", 300, 0, 0).ack == "failed"
+    assert rec.last == (0.5, 0.0, WHEEL_STRAIGHT)
+
+
+def test_cmd_timeout_stops_once_then_zeros(rig):
+    ctl, chassis, _clock, rec, run, _logs, _ = rig
+    ctl.on_move_cmd("move_base", 500, 0, 0)
+    run(0.48)
+    assert ctl.target is not None
+    run(0.1)
+    assert ctl.target is None and rec.last[:2] == (0.0, 0.0)
+    run(0.5)
+    assert chassis.state().velocity_x == 0.0
+
+
+def test_mode_change_stops_and_only_holder_moves(rig):
+    ctl, _chassis, _clock, rec, _run, _logs, _ = rig
+    ctl.on_move_cmd("move_base", 500, 0, 0)
+    assert ctl.on_mode_cmd("server", "acquire", "server").changed
+    assert ctl.target is None and rec.last[:2] == (0.0, 0.0)
+    assert ctl.on_move_cmd("move_base", 500, 0, 0).ack == "failed"
+    assert ctl.on_move_cmd("server", 400, 100, 0).ack == "success"
+    ctl.on_mode_cmd("joy_control", "acquire", "joy")
+    assert ctl.mode == MODE_JOY and ctl.target is None
+    assert not ctl.on_mode_cmd("server", "acquire", "server").accepted
+    assert ctl.mode == MODE_JOY
+    assert ctl.on_move_cmd("joy_control", 200, 0, 0).ack == "success"
+    ctl.on_mode_cmd("joy_control", "release", "")
+    assert ctl.mode == MODE_TASK
+
+
+def test_refused_move_from_holder_stops(rig):
+    ctl, _chassis, _clock, rec, _run, logs, _ = rig
+    ctl.on_move_cmd("move_base", 500, 0, 0)
+    for bad in ((float("nan"), 0, 0), (float("inf"), 0, 0), (1e9, 0, 0), (0, 0, 9)):
+        reply = ctl.on_move_cmd("move_base", *bad)
+        assert reply.ack == "failed" and "refused" in reply.data
+        assert ctl.target is None and rec.last[:2] == (0.0, 0.0)
+        ctl.on_move_cmd("move_base", 500, 0, 0)
+
+
+def test_clamped_to_limits(rig):
+    ctl, _chassis, _clock, rec, _run, _logs, _ = rig
+    assert ctl.on_move_cmd("move_base", 3000, -4000, 0) == ("success", "clamped")
+    assert rec.last == (1.0, -1.0, WHEEL_STRAIGHT)
+
+
+@pytest.mark.parametrize("fault,switch", [("bumper", "collision"), ("fall_left", "fallen"),
+                                          ("fall_right", "fallen"), ("motor_disconnect", None)])
+def test_chassis_safety_inputs_stop_at_once_and_refuse(rig, fault, switch):
+    ctl, chassis, _clock, rec, run, _logs, _ = rig
+    ctl.on_move_cmd("move_base", 500, 0, 0)
+    run(0.1)
+    n = len(rec.commands)
+    with ctl.locked():
+        chassis.inject(fault, True)
+    assert rec.commands[n:] and rec.commands[n][:2] == (0.0, 0.0)  # in the injecting call, not the next cycle
+    assert ctl.on_move_cmd("move_base", 500, 0, 0).ack == "failed"
+    if switch:
+        ctl.on_control_cmd("server", "disable_" + switch, "")
+        assert ctl.on_move_cmd("move_base", 500, 0, 0).ack == "success"
+        ctl.on_control_cmd("server", "enable_" + switch, "")
+        assert ctl.target is None and rec.last[:2] == (0.0, 0.0)
+    chassis.inject(fault, False)
+    run(0.02)
+    assert ctl.target is None  # no resumption without a new command
+    assert ctl.on_move_cmd("move_base", 500, 0, 0).ack == "success"
+
+
+def test_obstacle_stops_unless_disabled(rig):
+    ctl, _chassis, _clock, rec, _run, _logs, _ = rig
+    ctl.on_move_cmd("move_base", 500, 0, 0)
+    ctl.on_obstacle(True)
+    assert rec.last[:2] == (0.0, 0.0) and ctl.status()["stop_status"] == STOP_OBSTACLE
+    assert ctl.on_move_cmd("move_base", 500, 0, 0).ack == "failed"
+    ctl.on_obstacle(False)
+    assert ctl.on_move_cmd("move_base", 500, 0, 0).ack == "success"
+    ctl.on_control_cmd("server", "disable_obstacle", "")
+    ctl.on_obstacle(True)
+    assert ctl.target is not None and ctl.status()["stop_status"] == 0
+
+
+def test_soft_and_hard_estop(rig):
+    ctl, chassis, _clock, rec, run, _logs, _ = rig
+    ctl.on_move_cmd("move_base", 500, 0, 0)
+    assert ctl.on_control_cmd("server", "enable_stop", "").ack == "success"
+    assert rec.last[:2] == (0.0, 0.0) and ctl.status()["light_status"] & LIGHT_SOFT_ESTOP
+    assert ctl.on_move_cmd("move_base", 500, 0, 0).ack == "failed"
+    assert ctl.on_control_cmd("server", "disable_stop", "").ack == "success"
+    assert ctl.on_move_cmd("move_base", 500, 0, 0).ack == "success"
+    chassis.inject("hard_estop", True)
+    assert rec.last[:2] == (0.0, 0.0)
+    assert ctl.on_control_cmd("server", "disable_stop", "") == ("failed", "hard e-stop still pressed: "
+                                                                          "release the button first")
+    chassis.inject("hard_estop", False)
+    run(0.04)
+    assert ctl.on_move_cmd("move_base", 500, 0, 0).ack == "failed"  # latched until disable_stop
+    assert ctl.on_control_cmd("server", "disable_stop", "").ack == "success"
+    assert ctl.on_move_cmd("move_base", 500, 0, 0).ack == "success"
+
+
+def test_offline_in_server_mode_stops_and_returns_to_task(rig):
+    ctl, _chassis, _clock, rec, _run, _logs, _ = rig
+    ctl.on_offline(False)
+    ctl.on_mode_cmd("server", "acquire", "server")
+    ctl.on_move_cmd("server", 500, 0, 0)
+    ctl.on_offline(True)
+    assert ctl.mode == MODE_TASK and ctl.target is None and rec.last[:2] == (0.0, 0.0)
+
+
+def test_offline_in_joy_mode_keeps_joy(rig):
+    ctl, _chassis, _clock, _rec, _run, _logs, _ = rig
+    ctl.on_mode_cmd("joy_control", "acquire", "joy")
+    ctl.on_move_cmd("joy_control", 500, 0, 0)
+    ctl.on_offline(True)
+    assert ctl.mode == MODE_JOY and ctl.target is not None
+
+
+def test_joystick_link_loss_in_joy_mode(rig):
+    ctl, chassis, _clock, rec, _run, _logs, _ = rig
+    ctl.on_mode_cmd("joy_control", "acquire", "joy")
+    ctl.on_move_cmd("joy_control", 500, 0, 0)
+    chassis.inject("joystick_link_lost", True)
+    assert ctl.mode == MODE_TASK and rec.last[:2] == (0.0, 0.0)
+
+
+def test_switches_charge_and_unknown_control_cmd(rig):
+    ctl, chassis, _clock, _rec, _run, _logs, _ = rig
+    assert ctl.on_control_cmd("server", "switch_collision", "") == ("success", "collision disabled")
+    assert ctl.status()["wheel_status"] & WHEEL_COLLISION_OFF
+    assert ctl.on_control_cmd("server", "switch_collision", "") == ("success", "collision enabled")
+    assert ctl.on_control_cmd("server", "enable_charge", "").ack == "success"
+    assert ctl.status()["light_status"] & LIGHT_CHARGE_RELAY and chassis.state().charge_relay
+    ctl.on_control_cmd("server", "disable_charge", "")
+    assert not ctl.status()["light_status"] & LIGHT_CHARGE_RELAY
+    assert ctl.on_control_cmd("server", "fly", "") == ("failed", "unknown command 'fly'")
+
+
+def test_query_status_speaks(rig):
+    ctl, _chassis, _clock, _rec, _run, _logs, spoken = rig
+    reply = ctl.on_control_cmd("server", "query_status", "")
+    assert reply.ack == "success" and spoken and spoken[0][0] == "status_report"
+    assert spoken[0][-1] == "status_normal"
+
+
+def test_imu_commands(rig):
+    ctl, _chassis, clock, _rec, run, _logs, _ = rig
+    assert ctl.on_imu_cmd("calibrate", "") == ("success", "calibrated")
+    assert ctl.on_imu_cmd("reset", "") == ("success", "reset")
+    assert ctl.on_imu_cmd("query", "") == ("success", "0.00,0.00,0.00,1")
+    assert ctl.on_imu_cmd("query", "x").ack == "failed"
+    assert ctl.on_imu_cmd("spin", "").ack == "failed"
+    ctl.on_move_cmd("move_base", 500, 0, 0)
+    run(0.1)
+    assert "robot moving" in ctl.on_imu_cmd("calibrate", "").data
+
+
+def test_odometry_follows_measured_motion(rig):
+    ctl, chassis, _clock, _rec, run, _logs, _ = rig
+    for _ in range(50):
+        ctl.on_move_cmd("move_base", 500, 0, 0)
+        run(0.02)
+    true_x = chassis.true_pose()[0][0]
+    assert ctl.odometry.x == pytest.approx(true_x, abs=0.02) and ctl.odometry.x > 0.4
+
+
+def test_steer_mode_switch_shows_in_status(rig):
+    ctl, _chassis, _clock, _rec, run, _logs, _ = rig
+    ctl.on_move_cmd("move_base", 0, 300, WHEEL_STEER)
+    run(0.06)
+    assert ctl.status()["wheel_status"] & 0x04
+    for _ in range(20):
+        ctl.on_move_cmd("move_base", 0, 300, WHEEL_STEER)
+        run(0.02)
+    assert ctl.status()["wheel_status"] & 0x07 == 0x02
+
+
+def test_lamps_follow_safety(rig):
+    ctl, chassis, _clock, _rec, run, _logs, _ = rig
+    run(0.02)
+    assert chassis.state().lamps == (False, True, False)
+    ctl.on_control_cmd("server", "enable_stop", "")
+    run(0.02)
+    assert chassis.state().lamps == (True, False, False)
+
+
+def test_server_cannot_acquire_while_backend_offline(rig):
+    ctl, _chassis, _clock, _rec, _run, logs, _ = rig
+    ctl.on_offline(True)
+    assert not ctl.on_mode_cmd("server", "acquire", "server").accepted
+    assert ctl.mode == MODE_TASK and "backend offline" in logs[-1][1]
+    assert ctl.on_mode_cmd("joy_control", "acquire", "joy").changed
+    ctl.on_offline(False)
+    ctl.on_mode_cmd("joy_control", "release", "")
+    assert ctl.on_mode_cmd("server", "acquire", "server").changed
