@@ -5,6 +5,7 @@ gauges of several styles, lamps, switches) into a textured scene through a known
 tests know the exact box and value of every target without the world.
 """
 import math
+import os
 
 import cv2
 import numpy as np
@@ -156,3 +157,115 @@ def style_scale(style, start_value=0.0, end_value=1.6):
 
 def _pt(p):
     return (int(round(p[0])), int(round(p[1])))
+
+
+class PlanarScene(object):
+    """A flat textured wall with targets on it, seen by a pan/tilt/zoom camera far away.
+
+    Views are similarity transforms of the wall (pan/tilt shift it, zoom scales it about the
+    picture centre), plus optional perspective, so pictures at several zooms and head positions
+    share exact ground truth. ``targets``: list of dicts with kind (pointer|lamp|switch),
+    wall ``quad`` and state (``value`` for pointers, ``on``/``colour`` for lamps, ``closed``).
+    """
+
+    def __init__(self, rng, wall_size=(2400, 1500), targets=None):
+        self.wall = textured_background(wall_size[0], wall_size[1], rng)
+        self.targets = targets or []
+        self.rng = rng
+
+    def homography(self, centre_xy, zoom, size, tilt_h=(0.0, 0.0)):
+        """Wall -> picture: wall point ``centre_xy`` lands at the picture centre, scaled by ``zoom``."""
+        w, h = size
+        cx, cy = (w - 1) / 2.0, (h - 1) / 2.0
+        matrix = np.array([[zoom, 0, cx - zoom * centre_xy[0]], [0, zoom, cy - zoom * centre_xy[1]],
+                           [tilt_h[0], tilt_h[1], 1.0]])
+        return matrix
+
+    def render(self, matrix, size, faces=None):
+        w, h = size
+        image = cv2.warpPerspective(self.wall, matrix, (w, h), flags=cv2.INTER_AREA,
+                                    borderMode=cv2.BORDER_REFLECT)
+        for target in self.targets:
+            patch = faces.get(id(target)) if faces else None
+            if patch is None:
+                patch = self.face(target)
+            quad = cv2.perspectiveTransform(np.asarray(target["quad"], np.float64).reshape(-1, 1, 2),
+                                            matrix).reshape(-1, 2)
+            paste(image, patch, quad)
+        return image
+
+    def face(self, target):
+        kind = target["kind"]
+        if kind == "pointer":
+            return draw_gauge_face(target["scale"], target["value"], 400, target.get("style", "classic"))
+        if kind == "lamp":
+            return draw_lamp(LAMP_BGR[target["colour"]], target["on"])
+        return draw_switch(target["closed"])
+
+    def quad_in_view(self, target, matrix):
+        return cv2.perspectiveTransform(np.asarray(target["quad"], np.float64).reshape(-1, 1, 2),
+                                        matrix).reshape(-1, 2)
+
+
+LAMP_BGR = {"red": (30, 30, 230), "green": (40, 210, 40), "yellow": (20, 220, 230), "blue": (230, 90, 20),
+            "white": (235, 235, 235)}
+
+
+def linear_optics(width, height, hfov1_deg=40.0, max_zoom=30.0):
+    """Optics whose focal length is exactly proportional to the zoom (matches PlanarScene)."""
+    from inspection_robot.camera.optics import ZoomOptics
+    f1 = width / 2.0 / math.tan(math.radians(hfov1_deg) / 2.0)
+    rows = [[1.0, hfov1_deg], [max_zoom, math.degrees(2 * math.atan(width / 2.0 / (max_zoom * f1)))]]
+    return ZoomOptics(rows, width, height)
+
+
+def demo_targets(centre=(1200.0, 750.0)):
+    """A pointer gauge, a red lamp and a switch side by side on the wall (wall px)."""
+    x, y = centre
+    return [
+        {"kind": "pointer", "quad": perspective_quad((x - 60, y), 100, 15, -8, 2), "scale": style_scale("classic"),
+         "value": 0.5, "style": "classic"},
+        {"kind": "lamp", "quad": perspective_quad((x + 30, y - 25), 30), "colour": "red", "on": True},
+        {"kind": "switch", "quad": perspective_quad((x + 30, y + 25), 36), "closed": True},
+    ]
+
+
+def record_synthetic_preset(root, preset_id, stamp, scene, view_centre, zoom_levels, size, optics,
+                            wall_px_per_zoom=1.0):
+    """Write a calibrated preset of ``scene`` seen at ``view_centre``: zoom<k>.jpg, preset.ini,
+    preset_calib_info.ini, zoom<k>.xml, switch references. Returns the preset directory."""
+    from inspection_robot.inspection.calibration import calibrate
+    from inspection_robot.inspection.preset import PresetDirWriter, PresetInfo, write_file_atomic, \
+        zoom_picture_name
+    with PresetDirWriter(root, preset_id, stamp) as writer:
+        for k, level in enumerate(zoom_levels):
+            matrix = scene.homography(view_centre, level * wall_px_per_zoom, size)
+            cv2.imwrite(writer.file(zoom_picture_name(k)), scene.render(matrix, size))
+        info = PresetInfo(preset_id, "visible", False, stamp, 0.0, 0.0, zoom_levels[0], 0x4000, (0.0, 0.0, 0.0),
+                          zoom_levels, size[0], size[1])
+        write_file_atomic(writer.file("preset.ini"), info.to_ini())
+        matrix0 = scene.homography(view_centre, zoom_levels[0] * wall_px_per_zoom, size)
+        specs = []
+        for i, target in enumerate(scene.targets):
+            box = scene.quad_in_view(target, matrix0).reshape(-1).tolist()
+            spec = {"kind": target["kind"], "box": box, "name": "t%d" % i}
+            if target["kind"] == "pointer":
+                s = target["scale"]
+                spec.update(start_angle=s.start_angle, end_angle=s.end_angle, start_value=s.start_value,
+                            end_value=s.end_value, unit="MPa")
+            elif target["kind"] == "lamp":
+                spec["colour"] = target["colour"]
+            else:
+                state = target["closed"]
+                for name, closed in (("open", False), ("closed", True)):
+                    target["closed"] = closed
+                    path = writer.file("calib_%s.png" % name)
+                    cv2.imwrite(path, scene.render(matrix0, size))
+                    spec[name + "_picture"] = path
+                target["closed"] = state
+            specs.append(spec)
+        calibrate(writer.path, specs, optics)
+        for name in ("open", "closed"):
+            if os.path.exists(writer.file("calib_%s.png" % name)):
+                os.unlink(writer.file("calib_%s.png" % name))
+        return writer.commit()
