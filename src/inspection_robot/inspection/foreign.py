@@ -53,8 +53,10 @@ def detect_foreign(reference, picture, homography, region=None, exclude=(), min_
     # small misalignment leaves thin edges: a minimum filter over 3x3 removes them
     diff = cv2.erode(diff, np.ones((3, 3), np.uint8))
     binary = ((diff > threshold) & (valid > 0)).astype(np.uint8) * 255
-    binary = cv2.morphologyEx(binary, cv2.MORPH_CLOSE, np.ones((5, 5), np.uint8))
     binary = cv2.morphologyEx(binary, cv2.MORPH_OPEN, np.ones((3, 3), np.uint8))
+    # one object often splits where it crosses background edges: join fragments close together
+    join = max(5, int(max(size) / 40) | 1)
+    binary = cv2.morphologyEx(binary, cv2.MORPH_CLOSE, np.ones((join, join), np.uint8))
     if min_area_px is None:
         min_area_px = 0.002 * size[0] * size[1]
     count, labels, stats, _ = cv2.connectedComponentsWithStats(binary)
