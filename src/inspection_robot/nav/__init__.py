@@ -1,0 +1,1 @@
+"""Navigation: map, costmap with virtual obstacles, global planner, path follower, localization checks."""

@@ -1,0 +1,141 @@
+"""Path follower: pure pursuit along the planned polyline, spins in place when needed.
+
+Each ``step(pose)`` returns a Command (m/s, rad/s, wheel mode) for robot_control and the progress
+(remaining distance, lateral error). Phases:
+
+- ``align``: heading far from the path direction -> spin in place (steer mode, wheel_control 1);
+- ``track``: pure pursuit in straight mode (wheel_control 0, velocity_yaw steers), slowing down
+  near the goal; backward goals drive with negative speed and pursue with the robot's rear;
+- ``spin``: with_direction goals turn in place to the goal heading at the end;
+- ``done``: zero command.
+
+Tolerances come from FollowerParams; precision goals use the tight pair.
+"""
+import math
+from collections import namedtuple
+
+import numpy as np
+
+from inspection_robot.interface import WHEEL_STEER, WHEEL_STRAIGHT
+from inspection_robot.nav.localization import wrap_angle
+
+Command = namedtuple("Command", "velocity_x velocity_yaw wheel_control")
+Progress = namedtuple("Progress", "phase remaining lateral_error command")
+
+ALIGN, TRACK, SPIN, DONE = "align", "track", "spin", "done"
+
+
+class FollowerParams(object):
+    def __init__(self, lookahead_m=0.6, xy_tolerance_m=0.05, xy_tolerance_precise_m=0.01,
+                 yaw_tolerance_rad=0.035, yaw_tolerance_precise_rad=0.015, spin_enter_rad=1.0,
+                 spin_exit_rad=0.15, slowdown_m=1.0, min_speed_m_s=0.05, min_speed_precise_m_s=0.02,
+                 min_yaw_rate_rad_s=0.05, yaw_gain=1.5):
+        self.lookahead = float(lookahead_m)
+        self.xy_tolerance = float(xy_tolerance_m)
+        self.xy_tolerance_precise = float(xy_tolerance_precise_m)
+        self.yaw_tolerance = float(yaw_tolerance_rad)
+        self.yaw_tolerance_precise = float(yaw_tolerance_precise_rad)
+        self.spin_enter = float(spin_enter_rad)
+        self.spin_exit = float(spin_exit_rad)
+        self.slowdown = float(slowdown_m)
+        self.min_speed = float(min_speed_m_s)
+        self.min_speed_precise = float(min_speed_precise_m_s)
+        self.min_yaw_rate = float(min_yaw_rate_rad_s)
+        self.yaw_gain = float(yaw_gain)
+
+
+STOP = Command(0.0, 0.0, WHEEL_STRAIGHT)
+
+
+class PathFollower(object):
+    def __init__(self, points, goal, params):
+        """``points``: (N, 2) path in map metres (N >= 1); ``goal``: a goal.MoveGoal."""
+        pts = np.asarray(points, dtype=np.float64).reshape(-1, 2)
+        if len(pts) == 1:
+            pts = np.vstack([pts, pts])
+        self.points = pts
+        seg = np.diff(pts, axis=0)
+        self._seg_len = np.hypot(seg[:, 0], seg[:, 1])
+        self._cum = np.concatenate([[0.0], np.cumsum(self._seg_len)])
+        self.goal = goal
+        self.p = params
+        self.tolerance = params.xy_tolerance_precise if goal.precision else params.xy_tolerance
+        self.yaw_tolerance = params.yaw_tolerance_precise if goal.precision else params.yaw_tolerance
+        self.min_speed = params.min_speed_precise if goal.precision else params.min_speed
+        self.direction = -1.0 if goal.backward else 1.0
+        self.phase = ALIGN
+        self._progress_s = 0.0
+        self.length = float(self._cum[-1])
+
+    def project(self, x, y):
+        """Arc length of the closest path point (searching ahead of the last one) and its distance."""
+        lo = max(int(np.searchsorted(self._cum, self._progress_s - 1.0)) - 1, 0)
+        a = self.points[lo:-1]
+        d = self.points[lo + 1:] - a
+        length2 = np.maximum((d * d).sum(axis=1), 1e-12)
+        t = np.clip(((x - a[:, 0]) * d[:, 0] + (y - a[:, 1]) * d[:, 1]) / length2, 0.0, 1.0)
+        px, py = a[:, 0] + t * d[:, 0], a[:, 1] + t * d[:, 1]
+        dist = np.hypot(px - x, py - y)
+        i = int(np.argmin(dist))
+        s = float(self._cum[lo + i] + t[i] * self._seg_len[lo + i])
+        return s, float(dist[i])
+
+    def point_at(self, s):
+        s = min(max(s, 0.0), self.length)
+        i = min(int(np.searchsorted(self._cum, s, side="right")) - 1, len(self._seg_len) - 1)
+        i = max(i, 0)
+        t = (s - self._cum[i]) / self._seg_len[i] if self._seg_len[i] > 0 else 0.0
+        return self.points[i] + t * (self.points[i + 1] - self.points[i])
+
+    def step(self, x, y, yaw):
+        s, lateral = self.project(x, y)
+        self._progress_s = max(self._progress_s, s)
+        goal_dist = math.hypot(self.goal.x - x, self.goal.y - y)
+        remaining = max(self.length - self._progress_s, 0.0) if goal_dist > self.p.lookahead else goal_dist
+        heading = wrap_angle(yaw + (math.pi if self.goal.backward else 0.0))
+
+        if self.phase in (ALIGN, TRACK):
+            if goal_dist <= self.tolerance:
+                self.phase = SPIN if self.goal.with_direction else DONE
+            else:
+                target = self.goal_point() if goal_dist <= self.p.lookahead else \
+                    self.point_at(self._progress_s + self.p.lookahead)
+                alpha = wrap_angle(math.atan2(target[1] - y, target[0] - x) - heading)
+                far = goal_dist > 2.0 * self.p.lookahead
+                if self.phase == TRACK and far and abs(alpha) > self.p.spin_enter:
+                    self.phase = ALIGN
+                if self.phase == ALIGN:
+                    if abs(alpha) > self.p.spin_exit and goal_dist > self.tolerance * 4:
+                        return Progress(ALIGN, remaining, lateral, self._spin(alpha))
+                    self.phase = TRACK
+                return Progress(TRACK, remaining, lateral, self._pursue(alpha, goal_dist, remaining))
+        if self.phase == SPIN:
+            error = wrap_angle(self.goal.yaw - yaw)
+            if abs(error) <= self.yaw_tolerance:
+                self.phase = DONE
+            else:
+                return Progress(SPIN, remaining, lateral, self._spin(error))
+        return Progress(DONE, remaining, lateral, STOP)
+
+    def goal_point(self):
+        return np.array([self.goal.x, self.goal.y])
+
+    def _spin(self, error):
+        rate = min(self.goal.velocity_yaw, max(self.p.min_yaw_rate, self.p.yaw_gain * abs(error)))
+        return Command(0.0, math.copysign(rate, error), WHEEL_STEER)
+
+    def _pursue(self, alpha, goal_dist, remaining):
+        speed = self.goal.velocity_x * min(1.0, max(remaining, goal_dist) / self.p.slowdown)
+        speed = max(speed, self.min_speed)
+        if goal_dist < 0.2:  # last centimetres: creep, at most the distance per second
+            speed = min(speed, max(goal_dist, self.min_speed))
+        lookahead = max(min(self.p.lookahead, goal_dist), 1e-3)
+        curvature = 2.0 * math.sin(alpha) / lookahead
+        yaw_rate = speed * curvature
+        if abs(yaw_rate) > self.goal.velocity_yaw:
+            speed *= self.goal.velocity_yaw / abs(yaw_rate)
+            yaw_rate = math.copysign(self.goal.velocity_yaw, yaw_rate)
+        if abs(alpha) > math.pi / 2:  # target behind (overshoot): back up towards it gently
+            speed = -min(speed, self.min_speed)
+            yaw_rate = 0.0
+        return Command(self.direction * speed, yaw_rate, WHEEL_STRAIGHT)

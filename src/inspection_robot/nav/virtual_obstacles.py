@@ -1,0 +1,130 @@
+"""Virtual obstacles: named polylines in map metres that the planner treats as walls.
+
+Commands (virtual_obstacle_cmd, INTERFACE.md section 4), data JSON
+``{"id": "...", "points": [[x, y], ...], "closed": true}``:
+
+- ``add``: a new id (an existing id fails); ``modify``: replace an existing id's polyline;
+- ``delete``: ``{"id": ...}`` of an existing id; ``clear``: removes all (data ignored);
+- ``query``: data empty or ``{}`` gives every polyline, ``{"id": ...}`` only that one; the ack
+  data is a JSON list of ``{"id", "points", "closed"}`` objects, sorted by id.
+
+Every change is saved atomically before it is acknowledged; ``on_change`` then gets the list.
+"""
+import json
+import math
+
+from inspection_robot.command import CommandError, CommandTable
+from inspection_robot.nav.persist import read_json, write_json_atomic
+
+MAX_POINTS = 10000
+MAX_ID_LENGTH = 128
+
+
+def parse_obstacle(data, need_points=True):
+    """Validate command JSON; return (id, points, closed). Raises CommandError with the reason."""
+    try:
+        obj = json.loads(data)
+    except (TypeError, ValueError) as err:
+        raise CommandError("data is not valid JSON: %s" % (err,))
+    if not isinstance(obj, dict):
+        raise CommandError("data must be a JSON object")
+    ident = obj.get("id")
+    if not isinstance(ident, str) or not ident or len(ident) > MAX_ID_LENGTH:
+        raise CommandError("id must be a non-empty string of at most %d characters" % MAX_ID_LENGTH)
+    if not need_points:
+        return ident, None, None
+    points = obj.get("points")
+    if not isinstance(points, list) or not 1 <= len(points) <= MAX_POINTS:
+        raise CommandError("points must be a list of 1..%d [x, y] pairs" % MAX_POINTS)
+    clean = []
+    for i, point in enumerate(points):
+        if not isinstance(point, (list, tuple)) or len(point) != 2 or not all(
+                isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in point):
+            raise CommandError("points[%d] must be [x, y] with finite numbers, got %s" % (i, json.dumps(point)))
+        clean.append([float(point[0]), float(point[1])])
+    closed = obj.get("closed", False)
+    if not isinstance(closed, bool):
+        raise CommandError("closed must be true or false")
+    if closed and len(clean) < 3:
+        raise CommandError("a closed polyline needs at least 3 points")
+    return ident, clean, closed
+
+
+class VirtualObstacles(object):
+    def __init__(self, path, on_change=None):
+        """``path``: JSON file they persist in ("" = not persisted)."""
+        self.path = path
+        self.on_change = on_change
+        self._items = {}
+        self.table = CommandTable({"add": self._add, "modify": self._modify, "delete": self._delete,
+                                   "query": self._query, "clear": self._clear})
+
+    def load(self):
+        """Load the persisted obstacles; a corrupt file raises ValueError (nothing is loaded)."""
+        if not self.path:
+            return
+        stored = read_json(self.path)
+        if stored is None:
+            return
+        if not isinstance(stored, list):
+            raise ValueError("%s: expected a JSON list" % self.path)
+        items = {}
+        for entry in stored:
+            try:
+                ident, points, closed = parse_obstacle(json.dumps(entry))
+            except CommandError as err:
+                raise ValueError("%s: %s" % (self.path, err))
+            items[ident] = {"id": ident, "points": points, "closed": closed}
+        self._items = items
+
+    def polylines(self):
+        """[(points, closed), ...] for the costmap."""
+        return [(o["points"], o["closed"]) for o in self.listing()]
+
+    def listing(self):
+        return [self._items[k] for k in sorted(self._items)]
+
+    def _commit(self, items):
+        if self.path:
+            try:
+                write_json_atomic(self.path, [items[k] for k in sorted(items)])
+            except OSError as err:
+                raise CommandError("cannot save virtual obstacles to %s: %s" % (self.path, err))
+        self._items = items
+        if self.on_change is not None:
+            self.on_change(self.listing())
+
+    def _add(self, data):
+        ident, points, closed = parse_obstacle(data)
+        if ident in self._items:
+            raise CommandError("id '%s' already exists (use modify)" % ident)
+        items = dict(self._items)
+        items[ident] = {"id": ident, "points": points, "closed": closed}
+        self._commit(items)
+
+    def _modify(self, data):
+        ident, points, closed = parse_obstacle(data)
+        if ident not in self._items:
+            raise CommandError("no virtual obstacle with id '%s'" % ident)
+        items = dict(self._items)
+        items[ident] = {"id": ident, "points": points, "closed": closed}
+        self._commit(items)
+
+    def _delete(self, data):
+        ident = parse_obstacle(data, need_points=False)[0]
+        if ident not in self._items:
+            raise CommandError("no virtual obstacle with id '%s'" % ident)
+        items = dict(self._items)
+        del items[ident]
+        self._commit(items)
+
+    def _query(self, data):
+        if data.strip() in ("", "{}"):
+            return json.dumps(self.listing())
+        ident = parse_obstacle(data, need_points=False)[0]
+        if ident not in self._items:
+            raise CommandError("no virtual obstacle with id '%s'" % ident)
+        return json.dumps([self._items[ident]])
+
+    def _clear(self, _data):
+        self._commit({})

@@ -1,0 +1,166 @@
+"""camera_node: the visible zoom camera (INTERFACE.md section 4, "Camera").
+
+Services:    camera_control (ControlService): every command of the spec (camera.commands)
+Subscribes:  camera_cmd (GeneralCmd) -> answers on camera_ack (GeneralAck), trans_id echoed
+             control_status (ControlStatus): joystick-busy rule (mode 2)
+             sim only: sim/true_pose, terrace_state, sim/world_state (nodes.sim_view)
+Publishes:   camera_zoom (std_msgs/Float64, latched, on change)
+             camera/image_raw (sensor_msgs/Image, bgr8, ~image_width px wide, ~image_rate Hz)
+             camera/camera_info (sensor_msgs/CameraInfo, with each image)
+             diagnostics (diagnostic_msgs/DiagnosticArray, hardware_id "camera", ~status_rate Hz)
+Parameters:  ~driver (sim|isapi, "sim"), ~camera_optics ({width, height, zoom_hfov_deg}, required),
+             ~roots (list of folders capture paths must lie in, ["/tmp/inspection_robot"]),
+             ~image_rate (Hz, 1.0; 0 = no image topic), ~image_width (px, 640), ~status_rate (Hz, 2.0),
+             ~jpeg_quality (0..100, 90), ~frame_id ("camera_optical_frame"),
+             ~isapi/{url ("http://192.168.1.64"), user ("admin"), password (""), channel (1), timeout (s, 2.0),
+             snapshot_url ("/onvif-http/snapshot?Profile_1")},
+             ~sim/{world_file (required for sim), seed (0), noise_sigma (2.0), blur_sigma (0.6),
+             lighting_variation (0.08), zoom_rate (x per s, 2.0), focus_rate (units per s, 16384)}
+"""
+import threading
+
+import rospy
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from sensor_msgs.msg import CameraInfo, Image
+from std_msgs.msg import Float64
+
+from inspection_robot.camera.commands import CameraCommands, format_zoom
+from inspection_robot.camera.driver import CameraError, DeviceHealth
+from inspection_robot.camera.optics import ZoomOptics
+from inspection_robot.nodes.twin import CommandTwin
+
+NODE = "camera_node"
+HARDWARE_ID = "camera"
+
+
+def bgr_image_msg(img, stamp, frame_id):
+    msg = Image(height=img.shape[0], width=img.shape[1], encoding="bgr8", is_bigendian=0,
+                step=img.shape[1] * 3, data=img.tobytes())
+    msg.header.stamp, msg.header.frame_id = stamp, frame_id
+    return msg
+
+
+def camera_info_msg(width, height, focal, stamp, frame_id):
+    cx, cy = width / 2.0, height / 2.0
+    msg = CameraInfo(width=width, height=height, distortion_model="plumb_bob", D=[0.0] * 5,
+                     K=[focal, 0, cx, 0, focal, cy, 0, 0, 1], R=[1, 0, 0, 0, 1, 0, 0, 0, 1],
+                     P=[focal, 0, cx, 0, 0, focal, cy, 0, 0, 0, 1, 0])
+    msg.header.stamp, msg.header.frame_id = stamp, frame_id
+    return msg
+
+
+def diagnostics_msg(name, hardware_id, health, values):
+    status = DiagnosticStatus(name=name, hardware_id=hardware_id,
+                              level=DiagnosticStatus.OK if health.ok else DiagnosticStatus.ERROR,
+                              message=health.message,
+                              values=[KeyValue(str(k), str(v)) for k, v in values])
+    msg = DiagnosticArray(status=[status])
+    msg.header.stamp = rospy.Time.now()
+    return msg
+
+
+class CameraNode(object):
+    def __init__(self, driver, optics, roots, image_rate, image_width, status_rate, frame_id):
+        self._driver = driver
+        self._optics = optics
+        self._image_width = int(image_width)
+        self._frame_id = frame_id
+        self._health = DeviceHealth()
+        self.commands = CameraCommands(driver, optics, roots, self._health)
+        self._last_zoom = None
+        self._zoom_lock = threading.Lock()
+        self._zoom_pub = rospy.Publisher("camera_zoom", Float64, queue_size=1, latch=True)
+        self._image_pub = rospy.Publisher("camera/image_raw", Image, queue_size=1)
+        self._info_pub = rospy.Publisher("camera/camera_info", CameraInfo, queue_size=1)
+        self._diag_pub = rospy.Publisher("diagnostics", DiagnosticArray, queue_size=10)
+        self._twin = CommandTwin(self.commands.table, "camera_control", "camera_cmd", "camera_ack", NODE)
+        self._status_timer = rospy.Timer(rospy.Duration(1.0 / status_rate), self._on_status)
+        self._image_timer = None
+        if image_rate > 0:
+            self._image_timer = rospy.Timer(rospy.Duration(1.0 / image_rate), self._on_image)
+
+    def _on_status(self, _event):
+        try:
+            zoom = self._driver.get_zoom()
+        except CameraError as err:
+            self._health.failure(err)
+            rospy.logwarn_throttle(10.0, "%s: %s" % (NODE, err))
+        except Exception as err:  # boundary: a timer tick must not die
+            self._health.failure("internal error: %s" % err)
+            rospy.logerr_throttle(10.0, "%s: status tick failed: %s" % (NODE, err))
+        else:
+            self._health.success()
+            self._publish_zoom(zoom)
+        self._diag_pub.publish(diagnostics_msg("%s: camera" % NODE, HARDWARE_ID, self._health,
+                                               [("zoom", format_zoom(self._last_zoom or 0.0)),
+                                                ("failures", self._health.failures)]))
+
+    def _publish_zoom(self, zoom):
+        zoom = round(float(zoom), 2)
+        with self._zoom_lock:
+            if zoom == self._last_zoom:
+                return
+            self._last_zoom = zoom
+        self._zoom_pub.publish(Float64(zoom))
+
+    def _on_image(self, _event):
+        if self._image_pub.get_num_connections() == 0 and self._info_pub.get_num_connections() == 0:
+            return   # nobody watches: do not burn CPU rendering or fetching pictures
+        try:
+            img = self._driver.grab_frame(self._image_width)
+            zoom = self._driver.get_zoom()
+        except CameraError as err:
+            self._health.failure(err)
+            rospy.logwarn_throttle(10.0, "%s: no picture: %s" % (NODE, err))
+            return
+        except Exception as err:  # boundary
+            rospy.logerr_throttle(10.0, "%s: image tick failed: %s" % (NODE, err))
+            return
+        stamp = rospy.Time.now()
+        height, width = img.shape[:2]
+        self._image_pub.publish(bgr_image_msg(img, stamp, self._frame_id))
+        self._info_pub.publish(camera_info_msg(width, height, self._optics.focal_px(zoom, width), stamp,
+                                               self._frame_id))
+
+    def shutdown(self):
+        self.commands.shutdown()
+
+
+def make_driver(kind, optics):
+    if kind == "isapi":
+        from inspection_robot.camera.isapi import IsapiCamera
+        params = rospy.get_param("~isapi", {})
+        return IsapiCamera(str(params.get("url", "http://192.168.1.64")), str(params.get("user", "admin")),
+                           str(params.get("password", "")), int(params.get("channel", 1)),
+                           float(params.get("timeout", 2.0)),
+                           str(params.get("snapshot_url", "/onvif-http/snapshot?Profile_1")))
+    if kind == "sim":
+        from inspection_robot.nodes.sim_view import SimView
+        from inspection_robot.sim.camera import SimulatedCamera
+        from inspection_robot.sim.render import Renderer
+        from inspection_robot.sim.world import World
+        params = rospy.get_param("~sim", {})
+        world = World.load(params["world_file"])
+        renderer = Renderer(world, int(params.get("seed", 0)), float(params.get("noise_sigma", 2.0)),
+                            float(params.get("blur_sigma", 0.6)), float(params.get("lighting_variation", 0.08)))
+        return SimulatedCamera(renderer, optics, SimView(world), world.sensor_height,
+                               float(params.get("zoom_rate", 2.0)), float(params.get("focus_rate", 0x4000)),
+                               int(rospy.get_param("~jpeg_quality", 90)))
+    raise ValueError("~driver must be sim or isapi, got %r" % (kind,))
+
+
+def main():
+    rospy.init_node(NODE)
+    optics_params = rospy.get_param("~camera_optics")
+    optics = ZoomOptics(optics_params["zoom_hfov_deg"], optics_params["width"], optics_params["height"])
+    roots = rospy.get_param("~roots", ["/tmp/inspection_robot"])
+    image_rate = float(rospy.get_param("~image_rate", 1.0))
+    image_width = int(rospy.get_param("~image_width", 640))
+    status_rate = float(rospy.get_param("~status_rate", 2.0))
+    if status_rate <= 0 or image_rate < 0 or not 16 <= image_width <= optics.width:
+        raise ValueError("~status_rate must be > 0, ~image_rate >= 0, 16 <= ~image_width <= camera width")
+    driver = make_driver(rospy.get_param("~driver", "sim"), optics)
+    node = CameraNode(driver, optics, roots, image_rate, image_width, status_rate,
+                      rospy.get_param("~frame_id", "camera_optical_frame"))
+    rospy.on_shutdown(node.shutdown)
+    rospy.spin()

@@ -1,0 +1,152 @@
+"""cloud_terrace: the Pelco-D pan/tilt head (INTERFACE.md section 4, "PTZ").
+
+Services:    terrace_control (ControlService): every terrace command (inspection_robot.ptz.terrace)
+Subscribes:  terrace_cmd (GeneralCmd), preset_rotate (PresetRotate),
+             camera_zoom (std_msgs/Float64, latched; the minimum zoom until heard),
+             control_status (ControlStatus): joystick-busy rule
+Publishes:   terrace_ack (GeneralAck): replies to terrace_cmd, and the outcome of each preset_rotate
+               (its trans_id, data "pan,tilt" target or the reason)
+             terrace_state (sensor_msgs/JointState): names [pan, tilt], rad, standard convention
+               (pan CCW +, tilt down +), at ~state_rate while the head answers
+             diagnostics (diagnostic_msgs/DiagnosticArray): hardware_id "pan_tilt_head", 1 Hz;
+               ERROR while the head is lost
+Parameters:  ~port (pyserial URL or device, "/tmp/inspection_robot_pelco"), ~baudrate (9600),
+             ~address (Pelco-D address, 1), ~reply_timeout (s, 0.3),
+             ~reconnect_backoff ([first, max] s, [0.1, 2.0]),
+             ~speeds ({high_speed: 63, mid_speed: 32, low_speed: 8}, Pelco-D speed bytes),
+             ~tilt_min_deg (-90.0), ~tilt_max_deg (90.0), ~reach_tolerance_deg (0.01),
+             ~move_timeout (s, 10.0), ~poll_period (s, 0.05), ~state_rate (Hz, 20.0),
+             ~camera_optics (config/camera_optics.yaml: width, height, zoom_hfov_deg)
+"""
+import queue
+import threading
+
+import rospy
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from sensor_msgs.msg import JointState
+from std_msgs.msg import Float64
+
+from inspection_robot.camera.optics import ZoomOptics
+from inspection_robot.command import CommandError, failed, success
+from inspection_robot.msg import PresetRotate
+from inspection_robot.interface import ACK_SUCCESS, BUSY, SENDER_JOY
+from inspection_robot.nodes.twin import CommandTwin, ModeWatcher
+from inspection_robot.ptz import pelco
+from inspection_robot.ptz.driver import HeadError, PelcoHead
+from inspection_robot.ptz.terrace import Terrace, format_centi
+
+NODE_NAME = "cloud_terrace"
+HARDWARE_ID = "pan_tilt_head"
+STATE_STALE_S = 1.0
+
+
+class CloudTerrace(object):
+    def __init__(self, head, terrace, optics, state_rate_hz):
+        self._head = head
+        self._terrace = terrace
+        self._optics = optics
+        self._zoom = optics.min_zoom
+        self._last_state_time = None
+        self._modes = ModeWatcher()
+        self.twin = CommandTwin(terrace.table(), "terrace_control", "terrace_cmd", "terrace_ack", NODE_NAME)
+        self._state_pub = rospy.Publisher("terrace_state", JointState, queue_size=10)
+        self._diag_pub = rospy.Publisher("diagnostics", DiagnosticArray, queue_size=10)
+        self._rotations = queue.Queue(maxsize=10)
+        rospy.Subscriber("camera_zoom", Float64, self._on_zoom, queue_size=1)
+        rospy.Subscriber("preset_rotate", PresetRotate, self._on_preset_rotate, queue_size=10)
+        worker = threading.Thread(target=self._rotate_worker, name="preset_rotate_worker")
+        worker.daemon = True
+        worker.start()
+        self._state_timer = rospy.Timer(rospy.Duration(1.0 / state_rate_hz), self._on_state_timer)
+        self._diag_timer = rospy.Timer(rospy.Duration(1.0), self._on_diag_timer)
+
+    def _on_zoom(self, msg):
+        self._zoom = msg.data
+
+    def _on_preset_rotate(self, msg):
+        try:
+            self._rotations.put_nowait(msg)
+        except queue.Full:
+            rospy.logwarn_throttle(1.0, "%s: preset_rotate queue full, dropping one" % NODE_NAME)
+            self.twin.publish_ack(failed("preset_rotate: busy, queue full"), msg)
+
+    def _rotate_worker(self):
+        while not rospy.is_shutdown():
+            try:
+                msg = self._rotations.get(timeout=0.2)
+            except queue.Empty:
+                continue
+            self.twin.publish_ack(self._rotate(msg), msg)
+
+    def _rotate(self, msg):
+        if self._modes.joystick_holds() and msg.sender != SENDER_JOY:
+            return failed(BUSY)
+        try:
+            target = self._terrace.pixel_target(self._optics, self._zoom, msg.width, msg.height,
+                                                msg.delta_x, msg.delta_y)
+        except CommandError as err:
+            rospy.logwarn("%s: preset_rotate refused: %s" % (NODE_NAME, err))
+            return failed("preset_rotate: %s" % err)
+        reply = self.twin.handle(msg.sender, "set_angle", format_centi(*target))
+        if reply.ack != ACK_SUCCESS:
+            return failed("preset_rotate: %s" % reply.data)
+        return success(format_centi(*target))
+
+    def _on_state_timer(self, _event):
+        try:
+            pan, tilt = self._head.query_pan(), self._head.query_tilt()
+        except HeadError as err:
+            rospy.logwarn_throttle(5.0, "%s: no pan/tilt state from %s: %s" % (NODE_NAME, self._head.port, err))
+            return
+        self._last_state_time = rospy.get_time()
+        msg = JointState(name=["pan", "tilt"], position=[pelco.centi_to_radians(pan), pelco.centi_to_radians(tilt)])
+        msg.header.stamp = rospy.Time.now()
+        self._state_pub.publish(msg)
+
+    def _on_diag_timer(self, _event):
+        status = DiagnosticStatus(name="%s: pan/tilt head" % rospy.get_name(), hardware_id=HARDWARE_ID)
+        fresh = self._last_state_time is not None and rospy.get_time() - self._last_state_time < STATE_STALE_S
+        if self._head.connected and fresh:
+            status.level, status.message = DiagnosticStatus.OK, "head answering"
+        else:
+            status.level = DiagnosticStatus.ERROR
+            status.message = "head lost: %s" % (self._head.last_error or "no reply")
+        status.values = [KeyValue(key=k, value=str(v)) for k, v in sorted(self._head.stats.items())]
+        status.values.append(KeyValue(key="port", value=self._head.port))
+        msg = DiagnosticArray(status=[status])
+        msg.header.stamp = rospy.Time.now()
+        self._diag_pub.publish(msg)
+
+
+def main():
+    rospy.init_node(NODE_NAME)
+    port = rospy.get_param("~port", "/tmp/inspection_robot_pelco")
+    backoff = rospy.get_param("~reconnect_backoff", [0.1, 2.0])
+    speeds = rospy.get_param("~speeds", {"high_speed": 63, "mid_speed": 32, "low_speed": 8})
+    tilt_limits = (pelco.degrees_to_centi(rospy.get_param("~tilt_min_deg", -90.0)),
+                   pelco.degrees_to_centi(rospy.get_param("~tilt_max_deg", 90.0)))
+    tolerance = pelco.degrees_to_centi(rospy.get_param("~reach_tolerance_deg", 0.01))
+    move_timeout = float(rospy.get_param("~move_timeout", 10.0))
+    poll_period = float(rospy.get_param("~poll_period", 0.05))
+    state_rate = float(rospy.get_param("~state_rate", 20.0))
+    optics_param = rospy.get_param("~camera_optics")
+    optics = ZoomOptics(optics_param["zoom_hfov_deg"], optics_param["width"], optics_param["height"])
+    if not isinstance(backoff, list) or len(backoff) != 2:
+        raise ValueError("~reconnect_backoff must be [first, max] seconds, got %r" % (backoff,))
+    if state_rate <= 0 or move_timeout <= 0 or poll_period <= 0:
+        raise ValueError("~state_rate, ~move_timeout and ~poll_period must be positive")
+    head = PelcoHead(port, baudrate=rospy.get_param("~baudrate", 9600), address=rospy.get_param("~address", 1),
+                     reply_timeout=rospy.get_param("~reply_timeout", 0.3), backoff=backoff,
+                     logger=lambda text: rospy.loginfo("%s: %s" % (NODE_NAME, text)))
+    terrace = Terrace(head, speeds, tilt_limits, tolerance, move_timeout, poll_period)
+
+    def stop_head():
+        try:
+            head.stop()
+        except HeadError as err:
+            rospy.logwarn("%s: could not stop the head on shutdown: %s" % (NODE_NAME, err))
+        head.close()
+
+    rospy.on_shutdown(stop_head)
+    CloudTerrace(head, terrace, optics, state_rate)
+    rospy.spin()

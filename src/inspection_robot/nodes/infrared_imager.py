@@ -1,0 +1,84 @@
+"""infrared_imager: the radiometric thermal imager (INTERFACE.md section 4, "Thermal imager").
+
+Services:    infrared_control (ControlService): every command of the spec (thermal.commands)
+Subscribes:  infrared_cmd (GeneralCmd) -> answers on infrared_ack (GeneralAck), trans_id echoed
+             control_status (ControlStatus): joystick-busy rule (mode 2)
+             sim only: sim/true_pose, terrace_state, sim/world_state (nodes.sim_view)
+Publishes:   diagnostics (diagnostic_msgs/DiagnosticArray, hardware_id "thermal_imager", ~status_rate Hz)
+Parameters:  ~driver ("sim", a vendor plug-in "package.module:Class", or "" = none configured:
+             every command fails and diagnostics report ERROR; default ""),
+             ~driver_params (dict of keyword arguments for a plug-in, {}),
+             ~width, ~height (px, 384, 288), ~roots (["/tmp/inspection_robot"]),
+             ~measure_box_px (px, 16), ~status_rate (Hz, 1.0), ~jpeg_quality (90),
+             ~sim/{world_file (required for sim), seed (0), noise_sigma (degC, 0.05), hfov_deg (25.0),
+             unsupported (list of commands to refuse, [])}
+"""
+import rospy
+from diagnostic_msgs.msg import DiagnosticArray
+
+from inspection_robot.camera.driver import DeviceHealth
+from inspection_robot.nodes.camera_node import diagnostics_msg
+from inspection_robot.nodes.twin import CommandTwin
+from inspection_robot.thermal.commands import ThermalCommands
+from inspection_robot.thermal.driver import NoImager, ThermalError, load_driver_class
+
+NODE = "infrared_imager"
+HARDWARE_ID = "thermal_imager"
+
+
+class InfraredNode(object):
+    def __init__(self, driver, commands, health, status_rate):
+        self._driver = driver
+        self._health = health
+        self.commands = commands
+        self._diag_pub = rospy.Publisher("diagnostics", DiagnosticArray, queue_size=10)
+        self._twin = CommandTwin(commands.table, "infrared_control", "infrared_cmd", "infrared_ack", NODE)
+        self._timer = rospy.Timer(rospy.Duration(1.0 / status_rate), self._on_status)
+
+    def _on_status(self, _event):
+        try:
+            self._driver.probe()
+        except ThermalError as err:
+            self._health.failure(err)
+            rospy.logwarn_throttle(10.0, "%s: %s" % (NODE, err))
+        except Exception as err:  # boundary: a timer tick must not die
+            self._health.failure("internal error: %s" % err)
+            rospy.logerr_throttle(10.0, "%s: status tick failed: %s" % (NODE, err))
+        else:
+            self._health.success()
+        x, y = self.commands.measure_spot
+        self._diag_pub.publish(diagnostics_msg("%s: thermal imager" % NODE, HARDWARE_ID, self._health,
+                                               [("measure_spot", "%d,%d" % (x, y)),
+                                                ("failures", self._health.failures)]))
+
+
+def make_driver(kind, width, height):
+    if kind == "sim":
+        from inspection_robot.nodes.sim_view import SimView
+        from inspection_robot.sim.render import ThermalRenderer
+        from inspection_robot.sim.thermal import SimulatedImager
+        from inspection_robot.sim.world import World
+        params = rospy.get_param("~sim", {})
+        world = World.load(params["world_file"])
+        renderer = ThermalRenderer(world, int(params.get("seed", 0)), float(params.get("noise_sigma", 0.05)))
+        return SimulatedImager(renderer, SimView(world), world.sensor_height, width, height,
+                               float(params.get("hfov_deg", 25.0)), list(params.get("unsupported", [])))
+    if not kind:
+        rospy.logerr("%s: no thermal imager driver configured (~driver); every command will fail" % NODE)
+        return NoImager()
+    return load_driver_class(kind)(**rospy.get_param("~driver_params", {}))
+
+
+def main():
+    rospy.init_node(NODE)
+    width = int(rospy.get_param("~width", 384))
+    height = int(rospy.get_param("~height", 288))
+    status_rate = float(rospy.get_param("~status_rate", 1.0))
+    if width < 8 or height < 8 or status_rate <= 0:
+        raise ValueError("~width/~height must be >= 8 px and ~status_rate > 0")
+    driver = make_driver(rospy.get_param("~driver", ""), width, height)
+    health = DeviceHealth()
+    commands = ThermalCommands(driver, rospy.get_param("~roots", ["/tmp/inspection_robot"]), health, width, height,
+                               int(rospy.get_param("~measure_box_px", 16)), int(rospy.get_param("~jpeg_quality", 90)))
+    InfraredNode(driver, commands, health, status_rate)
+    rospy.spin()

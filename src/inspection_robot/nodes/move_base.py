@@ -1,0 +1,422 @@
+"""move_base: map, virtual obstacles, global planning, path following and move_action.
+
+Subscribes:  <~pose_topic> (geometry_msgs/PoseWithCovarianceStamped) robot pose in map
+             obstacle_status (ObstacleStatus) from obstacle_detector
+             control_cmd (GeneralCmd): enable_/disable_/switch_obstacle toggle the 3-D obstacle enable bit
+             location_cmd (GeneralCmd): set_location init_pose | last_pose | x,y,yaw
+             virtual_obstacle_cmd (GeneralCmd): add | modify | delete | query | clear (JSON data)
+Publishes:   map (nav_msgs/OccupancyGrid, latched) the static map, never holding virtual obstacles
+             virtual_obstacle_map (nav_msgs/OccupancyGrid, latched) the virtual layer, for RViz
+             plan (nav_msgs/Path, latched) the current global plan
+             move_cmd (MoveCmd, sender "move_base") at ~control_rate while a goal runs
+             nav_status (NavStatus) at ~status_rate; virtual_obstacle_ack (GeneralAck)
+             initialpose (geometry_msgs/PoseWithCovarianceStamped) on set_location, for the localizer
+Actions:     move_action (GeneralAction) goal type "move"
+Parameters:  ~map_file (map_server YAML, required), ~pose_topic ("sim/true_pose"),
+             ~virtual_obstacles_file (~/.ros/inspection_robot/virtual_obstacles.json),
+             ~last_pose_file (~/.ros/inspection_robot/last_pose.json), ~last_pose_period (s, 5.0),
+             ~init_pose ([x, y, yaw], [0, 0, 0]),
+             ~robot_radius (m, 0.45), ~safety_margin (m, 0.3), ~margin_cost (4.0), ~coarse_factor (8),
+             ~control_rate (Hz, 20), ~status_rate (Hz, 10), ~feedback_period (s, 0.5),
+             ~default_velocity_x / ~max_velocity_x (m/s, 0.5 / 1.5),
+             ~default_velocity_yaw / ~max_velocity_yaw (rad/s, 0.5 / 1.0),
+             ~follower/* (see nav.follower.FollowerParams; m, rad, m/s),
+             ~off_track_m (m, 0.5), ~replan_min_interval (s, 2.0), ~obstacle_wait (s, 10.0),
+             ~max_xy_std (m, 0.5), ~max_yaw_std (rad, 0.2), ~pose_timeout (s, 0.5),
+             ~enable_bits (NavStatus enable bits at start, 7)
+"""
+import json
+import math
+import os
+import queue
+import threading
+import time
+import traceback
+
+import actionlib
+import rospy
+from geometry_msgs.msg import PoseStamped, PoseWithCovarianceStamped
+from nav_msgs.msg import OccupancyGrid, Path
+
+from inspection_robot.command import CommandError, failed, parse_float, split_fields
+from inspection_robot.interface import (ACK_SUCCESS, LOCATION_CMD_SET, LOCATION_INIT_POSE, LOCATION_LAST_POSE,
+                                        MOVE_FEEDBACK_ALARM, MOVE_FEEDBACK_MOVING, MOVE_FEEDBACK_PLANNED,
+                                        MOVE_FEEDBACK_PLANNING, MOVE_RESULT_BLOCKED, MOVE_RESULT_CANCELLED,
+                                        MOVE_RESULT_LOCALIZATION_LOST, MOVE_RESULT_PLAN_FAILED,
+                                        MOVE_RESULT_SUCCESS, MOVE_VELOCITY_X_UNIT_M_S, MOVE_VELOCITY_YAW_UNIT_RAD_S,
+                                        NAV_LOCALIZATION_LOST, NAV_OBSTACLE_3D, NAV_OFF_TRACK, SENDER_MOVE_BASE,
+                                        WHEEL_STRAIGHT)
+from inspection_robot.msg import (GeneralAck, GeneralAction, GeneralCmd, GeneralFeedback, GeneralResult, MoveCmd,
+                                  NavStatus, ObstacleStatus)
+from inspection_robot.nav.costmap import Costmap
+from inspection_robot.nav.follower import DONE, FollowerParams, PathFollower
+from inspection_robot.nav.goal import parse_move_goal, quaternion_from_yaw, yaw_from_quaternion
+from inspection_robot.nav.gridmap import load_map
+from inspection_robot.nav.localization import LocalizationMonitor, wrap_angle
+from inspection_robot.nav.persist import read_json, write_json_atomic
+from inspection_robot.nav.planner import Planner, PlanningError
+from inspection_robot.nav.virtual_obstacles import VirtualObstacles
+
+OBSTACLE_CONTROL = {"enable_obstacle": True, "disable_obstacle": False, "switch_obstacle": None}
+
+
+def grid_message(grid, occupancy, stamp):
+    msg = OccupancyGrid()
+    msg.header.frame_id = "map"
+    msg.header.stamp = stamp
+    msg.info.map_load_time = stamp
+    msg.info.resolution = grid.resolution
+    msg.info.width, msg.info.height = grid.width, grid.height
+    msg.info.origin.position.x, msg.info.origin.position.y = grid.origin[0], grid.origin[1]
+    msg.info.origin.orientation.w = 1.0
+    msg.data = occupancy.ravel().tolist()
+    return msg
+
+
+def pose_json(pose):
+    if pose is None:
+        return None
+    return {"x": round(pose[0], 4), "y": round(pose[1], 4), "yaw": round(pose[2], 4)}
+
+
+class Aborted(Exception):
+    """Ends the running goal with ``ret_code`` and ``reason``."""
+
+    def __init__(self, ret_code, reason):
+        Exception.__init__(self, reason)
+        self.ret_code = ret_code
+
+
+class MoveBase(object):
+    def __init__(self, grid, costmap, planner, obstacles, localization, follower_params, cfg):
+        self.grid = grid
+        self.costmap = costmap
+        self.planner = planner
+        self.obstacles = obstacles
+        self.loc = localization
+        self.follower_params = follower_params
+        self.cfg = cfg
+        self.enable_bits = int(cfg["enable_bits"])
+        self.obstacle = False
+        self.off_track = False
+        self._costmap_lock = threading.Lock()
+        self._replan = threading.Event()
+        self._last_saved_pose = None
+        self._vo_queue = queue.Queue(maxsize=50)
+
+        stamp = rospy.Time.now()
+        self._map_pub = rospy.Publisher("map", OccupancyGrid, queue_size=1, latch=True)
+        self._map_pub.publish(grid_message(grid, grid.occupancy, stamp))
+        self._virtual_pub = rospy.Publisher("virtual_obstacle_map", OccupancyGrid, queue_size=1, latch=True)
+        self._plan_pub = rospy.Publisher("plan", Path, queue_size=1, latch=True)
+        self._cmd_pub = rospy.Publisher("move_cmd", MoveCmd, queue_size=10)
+        self._status_pub = rospy.Publisher("nav_status", NavStatus, queue_size=10)
+        self._ack_pub = rospy.Publisher("virtual_obstacle_ack", GeneralAck, queue_size=50)
+        self._initial_pub = rospy.Publisher("initialpose", PoseWithCovarianceStamped, queue_size=1, latch=True)
+        self._publish_virtual()
+
+        rospy.Subscriber(cfg["pose_topic"], PoseWithCovarianceStamped, self._on_pose, queue_size=10)
+        rospy.Subscriber("obstacle_status", ObstacleStatus, self._on_obstacle, queue_size=10)
+        rospy.Subscriber("control_cmd", GeneralCmd, self._on_control, queue_size=10)
+        rospy.Subscriber("location_cmd", GeneralCmd, self._on_location, queue_size=10)
+        rospy.Subscriber("virtual_obstacle_cmd", GeneralCmd, self._on_virtual_cmd, queue_size=50)
+        worker = threading.Thread(target=self._virtual_worker, name="virtual_obstacle_worker")
+        worker.daemon = True
+        worker.start()
+
+        self._server = actionlib.SimpleActionServer("move_action", GeneralAction, self._execute, auto_start=False)
+        self._server.start()
+        rospy.Timer(rospy.Duration(1.0 / cfg["status_rate"]), self._publish_status)
+        rospy.Timer(rospy.Duration(cfg["last_pose_period"]), self._save_last_pose)
+        rospy.on_shutdown(self.stop)
+
+    # --- inputs --------------------------------------------------------------------------------
+    def _on_pose(self, msg):
+        p = msg.pose.pose
+        yaw = yaw_from_quaternion(p.orientation.x, p.orientation.y, p.orientation.z, p.orientation.w)
+        self.loc.update(time.monotonic(), p.position.x, p.position.y, yaw, list(msg.pose.covariance))
+
+    def _on_obstacle(self, msg):
+        self.obstacle = bool(msg.obstacle)
+
+    def _on_control(self, msg):
+        if msg.cmd not in OBSTACLE_CONTROL:
+            return  # the other control_cmd commands belong to robot_control
+        enable = OBSTACLE_CONTROL[msg.cmd]
+        if enable is None:
+            enable = not self.enable_bits & NAV_OBSTACLE_3D
+        self.enable_bits = (self.enable_bits | NAV_OBSTACLE_3D) if enable else (self.enable_bits & ~NAV_OBSTACLE_3D)
+        rospy.loginfo("move_base: 3-D obstacle handling %s (%s from %s)", "enabled" if enable else "disabled",
+                      msg.cmd, msg.sender)
+
+    def _on_location(self, msg):
+        try:
+            x, y, yaw = self._location_target(msg.cmd, msg.data)
+        except CommandError as err:
+            rospy.logwarn("move_base: location_cmd %s(%r) from %s refused: %s", msg.cmd, msg.data, msg.sender, err)
+            return
+        out = PoseWithCovarianceStamped()
+        out.header.frame_id = "map"
+        out.header.stamp = rospy.Time.now()
+        out.pose.pose.position.x, out.pose.pose.position.y = x, y
+        q = quaternion_from_yaw(yaw)
+        out.pose.pose.orientation.z, out.pose.pose.orientation.w = q["z"], q["w"]
+        out.pose.covariance[0] = out.pose.covariance[7] = 0.25 ** 2
+        out.pose.covariance[35] = 0.1 ** 2
+        self._initial_pub.publish(out)
+        rospy.loginfo("move_base: set_location %s -> initialpose (%.3f, %.3f, %.3f)", msg.data, x, y, yaw)
+
+    def _location_target(self, cmd, data):
+        if cmd != LOCATION_CMD_SET:
+            raise CommandError("unknown command '%s'" % cmd)
+        if data == LOCATION_INIT_POSE:
+            return tuple(self.cfg["init_pose"])
+        if data == LOCATION_LAST_POSE:
+            try:
+                stored = read_json(self.cfg["last_pose_file"])
+            except (OSError, ValueError) as err:
+                raise CommandError("last pose file unreadable: %s" % err)
+            if not stored:
+                raise CommandError("no last pose saved yet")
+            return float(stored["x"]), float(stored["y"]), float(stored["yaw"])
+        x, y, yaw = split_fields(data, 3)
+        return parse_float(x, "x"), parse_float(y, "y"), wrap_angle(parse_float(yaw, "yaw"))
+
+    def _on_virtual_cmd(self, msg):
+        try:
+            self._vo_queue.put_nowait(msg)
+        except queue.Full:
+            self._ack(failed("busy: command queue full"), msg)
+
+    def _virtual_worker(self):
+        while not rospy.is_shutdown():
+            try:
+                msg = self._vo_queue.get(timeout=0.2)
+            except queue.Empty:
+                continue
+            try:
+                reply = self.obstacles.table.dispatch(msg.cmd, msg.data)
+            except Exception as err:  # boundary: one bad command must not kill the worker
+                rospy.logerr("move_base: virtual_obstacle_cmd %s raised: %s\n%s", msg.cmd, err, traceback.format_exc())
+                reply = failed("internal error: %s" % (err,))
+            self._ack(reply, msg)
+
+    def on_virtual_change(self, _listing):
+        """Called by the store after a change was saved: re-inflate, republish, replan."""
+        with self._costmap_lock:
+            self.costmap.set_virtual(self.obstacles.polylines())
+            self.planner.refresh()
+        self._publish_virtual()
+        self._replan.set()
+
+    def _ack(self, reply, request):
+        ack = GeneralAck(ack=reply.ack, data=reply.data, sender=SENDER_MOVE_BASE, receiver=request.sender,
+                         trans_id=request.trans_id)
+        ack.header.stamp = rospy.Time.now()
+        self._ack_pub.publish(ack)
+        if reply.ack != ACK_SUCCESS:
+            rospy.logwarn("move_base: virtual_obstacle_cmd %s failed: %s", request.cmd, reply.data)
+
+    # --- outputs -------------------------------------------------------------------------------
+    def _publish_virtual(self):
+        occupancy = (self.costmap.virtual * 100).astype("int8")
+        self._virtual_pub.publish(grid_message(self.grid, occupancy, rospy.Time.now()))
+
+    def _publish_plan(self, points):
+        path = Path()
+        path.header.frame_id = "map"
+        path.header.stamp = rospy.Time.now()
+        for x, y in points:
+            pose = PoseStamped()
+            pose.header = path.header
+            pose.pose.position.x, pose.pose.position.y = float(x), float(y)
+            pose.pose.orientation.w = 1.0
+            path.poses.append(pose)
+        self._plan_pub.publish(path)
+
+    def nav_warn(self):
+        warn = NAV_OBSTACLE_3D if self.obstacle else 0
+        if self.loc.lost(time.monotonic()):
+            warn |= NAV_LOCALIZATION_LOST
+        if self.off_track:
+            warn |= NAV_OFF_TRACK
+        return warn
+
+    def _publish_status(self, _event=None):
+        msg = NavStatus(sender=SENDER_MOVE_BASE, nav_status=self.enable_bits, nav_warn=self.nav_warn())
+        msg.header.stamp = rospy.Time.now()
+        if self.loc.pose is not None:
+            msg.position = [self.loc.pose[0], self.loc.pose[1]]
+            msg.orientation = self.loc.pose[2]
+        self._status_pub.publish(msg)
+
+    def _save_last_pose(self, _event=None):
+        pose = self.loc.pose
+        if pose is None or pose == self._last_saved_pose or self.loc.lost(time.monotonic()):
+            return
+        try:
+            write_json_atomic(self.cfg["last_pose_file"], pose_json(pose))
+            self._last_saved_pose = pose
+        except OSError as err:
+            rospy.logwarn_throttle(30.0, "move_base: cannot save last pose to %s: %s"
+                                   % (self.cfg["last_pose_file"], err))
+
+    def send(self, velocity_x, velocity_yaw, wheel_control):
+        msg = MoveCmd(sender=SENDER_MOVE_BASE, velocity_x=velocity_x / MOVE_VELOCITY_X_UNIT_M_S,
+                      velocity_yaw=velocity_yaw / MOVE_VELOCITY_YAW_UNIT_RAD_S, wheel_control=wheel_control)
+        msg.header.stamp = rospy.Time.now()
+        self._cmd_pub.publish(msg)
+
+    def stop(self):
+        self.send(0.0, 0.0, WHEEL_STRAIGHT)
+
+    # --- move_action ---------------------------------------------------------------------------
+    def _feedback(self, code, **data):
+        data["pose"] = pose_json(self.loc.pose)
+        self._server.publish_feedback(GeneralFeedback(event_code=code, data=json.dumps(data)))
+
+    def _execute(self, goal_msg):
+        try:
+            ret_code, data = self._run(goal_msg)
+        except Aborted as end:
+            ret_code, data = end.ret_code, {"reason": str(end)}
+        except rospy.ROSInterruptException:
+            ret_code, data = MOVE_RESULT_CANCELLED, {"reason": "shutting down"}
+        except Exception as err:  # boundary: the goal fails, the node lives on
+            rospy.logerr("move_base: goal raised: %s\n%s", err, traceback.format_exc())
+            ret_code, data = MOVE_RESULT_PLAN_FAILED, {"reason": "internal error: %s" % (err,)}
+        self.stop()
+        self.off_track = False
+        data["pose"] = pose_json(self.loc.pose)
+        result = GeneralResult(ret_code=ret_code, data=json.dumps(data))
+        if ret_code == MOVE_RESULT_SUCCESS:
+            self._server.set_succeeded(result)
+        elif ret_code == MOVE_RESULT_CANCELLED:
+            self._server.set_preempted(result)
+        else:
+            self._server.set_aborted(result, data.get("reason", ""))
+        rospy.loginfo("move_base: goal finished with ret_code %s %s", ret_code, data)
+
+    def _check_localization(self):
+        problem = self.loc.problem(time.monotonic())
+        if problem and self.enable_bits & NAV_LOCALIZATION_LOST:
+            raise Aborted(MOVE_RESULT_LOCALIZATION_LOST, "localization lost: %s" % problem)
+        return self.loc.pose
+
+    def _plan(self, goal):
+        self._feedback(MOVE_FEEDBACK_PLANNING)
+        pose = self._check_localization()
+        if pose is None:
+            raise Aborted(MOVE_RESULT_LOCALIZATION_LOST, "localization lost: no pose")
+        self._replan.clear()
+        started = time.monotonic()
+        try:
+            with self._costmap_lock:
+                plan = self.planner.plan(pose[:2], (goal.x, goal.y))
+        except PlanningError as err:
+            raise Aborted(MOVE_RESULT_PLAN_FAILED, "planning failed: %s" % err)
+        self._publish_plan(plan.points)
+        self._feedback(MOVE_FEEDBACK_PLANNED, path_length=round(plan.length, 3),
+                       planning_time=round(time.monotonic() - started, 3))
+        return PathFollower(plan.points, goal, self.follower_params)
+
+    def _run(self, goal_msg):
+        cfg = self.cfg
+        try:
+            goal = parse_move_goal(goal_msg.type, goal_msg.data, cfg["default_velocity_x"],
+                                   cfg["default_velocity_yaw"], cfg["max_velocity_x"], cfg["max_velocity_yaw"])
+        except CommandError as err:
+            raise Aborted(MOVE_RESULT_PLAN_FAILED, "bad goal: %s" % err)
+        follower = self._plan(goal)
+        rate = rospy.Rate(cfg["control_rate"])
+        blocked_since = None
+        last_feedback = last_replan = 0.0
+        while not rospy.is_shutdown():
+            if self._server.is_preempt_requested():
+                return MOVE_RESULT_CANCELLED, {"reason": "cancelled"}
+            pose = self._check_localization()
+            now = time.monotonic()
+            if self.obstacle and self.enable_bits & NAV_OBSTACLE_3D:
+                self.stop()
+                if blocked_since is None:
+                    blocked_since = now
+                    self._feedback(MOVE_FEEDBACK_ALARM, nav_warn=self.nav_warn(),
+                                   reason="obstacle in the travel corridor")
+                elif now - blocked_since > cfg["obstacle_wait"]:
+                    raise Aborted(MOVE_RESULT_BLOCKED, "blocked by an obstacle for %.1f s" % cfg["obstacle_wait"])
+                rate.sleep()
+                continue
+            if blocked_since is not None:
+                blocked_since = None
+                self._replan.set()  # the world may have changed while we waited
+            if self._replan.is_set() or (self.off_track and self.enable_bits & NAV_OFF_TRACK
+                                         and now - last_replan > cfg["replan_min_interval"]):
+                if self.off_track:
+                    self._feedback(MOVE_FEEDBACK_ALARM, nav_warn=self.nav_warn(), reason="off track, replanning")
+                follower = self._plan(goal)
+                last_replan = now
+                pose = self.loc.pose
+            progress = follower.step(*pose)
+            self.off_track = progress.lateral_error > cfg["off_track_m"]
+            if progress.phase == DONE:
+                error = math.hypot(goal.x - pose[0], goal.y - pose[1])
+                return MOVE_RESULT_SUCCESS, {"position_error": round(error, 4),
+                                             "yaw_error": round(abs(wrap_angle(goal.yaw - pose[2])), 4)}
+            cmd = progress.command
+            self.send(cmd.velocity_x, cmd.velocity_yaw, cmd.wheel_control)
+            if now - last_feedback >= cfg["feedback_period"]:
+                last_feedback = now
+                self._feedback(MOVE_FEEDBACK_MOVING, remaining=round(progress.remaining, 3), phase=progress.phase)
+            rate.sleep()
+        return MOVE_RESULT_CANCELLED, {"reason": "shutting down"}
+
+
+def _params():
+    home = os.path.join(os.path.expanduser("~"), ".ros", "inspection_robot")
+    cfg = {
+        "map_file": rospy.get_param("~map_file"),
+        "pose_topic": rospy.get_param("~pose_topic", "sim/true_pose"),
+        "virtual_obstacles_file": os.path.expanduser(rospy.get_param(
+            "~virtual_obstacles_file", os.path.join(home, "virtual_obstacles.json"))),
+        "last_pose_file": os.path.expanduser(rospy.get_param("~last_pose_file", os.path.join(home, "last_pose.json"))),
+        "init_pose": [float(v) for v in rospy.get_param("~init_pose", [0.0, 0.0, 0.0])],
+        "enable_bits": int(rospy.get_param("~enable_bits", 7)),
+    }
+    floats = {"last_pose_period": 5.0, "robot_radius": 0.45, "safety_margin": 0.3, "margin_cost": 4.0,
+              "control_rate": 20.0, "status_rate": 10.0, "feedback_period": 0.5,
+              "default_velocity_x": 0.5, "max_velocity_x": 1.5, "default_velocity_yaw": 0.5,
+              "max_velocity_yaw": 1.0, "off_track_m": 0.5, "replan_min_interval": 2.0, "obstacle_wait": 10.0,
+              "max_xy_std": 0.5, "max_yaw_std": 0.2, "pose_timeout": 0.5, "coarse_factor": 8}
+    for name, default in floats.items():
+        cfg[name] = float(rospy.get_param("~" + name, default))
+    for name in ("control_rate", "status_rate", "last_pose_period", "feedback_period", "max_velocity_x",
+                 "max_velocity_yaw", "default_velocity_x", "default_velocity_yaw"):
+        if cfg[name] <= 0:
+            raise ValueError("~%s must be positive" % name)
+    if len(cfg["init_pose"]) != 3:
+        raise ValueError("~init_pose must be [x, y, yaw]")
+    return cfg
+
+
+def main():
+    rospy.init_node("move_base")
+    cfg = _params()
+    follower_params = FollowerParams(**{k: float(v) for k, v in rospy.get_param("~follower", {}).items()})
+    grid = load_map(cfg["map_file"])
+    costmap = Costmap(grid, cfg["robot_radius"], cfg["safety_margin"], cfg["margin_cost"])
+    obstacles = VirtualObstacles(cfg["virtual_obstacles_file"])
+    try:
+        obstacles.load()
+    except ValueError as err:
+        aside = cfg["virtual_obstacles_file"] + ".corrupt"
+        os.replace(cfg["virtual_obstacles_file"], aside)
+        rospy.logerr("move_base: virtual obstacles not loaded (file moved to %s), starting without them: %s",
+                     aside, err)
+    costmap.set_virtual(obstacles.polylines())
+    planner = Planner(costmap, coarse_factor=int(cfg["coarse_factor"]))
+    localization = LocalizationMonitor(cfg["max_xy_std"], cfg["max_yaw_std"], cfg["pose_timeout"])
+    node = MoveBase(grid, costmap, planner, obstacles, localization, follower_params, cfg)
+    obstacles.on_change = node.on_virtual_change
+    rospy.loginfo("move_base: map %s (%dx%d at %.3f m), %d virtual obstacles, pose from %s", cfg["map_file"],
+                  grid.width, grid.height, grid.resolution, len(obstacles.listing()), cfg["pose_topic"])
+    rospy.spin()

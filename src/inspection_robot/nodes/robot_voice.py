@@ -1,0 +1,80 @@
+"""robot_voice: speaks VoiceCmd requests (INTERFACE.md section 4, "Voice").
+
+Subscribes:  voice_cmd (VoiceCmd)
+Publishes:   voice_ack (GeneralAck): success with the spoken text, or failed with the reason;
+             trans_id echoed (a project addition: the spec defines no reply)
+Parameters:  ~output (speaker|file, file in simulation), ~clip_dir (dir of <name>.wav clips),
+             ~out_dir (file output: where utterances are written), ~queue_size (10)
+Requests are played one after another by a worker thread; a full queue drops the new request
+with a failed ack rather than delaying every later prompt.
+"""
+import os
+import queue
+import threading
+
+import rospy
+
+from inspection_robot.interface import ACK_FAILED, ACK_SUCCESS
+from inspection_robot.msg import GeneralAck, VoiceCmd
+from inspection_robot.voice.phrases import Speech, VoiceError, parse_command
+from inspection_robot.voice.player import FileOutput, SpeakerOutput
+
+
+class RobotVoice(object):
+    def __init__(self, output, queue_size):
+        self._output = output
+        self._queue = queue.Queue(maxsize=queue_size)
+        self._ack = rospy.Publisher("voice_ack", GeneralAck, queue_size=20)
+        self._worker = threading.Thread(target=self._work, name="voice_worker")
+        self._worker.daemon = True
+        self._worker.start()
+        rospy.Subscriber("voice_cmd", VoiceCmd, self._on_cmd, queue_size=20)
+
+    def _on_cmd(self, msg):
+        try:
+            self._queue.put_nowait(msg)
+        except queue.Full:
+            rospy.logwarn_throttle(2.0, "robot_voice: queue full, dropping a request from %s" % msg.sender)
+            self._reply(msg, ACK_FAILED, "busy: voice queue full")
+
+    def _work(self):
+        while not rospy.is_shutdown():
+            try:
+                msg = self._queue.get(timeout=0.2)
+            except queue.Empty:
+                continue
+            self._speak(msg)
+
+    def _speak(self, msg):
+        try:
+            parts = parse_command(list(msg.data), msg.language)
+            self._output.check(parts)
+            self._output.play(parts, msg.language)
+        except VoiceError as err:
+            rospy.logwarn("robot_voice: %s (from %s)" % (err, msg.sender))
+            self._reply(msg, ACK_FAILED, str(err))
+            return
+        spoken = " ".join(p.text if isinstance(p, Speech) else "<%s.wav>" % p.name for p in parts)
+        self._reply(msg, ACK_SUCCESS, spoken)
+
+    def _reply(self, request, ack, data):
+        msg = GeneralAck(sender="robot_voice", receiver=request.sender, trans_id=request.trans_id,
+                         ack=ack, data=data)
+        msg.header.stamp = rospy.Time.now()
+        self._ack.publish(msg)
+
+
+def main():
+    rospy.init_node("robot_voice")
+    kind = rospy.get_param("~output", "file")
+    clip_dir = os.path.expanduser(rospy.get_param("~clip_dir", "~/.ros/voice_clips"))
+    queue_size = int(rospy.get_param("~queue_size", 10))
+    if kind == "file":
+        out_dir = os.path.expanduser(rospy.get_param("~out_dir", "~/.ros/voice_out"))
+        output = FileOutput(clip_dir, out_dir)
+    elif kind == "speaker":
+        output = SpeakerOutput(clip_dir)
+    else:
+        raise ValueError("~output must be speaker or file, got %r" % (kind,))
+    RobotVoice(output, queue_size)
+    rospy.spin()

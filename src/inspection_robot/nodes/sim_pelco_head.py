@@ -1,0 +1,62 @@
+"""sim_pelco_head: a simulated Pelco-D pan/tilt head on a pseudo-terminal (inspection_robot.sim.pelco_head).
+
+It creates a pty and points the symlink ~link at its slave side; cloud_terrace opens that path
+as its serial port (its ~port), so the real driver code runs against the simulated bytes.
+
+Services:    ~sim_control (ControlService), simulator-only:
+               fault   data none|silence|bad_checksum|garbage
+               unplug  the port vanishes (pty closed, link removed); replug: a new pty, same link
+               get_state -> "pan,tilt,wiper,lamp" (standard hundredths of a degree, 0|1)
+Parameters:  ~link (path, "/tmp/inspection_robot_pelco"), ~address (1),
+             ~max_speed_deg_s (60.0: speed byte 0x3F; 0x40 turbo = 1.5x), ~position_speed_deg_s
+             (90.0: absolute moves), ~tilt_min_deg (-90.0), ~tilt_max_deg (90.0)
+"""
+import rospy
+
+from inspection_robot.command import CommandError, CommandTable, parse_choice
+from inspection_robot.ptz import pelco
+from inspection_robot.sim.pelco_head import FAULTS, PtyPelcoServer, SimPelcoHead
+from inspection_robot.srv import ControlService, ControlServiceResponse
+
+
+class SimPelcoHeadNode(object):
+    def __init__(self, server):
+        self._server = server
+        self._table = CommandTable({"fault": self._fault, "unplug": self._unplug, "replug": self._replug,
+                                    "get_state": self._get_state})
+        self._service = rospy.Service("~sim_control", ControlService, self._on_service)
+
+    def _on_service(self, req):
+        reply = self._table.dispatch(req.cmd, req.data)
+        return ControlServiceResponse(trans_id=req.trans_id, ack=reply.ack, data=reply.data)
+
+    def _fault(self, data):
+        self._server.head.fault = parse_choice(data, "fault", FAULTS)
+
+    def _unplug(self, _data):
+        self._server.unplug()
+
+    def _replug(self, _data):
+        try:
+            self._server.plug()
+        except OSError as err:
+            raise CommandError("cannot create the pty: %s" % err)
+
+    def _get_state(self, _data):
+        pan, tilt, wiper, lamp = self._server.head.state()
+        return "%d,%d,%d,%d" % (pan, tilt, int(wiper), int(lamp))
+
+
+def main():
+    rospy.init_node("sim_pelco_head")
+    link = rospy.get_param("~link", "/tmp/inspection_robot_pelco")
+    head = SimPelcoHead(address=rospy.get_param("~address", 1),
+                        max_speed_deg_s=rospy.get_param("~max_speed_deg_s", 60.0),
+                        position_speed_deg_s=rospy.get_param("~position_speed_deg_s", 90.0),
+                        tilt_limits_centi=(pelco.degrees_to_centi(rospy.get_param("~tilt_min_deg", -90.0)),
+                                           pelco.degrees_to_centi(rospy.get_param("~tilt_max_deg", 90.0))))
+    server = PtyPelcoServer(head, link, logger=rospy.loginfo)
+    server.plug()
+    rospy.on_shutdown(server.unplug)
+    SimPelcoHeadNode(server)
+    rospy.spin()

@@ -1,0 +1,1 @@
+"""Pan/tilt head: Pelco-D protocol, serial driver and the cloud_terrace command logic."""

@@ -1,0 +1,1 @@
+"""Thermal imager: driver interface, vendor plug-ins, radiometric files and command handling."""

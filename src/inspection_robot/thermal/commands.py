@@ -1,0 +1,155 @@
+"""infrared_control / infrared_cmd command table (INTERFACE.md section 4, "Thermal imager").
+
+Pixel coordinates ("x,y") are thermal-frame pixels, x right and y down from the top-left pixel
+(0,0). The measurement area of get_max_temperature is a square of ``measure_box_px`` pixels
+centred on the spot set by set_measure_spot (default: the frame centre), clipped to the frame.
+Temperatures are degC with two decimals. Radiometric files: see ``save_radiometric``.
+"""
+import os
+
+import cv2
+import numpy as np
+
+from inspection_robot.command import CommandError, CommandTable, confine_path, parse_int, split_fields
+from inspection_robot.command import failed
+from inspection_robot.interface import INFRARED_COMMANDS, UNSUPPORTED
+from inspection_robot.thermal.driver import ThermalError
+
+KELVIN_OFFSET = 273.15
+CENTIKELVIN = 100.0
+
+
+def format_temperature(value):
+    return "%.2f" % float(value)
+
+
+def false_colour(frame, low=None, high=None):
+    """BGR false-colour picture of a radiometric frame (inferno palette, scaled to [low, high])."""
+    low = float(np.min(frame)) if low is None else float(low)
+    high = float(np.max(frame)) if high is None else float(high)
+    scaled = np.clip((frame - low) * (255.0 / max(high - low, 1e-6)), 0, 255).astype(np.uint8)
+    return cv2.applyColorMap(scaled, cv2.COLORMAP_INFERNO)
+
+
+def save_radiometric(path, frame):
+    """Write a radiometric frame. ``.png``: 16-bit single-channel PNG, pixel = temperature in
+    centikelvin (degC = p / 100 - 273.15; 0..655.35 K). ``.npy``: float32 array in degC."""
+    extension = os.path.splitext(path)[1].lower()
+    if extension == ".npy":
+        with open(path, "wb") as stream:
+            np.save(stream, frame.astype(np.float32))
+        return
+    if extension != ".png":
+        raise CommandError("radiometric file must end in .png (16-bit centikelvin) or .npy (float32 degC): '%s'"
+                           % path)
+    counts = np.clip(np.round((frame.astype(np.float64) + KELVIN_OFFSET) * CENTIKELVIN), 0, 65535)
+    ok, buf = cv2.imencode(".png", counts.astype(np.uint16))
+    if not ok:
+        raise CommandError("PNG encoding failed")
+    with open(path, "wb") as stream:
+        stream.write(buf.tobytes())
+
+
+def load_radiometric(path):
+    """Read a file written by save_radiometric back into degC (float32)."""
+    if path.lower().endswith(".npy"):
+        return np.load(path)
+    counts = cv2.imread(path, cv2.IMREAD_UNCHANGED)
+    if counts is None or counts.dtype != np.uint16:
+        raise ValueError("%s is not a 16-bit radiometric PNG" % path)
+    return (counts.astype(np.float32) / np.float32(CENTIKELVIN) - np.float32(KELVIN_OFFSET)).astype(np.float32)
+
+
+class ThermalCommands(object):
+    def __init__(self, driver, roots, health, width, height, measure_box_px=16, jpeg_quality=90):
+        self._driver = driver
+        self._roots = list(roots)
+        self._health = health
+        self.width, self.height = int(width), int(height)
+        self._box = int(measure_box_px)
+        self._jpeg_quality = int(jpeg_quality)
+        self.measure_spot = (self.width // 2, self.height // 2)
+        handlers = {
+            "save_temperature": self.save_temperature,
+            "capture_picture": self.capture_picture,
+            "get_max_temperature": self.get_max_temperature,
+            "get_spot_temperature": self.get_spot_temperature,
+            "get_high_temperature": lambda data: format_temperature(self._frame().max()),
+            "get_low_temperature": lambda data: format_temperature(self._frame().min()),
+            "auto_focus": lambda data: self._call(driver.auto_focus),
+            "set_measure_spot": self.set_measure_spot,
+        }
+        for name in INFRARED_COMMANDS:
+            if not driver.supports(name):
+                handlers[name] = lambda data: failed(UNSUPPORTED)
+        self.table = CommandTable(handlers)
+
+    def _call(self, method, *args):
+        try:
+            result = method(*args)
+        except ThermalError as err:
+            self._health.failure(err)
+            raise CommandError(str(err))
+        self._health.success()
+        return "" if result is None else result
+
+    def _frame(self):
+        frame = self._call(self._driver.frame)
+        if frame.shape != (self.height, self.width):
+            raise CommandError("imager delivered a %dx%d frame, expected %dx%d"
+                               % (frame.shape[1], frame.shape[0], self.width, self.height))
+        return frame
+
+    def _pixel(self, data):
+        x_text, y_text = split_fields(data, 2, "spot")
+        return (parse_int(x_text, "x", 0, self.width - 1), parse_int(y_text, "y", 0, self.height - 1))
+
+    def _target(self, data):
+        path = confine_path(data, self._roots)
+        if os.path.isdir(path):
+            raise CommandError("path '%s' is a directory" % data)
+        try:
+            os.makedirs(os.path.dirname(path), exist_ok=True)
+        except OSError as err:
+            raise CommandError("cannot create folder for '%s': %s" % (data, err.strerror))
+        return path
+
+    def save_temperature(self, data):
+        path = self._target(data)
+        frame = self._frame()
+        try:
+            save_radiometric(path, frame)
+        except OSError as err:
+            raise CommandError("cannot write '%s': %s" % (data, err.strerror))
+        return path
+
+    def capture_picture(self, data):
+        path = self._target(data)
+        ok, buf = cv2.imencode(".jpg", false_colour(self._frame()), [cv2.IMWRITE_JPEG_QUALITY, self._jpeg_quality])
+        if not ok:
+            raise CommandError("JPEG encoding failed")
+        try:
+            with open(path, "wb") as stream:
+                stream.write(buf.tobytes())
+        except OSError as err:
+            raise CommandError("cannot write '%s': %s" % (data, err.strerror))
+        return path
+
+    def set_measure_spot(self, data):
+        self.measure_spot = self._pixel(data)
+        return ""
+
+    def measure_area(self):
+        """(x0, y0, x1, y1), exclusive upper bounds, of the measurement area."""
+        x, y = self.measure_spot
+        half = self._box // 2
+        return (max(0, x - half), max(0, y - half), min(self.width, x - half + self._box),
+                min(self.height, y - half + self._box))
+
+    def get_max_temperature(self, _data):
+        x0, y0, x1, y1 = self.measure_area()
+        return format_temperature(self._frame()[y0:y1, x0:x1].max())
+
+    def get_spot_temperature(self, data):
+        x, y = self._pixel(data)
+        return format_temperature(self._frame()[y, x])

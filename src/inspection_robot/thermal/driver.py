@@ -1,0 +1,65 @@
+"""Thermal imager driver interface and vendor plug-in loading.
+
+A driver delivers radiometric frames (float32 degC per pixel) and may support only a subset of
+the spec's commands (vendors differ): ``supports(command)`` says which; the command table answers
+the rest ``failed``/``unsupported``. Vendor plug-ins are classes named "package.module:Class"
+(parameter ``~driver``), constructed with keyword arguments from ``~driver_params``.
+"""
+import importlib
+
+
+class ThermalError(Exception):
+    """The imager could not carry out a request; the message is the reason."""
+
+
+class ThermalDriver(object):
+    """Interface of a radiometric thermal imager."""
+
+    #: commands of INTERFACE.md this driver can serve (subset of interface.INFRARED_COMMANDS)
+    supported = ()
+
+    def supports(self, command):
+        return command in self.supported
+
+    def frame(self):
+        """The current radiometric frame: 2-D float32 array, degC."""
+        raise NotImplementedError
+
+    def auto_focus(self):
+        raise NotImplementedError
+
+    def probe(self):
+        """Raises ThermalError when the imager does not answer."""
+        raise NotImplementedError
+
+    def close(self):
+        pass
+
+
+def load_driver_class(spec):
+    """Import "package.module:Class" and return the class."""
+    module_name, sep, class_name = str(spec).partition(":")
+    if not sep or not module_name or not class_name:
+        raise ValueError("driver must be 'package.module:Class', got %r" % (spec,))
+    module = importlib.import_module(module_name)
+    try:
+        return getattr(module, class_name)
+    except AttributeError:
+        raise ValueError("%s has no class %s" % (module_name, class_name))
+
+
+class NoImager(ThermalDriver):
+    """Stands in when no vendor plug-in is configured: every request fails, diagnostics show ERROR."""
+
+    supported = ("save_temperature", "capture_picture", "get_max_temperature", "get_spot_temperature",
+                 "get_high_temperature", "get_low_temperature", "auto_focus", "set_measure_spot")
+    REASON = "no thermal imager driver configured (~driver)"
+
+    def frame(self):
+        raise ThermalError(self.REASON)
+
+    def auto_focus(self):
+        raise ThermalError(self.REASON)
+
+    def probe(self):
+        raise ThermalError(self.REASON)

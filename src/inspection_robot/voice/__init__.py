@@ -1,0 +1,1 @@
+"""Voice prompts (robot_voice): VoiceCmd markup to speech and clips, and audio back-ends."""

@@ -1,0 +1,265 @@
+#!/usr/bin/env python3
+"""rostest: move_base end to end against the simulated chassis (goals, virtual obstacles, 3-D obstacles,
+cancel, localization loss, restart persistence, nav_status, location_cmd)."""
+import json
+import math
+import threading
+import time
+import unittest
+
+import actionlib
+import rosgraph
+import rosnode
+import rospy
+import rostest
+from actionlib_msgs.msg import GoalStatus
+from geometry_msgs.msg import PoseWithCovarianceStamped
+from nav_msgs.msg import OccupancyGrid, Path
+
+from inspection_robot.msg import GeneralAck, GeneralAction, GeneralCmd, GeneralGoal, NavStatus
+from inspection_robot.srv import ControlService
+from rostest_helpers import Latest, wait_for, wait_subscribed
+
+
+def goal_data(x, y, yaw=0.0, with_direction=0, precision=0, move_style=0, velocity_x=1.0, velocity_yaw=0.8):
+    return json.dumps({"with_direction": with_direction, "precision": precision, "move_style": move_style,
+                       "velocity_x": velocity_x, "velocity_yaw": velocity_yaw,
+                       "goal_pose": {"position": {"x": x, "y": y, "z": 0},
+                                     "orientation": {"x": 0, "y": 0, "z": math.sin(yaw / 2), "w": math.cos(yaw / 2)}}})
+
+
+def yaw_of(q):
+    return math.atan2(2 * (q.w * q.z + q.x * q.y), 1 - 2 * (q.y * q.y + q.z * q.z))
+
+
+class NavigationTest(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        rospy.init_node("test_navigation")
+        cls.relay_mode = "pass"
+        cls.true_pose = None
+        cls.feedback = []
+        cls.lock = threading.Lock()
+        cls.relay = rospy.Publisher("test_pose", PoseWithCovarianceStamped, queue_size=10)
+        rospy.Subscriber("sim/true_pose", PoseWithCovarianceStamped, cls.on_true_pose, queue_size=10)
+        cls.status = Latest("nav_status", NavStatus)
+        cls.acks = Latest("virtual_obstacle_ack", GeneralAck)
+        cls.plan = Latest("plan", Path)
+        cls.initial = Latest("initialpose", PoseWithCovarianceStamped)
+        cls.vo_cmd = rospy.Publisher("virtual_obstacle_cmd", GeneralCmd, queue_size=10)
+        cls.control = rospy.Publisher("control_cmd", GeneralCmd, queue_size=10)
+        cls.location = rospy.Publisher("location_cmd", GeneralCmd, queue_size=10)
+        cls.client = actionlib.SimpleActionClient("move_action", GeneralAction)
+        assert cls.client.wait_for_server(rospy.Duration(30.0)), "move_action server"
+        rospy.wait_for_service("sim_obstacle_control", 10.0)
+        cls.sim_obstacles = rospy.ServiceProxy("sim_obstacle_control", ControlService)
+        for pub in (cls.vo_cmd, cls.control, cls.location, cls.relay):
+            wait_subscribed(pub, 10.0)
+        cls.acks.wait_connected(10.0)
+        wait_for(lambda: cls.true_pose is not None, 10.0, "sim/true_pose")
+        cls.trans_id = 0
+        reply = cls.vo(cls, "clear", "")
+        assert reply.ack == "success", reply
+
+    @classmethod
+    def on_true_pose(cls, msg):
+        cls.true_pose = (msg.pose.pose.position.x, msg.pose.pose.position.y, yaw_of(msg.pose.pose.orientation))
+        if cls.relay_mode == "pass":
+            cls.relay.publish(msg)
+
+    def setUp(self):
+        NavigationTest.relay_mode = "pass"
+        self.sim_obstacles(cmd="clear", data="")
+        with self.lock:
+            del self.feedback[:]
+
+    def vo(self, cmd, data):
+        NavigationTest.trans_id += 1
+        tid = NavigationTest.trans_id
+        self.vo_cmd.publish(GeneralCmd(sender="server", cmd=cmd, data=data, trans_id=tid))
+        return self.acks.wait(lambda m: m.trans_id == tid, 10.0, "ack %d" % tid)
+
+    def on_feedback(self, fb):
+        with self.lock:
+            self.feedback.append((fb.event_code, json.loads(fb.data)))
+
+    def send(self, data, goal_type="move"):
+        self.client.send_goal(GeneralGoal(sender="task_manager", type=goal_type, data=data),
+                              feedback_cb=self.on_feedback)
+
+    def finish(self, timeout):
+        self.assertTrue(self.client.wait_for_result(rospy.Duration(timeout)), "result within %.0f s" % timeout)
+        result = self.client.get_result()
+        return result.ret_code, json.loads(result.data)
+
+    def codes(self):
+        with self.lock:
+            return [c for c, _ in self.feedback]
+
+    def wait_moving(self, timeout=10.0):
+        wait_for(lambda: "2" in self.codes(), timeout, "feedback 2 (moving)")
+
+    def wait_still(self, timeout=3.0):
+        """Wait until the true pose stops changing (robot stopped)."""
+        def still():
+            a = self.true_pose
+            time.sleep(0.3)
+            b = self.true_pose
+            return math.hypot(a[0] - b[0], a[1] - b[1]) < 0.005 and abs(a[2] - b[2]) < 0.005
+        wait_for(still, timeout, "robot stopped")
+
+    # --- tests, run in name order; each starts where the previous one left the robot ---------------
+    def test_01_bad_goals_fail_with_reason(self):
+        self.send("{not json")
+        code, data = self.finish(5.0)
+        self.assertEqual(code, "1")
+        self.assertIn("not valid JSON", data["reason"])
+        self.send(goal_data(10, 5), goal_type="dance")
+        code, data = self.finish(5.0)
+        self.assertEqual(code, "1")
+        self.assertIn("goal type", data["reason"])
+
+    def test_02_closed_polygon_around_goal_fails_planning(self):
+        ring = {"id": "fence", "points": [[48, 28], [52, 28], [52, 32], [48, 32]], "closed": True}
+        self.assertEqual(self.vo("add", json.dumps(ring)).ack, "success")
+        self.send(goal_data(50, 30))
+        code, data = self.finish(10.0)
+        self.assertEqual(code, "1")
+        self.assertIn("not reachable", data["reason"])
+        self.assertEqual(self.codes()[0], "0")
+        self.assertEqual(self.vo("delete", '{"id":"fence"}').ack, "success")
+
+    def test_03_reach_goal_30m_away_precisely_with_heading(self):
+        start = self.true_pose
+        gx, gy = start[0] + 30.0, start[1]
+        self.send(goal_data(gx, gy, yaw=math.pi / 2, with_direction=1, precision=1, velocity_x=1.2))
+        code, data = self.finish(90.0)
+        self.assertEqual(code, "0", data)
+        x, y, yaw = self.true_pose
+        self.assertLess(math.hypot(x - gx, y - gy), 0.02)
+        self.assertLess(abs(math.degrees(math.atan2(math.sin(yaw - math.pi / 2), math.cos(yaw - math.pi / 2)))), 3.0)
+        codes = self.codes()
+        self.assertEqual(codes[:2], ["0", "1"])
+        self.assertIn("2", codes)
+        moving = [d for c, d in self.feedback if c == "2"]
+        self.assertTrue(all("remaining" in d and "pose" in d for d in moving))
+        self.assertGreater(moving[0]["remaining"], moving[-1]["remaining"])
+
+    def test_04_virtual_wall_forces_detour(self):
+        x0, y0, _ = self.true_pose
+        wall = {"id": "wall", "points": [[x0 + 3.0, -1.0], [x0 + 3.0, y0 + 3.0]], "closed": False}
+        self.assertEqual(self.vo("add", json.dumps(wall)).ack, "success")
+        self.plan.clear()
+        track = []
+        sub = rospy.Subscriber("sim/true_pose", PoseWithCovarianceStamped,
+                               lambda m: track.append((m.pose.pose.position.x, m.pose.pose.position.y)), queue_size=100)
+        self.send(goal_data(x0 + 6.0, y0, velocity_x=1.0))
+        code, data = self.finish(60.0)
+        sub.unregister()
+        self.assertEqual(code, "0", data)
+        x, y, _ = self.true_pose
+        self.assertLess(math.hypot(x - (x0 + 6.0), y - y0), 0.1)
+        # the robot crossed the wall's line only beyond its end (plus the footprint)
+        crossings = [py for (ax, py), (bx, _y) in zip(track[:-1], track[1:]) if (ax - x0 - 3) * (bx - x0 - 3) <= 0]
+        self.assertTrue(crossings)
+        self.assertTrue(all(py > y0 + 3.0 for py in crossings), crossings)
+        self.assertGreater(max(p.pose.position.y for p in self.plan.last.poses), y0 + 3.0)
+        self.assertEqual(self.vo("delete", '{"id":"wall"}').ack, "success")
+
+    def test_05_obstacle_in_corridor_stops_and_finishes_3(self):
+        x0, y0, yaw0 = self.true_pose
+        gx, gy = x0 - 8.0, y0   # drive back west along the free lane
+        self.send(goal_data(gx, gy, velocity_x=0.8))
+        self.wait_moving(15.0)
+        wait_for(lambda: abs(math.cos(self.true_pose[2]) + 1) < 0.05 and self.true_pose[0] < x0 - 0.3, 15.0,
+                 "driving west")
+        px, py, _ = self.true_pose
+        reply = self.sim_obstacles(cmd="drop", data="rock,%.2f,%.2f,0.4,0.6" % (px - 1.6, py))
+        self.assertEqual(reply.ack, "success", reply.data)
+        wait_for(lambda: "3" in self.codes(), 5.0, "feedback 3 (alarm)")
+        alarm = [d for c, d in self.feedback if c == "3"][0]
+        self.assertTrue(alarm["nav_warn"] & 4)
+        self.assertIn("obstacle", alarm["reason"])
+        self.status.wait(lambda m: m.nav_warn & 4, 2.0, "nav_warn bit2")
+        self.wait_still(3.0)
+        stopped_at = self.true_pose
+        code, data = self.finish(10.0)
+        self.assertEqual(code, "3", data)
+        self.assertLess(math.hypot(self.true_pose[0] - stopped_at[0], self.true_pose[1] - stopped_at[1]), 0.05)
+        self.assertGreater(self.true_pose[0], px - 1.6 + 0.2 + 0.45)  # never touched the rock
+
+    def test_06_cancel_stops_robot_with_4(self):
+        x0, y0, _ = self.true_pose
+        self.send(goal_data(x0 + 0.5, y0 + 12.0, velocity_x=0.8))
+        self.wait_moving(15.0)
+        wait_for(lambda: math.hypot(self.true_pose[0] - x0, self.true_pose[1] - y0) > 0.3, 15.0, "moving")
+        self.client.cancel_goal()
+        code, data = self.finish(5.0)
+        self.assertEqual(code, "4")
+        self.assertEqual(self.client.get_state(), GoalStatus.PREEMPTED)
+        self.wait_still(2.0)
+
+    def test_07_localization_lost_ends_goal_with_2(self):
+        x0, y0, _ = self.true_pose
+        self.send(goal_data(x0, y0 - 6.0 if y0 > 8 else y0 + 6.0, velocity_x=0.8))
+        self.wait_moving(15.0)
+        NavigationTest.relay_mode = "off"
+        code, data = self.finish(5.0)
+        self.assertEqual(code, "2")
+        self.assertIn("localization lost", data["reason"])
+        self.status.wait(lambda m: m.nav_warn & 2, 2.0, "nav_warn bit1")
+        self.wait_still(2.0)
+        NavigationTest.relay_mode = "pass"
+        self.status.wait(lambda m: not m.nav_warn & 2, 2.0, "localization back")
+
+    def test_08_nav_status_enable_bits_follow_control_cmd(self):
+        first = self.status.wait(lambda m: m.nav_status == 7, 3.0, "all enabled")
+        self.assertEqual(len(first.position), 2)
+        self.control.publish(GeneralCmd(sender="server", cmd="disable_obstacle"))
+        self.status.wait(lambda m: m.nav_status == 3, 3.0, "obstacle disabled")
+        self.control.publish(GeneralCmd(sender="server", cmd="switch_obstacle"))
+        self.status.wait(lambda m: m.nav_status == 7, 3.0, "obstacle enabled again")
+        self.status.clear()
+        start = time.monotonic()
+        wait_for(lambda: len(self.status.messages) >= 10, 3.0, "10 nav_status")
+        self.assertLess(time.monotonic() - start, 1.6)   # ~10 Hz
+
+    def test_09_location_cmd_sets_initial_pose(self):
+        self.location.publish(GeneralCmd(sender="server", cmd="set_location", data="1.5,2.5,0.5"))
+        msg = self.initial.wait(lambda m: abs(m.pose.pose.position.x - 1.5) < 1e-6, 3.0, "initialpose")
+        self.assertAlmostEqual(msg.pose.pose.position.y, 2.5)
+        self.assertAlmostEqual(yaw_of(msg.pose.pose.orientation), 0.5)
+        self.location.publish(GeneralCmd(sender="server", cmd="set_location", data="init_pose"))
+        self.initial.wait(lambda m: abs(m.pose.pose.position.x - 5.0) < 1e-6, 3.0, "init_pose")
+
+    def test_10_restart_keeps_virtual_obstacles(self):
+        wall = {"id": "keep_me", "points": [[10, 20], [12, 22]], "closed": False}
+        self.assertEqual(self.vo("add", json.dumps(wall)).ack, "success")
+        virtual = Latest("virtual_obstacle_map", OccupancyGrid)
+        virtual.wait(lambda m: any(m.data), 5.0, "virtual layer")
+        master = rosgraph.Master("/test_navigation")
+        old_uri = master.lookupNode("/move_base")
+        rosnode.kill_nodes(["/move_base"])
+
+        def respawned():
+            try:
+                return master.lookupNode("/move_base") != old_uri
+            except rosgraph.MasterError:
+                return False
+        wait_for(respawned, 30.0, "move_base respawned")
+        self.acks.wait_connected(30.0)
+        wait_subscribed(self.vo_cmd, 30.0)
+        wait_for(lambda: self.vo_query_ok(), 30.0, "restarted move_base answering")
+        listing = json.loads(self.vo("query", "").data)
+        self.assertEqual(listing, [{"id": "keep_me", "points": [[10.0, 20.0], [12.0, 22.0]], "closed": False}])
+        self.assertEqual(self.vo("clear", "").ack, "success")
+
+    def vo_query_ok(self):
+        try:
+            return self.vo("query", "").ack == "success"
+        except AssertionError:
+            return False
+
+
+if __name__ == "__main__":
+    rostest.rosrun("inspection_robot", "test_navigation", NavigationTest)

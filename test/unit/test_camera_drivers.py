@@ -1,0 +1,158 @@
+"""Camera and thermal command tables over the simulated drivers, the ISAPI driver against the fake camera."""
+import math
+import os
+
+import numpy as np
+import pytest
+
+from inspection_robot.camera.commands import CameraCommands
+from inspection_robot.camera.driver import CameraError, DeviceHealth
+from inspection_robot.camera.isapi import IsapiCamera
+from inspection_robot.camera.optics import ZoomOptics
+from inspection_robot.sim.camera import SimulatedCamera
+from inspection_robot.sim.fake_isapi import FakeIsapiCamera
+from inspection_robot.sim.render import Renderer, ThermalRenderer
+from inspection_robot.sim.thermal import SimulatedImager
+from inspection_robot.sim.world import World
+from inspection_robot.thermal.commands import ThermalCommands, load_radiometric, save_radiometric
+
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+TABLE = [[1.0, 59.8], [2.0, 31.6], [4.0, 16.2], [8.0, 8.2], [16.0, 4.1], [30.0, 2.2]]
+
+
+class FakeClock(object):
+    def __init__(self):
+        self.now = 100.0
+
+    def __call__(self):
+        return self.now
+
+
+class ManualTimer(object):
+    """threading.Timer stand-in that fires when the test says so."""
+    made = []
+
+    def __init__(self, delay, function, args):
+        self.delay, self.function, self.args, self.cancelled, self.daemon = delay, function, args, False, True
+        ManualTimer.made.append(self)
+
+    def start(self):
+        pass
+
+    def cancel(self):
+        self.cancelled = True
+
+    def fire(self):
+        if not self.cancelled:
+            self.function(*self.args)
+
+
+@pytest.fixture(scope="module")
+def world():
+    return World.load(os.path.join(ROOT, "config", "sim_world.yaml"))
+
+
+@pytest.fixture
+def camera(world, tmp_path):
+    clock = FakeClock()
+    optics = ZoomOptics(TABLE, 1920, 1080)
+    driver = SimulatedCamera(Renderer(world, noise_sigma=0), optics, lambda: (world.start_pose, 0.0, 0.0),
+                             world.sensor_height, zoom_rate=2.0, clock=clock)
+    health = DeviceHealth()
+    commands = CameraCommands(driver, optics, [str(tmp_path)], health, timer_factory=ManualTimer)
+    return commands.table, driver, clock, health, tmp_path
+
+
+def test_timed_zoom_stops_by_itself_and_camera_stop_supersedes(camera):
+    table, driver, clock, _, _ = camera
+    assert table.dispatch("set_zoom_level", "2") == ("success", "")
+    assert table.dispatch("zoom_in", "1000") == ("success", "")
+    timer = ManualTimer.made[-1]
+    assert timer.delay == pytest.approx(1.0)
+    clock.now += 1.0
+    timer.fire()
+    assert table.dispatch("get_zoom_level", "") == ("success", "4.00")
+    clock.now += 5.0
+    assert table.dispatch("get_zoom_level", "") == ("success", "4.00")   # stopped
+    table.dispatch("zoom_out", "500")
+    stale = ManualTimer.made[-1]
+    clock.now += 0.5
+    table.dispatch("camera_stop", "")
+    assert stale.cancelled
+    assert float(table.dispatch("get_zoom_level", "").data) == pytest.approx(4.0 / 2 ** 0.5, abs=0.01)
+    table.dispatch("focus_far", "0")
+    clock.now += 10.0
+    assert table.dispatch("get_focus_position", "") == ("success", str(0xC000))   # clamped at the end stop
+
+
+def test_capture_writes_a_full_size_jpeg_inside_the_root(camera):
+    table, _, _, _, root = camera
+    reply = table.dispatch("capture_picture", "sub/a.jpg")
+    assert reply.ack == "success" and reply.data == str(root / "sub" / "a.jpg")
+    with open(reply.data, "rb") as stream:
+        assert stream.read(2) == b"\xff\xd8"
+    assert table.dispatch("capture_picture", "../outside.jpg").ack == "failed"
+
+
+def test_driver_failure_is_a_clear_failed_and_marks_health(camera):
+    table, driver, _, health, _ = camera
+    driver.failing = "camera powered off"
+    assert table.dispatch("get_zoom_level", "") == ("failed", "camera powered off")
+    assert not health.ok and health.message == "camera powered off"
+    driver.failing = None
+    assert table.dispatch("get_zoom_level", "").ack == "success"
+    assert health.ok
+
+
+@pytest.mark.parametrize("cmd,data", [("set_iris", "400"), ("set_min_focus_distance", "31"), ("set_wdr_level", "1e2"),
+                                      ("set_focus_position", "4095"), ("zoom_in", "600001"), ("set_zoom_level", "inf")])
+def test_camera_bad_values_fail(camera, cmd, data):
+    table = camera[0]
+    reply = table.dispatch(cmd, data)
+    assert reply.ack == "failed" and reply.data
+
+
+def test_thermal_commands_and_radiometric_files(world, tmp_path):
+    spot = world.hot_spots["busbar_support/joint"]
+    x, y, z = spot.quad.centre
+    pose = (x - 6.0, y, 0.0)   # the joint's side faces -x
+    tilt = math.atan2(world.sensor_height - z, 6.0)
+    imager = SimulatedImager(ThermalRenderer(world, noise_sigma=0.0), lambda: (pose, 0.0, tilt), world.sensor_height)
+    table = ThermalCommands(imager, [str(tmp_path)], DeviceHealth(), 384, 288).table
+    assert table.dispatch("get_spot_temperature", "192,144") == ("success", "95.00")
+    assert table.dispatch("get_max_temperature", "") == ("success", "95.00")
+    assert table.dispatch("set_measure_spot", "0,0") == ("success", "")
+    assert float(table.dispatch("get_max_temperature", "").data) < 95.0
+    assert table.dispatch("get_high_temperature", "") == ("success", "95.00")
+    reply = table.dispatch("save_temperature", "f.png")
+    frame = load_radiometric(reply.data)
+    assert frame[144, 192] == pytest.approx(95.0, abs=0.01)
+    imager.failing = "imager offline"
+    assert table.dispatch("get_low_temperature", "") == ("failed", "imager offline")
+
+
+def test_radiometric_png_round_trip(tmp_path):
+    frame = np.array([[-40.0, 0.0], [25.37, 382.0]], np.float32)
+    save_radiometric(str(tmp_path / "r.png"), frame)
+    assert np.allclose(load_radiometric(str(tmp_path / "r.png")), frame, atol=0.006)
+
+
+def test_isapi_driver_against_the_fake_camera():
+    fake = FakeIsapiCamera(user="admin", password="pw").start()
+    try:
+        driver = IsapiCamera(fake.url, "admin", "pw", timeout=1.0)
+        driver.set_zoom(12.5)
+        assert driver.get_zoom() == 12.5
+        driver.set_exposure_mode("manual")
+        driver.set_iris(1600)
+        assert (driver.get_exposure_mode(), driver.get_iris()) == ("manual", 1600)
+        assert fake.challenges >= 1
+        with pytest.raises(CameraError, match="401"):
+            IsapiCamera(fake.url, "admin", "wrong", timeout=1.0).get_zoom()
+        fake.picture_endpoint = False
+        assert driver.capture_jpeg() == fake.picture
+        assert driver.grab_frame(160).shape[1] == 160
+    finally:
+        fake.stop()
+    with pytest.raises(CameraError, match="unreachable"):
+        driver.probe()

@@ -1,0 +1,91 @@
+"""Path follower geometry against an ideal kinematic robot (unicycle, 20 Hz)."""
+import math
+
+import numpy as np
+import pytest
+
+from inspection_robot.interface import WHEEL_STEER, WHEEL_STRAIGHT
+from inspection_robot.nav.follower import DONE, FollowerParams, PathFollower
+from inspection_robot.nav.goal import MoveGoal
+from inspection_robot.nav.localization import wrap_angle
+
+DT = 0.05
+
+
+def drive(path, goal, start, params=None, max_steps=4000):
+    """Run the follower in closed loop; return (final pose, commands)."""
+    follower = PathFollower(path, goal, params or FollowerParams())
+    x, y, yaw = start
+    commands = []
+    for _ in range(max_steps):
+        progress = follower.step(x, y, yaw)
+        cmd = progress.command
+        commands.append((progress.phase, cmd))
+        if progress.phase == DONE:
+            break
+        v = cmd.velocity_x if cmd.wheel_control == WHEEL_STRAIGHT else 0.0
+        assert abs(cmd.velocity_x) <= goal.velocity_x + 1e-9
+        assert abs(cmd.velocity_yaw) <= goal.velocity_yaw + 1e-9
+        yaw += cmd.velocity_yaw * DT
+        x += v * math.cos(yaw) * DT
+        y += v * math.sin(yaw) * DT
+    return (x, y, wrap_angle(yaw)), commands
+
+
+def goal(x, y, yaw=0.0, with_direction=False, precision=False, backward=False, v=1.0, w=1.0):
+    return MoveGoal(x, y, yaw, with_direction, precision, backward, v, w)
+
+
+def test_straight_goal_reached_within_tolerance():
+    (x, y, _), cmds = drive([[0, 0], [10, 0]], goal(10, 0), (0, 0, 0))
+    assert cmds[-1][0] == DONE
+    assert math.hypot(x - 10, y) < 0.05
+    assert max(c.velocity_x for _p, c in cmds) == pytest.approx(1.0)
+
+
+def test_spins_in_place_first_when_facing_away():
+    (x, y, _), cmds = drive([[0, 0], [0, 5]], goal(0, 5), (0, 0, -math.pi / 2))
+    assert cmds[0][1].wheel_control == WHEEL_STEER and cmds[0][1].velocity_x == 0.0
+    assert math.hypot(x, y - 5) < 0.05
+
+
+def test_l_shaped_path_and_lateral_error_stays_small():
+    path = np.array([[0, 0], [5, 0], [5, 5]], dtype=float)
+    follower_goal = goal(5, 5)
+    (x, y, _), _cmds = drive(path, follower_goal, (0, 0, 0))
+    assert math.hypot(x - 5, y - 5) < 0.05
+
+
+def test_with_direction_reaches_goal_heading():
+    (x, y, yaw), cmds = drive([[0, 0], [4, 3]], goal(4, 3, yaw=2.5, with_direction=True), (0, 0, 0.6))
+    assert math.hypot(x - 4, y - 3) < 0.05
+    assert abs(wrap_angle(yaw - 2.5)) < math.radians(3)
+    assert cmds[-2][0] == "spin" and cmds[-2][1].wheel_control == WHEEL_STEER
+
+
+def test_precision_goal_tight_tolerance():
+    (x, y, yaw), _ = drive([[0, 0], [3, 1]], goal(3, 1, yaw=0.3, precision=True, with_direction=True), (0, 0, 0.3))
+    assert math.hypot(x - 3, y - 1) < 0.02
+    assert abs(wrap_angle(yaw - 0.3)) < math.radians(1)
+
+
+def test_backward_drives_with_negative_speed():
+    (x, y, yaw), cmds = drive([[0, 0], [-6, 0]], goal(-6, 0, backward=True), (0, 0, 0))
+    assert math.hypot(x + 6, y) < 0.05
+    moving = [c for p, c in cmds if p == "track"]
+    assert moving and all(c.velocity_x < 0 for c in moving)
+    assert abs(yaw) < 0.1  # never turned around
+
+
+def test_velocity_limits_respected():
+    slow = goal(5, 5, v=0.3, w=0.2)
+    (x, y, _), cmds = drive([[0, 0], [5, 0], [5, 5]], slow, (0, 0, 0))
+    assert math.hypot(x - 5, y - 5) < 0.05
+    assert max(abs(c.velocity_x) for _p, c in cmds) <= 0.3 + 1e-9
+
+
+def test_progress_reports_remaining_and_lateral_error():
+    follower = PathFollower([[0, 0], [10, 0]], goal(10, 0), FollowerParams())
+    progress = follower.step(3.0, 0.4, 0.0)
+    assert progress.remaining == pytest.approx(7.0, abs=1e-6)
+    assert progress.lateral_error == pytest.approx(0.4, abs=1e-6)
