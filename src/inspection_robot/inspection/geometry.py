@@ -43,11 +43,12 @@ def quad_center(quad):
     return np.asarray(quad, dtype=np.float64).mean(axis=0)
 
 
-def rectify(image, quad, size):
-    """Warp the quad of ``image`` to a frontal ``size`` x ``size`` view (TL at (0, 0))."""
-    dst = np.array([[0, 0], [size - 1, 0], [size - 1, size - 1], [0, size - 1]], dtype=np.float32)
+def rectify(image, quad, size, height=None):
+    """Warp the quad of ``image`` to a frontal ``size`` x ``height`` (default square) view, TL at (0, 0)."""
+    height = size if height is None else height
+    dst = np.array([[0, 0], [size - 1, 0], [size - 1, height - 1], [0, height - 1]], dtype=np.float32)
     matrix = cv2.getPerspectiveTransform(np.asarray(quad, dtype=np.float32), dst)
-    return cv2.warpPerspective(image, matrix, (size, size), flags=cv2.INTER_LINEAR,
+    return cv2.warpPerspective(image, matrix, (size, height), flags=cv2.INTER_LINEAR,
                                borderMode=cv2.BORDER_REPLICATE)
 
 

@@ -175,8 +175,9 @@ class PresetInfo(object):
 class Target(object):
     """One calibrated target box: its kind, its parameters and its box in each zoom picture.
 
-    ``boxes``: {zoom index: 4x2 array TL, TR, BR, BL}. Pointer parameters: centre (fractions of
-    the box), radius (fraction of the box side), start/end angle (deg clockwise from up) and
+    ``boxes``: {zoom index: 4x2 array TL, TR, BR, BL}. Pointer parameters: centre (pivot as
+    fractions of the box), radius (dial radius as a fraction of the box width), aspect (physical
+    width / height of the box), start/end angle (deg clockwise from up) and
     value, unit, optional scale_table [(value, angle)]. Lamp: colour. Switch: open_reference,
     closed_reference (patch file names in the preset directory). Thermal: thermal_box (4x2 in the
     thermal picture).
@@ -204,7 +205,7 @@ class Target(object):
         out = {"kind": self.kind, "name": self.name}
         if self.kind == "pointer":
             out.update({"centre": "%g,%g" % tuple(p.get("centre", (0.5, 0.5))),
-                        "radius": "%g" % p.get("radius", 0.45),
+                        "radius": "%g" % p.get("radius", 0.45), "aspect": "%g" % p.get("aspect", 1.0),
                         "start_angle": "%g" % p["start_angle"], "end_angle": "%g" % p["end_angle"],
                         "start_value": "%g" % p["start_value"], "end_value": "%g" % p["end_value"],
                         "unit": p.get("unit", ""),
@@ -224,6 +225,7 @@ class Target(object):
         if kind == "pointer":
             params = {"centre": _floats(section.get("centre", "0.5,0.5"), 2),
                       "radius": float(section.get("radius", "0.45")),
+                      "aspect": float(section.get("aspect", "1")),
                       "start_angle": float(section["start_angle"]), "end_angle": float(section["end_angle"]),
                       "start_value": float(section["start_value"]), "end_value": float(section["end_value"]),
                       "unit": section.get("unit", ""), "scale_table": _table(section.get("scale_table", ""))}

@@ -82,19 +82,23 @@ class PointerReader(object):
         centroid = float((weights * offsets).sum() / weights.sum())
         return wrap360(self._angles[i] + centroid), float(profile[i]), base
 
-    def needle_angle(self, image, quad, centre=(0.5, 0.5), radius=0.45):
+    def needle_angle(self, image, quad, centre=(0.5, 0.5), radius=0.45, aspect=1.0):
         """Needle angle (deg clockwise from up) in the face's frontal view, and a confidence.
 
-        ``centre`` (fractions of the box) and ``radius`` (fraction of the box side) come from
-        the calibration.
+        From the calibration: ``centre`` (pivot as fractions of the box width, height),
+        ``radius`` (dial radius as a fraction of the box width) and ``aspect`` (physical
+        width / height of the box, so the frontal view is not stretched).
         """
-        face = rectify(image, quad, self.size)
+        aspect = float(aspect)
+        width = self.size if aspect >= 1.0 else max(16, int(round(self.size * aspect)))
+        height = max(16, int(round(width / aspect)))
+        face = rectify(image, quad, width, height)
         if face.ndim == 2:
             face = cv2.cvtColor(face, cv2.COLOR_GRAY2BGR)
         face = cv2.GaussianBlur(face, (3, 3), 0)
         lab = cv2.cvtColor(face, cv2.COLOR_BGR2LAB)
-        c = (centre[0] * (self.size - 1), centre[1] * (self.size - 1))
-        rad = radius * (self.size - 1)
+        c = (centre[0] * (width - 1), centre[1] * (height - 1))
+        rad = radius * (width - 1)
         dist = self._profile(lab, c, rad)
         k = dist.shape[1] // 2
         full = np.median(dist, axis=1)
@@ -109,8 +113,8 @@ class PointerReader(object):
                   "contrast": float(peak - base)}
         return angle, confidence, detail
 
-    def read(self, image, quad, scale, centre=(0.5, 0.5), radius=0.45):
-        angle, confidence, detail = self.needle_angle(image, quad, centre, radius)
+    def read(self, image, quad, scale, centre=(0.5, 0.5), radius=0.45, aspect=1.0):
+        angle, confidence, detail = self.needle_angle(image, quad, centre, radius, aspect)
         if not scale.in_sweep(angle, margin_deg=5.0):
             confidence *= 0.3  # the needle points into the dead zone: probably not the needle
         return Reading(scale.value(angle), _clip_confidence(confidence), detail)

@@ -151,7 +151,8 @@ class ScaleReader(object):
     def _read_one(self, preset, target, image, quad):
         p = target.params
         if target.kind == "pointer":
-            return self.pointer.read(image, quad, target.scale, p.get("centre", (0.5, 0.5)), p.get("radius", 0.45))
+            return self.pointer.read(image, quad, target.scale, p.get("centre", (0.5, 0.5)), p.get("radius", 0.45),
+                                     p.get("aspect", 1.0))
         if target.kind == "lamp":
             return read_lamp(image, quad, p["colour"])
         refs = []
