@@ -56,9 +56,11 @@ def _zoom_index_from_name(path, count):
 
 
 class ScaleReader(object):
-    def __init__(self, preset_roots, picture_roots, picture_root, locator=None, pointer=None):
+    def __init__(self, preset_roots, picture_roots, picture_root, locator=None, pointer=None, foreign_region=2.5):
         """``preset_roots``/``picture_roots``: allowed roots of preset directories / input pictures;
-        ``picture_root``: where annotated results go (``<picture_root>/<preset_id>/``)."""
+        ``picture_root``: where annotated results go (``<picture_root>/<preset_id>/``);
+        ``foreign_region``: foreign objects are searched in the targets' bounding box grown by this factor."""
+        self.foreign_region = float(foreign_region)
         self.preset_roots = list(preset_roots)
         self.picture_roots = list(picture_roots)
         self.picture_root = picture_root
@@ -187,9 +189,13 @@ class ScaleReader(object):
                 raise ReadError("foreign_filename %d: no reference picture of the preset matches %s"
                                 % (j, zoom_picture_name(candidates[0]) if len(candidates) == 1 else "it"))
             # targets change by design (needles, lamps): leave them out, with a margin
-            exclude = [_grow(transform_quad(best[1].homography, t.boxes[best[2]]), 1.15)
-                       for t in preset.targets if best[2] in t.boxes]
-            found = detect_foreign(best[0], image, best[1].homography, exclude=exclude)
+            mapped = [transform_quad(best[1].homography, t.boxes[best[2]]) for t in preset.targets
+                      if best[2] in t.boxes]
+            exclude = [_grow(q, 1.15) for q in mapped]
+            # search the equipment around the targets: farther away, parallax after a pose error
+            # makes one homography a poor alignment of the 3-D scene
+            region = _grow(_bounding_quad(mapped), self.foreign_region) if mapped else None
+            found = detect_foreign(best[0], image, best[1].homography, region=region, exclude=exclude)
             annotated = image.copy()
             for obj in found:
                 _annotate(annotated, obj.quad, "foreign %d%%" % obj.confidence, (0, 0, 255))
@@ -202,6 +208,13 @@ class ScaleReader(object):
 def _grow(quad, factor):
     centre = np.asarray(quad).mean(axis=0)
     return centre + (np.asarray(quad) - centre) * factor
+
+
+def _bounding_quad(quads):
+    pts = np.vstack(quads)
+    x0, y0 = pts.min(axis=0)
+    x1, y1 = pts.max(axis=0)
+    return np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]])
 
 
 def _full_quad(image):
