@@ -4,7 +4,6 @@ import math
 import os
 
 import cv2
-import numpy as np
 import pytest
 import yaml
 
@@ -39,8 +38,8 @@ def test_zoom_ladder():
 def _aim(face, dist):
     normal = face.quad.normal
     spot = face.quad.centre + normal * dist
-    return (spot[0], spot[1], math.atan2(-normal[1], -normal[0])), math.degrees(math.atan2(1.2 - face.quad.centre[2],
-                                                                                            dist))
+    tilt = math.degrees(math.atan2(1.2 - face.quad.centre[2], dist))
+    return (spot[0], spot[1], math.atan2(-normal[1], -normal[0])), tilt
 
 
 @pytest.fixture(scope="module")

@@ -23,7 +23,8 @@ from inspection_robot.inspection.gauge import angle_diff
 from inspection_robot.inspection.geometry import flat_from_quads, quad_center, quad_inside
 from inspection_robot.inspection.locate import LocateError
 
-FindResult = namedtuple("FindResult", "filename infrared_filename foreign_filename roi_vertex infrared_roi_vertex moves")
+FindResult = namedtuple("FindResult",
+                        "filename infrared_filename foreign_filename roi_vertex infrared_roi_vertex moves")
 
 
 class FindError(Exception):
