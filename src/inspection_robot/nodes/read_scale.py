@@ -4,8 +4,8 @@ Subscribes:  read_scale_cmd (ReadScaleCmd)
 Publishes:   read_scale_ack (ReadScaleAck): result success|failed; on failure foreign_result holds
              the reason. scale/possibility/picture_path aligned with the calibrated targets,
              foreign_* aligned with foreign_filename.
-Parameters:  ~preset_root (str, ~/inspection/presets): presets live in <preset_root>/<preset_id>/<stamp>/
-             ~picture_root (str, ~/inspection/pictures): annotated results go to <picture_root>/<preset_id>/
+Parameters:  ~preset_root (str, /var/lib/inspection_robot/presets): holds <preset_id>/<stamp>/
+             ~picture_root (str, /var/lib/inspection_robot/pictures): results in <preset_id>/
              ~extra_picture_roots (list of str, []): further roots input pictures may come from
              ~detector (str, orb): orb | akaze | sift, for aligning foreign pictures with the reference
              ~queue_size (int, 10): pending requests before new ones are refused
@@ -93,8 +93,8 @@ class ReadScaleNode(object):
 
 def main():
     rospy.init_node(NODE_NAME)
-    preset_root = os.path.expanduser(rospy.get_param("~preset_root", "~/inspection/presets"))
-    picture_root = os.path.expanduser(rospy.get_param("~picture_root", "~/inspection/pictures"))
+    preset_root = os.path.expanduser(rospy.get_param("~preset_root", "/var/lib/inspection_robot/presets"))
+    picture_root = os.path.expanduser(rospy.get_param("~picture_root", "/var/lib/inspection_robot/pictures"))
     extra = [os.path.expanduser(p) for p in rospy.get_param("~extra_picture_roots", [])]
     detector = rospy.get_param("~detector", "orb")
     queue_size = int(rospy.get_param("~queue_size", 10))
