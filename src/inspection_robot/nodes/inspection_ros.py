@@ -2,7 +2,9 @@
 and the robot's heading from nav_status. Shared by preset_scale and find_scale (not a node).
 """
 import itertools
+import math
 import threading
+import time
 
 import cv2
 import rospy
@@ -11,6 +13,10 @@ from inspection_robot.inspection.finder import FindError
 from inspection_robot.interface import ACK_SUCCESS, ANGLE_CENTI_DEG
 from inspection_robot.msg import NavStatus
 from inspection_robot.srv import ControlService
+from sensor_msgs.msg import JointState
+
+SETTLE_TIMEOUT_S = 2.0
+SETTLE_TOLERANCE_DEG = 0.05
 
 
 class DeviceClient(object):
@@ -41,10 +47,37 @@ class RosHead(object):
         self.terrace = DeviceClient("terrace_control", sender, timeout)
         self.camera = DeviceClient("camera_control", sender, timeout)
         self.infrared = DeviceClient("infrared_control", sender, timeout)
+        self._state = threading.Condition()
+        self._joints = None
+        self._state_sub = rospy.Subscriber("terrace_state", JointState, self._on_state, queue_size=1)
+
+    def _on_state(self, msg):
+        try:
+            pan = math.degrees(msg.position[list(msg.name).index("pan")])
+            tilt = math.degrees(msg.position[list(msg.name).index("tilt")])
+        except (ValueError, IndexError):
+            return
+        with self._state:
+            self._joints = (pan, tilt)
+            self._state.notify_all()
 
     def set_angles(self, pan_deg, tilt_deg):
-        self.terrace.call("set_angle", "%d,%d" % (int(round(pan_deg * ANGLE_CENTI_DEG)),
-                                                  int(round(tilt_deg * ANGLE_CENTI_DEG))))
+        pan_c, tilt_c = int(round(pan_deg * ANGLE_CENTI_DEG)), int(round(tilt_deg * ANGLE_CENTI_DEG))
+        self.terrace.call("set_angle", "%d,%d" % (pan_c, tilt_c))
+        # set_angle returns when the head reports the angle; wait until terrace_state (what the
+        # camera's picture metadata and the simulator follow) says so too, so the next picture is
+        # taken from the new view
+        target = (pan_c / float(ANGLE_CENTI_DEG), tilt_c / float(ANGLE_CENTI_DEG))
+        deadline = time.monotonic() + SETTLE_TIMEOUT_S
+        with self._state:
+            while not self._settled(target) and time.monotonic() < deadline and not rospy.is_shutdown():
+                self._state.wait(0.05)
+
+    def _settled(self, target):
+        if self._joints is None:
+            return True  # no terrace_state at all (e.g. a head without it): rely on set_angle
+        d_pan = abs((self._joints[0] - target[0] + 180.0) % 360.0 - 180.0)
+        return d_pan <= SETTLE_TOLERANCE_DEG and abs(self._joints[1] - target[1]) <= SETTLE_TOLERANCE_DEG
 
     def get_angles(self):
         text = self.terrace.call("get_angle")
