@@ -129,6 +129,16 @@ class TestInspectionSim(unittest.TestCase):
         self.assertLess(abs(value - truth) / (face.range[1] - face.range[0]) * 100.0, 1.0, (value, truth))
         self.assertEqual(list(read.foreign_scale), [0.0])
 
+    def test_bad_preset_requests_fail_with_reasons(self):
+        for trans_id, preset_id, extra, reason in ((21, "", "", "invalid preset_id"),
+                                                   (22, "../up", "", "invalid preset_id"),
+                                                   (23, "arm_1", "1,/etc/passwd", "outside")):
+            self.preset_pub.publish(PresetScaleCmd(sender="server", trans_id=trans_id, preset_id=preset_id,
+                                                   extra_data=extra))
+            ack = self.preset_acks.wait(lambda a, t=trans_id: a.trans_id == t, timeout=20.0, what="ack")
+            self.assertEqual(ack.result, "failed")
+            self.assertIn(reason, ack.directory)
+
     def test_bad_goals_fail_with_reasons(self):
         cases = [("look_around", json.dumps({"preset_path": self.root}), "unknown goal type"),
                  ("find_scale", "{not json", "not JSON"),
