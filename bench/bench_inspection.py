@@ -5,7 +5,8 @@ head position, then seen again after a head move (shift, zoom change, roll, slig
 with a new random value, lighting gain/offset, glare, blur, noise and partial occlusion.
 find = feature localisation of the box against the reference; read = pointer reading in the
 located box. World part: the camera team's renderer and ground-truth projection of the
-simulated yard's gauges, from a recorded pose and from a pose off by up to 0.3 m / 5 deg.
+simulated yard's gauges: record a preset, calibrate it from ground truth, come back off by up to
+0.3 m / 5 deg, find with the full finder (heading correction, coarse-to-fine, re-centring), read.
 
 Prints one JSON line per figure: mean abs error (% of full scale), share within 1 % and 1.5 %
 FS, find success rate, mean ROI IoU, time per find and per read.
@@ -13,7 +14,9 @@ FS, find success rate, mean ROI IoU, time per find and per read.
 import json
 import math
 import os
+import shutil
 import sys
+import tempfile
 import time
 
 import cv2
@@ -81,18 +84,25 @@ def synthetic_case(rng, locator, reader):
     return scale.error_percent_fs(reading.value, value), t_find, t_read, iou
 
 
-def world_cases(rng, locator, reader, count):
-    """Gauges of the simulated yard through the real renderer, from a recorded and a perturbed pose."""
+def world_cases(rng, locator, reader, count, tmp):
+    """The simulated yard's gauges through the real renderer and the full finder: record a preset,
+    calibrate it from ground truth, change the value, come back off by up to 0.3 m / 5 deg, find
+    (heading correction, coarse-to-fine, re-centring), read."""
     import yaml
     from inspection_robot.camera.optics import ZoomOptics
-    from inspection_robot.inspection.gauge import GaugeScale
-    from inspection_robot.sim.render import PinholeCamera, Renderer, ground_truth
+    from inspection_robot.inspection.calibration import calibrate
+    from inspection_robot.inspection.finder import Finder, FindError
+    from inspection_robot.inspection.geometry import quads_from_flat
+    from inspection_robot.inspection.preset import load_preset
+    from inspection_robot.inspection.recorder import record_preset
+    from inspection_robot.sim.inspection_sim import RenderedHead, world_specs
+    from inspection_robot.sim.render import Renderer, ground_truth
     from inspection_robot.sim.world import World
     world = World.load(os.path.join(ROOT, "config", "sim_world.yaml"))
     table = yaml.safe_load(open(os.path.join(ROOT, "config", "camera_optics.yaml")))["camera_optics"]
-    optics = ZoomOptics(table["zoom_hfov_deg"], table["width"], table["height"])
+    width, height = 800, 450
+    optics = ZoomOptics(table["zoom_hfov_deg"], width, height)
     renderer = Renderer(world, seed=1)
-    width, height = 960, 540
     gauges = [f for f in world.faces.values() if f.type == "gauge"]
     out = []
     for i in range(count):
@@ -100,44 +110,45 @@ def world_cases(rng, locator, reader, count):
         normal = face.quad.normal
         dist = float(rng.uniform(2.5, 4.0))
         spot = face.quad.centre + normal * dist
-        yaw = math.atan2(-normal[1], -normal[0])
-        pose = (spot[0], spot[1], yaw)
-        tilt = math.atan2(1.2 - face.quad.centre[2], dist)
-        zoom = max(1.0, min(30.0, 0.35 * width / (optics.focal_px(1.0, width) * face.quad.width / dist)))
-        focal = optics.focal_px(zoom, width)
-        cam_ref = PinholeCamera.from_pose(pose, 0.0, tilt, 1.2, focal, width, height)
+        pose = (spot[0], spot[1], math.atan2(-normal[1], -normal[0]))
+        tilt = math.degrees(math.atan2(world.sensor_height - face.quad.centre[2], dist))
+        zoom = max(1.0, min(30.0, 0.3 * width * dist / (optics.focal_px(1.0, width) * face.quad.width)))
+        head = RenderedHead(renderer, optics, pose, world.sensor_height, width, height)
+        head.set_angles(0.0, tilt)
+        head.set_zoom(zoom)
         low, high = face.range
         face.set_value(float(rng.uniform(low, high)))
-        ref = renderer.render(cam_ref)
-        truth_ref = ground_truth(world, cam_ref)["faces"][face.id]
-        value = float(rng.uniform(low, high))
-        face.set_value(value)
-        # coming back: pose off by up to 0.3 m / 5 deg, the head re-aimed at the recorded direction
-        dx, dy = rng.uniform(-0.3, 0.3, 2)
-        dyaw = math.radians(rng.uniform(-5, 5))
-        pose2 = (pose[0] + dx, pose[1] + dy, yaw + dyaw)
-        cam_new = PinholeCamera.from_pose(pose2, -dyaw + math.radians(rng.uniform(-0.5, 0.5)), tilt, 1.2, focal,
-                                          width, height)
-        new = renderer.render(cam_new)
-        truth = ground_truth(world, cam_new)["faces"][face.id]
-        if not truth["in_picture"]:
+        state = {"pan_deg": 0.0, "tilt_deg": tilt, "zoom": zoom, "pose": pose}
+        path = record_preset(head, tmp, "case%03d" % i, "20260101_000000", state, min_zoom=optics.min_zoom)
+        specs = [s for s in world_specs(world, head) if s["name"] == face.id]
+        if not specs:
             out.append((None, 0.0, None, 0.0))
             continue
-        fx, fy, radius_m = face.dial_layout()
-        scale = GaugeScale(face.start_angle, face.end_angle, low, high)
+        calibrate(path, specs, optics)
+        preset = load_preset(path)
+        value = float(rng.uniform(low, high))
+        face.set_value(value)
+        dx, dy = rng.uniform(-0.3, 0.3, 2)
+        back = (pose[0] + dx, pose[1] + dy, pose[2] + math.radians(rng.uniform(-5, 5)))
+        head.pose = back
+        finder = Finder(head, optics, locator, os.path.join(tmp, "pictures"), max_moves=3)
         t0 = time.perf_counter()
         try:
-            located = locator.locate(ref, new, [np.array(truth_ref["corners"])])
-        except LocateError:
+            found = finder.find(preset, "find_scale", math.degrees(pose[2] - back[2]), "20260102_000000",
+                                cv2.imread)
+        except FindError:
             out.append((None, time.perf_counter() - t0, None, 0.0))
             continue
         t_find = time.perf_counter() - t0
+        quad = quads_from_flat(found.roi_vertex)[0]
+        truth = ground_truth(world, head.camera())["faces"][face.id]
+        image = cv2.imread(found.filename)
+        p = preset.targets[0].params
         t0 = time.perf_counter()
-        reading = reader.read(new, located.quads[0], scale, (fx, fy), radius_m / face.quad.width,
-                              face.quad.width / face.quad.height)
+        reading = reader.read(image, quad, preset.targets[0].scale, p["centre"], p["radius"], p["aspect"])
         t_read = time.perf_counter() - t0
-        out.append((scale.error_percent_fs(reading.value, value), t_find, t_read,
-                    quad_iou(located.quads[0], np.array(truth["corners"]))))
+        out.append((preset.targets[0].scale.error_percent_fs(reading.value, value), t_find, t_read,
+                    quad_iou(quad, np.array(truth["corners"]))))
     return out
 
 
@@ -168,7 +179,11 @@ def main():
     report("inspection_synthetic", [synthetic_case(rng, locator, reader) for _ in range(CASES)])
     world_count = int(os.environ.get("BENCH_INSPECTION_WORLD_CASES", "40"))
     if world_count > 0:
-        report("inspection_world", world_cases(rng, locator, reader, world_count))
+        tmp = tempfile.mkdtemp(prefix="bench_inspection_")
+        try:
+            report("inspection_world", world_cases(rng, locator, reader, world_count, tmp))
+        finally:
+            shutil.rmtree(tmp, ignore_errors=True)
     return 0
 
 
