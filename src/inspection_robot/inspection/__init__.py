@@ -1,0 +1,1 @@
+"""Inspection pipeline: presets, calibration, target localisation and meter reading (no rospy)."""

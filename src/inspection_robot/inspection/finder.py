@@ -1,0 +1,197 @@
+"""Meter finding without ROS: restore a preset's view, locate its targets, re-centre the head.
+
+The head, camera and thermal imager are reached through a ``Head`` object (the find_scale node
+implements it with terrace_control / camera_control / infrared_control; tests and the bench
+with the simulated renderer). Steps for find_scale | find_foreign | find_both:
+
+1. pan = recorded pan + (recorded - current robot heading), tilt and zoom as recorded;
+2. capture at the final zoom (zoom0 level) as ``zoom0_<stamp>_<xx>.jpg`` (xx = PTZ moves so far)
+   and locate every target against zoom0.jpg; if that fails, step out through the wider
+   reference pictures (zoom1.jpg ...) until one matches and aim the head at the targets from it;
+3. while the targets sit farther than ``centre_tolerance`` (fraction of the picture) from where
+   they were in the reference, turn the head by the pixel offset converted to angles through the
+   field of view, up to ``max_moves`` moves;
+4. thermal presets: thermal picture + radiometric frame, boxes moved by the same angles;
+   foreign detection: one more picture at the first wider zoom.
+"""
+import os
+from collections import namedtuple
+
+import numpy as np
+
+from inspection_robot.inspection.gauge import angle_diff
+from inspection_robot.inspection.geometry import flat_from_quads, quad_center, quad_inside
+from inspection_robot.inspection.locate import LocateError
+
+FindResult = namedtuple("FindResult",
+                        "filename infrared_filename foreign_filename roi_vertex infrared_roi_vertex moves")
+
+
+class FindError(Exception):
+    """Finding failed; the message is the reason returned in the action result."""
+
+
+class Cancelled(Exception):
+    """The goal was cancelled (preempted)."""
+
+
+class Head(object):
+    """What the finder needs from the robot; every method raises FindError on failure."""
+
+    def set_angles(self, pan_deg, tilt_deg):
+        raise NotImplementedError
+
+    def set_zoom(self, zoom):
+        raise NotImplementedError
+
+    def capture(self, path):
+        """Take a visible picture into ``path`` and return it as a BGR array."""
+        raise NotImplementedError
+
+    def capture_thermal(self, picture_path, frame_path):
+        raise NotImplementedError
+
+
+class ThermalGeometry(object):
+    """Fixed thermal lens next to the visible camera: focal length in px and picture size."""
+
+    def __init__(self, focal_px, width, height):
+        self.focal_px, self.width, self.height = float(focal_px), int(width), int(height)
+
+
+class Finder(object):
+    def __init__(self, head, optics, locator, picture_root, max_moves=3, centre_tolerance=0.05,
+                 thermal=None, is_cancelled=lambda: False, feedback=lambda code, data: None):
+        self.head = head
+        self.optics = optics
+        self.locator = locator
+        self.picture_root = picture_root
+        self.max_moves = int(max_moves)
+        self.centre_tolerance = float(centre_tolerance)
+        self.thermal = thermal
+        self.is_cancelled = is_cancelled
+        self.feedback = feedback
+        self._ref_cache = {}
+
+    def _check_cancel(self):
+        if self.is_cancelled():
+            raise Cancelled()
+
+    def restore(self, preset, heading_correction_deg=0.0):
+        """Point the head and zoom as recorded (pan corrected by the heading difference)."""
+        info = preset.info
+        pan = angle_diff(info.pan_deg + heading_correction_deg, 0.0)
+        self.head.set_angles(pan, info.tilt_deg)
+        self.head.set_zoom(info.zoom_levels[0])
+        return pan, info.tilt_deg
+
+    def _reference(self, preset, k, read_image):
+        key = (preset.path, k)
+        if key not in self._ref_cache:
+            image = read_image(preset.picture(k))
+            if image is None:
+                raise FindError("reference picture %s missing or unreadable" % preset.picture(k))
+            self._ref_cache = {key: self.locator.features(image)}
+        return self._ref_cache[key]
+
+    def _angles_between(self, zoom, shape, from_px, to_px):
+        """Pan/tilt change (deg) that moves what is at ``from_px`` to ``to_px`` in the picture."""
+        h, w = shape[:2]
+        c = ((w - 1) / 2.0, (h - 1) / 2.0)
+        pan_a, tilt_a = self.optics.pixel_to_angles(zoom, from_px[0] - c[0], c[1] - from_px[1], w, h)
+        pan_b, tilt_b = self.optics.pixel_to_angles(zoom, to_px[0] - c[0], c[1] - to_px[1], w, h)
+        return pan_a - pan_b, tilt_a - tilt_b
+
+    def find(self, preset, kind, heading_correction_deg, stamp, read_image):
+        """Run find_scale | find_foreign | find_both; returns FindResult or raises FindError/Cancelled."""
+        if not preset.targets:
+            raise FindError("preset has no calibrated target")
+        folder = os.path.join(self.picture_root, preset.preset_id)
+        os.makedirs(folder, exist_ok=True)
+        pan, tilt = self.restore(preset, heading_correction_deg)
+        self.feedback("0", {"pan": round(pan, 2), "tilt": round(tilt, 2), "zoom": preset.info.zoom_levels[0]})
+        levels = preset.info.zoom_levels
+        ref_quads = [t.boxes[0] for t in preset.targets]
+        ref_centre = np.mean([quad_center(q) for q in ref_quads], axis=0)
+        moves = 0
+        last = None
+        while True:
+            self._check_cancel()
+            self.feedback("1", {"moves": moves})
+            path = os.path.join(folder, "zoom0_%s_%02d.jpg" % (stamp, moves))
+            image = self.head.capture(path)
+            try:
+                located = self.locator.locate(self._reference(preset, 0, read_image), image, ref_quads)
+                quads = located.quads
+            except LocateError as err:
+                quads = None
+                reason = str(err)
+            if quads is not None:
+                inside = all(quad_inside(q, image.shape[1], image.shape[0]) for q in quads)
+                centre = np.mean([quad_center(q) for q in quads], axis=0)
+                offset = np.abs(centre - ref_centre) / [image.shape[1], image.shape[0]]
+                last = (path, quads, image.shape) if inside else last
+                if inside and (offset.max() <= self.centre_tolerance or moves >= self.max_moves):
+                    break
+                if moves >= self.max_moves:
+                    raise FindError("targets still outside the picture after %d PTZ moves" % moves)
+                d_pan, d_tilt = self._angles_between(levels[0], image.shape, centre, ref_centre)
+            else:
+                if moves >= self.max_moves:
+                    raise FindError("target not found after %d PTZ moves: %s" % (moves, reason))
+                d_pan, d_tilt = self._coarse(preset, folder, stamp, moves, read_image, reason)
+                self.head.set_zoom(levels[0])
+            pan, tilt = angle_diff(pan + d_pan, 0.0), min(max(tilt + d_tilt, -90.0), 90.0)
+            self.head.set_angles(pan, tilt)
+            moves += 1
+        filename, quads, shape = last
+        roi = flat_from_quads(quads)
+        infrared_filename, infrared_roi = "", []
+        if preset.info.infrared and self.thermal is not None:
+            infrared_filename, infrared_roi = self._thermal(preset, folder, stamp, moves, quads, shape)
+        foreign_filename = ""
+        if kind in ("find_foreign", "find_both"):
+            k = 1 if len(levels) > 1 else 0
+            self.head.set_zoom(levels[k])
+            foreign_filename = os.path.join(folder, "zoom%d_%s_%02d.jpg" % (k, stamp, moves))
+            self.head.capture(foreign_filename)
+            self.head.set_zoom(levels[0])
+        if kind == "find_foreign":
+            roi, filename = [], ""
+        return FindResult(filename, infrared_filename, foreign_filename, roi, infrared_roi, moves)
+
+    def _coarse(self, preset, folder, stamp, moves, read_image, reason):
+        """Step out through the wider references; the head turn that brings the targets back."""
+        levels = preset.info.zoom_levels
+        for k in range(1, len(levels)):
+            self._check_cancel()
+            self.head.set_zoom(levels[k])
+            image = self.head.capture(os.path.join(folder, "zoom%d_%s_%02d.jpg" % (k, stamp, moves)))
+            quads_k = [t.boxes[k] for t in preset.targets if k in t.boxes]
+            if len(quads_k) != len(preset.targets):
+                continue
+            try:
+                located = self.locator.locate(self._reference(preset, k, read_image), image, quads_k)
+            except LocateError:
+                continue
+            centre = np.mean([quad_center(q) for q in located.quads], axis=0)
+            ref_centre = np.mean([quad_center(q) for q in quads_k], axis=0)
+            return self._angles_between(levels[k], image.shape, centre, ref_centre)
+        raise FindError("target not found at the final zoom (%s) nor in any wider reference picture" % reason)
+
+    def _thermal(self, preset, folder, stamp, moves, quads, shape):
+        """Thermal picture + frame; thermal boxes shifted by the visible targets' angular offset."""
+        picture = os.path.join(folder, "thermal_%s_%02d.jpg" % (stamp, moves))
+        frame = os.path.join(folder, "thermal_%s_%02d.png" % (stamp, moves))
+        self.head.capture_thermal(picture, frame)
+        ratio = self.thermal.focal_px / self.optics.focal_px(preset.info.zoom_levels[0], shape[1])
+        out = []
+        for target, quad in zip(preset.targets, quads):
+            if target.kind != "thermal":
+                continue
+            # the thermal lens shares the head: the box moves like the visible target, scaled by
+            # the ratio of focal lengths
+            shift = (quad_center(quad) - quad_center(target.boxes[0])) * ratio
+            dx, dy = shift
+            out.extend(flat_from_quads([target.params["thermal_box"] + [dx, dy]]))
+        return frame, out

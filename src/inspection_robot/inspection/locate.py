@@ -1,0 +1,114 @@
+"""Locating calibrated target boxes in a new picture against a reference picture.
+
+Features (AKAZE, else ORB; SIFT when the OpenCV build has it and it is asked for) are matched
+with a ratio test; a RANSAC homography maps the reference onto the new picture. Each box is then
+refined with a homography estimated only from matches near it (parallax after a pose error makes
+one global homography wrong away from the plane of the target), and the box corners TL, TR, BR, BL
+are mapped through it. Pictures are matched at a reduced size for speed; coordinates are in the
+full pictures.
+"""
+from collections import namedtuple
+
+import cv2
+import numpy as np
+
+from inspection_robot.inspection.geometry import quad_center, quad_is_convex, transform_quad
+
+Features = namedtuple("Features", "keypoints descriptors scale shape")
+Located = namedtuple("Located", "quads homography inliers matches confidence")
+
+
+class LocateError(Exception):
+    """The target could not be located; the message is the reason."""
+
+
+def make_detector(name):
+    """A feature detector by name (akaze | orb | sift), falling back to AKAZE then ORB."""
+    if name == "sift" and hasattr(cv2, "SIFT_create"):
+        return cv2.SIFT_create(nfeatures=4000), cv2.NORM_L2
+    if name in ("sift", "akaze") and hasattr(cv2, "AKAZE_create"):
+        return cv2.AKAZE_create(threshold=0.0005), cv2.NORM_HAMMING
+    return cv2.ORB_create(nfeatures=4000), cv2.NORM_HAMMING
+
+
+class Locator(object):
+    def __init__(self, detector="akaze", max_side=960, ratio=0.8, ransac_px=3.0, min_inliers=12,
+                 local_radius=2.5):
+        """``max_side``: longest side (px) pictures are reduced to for matching; ``local_radius``:
+        matches within this many box sizes of a box refine that box's homography."""
+        self._detector, self._norm = make_detector(detector)
+        self.max_side = max_side
+        self.ratio = ratio
+        self.ransac_px = ransac_px
+        self.min_inliers = min_inliers
+        self.local_radius = local_radius
+
+    def features(self, image):
+        gray = image if image.ndim == 2 else cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
+        scale = min(1.0, float(self.max_side) / max(gray.shape[:2]))
+        if scale < 1.0:
+            gray = cv2.resize(gray, None, fx=scale, fy=scale, interpolation=cv2.INTER_AREA)
+        keypoints, descriptors = self._detector.detectAndCompute(gray, None)
+        return Features(keypoints, descriptors, scale, image.shape[:2])
+
+    def _matches(self, ref, new):
+        if ref.descriptors is None or new.descriptors is None or len(ref.keypoints) < 2 \
+                or len(new.keypoints) < 2:
+            return np.zeros((0, 2)), np.zeros((0, 2))
+        matcher = cv2.BFMatcher(self._norm)
+        pairs = matcher.knnMatch(ref.descriptors, new.descriptors, k=2)
+        good = [p[0] for p in pairs if len(p) == 2 and p[0].distance < self.ratio * p[1].distance]
+        src = np.array([ref.keypoints[m.queryIdx].pt for m in good], np.float64).reshape(-1, 2) / ref.scale
+        dst = np.array([new.keypoints[m.trainIdx].pt for m in good], np.float64).reshape(-1, 2) / new.scale
+        return src, dst
+
+    def _homography(self, src, dst):
+        if len(src) < max(4, self.min_inliers):
+            return None, 0
+        matrix, mask = cv2.findHomography(src, dst, cv2.RANSAC, self.ransac_px / 1.0, maxIters=2000,
+                                          confidence=0.995)
+        if matrix is None:
+            return None, 0
+        return matrix, int(mask.sum())
+
+    def locate(self, ref, new, quads):
+        """Map ``quads`` (boxes in the reference picture) into the new picture.
+
+        ``ref``/``new``: Features or images. Raises LocateError with a reason on failure.
+        """
+        if not isinstance(ref, Features):
+            ref = self.features(ref)
+        if not isinstance(new, Features):
+            new = self.features(new)
+        src, dst = self._matches(ref, new)
+        matrix, inliers = self._homography(src, dst)
+        if matrix is None or inliers < self.min_inliers:
+            raise LocateError("too few feature matches with the reference (%d inliers, %d needed)"
+                              % (inliers, self.min_inliers))
+        if not _plausible(matrix):
+            raise LocateError("degenerate homography against the reference")
+        height, width = new.shape
+        out, confidences = [], []
+        for quad in quads:
+            quad = np.asarray(quad, np.float64)
+            box_matrix, box_inliers = matrix, inliers
+            centre = quad_center(quad)
+            size = max(np.ptp(quad[:, 0]), np.ptp(quad[:, 1]))
+            near = np.hypot(src[:, 0] - centre[0], src[:, 1] - centre[1]) < self.local_radius * size
+            if near.sum() >= self.min_inliers:
+                local, local_inliers = self._homography(src[near], dst[near])
+                if local is not None and local_inliers >= self.min_inliers and _plausible(local):
+                    box_matrix, box_inliers = local, local_inliers
+            mapped = transform_quad(box_matrix, quad)
+            if not quad_is_convex(mapped):
+                raise LocateError("target box maps to a degenerate shape")
+            out.append(mapped)
+            confidences.append(min(100.0, 100.0 * box_inliers / (4.0 * self.min_inliers)))
+        return Located(out, matrix, inliers, len(src), confidences)
+
+
+def _plausible(matrix):
+    """Reject homographies that flip, collapse or blow up the picture."""
+    matrix = matrix / matrix[2, 2]
+    det = np.linalg.det(matrix[:2, :2])
+    return bool(0.01 < det < 100.0 and abs(matrix[2, 0]) < 0.01 and abs(matrix[2, 1]) < 0.01)

@@ -1,0 +1,354 @@
+"""The preset directory: preset.ini, preset_calib_info.ini, zoomX.xml; atomic writes; loading.
+
+Layout of ``<preset_root>/<preset_id>/<YYYYMMDD_HHMMSS>/`` (documented in docs/interface.md):
+
+- ``preset.ini``  written by preset_scale: sections [preset] [ptz] [camera] [pose] [pictures]
+  and, when present, [thermal] and [arm].
+- ``zoom0.jpg`` (final zoom) .. ``zoomN.jpg`` (stepping out towards wide), ``thermal.jpg`` and
+  the radiometric frame, the arm trajectory file.
+- ``preset_calib_info.ini`` written by the calibration tool: [calibration] and one
+  [target_<i>] section per target box.
+- ``zoom<k>.xml`` written by the calibration tool: every target's box (TL, TR, BR, BL) in
+  ``zoom<k>.jpg``.
+
+A new preset directory is filled under a hidden temporary name and renamed at the end, so a
+failure never leaves half a preset; single files are written to a temporary name and replaced.
+"""
+import configparser
+import io
+import os
+import shutil
+import tempfile
+import xml.etree.ElementTree as ET
+
+import numpy as np
+
+from inspection_robot.inspection.gauge import GaugeScale
+from inspection_robot.inspection.readers import LAMP_COLOURS
+
+PRESET_INI = "preset.ini"
+CALIB_INI = "preset_calib_info.ini"
+TARGET_KINDS = ("pointer", "lamp", "switch", "thermal")
+CALIB_VERSION = 1
+
+
+class PresetError(Exception):
+    """A missing or corrupt preset or calibration; the message is the reason."""
+
+
+def zoom_picture_name(index):
+    return "zoom%d.jpg" % index
+
+
+def zoom_xml_name(index):
+    return "zoom%d.xml" % index
+
+
+# --- atomic writes ----------------------------------------------------------------------------
+def write_file_atomic(path, data):
+    """Write ``data`` (str or bytes) to ``path`` via a temporary file in the same directory."""
+    mode = "wb" if isinstance(data, bytes) else "w"
+    folder = os.path.dirname(os.path.abspath(path))
+    fd, tmp = tempfile.mkstemp(prefix=".tmp_", dir=folder)
+    try:
+        with os.fdopen(fd, mode) as f:
+            f.write(data)
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+
+
+def _ini_text(config):
+    buf = io.StringIO()
+    config.write(buf)
+    return buf.getvalue()
+
+
+class PresetDirWriter(object):
+    """Fills ``<root>/<preset_id>/<stamp>/`` under a temporary name; commit() renames it.
+
+    Use as a context manager: leaving the block with an exception removes the temporary directory.
+    """
+
+    def __init__(self, root, preset_id, stamp):
+        if not preset_id or "/" in preset_id or preset_id in (".", "..") or "\x00" in preset_id:
+            raise PresetError("invalid preset_id '%s'" % (preset_id,))
+        self.parent = os.path.join(root, preset_id)
+        self.final = os.path.join(self.parent, stamp)
+        if os.path.exists(self.final):
+            raise PresetError("preset directory already exists: %s" % self.final)
+        os.makedirs(self.parent, exist_ok=True)
+        self.path = tempfile.mkdtemp(prefix=".tmp_%s_" % stamp, dir=self.parent)
+
+    def file(self, name):
+        return os.path.join(self.path, name)
+
+    def commit(self):
+        os.rename(self.path, self.final)
+        self.path = self.final
+        return self.final
+
+    def abort(self):
+        if self.path != self.final and os.path.isdir(self.path):
+            shutil.rmtree(self.path, ignore_errors=True)
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, exc_type, exc, tb):
+        if exc_type is not None:
+            self.abort()
+        return False
+
+
+# --- preset.ini -------------------------------------------------------------------------------
+class PresetInfo(object):
+    """Contents of preset.ini."""
+
+    def __init__(self, preset_id, preset_type, infrared, created, pan_deg, tilt_deg, zoom, focus_position,
+                 pose, zoom_levels, width=0, height=0, extra_data="", thermal_picture="", thermal_frame="",
+                 arm_trajectory=""):
+        self.preset_id = preset_id
+        self.preset_type = preset_type
+        self.infrared = bool(infrared)
+        self.created = created
+        self.pan_deg = float(pan_deg)
+        self.tilt_deg = float(tilt_deg)
+        self.zoom = float(zoom)
+        self.focus_position = int(focus_position)
+        self.pose = tuple(float(v) for v in pose)       # x m, y m, yaw rad (map)
+        self.zoom_levels = [float(z) for z in zoom_levels]  # zoom of zoom0.jpg, zoom1.jpg, ...
+        self.width = int(width)
+        self.height = int(height)
+        self.extra_data = extra_data
+        self.thermal_picture = thermal_picture
+        self.thermal_frame = thermal_frame
+        self.arm_trajectory = arm_trajectory
+
+    def to_ini(self):
+        c = configparser.ConfigParser()
+        c["preset"] = {"preset_id": self.preset_id, "type": self.preset_type,
+                       "infrared": "1" if self.infrared else "0", "created": self.created,
+                       "extra_data": self.extra_data}
+        c["ptz"] = {"pan_deg": "%.2f" % self.pan_deg, "tilt_deg": "%.2f" % self.tilt_deg}
+        c["camera"] = {"zoom": repr(self.zoom), "focus_position": str(self.focus_position),
+                       "width": str(self.width), "height": str(self.height)}
+        c["pose"] = {"x": "%.4f" % self.pose[0], "y": "%.4f" % self.pose[1], "yaw": "%.5f" % self.pose[2]}
+        pictures = {"count": str(len(self.zoom_levels))}
+        for i, level in enumerate(self.zoom_levels):
+            pictures["zoom%d" % i] = zoom_picture_name(i)
+            pictures["zoom%d_level" % i] = repr(level)
+        c["pictures"] = pictures
+        if self.infrared:
+            c["thermal"] = {"picture": self.thermal_picture, "frame": self.thermal_frame}
+        if self.arm_trajectory:
+            c["arm"] = {"trajectory": self.arm_trajectory}
+        return _ini_text(c)
+
+    @classmethod
+    def from_ini(cls, text):
+        c = configparser.ConfigParser()
+        try:
+            c.read_string(text)
+            count = c.getint("pictures", "count")
+            if count < 1:
+                raise ValueError("no pictures")
+            levels = [c.getfloat("pictures", "zoom%d_level" % i) for i in range(count)]
+            return cls(
+                preset_id=c.get("preset", "preset_id"), preset_type=c.get("preset", "type"),
+                infrared=c.getint("preset", "infrared"), created=c.get("preset", "created"),
+                pan_deg=c.getfloat("ptz", "pan_deg"), tilt_deg=c.getfloat("ptz", "tilt_deg"),
+                zoom=c.getfloat("camera", "zoom"), focus_position=c.getint("camera", "focus_position"),
+                width=c.getint("camera", "width", fallback=0), height=c.getint("camera", "height", fallback=0),
+                pose=(c.getfloat("pose", "x"), c.getfloat("pose", "y"), c.getfloat("pose", "yaw")),
+                zoom_levels=levels, extra_data=c.get("preset", "extra_data", fallback=""),
+                thermal_picture=c.get("thermal", "picture", fallback=""),
+                thermal_frame=c.get("thermal", "frame", fallback=""),
+                arm_trajectory=c.get("arm", "trajectory", fallback=""))
+        except (configparser.Error, ValueError) as err:
+            raise PresetError("corrupt %s: %s" % (PRESET_INI, err))
+
+
+# --- calibration ------------------------------------------------------------------------------
+class Target(object):
+    """One calibrated target box: its kind, its parameters and its box in each zoom picture.
+
+    ``boxes``: {zoom index: 4x2 array TL, TR, BR, BL}. Pointer parameters: centre (pivot as
+    fractions of the box), radius (dial radius as a fraction of the box width), aspect (physical
+    width / height of the box), start/end angle (deg clockwise from up) and
+    value, unit, optional scale_table [(value, angle)]. Lamp: colour. Switch: open_reference,
+    closed_reference (patch file names in the preset directory). Thermal: thermal_box (4x2 in the
+    thermal picture).
+    """
+
+    def __init__(self, kind, boxes, name="", **params):
+        if kind not in TARGET_KINDS:
+            raise PresetError("unknown target kind '%s' (one of %s)" % (kind, "|".join(TARGET_KINDS)))
+        self.kind = kind
+        self.name = name
+        self.boxes = dict((int(k), np.asarray(v, np.float64).reshape(4, 2)) for k, v in boxes.items())
+        self.params = params
+        if kind == "pointer":
+            self.scale = GaugeScale(params["start_angle"], params["end_angle"], params["start_value"],
+                                    params["end_value"], params.get("scale_table") or None)
+        elif kind == "lamp" and params.get("colour") not in LAMP_COLOURS:
+            raise PresetError("lamp colour must be one of %s" % "|".join(LAMP_COLOURS))
+        elif kind == "switch" and not (params.get("open_reference") and params.get("closed_reference")):
+            raise PresetError("a switch needs open_reference and closed_reference")
+        elif kind == "thermal":
+            self.params["thermal_box"] = np.asarray(params["thermal_box"], np.float64).reshape(4, 2)
+
+    def section(self):
+        p = self.params
+        out = {"kind": self.kind, "name": self.name}
+        if self.kind == "pointer":
+            out.update({"centre": "%g,%g" % tuple(p.get("centre", (0.5, 0.5))),
+                        "radius": "%g" % p.get("radius", 0.45), "aspect": "%g" % p.get("aspect", 1.0),
+                        "start_angle": "%g" % p["start_angle"], "end_angle": "%g" % p["end_angle"],
+                        "start_value": "%g" % p["start_value"], "end_value": "%g" % p["end_value"],
+                        "unit": p.get("unit", ""),
+                        "scale_table": ";".join("%g:%g" % (v, a) for v, a in (p.get("scale_table") or []))})
+        elif self.kind == "lamp":
+            out["colour"] = p["colour"]
+        elif self.kind == "switch":
+            out.update({"open_reference": p["open_reference"], "closed_reference": p["closed_reference"]})
+        else:
+            out["thermal_box"] = ",".join("%g" % v for v in p["thermal_box"].reshape(-1))
+        return out
+
+    @classmethod
+    def from_section(cls, section, boxes):
+        kind = section.get("kind", "")
+        params = {}
+        if kind == "pointer":
+            params = {"centre": _floats(section.get("centre", "0.5,0.5"), 2),
+                      "radius": float(section.get("radius", "0.45")),
+                      "aspect": float(section.get("aspect", "1")),
+                      "start_angle": float(section["start_angle"]), "end_angle": float(section["end_angle"]),
+                      "start_value": float(section["start_value"]), "end_value": float(section["end_value"]),
+                      "unit": section.get("unit", ""), "scale_table": _table(section.get("scale_table", ""))}
+        elif kind == "lamp":
+            params = {"colour": section.get("colour", "")}
+        elif kind == "switch":
+            params = {"open_reference": section.get("open_reference", ""),
+                      "closed_reference": section.get("closed_reference", "")}
+        elif kind == "thermal":
+            params = {"thermal_box": _floats(section["thermal_box"], 8)}
+        return cls(kind, boxes, name=section.get("name", ""), **params)
+
+
+def _floats(text, count):
+    values = [float(v) for v in text.split(",")]
+    if len(values) != count:
+        raise ValueError("expected %d numbers, got '%s'" % (count, text))
+    return values
+
+
+def _table(text):
+    text = text.strip()
+    if not text:
+        return []
+    return [tuple(float(x) for x in pair.split(":")) for pair in text.split(";")]
+
+
+def boxes_to_xml(zoom_index, level, width, height, targets):
+    root = ET.Element("zoom", {"index": str(zoom_index), "level": repr(float(level)), "width": str(width),
+                               "height": str(height), "picture": zoom_picture_name(zoom_index)})
+    for i, target in enumerate(targets):
+        if zoom_index not in target.boxes:
+            continue
+        elem = ET.SubElement(root, "target", {"index": str(i), "kind": target.kind})
+        for corner, (x, y) in zip(("TL", "TR", "BR", "BL"), target.boxes[zoom_index]):
+            ET.SubElement(elem, "point", {"corner": corner, "x": "%.2f" % x, "y": "%.2f" % y})
+    return ET.tostring(root, encoding="unicode") + "\n"
+
+
+def boxes_from_xml(text):
+    """{target index: 4x2 array} from a zoomX.xml document."""
+    root = ET.fromstring(text)
+    out = {}
+    for elem in root.findall("target"):
+        points = elem.findall("point")
+        if len(points) != 4:
+            raise ValueError("target %s needs 4 points" % elem.get("index"))
+        out[int(elem.get("index"))] = np.array([[float(p.get("x")), float(p.get("y"))] for p in points])
+    return out
+
+
+def write_calibration(preset_dir, targets, info):
+    """Write preset_calib_info.ini and zoom<k>.xml for every zoom picture of the preset."""
+    c = configparser.ConfigParser()
+    c["calibration"] = {"version": str(CALIB_VERSION), "reference": zoom_picture_name(0),
+                        "target_count": str(len(targets))}
+    for i, target in enumerate(targets):
+        c["target_%d" % i] = target.section()
+    for k, level in enumerate(info.zoom_levels):
+        write_file_atomic(os.path.join(preset_dir, zoom_xml_name(k)),
+                          boxes_to_xml(k, level, info.width, info.height, targets))
+    write_file_atomic(os.path.join(preset_dir, CALIB_INI), _ini_text(c))
+
+
+class Preset(object):
+    """A loaded preset directory: its info, its calibrated targets and file paths."""
+
+    def __init__(self, path, info, targets):
+        self.path = path
+        self.info = info
+        self.targets = targets
+
+    @property
+    def preset_id(self):
+        return self.info.preset_id
+
+    def picture(self, zoom_index):
+        return os.path.join(self.path, zoom_picture_name(zoom_index))
+
+    def file(self, name):
+        return os.path.join(self.path, name)
+
+
+def load_info(path):
+    ini = os.path.join(path, PRESET_INI)
+    if not os.path.isdir(path):
+        raise PresetError("preset directory not found: %s" % path)
+    if not os.path.isfile(ini):
+        raise PresetError("%s missing in %s" % (PRESET_INI, path))
+    with open(ini) as f:
+        return PresetInfo.from_ini(f.read())
+
+
+def load_preset(path, need_calibration=True):
+    """Load a preset directory; raises PresetError with a reason when anything is missing or corrupt."""
+    info = load_info(path)
+    targets = []
+    calib = os.path.join(path, CALIB_INI)
+    if not os.path.isfile(calib):
+        if need_calibration:
+            raise PresetError("preset not calibrated: %s missing in %s" % (CALIB_INI, path))
+        return Preset(path, info, targets)
+    c = configparser.ConfigParser()
+    try:
+        c.read(calib)
+        count = c.getint("calibration", "target_count")
+        boxes = {}
+        for k in range(len(info.zoom_levels)):
+            xml = os.path.join(path, zoom_xml_name(k))
+            if os.path.isfile(xml):
+                with open(xml) as f:
+                    boxes[k] = boxes_from_xml(f.read())
+        if 0 not in boxes:
+            raise ValueError("%s missing" % zoom_xml_name(0))
+        for i in range(count):
+            target_boxes = dict((k, b[i]) for k, b in boxes.items() if i in b)
+            if 0 not in target_boxes:
+                raise ValueError("target %d has no box in %s" % (i, zoom_xml_name(0)))
+            targets.append(Target.from_section(c["target_%d" % i], target_boxes))
+    except PresetError as err:
+        raise PresetError("corrupt calibration in %s: %s" % (path, err))
+    except (configparser.Error, ValueError, KeyError, ET.ParseError, TypeError) as err:
+        raise PresetError("corrupt calibration in %s: %s" % (path, err))
+    if not targets:
+        raise PresetError("calibration of %s has no target" % path)
+    return Preset(path, info, targets)

@@ -1,0 +1,256 @@
+"""read_scale's work without ROS: validate a request, read every box, detect foreign objects,
+write annotated pictures.
+
+Request rules (docs/interface.md, Inspection): ``roi_vertex`` has 8 numbers per calibrated target
+(calibration order); ``filename`` has one entry per target, or one entry for all targets when
+none is thermal, or two entries [visible picture, thermal frame] when some are;
+``roi_vertex_thermal`` has 8 numbers per thermal target. ``foreign_filename`` lists pictures to
+search for foreign objects (foreign_detect 1 or 2), one result per picture.
+"""
+import os
+import re
+from collections import namedtuple
+
+import cv2
+import numpy as np
+
+from inspection_robot.command import CommandError, confine_path
+from inspection_robot.inspection.foreign import detect_foreign
+from inspection_robot.inspection.geometry import quad_inside, quad_is_convex, quads_from_flat, transform_quad
+from inspection_robot.inspection.locate import LocateError, Locator
+from inspection_robot.inspection.preset import PresetError, load_preset, zoom_picture_name
+from inspection_robot.inspection.readers import PointerReader, read_lamp, read_switch, read_thermal_max
+from inspection_robot.interface import FOREIGN_DETECT_BOTH, FOREIGN_DETECT_FOREIGN, FOREIGN_DETECT_READ
+
+ReadOutcome = namedtuple("ReadOutcome", "scale possibility picture_path foreign_scale foreign_possibility "
+                                        "foreign_picture_path")
+
+
+class ReadError(Exception):
+    """The whole request cannot be served; the message is the reason."""
+
+
+def load_frame(path):
+    """A radiometric frame in deg C: .npy (float deg C), .csv (deg C), or 16-bit .png/.tiff (0.01 K)."""
+    ext = os.path.splitext(path)[1].lower()
+    try:
+        if ext == ".npy":
+            return np.load(path, allow_pickle=False).astype(np.float32)
+        if ext == ".csv":
+            return np.loadtxt(path, delimiter=",", dtype=np.float32, ndmin=2)
+        if ext in (".png", ".tif", ".tiff"):
+            raw = cv2.imread(path, cv2.IMREAD_UNCHANGED)
+            if raw is None or raw.dtype != np.uint16:
+                raise ValueError("not a 16-bit image")
+            return raw.astype(np.float32) / 100.0 - 273.15
+    except (OSError, ValueError) as err:
+        raise ReadError("unreadable thermal frame %s: %s" % (path, err))
+    raise ReadError("unsupported thermal frame format: %s" % path)
+
+
+def _zoom_index_from_name(path, count):
+    match = re.match(r"zoom(\d+)", os.path.basename(path))
+    if match and int(match.group(1)) < count:
+        return int(match.group(1))
+    return None
+
+
+class ScaleReader(object):
+    def __init__(self, preset_roots, picture_roots, picture_root, locator=None, pointer=None, foreign_region=2.5):
+        """``preset_roots``/``picture_roots``: allowed roots of preset directories / input pictures;
+        ``picture_root``: where annotated results go (``<picture_root>/<preset_id>/``);
+        ``foreign_region``: foreign objects are searched in the targets' bounding box grown by this factor."""
+        self.foreign_region = float(foreign_region)
+        self.preset_roots = list(preset_roots)
+        self.picture_roots = list(picture_roots)
+        self.picture_root = picture_root
+        self.locator = locator or Locator("orb")
+        self.pointer = pointer or PointerReader()
+
+    def _path(self, path, roots, what):
+        try:
+            return confine_path(path, roots)
+        except CommandError as err:
+            raise ReadError("%s: %s" % (what, err))
+
+    def _image(self, path):
+        image = cv2.imread(path, cv2.IMREAD_COLOR)
+        if image is None:
+            raise ReadError("picture missing or unreadable: %s" % path)
+        return image
+
+    def read(self, directory, foreign_detect, filenames, foreign_filenames, roi_vertex, roi_vertex_thermal,
+             stamp):
+        """Serve one request; returns ReadOutcome or raises ReadError. ``stamp``: YYYYMMDD_HHMMSS."""
+        if foreign_detect not in (FOREIGN_DETECT_READ, FOREIGN_DETECT_FOREIGN, FOREIGN_DETECT_BOTH):
+            raise ReadError("foreign_detect must be 0, 1 or 2, got %s" % foreign_detect)
+        preset_dir = self._path(directory, self.preset_roots, "directory")
+        try:
+            preset = load_preset(preset_dir, need_calibration=foreign_detect != FOREIGN_DETECT_FOREIGN)
+        except PresetError as err:
+            raise ReadError(str(err))
+        out_dir = os.path.join(self.picture_root, preset.preset_id)
+        outcome = ReadOutcome([], [], [], [], [], [])
+        if foreign_detect in (FOREIGN_DETECT_READ, FOREIGN_DETECT_BOTH):
+            self._read_boxes(preset, filenames, roi_vertex, roi_vertex_thermal, out_dir, stamp, outcome)
+        if foreign_detect in (FOREIGN_DETECT_FOREIGN, FOREIGN_DETECT_BOTH):
+            self._foreign(preset, foreign_filenames, out_dir, stamp, outcome)
+        return outcome
+
+    def _read_boxes(self, preset, filenames, roi_vertex, roi_vertex_thermal, out_dir, stamp, outcome):
+        targets = preset.targets
+        try:
+            quads = quads_from_flat(roi_vertex)
+            thermal_quads = quads_from_flat(roi_vertex_thermal)
+        except ValueError as err:
+            raise ReadError(str(err))
+        if len(quads) != len(targets):
+            raise ReadError("roi_vertex has %d box(es), the calibration %d target(s)" % (len(quads), len(targets)))
+        thermal_ids = [i for i, t in enumerate(targets) if t.kind == "thermal"]
+        if len(thermal_quads) != len(thermal_ids):
+            raise ReadError("roi_vertex_thermal has %d box(es), the calibration %d thermal target(s)"
+                            % (len(thermal_quads), len(thermal_ids)))
+        files = list(filenames)
+        if len(files) == len(targets):
+            per_box = files
+        elif len(files) == 1 and not thermal_ids:
+            per_box = files * len(targets)
+        elif len(files) == 2 and thermal_ids and len(targets) != 2:
+            per_box = [files[1] if t.kind == "thermal" else files[0] for t in targets]
+        else:
+            raise ReadError("filename has %d entries for %d target(s) (%d thermal): give one per target, one "
+                            "for all, or [picture, thermal frame]" % (len(files), len(targets), len(thermal_ids)))
+        paths = [self._path(f, self.picture_roots, "filename") for f in per_box]
+        images, frames = {}, {}
+        thermal_iter = iter(thermal_quads)
+        for i, (target, quad, path) in enumerate(zip(targets, quads, paths)):
+            if target.kind == "thermal":
+                if path not in frames:
+                    frames[path] = load_frame(path)
+                frame = frames[path]
+                tquad = next(thermal_iter)
+                _check_quad(tquad, frame.shape, "thermal box %d" % i)
+                try:
+                    reading = read_thermal_max(frame, tquad)
+                except ValueError as err:
+                    raise ReadError("thermal box %d: %s" % (i, err))
+                annotated = cv2.applyColorMap(_to_u8(frame), cv2.COLORMAP_INFERNO)
+                draw_quad = tquad
+            else:
+                if path not in images:
+                    images[path] = self._image(path)
+                image = images[path]
+                _check_quad(quad, image.shape, "box %d" % i)
+                reading = self._read_one(preset, target, image, quad)
+                annotated = image.copy()
+                draw_quad = quad
+            outcome.scale.append(float(reading.value))
+            outcome.possibility.append(round(float(reading.confidence), 1))
+            _annotate(annotated, draw_quad, "%s %s %.4g (%d%%)" % (target.kind, target.name, reading.value,
+                                                                   reading.confidence))
+            outcome.picture_path.append(_save(annotated, out_dir, "%s_read_%02d.jpg" % (stamp, i)))
+
+    def _read_one(self, preset, target, image, quad):
+        p = target.params
+        if target.kind == "pointer":
+            return self.pointer.read(image, quad, target.scale, p.get("centre", (0.5, 0.5)), p.get("radius", 0.45),
+                                     p.get("aspect", 1.0))
+        if target.kind == "lamp":
+            return read_lamp(image, quad, p["colour"])
+        refs = []
+        for key in ("open_reference", "closed_reference"):
+            ref = cv2.imread(preset.file(p[key]), cv2.IMREAD_GRAYSCALE)
+            if ref is None:
+                raise ReadError("switch reference missing or unreadable: %s" % preset.file(p[key]))
+            refs.append(ref)
+        return read_switch(image, quad, refs[0], refs[1])
+
+    def _foreign(self, preset, foreign_filenames, out_dir, stamp, outcome):
+        if not foreign_filenames:
+            raise ReadError("foreign_detect asks for foreign objects but foreign_filename is empty")
+        count = len(preset.info.zoom_levels)
+        for j, name in enumerate(foreign_filenames):
+            path = self._path(name, self.picture_roots, "foreign_filename")
+            image = self._image(path)
+            index = _zoom_index_from_name(path, count)
+            candidates = [index] if index is not None else list(range(count))
+            best = None
+            for k in candidates:
+                reference = cv2.imread(preset.picture(k), cv2.IMREAD_COLOR)
+                if reference is None:
+                    continue
+                try:
+                    located = self.locator.locate(reference, image, [_full_quad(reference)])
+                except LocateError:
+                    continue
+                if best is None or located.inliers > best[1].inliers:
+                    best = (reference, located, k)
+            if best is None:
+                raise ReadError("foreign_filename %d: no reference picture of the preset matches %s"
+                                % (j, zoom_picture_name(candidates[0]) if len(candidates) == 1 else "it"))
+            # targets change by design (needles, lamps): leave them out, with a margin
+            mapped = [transform_quad(best[1].homography, t.boxes[best[2]]) for t in preset.targets
+                      if best[2] in t.boxes]
+            exclude = [_grow(q, 1.15) for q in mapped]
+            # search the equipment around the targets: farther away, parallax after a pose error
+            # makes one homography a poor alignment of the 3-D scene
+            region = _grow(_bounding_quad(mapped), self.foreign_region) if mapped else None
+            found = detect_foreign(best[0], image, best[1].homography, region=region, exclude=exclude)
+            annotated = image.copy()
+            for obj in found:
+                _annotate(annotated, obj.quad, "foreign %d%%" % obj.confidence, (0, 0, 255))
+            outcome.foreign_scale.append(float(len(found)))
+            evidence = max([f.confidence for f in found]) if found else min(100.0, best[1].inliers)
+            outcome.foreign_possibility.append(round(float(evidence), 1))
+            outcome.foreign_picture_path.append(_save(annotated, out_dir, "%s_foreign_%02d.jpg" % (stamp, j)))
+
+
+def _grow(quad, factor):
+    centre = np.asarray(quad).mean(axis=0)
+    return centre + (np.asarray(quad) - centre) * factor
+
+
+def _bounding_quad(quads):
+    pts = np.vstack(quads)
+    x0, y0 = pts.min(axis=0)
+    x1, y1 = pts.max(axis=0)
+    return np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]])
+
+
+def _full_quad(image):
+    h, w = image.shape[:2]
+    return [[0, 0], [w - 1, 0], [w - 1, h - 1], [0, h - 1]]
+
+
+def _check_quad(quad, shape, what):
+    if not quad_is_convex(quad):
+        raise ReadError("%s is not a convex TL,TR,BR,BL quad" % what)
+    if not quad_inside(quad, shape[1], shape[0]):
+        raise ReadError("%s lies outside the %dx%d picture" % (what, shape[1], shape[0]))
+
+
+def _to_u8(frame):
+    lo, hi = float(np.nanmin(frame)), float(np.nanmax(frame))
+    return np.clip((frame - lo) * 255.0 / max(hi - lo, 1e-3), 0, 255).astype(np.uint8)
+
+
+def _annotate(image, quad, text, colour=(0, 255, 0)):
+    pts = np.round(np.asarray(quad)).astype(np.int32)
+    thickness = max(1, image.shape[1] // 400)
+    cv2.polylines(image, [pts], True, colour, thickness, cv2.LINE_AA)
+    x, y = int(pts[:, 0].min()), int(max(pts[:, 1].min() - 6, 12))
+    cv2.putText(image, text, (x, y), cv2.FONT_HERSHEY_SIMPLEX, max(0.4, image.shape[1] / 2000.0), colour,
+                thickness, cv2.LINE_AA)
+
+
+def _save(image, folder, name):
+    os.makedirs(folder, exist_ok=True)
+    path = os.path.join(folder, name)
+    ok, data = cv2.imencode(".jpg", image, [cv2.IMWRITE_JPEG_QUALITY, 90])
+    if not ok:
+        raise ReadError("cannot encode %s" % path)
+    tmp = path + ".tmp"
+    with open(tmp, "wb") as f:
+        f.write(data.tobytes())
+    os.replace(tmp, path)
+    return path

@@ -1,0 +1,271 @@
+"""Synthetic gauge faces and scenes with known truth, for unit tests and the accuracy benchmark.
+
+The camera team's renderer draws the simulated world; this module draws single faces (pointer
+gauges of several styles, lamps, switches) into a textured scene through a known homography, so
+tests know the exact box and value of every target without the world.
+"""
+import math
+import os
+
+import cv2
+import numpy as np
+
+from inspection_robot.inspection.gauge import GaugeScale
+
+GAUGE_STYLES = {
+    # face BGR, ink BGR, needle BGR, start, end angle (deg cw from up)
+    "classic": ((235, 235, 235), (30, 30, 30), (20, 20, 20), 225.0, 135.0),
+    "dark": ((40, 40, 40), (220, 220, 220), (240, 240, 240), 225.0, 135.0),
+    "red_needle": ((225, 240, 245), (40, 40, 40), (20, 20, 200), 240.0, 120.0),
+    "quarter": ((230, 230, 230), (30, 30, 30), (15, 15, 15), 300.0, 60.0),
+}
+
+
+def draw_gauge_face(scale, value, size=400, style="classic", ticks=10, label=True):
+    """A frontal gauge face ``size`` px square, dial radius 0.45 * size around the centre."""
+    face_bgr, ink, needle, _, _ = GAUGE_STYLES[style]
+    img = np.full((size, size, 3), 110, np.uint8)
+    c = (size - 1) / 2.0  # pixel-centre convention, as rectify() maps corners to 0..size-1
+    rad = 0.45 * size
+    cv2.circle(img, _pt((c, c)), int(rad), face_bgr, -1, cv2.LINE_AA)
+    cv2.circle(img, (int(c), int(c)), int(rad), (60, 60, 60), max(2, size // 60), cv2.LINE_AA)
+
+    def polar(angle_deg, r):
+        a = math.radians(angle_deg)
+        return (c + r * math.sin(a), c - r * math.cos(a))
+
+    for i in range(ticks * 5 + 1):
+        v = scale.start_value + (scale.end_value - scale.start_value) * i / (ticks * 5.0)
+        a = scale.angle(v)
+        major = i % 5 == 0
+        p0 = polar(a, rad * (0.80 if major else 0.86))
+        p1 = polar(a, rad * 0.93)
+        cv2.line(img, _pt(p0), _pt(p1), ink, max(1, size // (100 if major else 200)), cv2.LINE_AA)
+        if major and label:
+            p = polar(a, rad * 0.68)
+            text = "%g" % round(v, 2)
+            fs = size / 900.0
+            (tw, th), _ = cv2.getTextSize(text, cv2.FONT_HERSHEY_SIMPLEX, fs, 1)
+            cv2.putText(img, text, (int(p[0] - tw / 2), int(p[1] + th / 2)), cv2.FONT_HERSHEY_SIMPLEX,
+                        fs, ink, max(1, size // 300), cv2.LINE_AA)
+    a = scale.angle(value)
+    tip = polar(a, rad * 0.82)
+    tail = polar(a + 180.0, rad * 0.12)
+    perp = polar(a + 90.0, size * 0.012)
+    base_dx, base_dy = perp[0] - c, perp[1] - c
+    poly = np.array([[tip[0], tip[1]],
+                     [tail[0] + base_dx, tail[1] + base_dy],
+                     [tail[0] - base_dx, tail[1] - base_dy]], np.float32)
+    cv2.fillConvexPoly(img, np.round(poly * 16).astype(np.int32), needle, cv2.LINE_AA, shift=4)
+    cv2.circle(img, (int(c), int(c)), max(3, size // 25), needle, -1, cv2.LINE_AA)
+    return img
+
+
+def draw_lamp(colour_bgr, on, size=128):
+    img = np.full((size, size, 3), 70, np.uint8)
+    c = size // 2
+    cv2.circle(img, (c, c), int(size * 0.47), (45, 45, 45), -1, cv2.LINE_AA)
+    if on:
+        cv2.circle(img, (c, c), int(size * 0.33), colour_bgr, -1, cv2.LINE_AA)
+        glow = tuple(int(min(255, 0.5 * v + 140)) for v in colour_bgr)
+        cv2.circle(img, (c, c), int(size * 0.12), glow, -1, cv2.LINE_AA)
+    else:
+        dim = tuple(int(v * 0.3 + 20) for v in colour_bgr)
+        cv2.circle(img, (c, c), int(size * 0.33), dim, -1, cv2.LINE_AA)
+    return img
+
+
+def draw_switch(closed, size=128):
+    """A rotary switch: a bar vertical when closed, horizontal when open."""
+    img = np.full((size, size, 3), 150, np.uint8)
+    c = size // 2
+    cv2.circle(img, (c, c), int(size * 0.42), (90, 90, 90), -1, cv2.LINE_AA)
+    w, h = int(size * 0.1), int(size * 0.36)
+    if closed:
+        cv2.rectangle(img, (c - w, c - h), (c + w, c + h), (20, 20, 20), -1)
+    else:
+        cv2.rectangle(img, (c - h, c - w), (c + h, c + w), (20, 20, 20), -1)
+    cv2.circle(img, (c, c - h + w) if closed else (c + h - w, c), w // 2, (240, 240, 240), -1)
+    return img
+
+
+def textured_background(width, height, rng):
+    """Cluttered structure (rectangles, lines, circles) that feature matching can lock on."""
+    img = np.full((height, width, 3), 0, np.uint8)
+    img[:] = rng.integers(60, 140, 3)
+    for _ in range(int(width * height / 2500)):
+        kind = rng.integers(0, 3)
+        colour = tuple(int(v) for v in rng.integers(0, 256, 3))
+        x, y = int(rng.integers(0, width)), int(rng.integers(0, height))
+        s = int(rng.integers(4, max(6, min(width, height) // 8)))
+        if kind == 0:
+            cv2.rectangle(img, (x, y), (x + s, y + int(rng.integers(4, s + 5))), colour, -1)
+        elif kind == 1:
+            cv2.circle(img, (x, y), s // 2, colour, int(rng.integers(-1, 4)) or -1)
+        else:
+            cv2.line(img, (x, y), (x + int(rng.integers(-s, s)), y + int(rng.integers(-s, s))), colour, 2)
+    return cv2.GaussianBlur(img, (3, 3), 0)
+
+
+def paste(scene, patch, quad):
+    """Warp ``patch`` (a frontal square) into ``scene`` at ``quad`` (TL, TR, BR, BL)."""
+    h, w = patch.shape[:2]
+    src = np.array([[0, 0], [w - 1, 0], [w - 1, h - 1], [0, h - 1]], np.float32)
+    matrix = cv2.getPerspectiveTransform(src, np.asarray(quad, np.float32))
+    size = (scene.shape[1], scene.shape[0])
+    warped = cv2.warpPerspective(patch, matrix, size, flags=cv2.INTER_AREA)
+    mask = cv2.warpPerspective(np.full((h, w), 255, np.uint8), matrix, size, flags=cv2.INTER_LINEAR)
+    alpha = (mask.astype(np.float32) / 255.0)[:, :, None]
+    scene[:] = (scene * (1 - alpha) + warped * alpha).astype(np.uint8)
+    return scene
+
+
+def perspective_quad(centre, side, yaw_deg=0.0, pitch_deg=0.0, roll_deg=0.0):
+    """Quad of a square of ``side`` px at ``centre`` seen turned by yaw/pitch (foreshortening)."""
+    h = side / 2.0
+    pts = np.array([[-h, -h, 0], [h, -h, 0], [h, h, 0], [-h, h, 0]], np.float64)
+    ya, pa, ra = (math.radians(v) for v in (yaw_deg, pitch_deg, roll_deg))
+    ry = np.array([[math.cos(ya), 0, math.sin(ya)], [0, 1, 0], [-math.sin(ya), 0, math.cos(ya)]])
+    rx = np.array([[1, 0, 0], [0, math.cos(pa), -math.sin(pa)], [0, math.sin(pa), math.cos(pa)]])
+    rz = np.array([[math.cos(ra), -math.sin(ra), 0], [math.sin(ra), math.cos(ra), 0], [0, 0, 1]])
+    pts = pts.dot((rz.dot(rx).dot(ry)).T)
+    dist = side * 3.0
+    proj = pts[:, :2] * dist / (dist + pts[:, 2:3])
+    return proj + np.asarray(centre, np.float64)
+
+
+def degrade(img, rng, noise=3.0, blur=0.0, gain=1.0, offset=0.0, glare=None, occlusion=None):
+    """Lighting gain/offset, a glare blob (x, y, r), an occluding bar (quad), blur and noise."""
+    out = img.astype(np.float32) * gain + offset
+    if glare is not None:
+        x, y, r = glare
+        yy, xx = np.mgrid[0:img.shape[0], 0:img.shape[1]]
+        out += 150.0 * np.exp(-((xx - x) ** 2 + (yy - y) ** 2) / (2.0 * r * r))[:, :, None]
+    if occlusion is not None:
+        cv2.fillConvexPoly(out, np.round(np.asarray(occlusion)).astype(np.int32), (70.0, 80.0, 60.0))
+    if blur > 0:
+        out = cv2.GaussianBlur(out, (0, 0), blur)
+    if noise > 0:
+        out += rng.normal(0.0, noise, out.shape)
+    return np.clip(out, 0, 255).astype(np.uint8)
+
+
+def style_scale(style, start_value=0.0, end_value=1.6):
+    _, _, _, start, end = GAUGE_STYLES[style]
+    return GaugeScale(start, end, start_value, end_value)
+
+
+def _pt(p):
+    return (int(round(p[0])), int(round(p[1])))
+
+
+class PlanarScene(object):
+    """A flat textured wall with targets on it, seen by a pan/tilt/zoom camera far away.
+
+    Views are similarity transforms of the wall (pan/tilt shift it, zoom scales it about the
+    picture centre), plus optional perspective, so pictures at several zooms and head positions
+    share exact ground truth. ``targets``: list of dicts with kind (pointer|lamp|switch),
+    wall ``quad`` and state (``value`` for pointers, ``on``/``colour`` for lamps, ``closed``).
+    """
+
+    def __init__(self, rng, wall_size=(2400, 1500), targets=None):
+        self.wall = textured_background(wall_size[0], wall_size[1], rng)
+        self.targets = targets or []
+        self.rng = rng
+
+    def homography(self, centre_xy, zoom, size, tilt_h=(0.0, 0.0)):
+        """Wall -> picture: wall point ``centre_xy`` lands at the picture centre, scaled by ``zoom``."""
+        w, h = size
+        cx, cy = (w - 1) / 2.0, (h - 1) / 2.0
+        matrix = np.array([[zoom, 0, cx - zoom * centre_xy[0]], [0, zoom, cy - zoom * centre_xy[1]],
+                           [tilt_h[0], tilt_h[1], 1.0]])
+        return matrix
+
+    def render(self, matrix, size, faces=None):
+        w, h = size
+        image = cv2.warpPerspective(self.wall, matrix, (w, h), flags=cv2.INTER_AREA,
+                                    borderMode=cv2.BORDER_REFLECT)
+        for target in self.targets:
+            patch = faces.get(id(target)) if faces else None
+            if patch is None:
+                patch = self.face(target)
+            quad = cv2.perspectiveTransform(np.asarray(target["quad"], np.float64).reshape(-1, 1, 2),
+                                            matrix).reshape(-1, 2)
+            paste(image, patch, quad)
+        return image
+
+    def face(self, target):
+        kind = target["kind"]
+        if kind == "pointer":
+            return draw_gauge_face(target["scale"], target["value"], 400, target.get("style", "classic"))
+        if kind == "lamp":
+            return draw_lamp(LAMP_BGR[target["colour"]], target["on"])
+        return draw_switch(target["closed"])
+
+    def quad_in_view(self, target, matrix):
+        return cv2.perspectiveTransform(np.asarray(target["quad"], np.float64).reshape(-1, 1, 2),
+                                        matrix).reshape(-1, 2)
+
+
+LAMP_BGR = {"red": (30, 30, 230), "green": (40, 210, 40), "yellow": (20, 220, 230), "blue": (230, 90, 20),
+            "white": (235, 235, 235)}
+
+
+def linear_optics(width, height, hfov1_deg=40.0, max_zoom=30.0):
+    """Optics whose focal length is exactly proportional to the zoom (matches PlanarScene)."""
+    from inspection_robot.camera.optics import ZoomOptics
+    f1 = width / 2.0 / math.tan(math.radians(hfov1_deg) / 2.0)
+    rows = [[1.0, hfov1_deg], [max_zoom, math.degrees(2 * math.atan(width / 2.0 / (max_zoom * f1)))]]
+    return ZoomOptics(rows, width, height)
+
+
+def demo_targets(centre=(1200.0, 750.0)):
+    """A pointer gauge, a red lamp and a switch side by side on the wall (wall px)."""
+    x, y = centre
+    return [
+        {"kind": "pointer", "quad": perspective_quad((x - 60, y), 100, 15, -8, 2), "scale": style_scale("classic"),
+         "value": 0.5, "style": "classic"},
+        {"kind": "lamp", "quad": perspective_quad((x + 30, y - 25), 30), "colour": "red", "on": True},
+        {"kind": "switch", "quad": perspective_quad((x + 30, y + 25), 36), "closed": True},
+    ]
+
+
+def record_synthetic_preset(root, preset_id, stamp, scene, view_centre, zoom_levels, size, optics,
+                            wall_px_per_zoom=1.0):
+    """Write a calibrated preset of ``scene`` seen at ``view_centre``: zoom<k>.jpg, preset.ini,
+    preset_calib_info.ini, zoom<k>.xml, switch references. Returns the preset directory."""
+    from inspection_robot.inspection.calibration import calibrate
+    from inspection_robot.inspection.preset import PresetDirWriter, PresetInfo, write_file_atomic, \
+        zoom_picture_name
+    with PresetDirWriter(root, preset_id, stamp) as writer:
+        for k, level in enumerate(zoom_levels):
+            matrix = scene.homography(view_centre, level * wall_px_per_zoom, size)
+            cv2.imwrite(writer.file(zoom_picture_name(k)), scene.render(matrix, size))
+        info = PresetInfo(preset_id, "visible", False, stamp, 0.0, 0.0, zoom_levels[0], 0x4000, (0.0, 0.0, 0.0),
+                          zoom_levels, size[0], size[1])
+        write_file_atomic(writer.file("preset.ini"), info.to_ini())
+        matrix0 = scene.homography(view_centre, zoom_levels[0] * wall_px_per_zoom, size)
+        specs = []
+        for i, target in enumerate(scene.targets):
+            box = scene.quad_in_view(target, matrix0).reshape(-1).tolist()
+            spec = {"kind": target["kind"], "box": box, "name": "t%d" % i}
+            if target["kind"] == "pointer":
+                s = target["scale"]
+                spec.update(start_angle=s.start_angle, end_angle=s.end_angle, start_value=s.start_value,
+                            end_value=s.end_value, unit="MPa")
+            elif target["kind"] == "lamp":
+                spec["colour"] = target["colour"]
+            else:
+                state = target["closed"]
+                for name, closed in (("open", False), ("closed", True)):
+                    target["closed"] = closed
+                    path = writer.file("calib_%s.png" % name)
+                    cv2.imwrite(path, scene.render(matrix0, size))
+                    spec[name + "_picture"] = path
+                target["closed"] = state
+            specs.append(spec)
+        calibrate(writer.path, specs, optics)
+        for name in ("open", "closed"):
+            if os.path.exists(writer.file("calib_%s.png" % name)):
+                os.unlink(writer.file("calib_%s.png" % name))
+        return writer.commit()

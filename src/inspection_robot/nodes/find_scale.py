@@ -1,0 +1,135 @@
+"""find_scale: finds a preset's meters again (INTERFACE.md section 4, "Meter finding").
+
+Actions:     find_scale_action (inspection_robot/GeneralAction), server. Goal type pre_find |
+             find_scale | find_foreign | find_both, data JSON {"preset_path": dir}. Feedback
+             event_code "0" preset set, "1" finding. Result ret_code "0" with data {"filename",
+             "infrared_filename", "foreign_filename", "roi_vertex", "infrared_roi_vertex"} or "1"
+             with {"reason"}; a cancelled goal is preempted with ret_code "1", reason "cancelled".
+Subscribes:  nav_status (NavStatus): current heading for the pan correction
+Services:    terrace_control, camera_control, infrared_control (ControlService), client
+Parameters:  ~preset_root (str, /var/lib/inspection_robot/presets), ~picture_root (str,
+             /var/lib/inspection_robot/pictures): pictures go to <picture_root>/<preset_id>/
+             ~camera_optics (dict, config/camera_optics.yaml): zoom -> field of view
+             ~detector (str, orb), ~max_moves (int, 3): PTZ re-centring moves,
+             ~centre_tolerance (fraction of the picture, 0.05), ~service_timeout (s, 10.0)
+             ~thermal_hfov_deg (deg, 25.0), ~thermal_width / ~thermal_height (px, 384 / 288)
+"""
+import json
+import math
+import os
+import time
+import traceback
+
+import actionlib
+import cv2
+import rospy
+
+from inspection_robot.camera.optics import ZoomOptics
+from inspection_robot.command import CommandError, confine_path
+from inspection_robot.inspection.finder import Cancelled, Finder, FindError, ThermalGeometry
+from inspection_robot.inspection.locate import Locator
+from inspection_robot.inspection.preset import PresetError, load_preset
+from inspection_robot.interface import (FIND_FEEDBACK_FINDING, FIND_FEEDBACK_PRESET_SET, FIND_GOAL_TYPES,
+                                        FIND_RESULT_FAILED, FIND_RESULT_SUCCESS)
+from inspection_robot.msg import GeneralAction, GeneralFeedback, GeneralResult
+from inspection_robot.nodes.inspection_ros import HeadingWatcher, RosHead
+
+NODE_NAME = "find_scale"
+
+
+def result_data(filename="", infrared_filename="", foreign_filename="", roi_vertex=(), infrared_roi_vertex=()):
+    return json.dumps({"filename": filename, "infrared_filename": infrared_filename,
+                       "foreign_filename": foreign_filename, "roi_vertex": list(roi_vertex),
+                       "infrared_roi_vertex": list(infrared_roi_vertex)})
+
+
+def parse_goal(goal_type, data, preset_roots):
+    """(type, preset directory) of a goal; CommandError with the reason on bad input."""
+    if goal_type not in FIND_GOAL_TYPES:
+        raise CommandError("unknown goal type '%s' (one of %s)" % (goal_type, "|".join(FIND_GOAL_TYPES)))
+    try:
+        fields = json.loads(data)
+    except ValueError as err:
+        raise CommandError("goal data is not JSON: %s" % err)
+    if not isinstance(fields, dict) or not isinstance(fields.get("preset_path"), str):
+        raise CommandError('goal data must be {"preset_path": "<dir>"}')
+    return goal_type, confine_path(fields["preset_path"], preset_roots)
+
+
+class FindScaleNode(object):
+    def __init__(self, finder, head, heading, preset_root):
+        self._finder = finder
+        self._head = head
+        self._heading = heading
+        self._preset_root = preset_root
+        finder.is_cancelled = self._cancel_requested
+        finder.feedback = self._feedback
+        self._server = actionlib.SimpleActionServer("find_scale_action", GeneralAction, self._execute,
+                                                    auto_start=False)
+        self._server.start()
+
+    def _cancel_requested(self):
+        return self._server.is_preempt_requested() or rospy.is_shutdown()
+
+    def _feedback(self, code, data):
+        self._server.publish_feedback(GeneralFeedback(event_code=code, data=json.dumps(data)))
+
+    def _execute(self, goal):
+        try:
+            data = self._run(goal)
+        except Cancelled:
+            rospy.loginfo("find_scale: goal cancelled")
+            self._server.set_preempted(GeneralResult(ret_code=FIND_RESULT_FAILED,
+                                                     data=json.dumps({"reason": "cancelled"})))
+            return
+        except (CommandError, PresetError, FindError) as err:
+            self._fail(str(err))
+            return
+        except Exception as err:  # boundary: the goal always ends in a terminal state
+            rospy.logerr("find_scale: %s\n%s" % (err, traceback.format_exc()))
+            self._fail("internal error: %s" % err)
+            return
+        self._server.set_succeeded(GeneralResult(ret_code=FIND_RESULT_SUCCESS, data=data))
+
+    def _fail(self, reason):
+        rospy.logwarn("find_scale: failed: %s" % reason)
+        self._server.set_aborted(GeneralResult(ret_code=FIND_RESULT_FAILED, data=json.dumps({"reason": reason})))
+
+    def _run(self, goal):
+        kind, path = parse_goal(goal.type, goal.data, [self._preset_root])
+        preset = load_preset(path, need_calibration=kind != "pre_find")
+        self._head.hide_osd()
+        if kind == "pre_find":
+            pan, tilt = self._finder.restore(preset, 0.0)
+            self._feedback(FIND_FEEDBACK_PRESET_SET, {"pan": round(pan, 2), "tilt": round(tilt, 2),
+                                                      "zoom": preset.info.zoom_levels[0]})
+            return result_data()
+        pose = self._heading.latest()
+        if pose is None:
+            rospy.logwarn("find_scale: no nav_status yet; restoring the pan without heading correction")
+            correction = 0.0
+        else:
+            correction = math.degrees(preset.info.pose[2] - pose[2])
+        self._feedback(FIND_FEEDBACK_FINDING, {"heading_correction_deg": round(correction, 2)})
+        result = self._finder.find(preset, kind, correction, time.strftime("%Y%m%d_%H%M%S"), cv2.imread)
+        return result_data(result.filename, result.infrared_filename, result.foreign_filename, result.roi_vertex,
+                           result.infrared_roi_vertex)
+
+
+def main():
+    rospy.init_node(NODE_NAME)
+    preset_root = os.path.expanduser(rospy.get_param("~preset_root", "/var/lib/inspection_robot/presets"))
+    picture_root = os.path.expanduser(rospy.get_param("~picture_root", "/var/lib/inspection_robot/pictures"))
+    optics_cfg = rospy.get_param("~camera_optics")
+    optics = ZoomOptics(optics_cfg["zoom_hfov_deg"], optics_cfg["width"], optics_cfg["height"])
+    hfov = float(rospy.get_param("~thermal_hfov_deg", 25.0))
+    t_width, t_height = int(rospy.get_param("~thermal_width", 384)), int(rospy.get_param("~thermal_height", 288))
+    thermal = ThermalGeometry(t_width / 2.0 / math.tan(math.radians(hfov) / 2.0), t_width, t_height)
+    head = RosHead(NODE_NAME, float(rospy.get_param("~service_timeout", 10.0)))
+    finder = Finder(head, optics, Locator(rospy.get_param("~detector", "orb")), picture_root,
+                    max_moves=int(rospy.get_param("~max_moves", 3)),
+                    centre_tolerance=float(rospy.get_param("~centre_tolerance", 0.05)), thermal=thermal)
+    for folder in (preset_root, picture_root):
+        os.makedirs(folder, exist_ok=True)
+    FindScaleNode(finder, head, HeadingWatcher(), preset_root)
+    rospy.spin()

@@ -1,0 +1,105 @@
+"""read_scale: reads the meters of a found preset (INTERFACE.md section 4, "Meter reading").
+
+Subscribes:  read_scale_cmd (ReadScaleCmd)
+Publishes:   read_scale_ack (ReadScaleAck): result success|failed; on failure foreign_result holds
+             the reason. scale/possibility/picture_path aligned with the calibrated targets,
+             foreign_* aligned with foreign_filename.
+Parameters:  ~preset_root (str, /var/lib/inspection_robot/presets): holds <preset_id>/<stamp>/
+             ~picture_root (str, /var/lib/inspection_robot/pictures): results in <preset_id>/
+             ~extra_picture_roots (list of str, []): further roots input pictures may come from
+             ~detector (str, orb): orb | akaze | sift, for aligning foreign pictures with the reference
+             ~queue_size (int, 10): pending requests before new ones are refused
+Requests are served one at a time in arrival order by a worker thread.
+"""
+import os
+import queue
+import threading
+import time
+import traceback
+
+import rospy
+
+from inspection_robot.inspection.locate import Locator
+from inspection_robot.inspection.reading import ReadError, ScaleReader
+from inspection_robot.interface import ACK_FAILED, ACK_SUCCESS
+from inspection_robot.msg import ReadScaleAck, ReadScaleCmd
+
+NODE_NAME = "read_scale"
+
+
+class ReadScaleNode(object):
+    def __init__(self, reader, queue_size):
+        self._reader = reader
+        self._queue = queue.Queue(maxsize=queue_size)
+        self._pub = rospy.Publisher("read_scale_ack", ReadScaleAck, queue_size=10)
+        self._worker = threading.Thread(target=self._work, name="read_scale_worker")
+        self._worker.daemon = True
+        self._worker.start()
+        self._sub = rospy.Subscriber("read_scale_cmd", ReadScaleCmd, self._on_cmd, queue_size=queue_size)
+
+    def _on_cmd(self, msg):
+        try:
+            self._queue.put_nowait(msg)
+        except queue.Full:
+            rospy.logwarn_throttle(1.0, "read_scale: request queue full, refusing trans_id %d" % msg.trans_id)
+            self._publish(self._failed(msg, "busy: request queue full"))
+
+    def _work(self):
+        while not rospy.is_shutdown():
+            try:
+                msg = self._queue.get(timeout=0.2)
+            except queue.Empty:
+                continue
+            self._publish(self.serve(msg))
+
+    def serve(self, msg):
+        """Turn one ReadScaleCmd into its ReadScaleAck; never raises."""
+        started = time.monotonic()
+        try:
+            outcome = self._reader.read(msg.directory, msg.foreign_detect, list(msg.filename),
+                                        list(msg.foreign_filename), list(msg.roi_vertex),
+                                        list(msg.roi_vertex_thermal), time.strftime("%Y%m%d_%H%M%S"))
+        except ReadError as err:
+            rospy.logwarn("read_scale: trans_id %d failed: %s" % (msg.trans_id, err))
+            return self._failed(msg, str(err))
+        except Exception as err:  # boundary: one bad request must not kill the node
+            rospy.logerr("read_scale: trans_id %d raised %s\n%s" % (msg.trans_id, err, traceback.format_exc()))
+            return self._failed(msg, "internal error: %s" % (err,))
+        ack = self._ack(msg)
+        ack.result = ACK_SUCCESS
+        ack.foreign_result = ACK_SUCCESS if outcome.foreign_picture_path else ""
+        ack.scale, ack.possibility, ack.picture_path = outcome.scale, outcome.possibility, outcome.picture_path
+        ack.foreign_scale = outcome.foreign_scale
+        ack.foreign_possibility = outcome.foreign_possibility
+        ack.foreign_picture_path = outcome.foreign_picture_path
+        rospy.loginfo("read_scale: trans_id %d read %d box(es), %d foreign picture(s) in %.2f s"
+                      % (msg.trans_id, len(ack.scale), len(ack.foreign_scale), time.monotonic() - started))
+        return ack
+
+    def _ack(self, msg):
+        ack = ReadScaleAck(sender=NODE_NAME, receiver=msg.sender, trans_id=msg.trans_id)
+        ack.header.stamp = rospy.Time.now()
+        return ack
+
+    def _failed(self, msg, reason):
+        ack = self._ack(msg)
+        ack.result = ACK_FAILED
+        ack.foreign_result = reason
+        return ack
+
+    def _publish(self, ack):
+        self._pub.publish(ack)
+
+
+def main():
+    rospy.init_node(NODE_NAME)
+    preset_root = os.path.expanduser(rospy.get_param("~preset_root", "/var/lib/inspection_robot/presets"))
+    picture_root = os.path.expanduser(rospy.get_param("~picture_root", "/var/lib/inspection_robot/pictures"))
+    extra = [os.path.expanduser(p) for p in rospy.get_param("~extra_picture_roots", [])]
+    detector = rospy.get_param("~detector", "orb")
+    queue_size = int(rospy.get_param("~queue_size", 10))
+    for folder in (preset_root, picture_root):
+        os.makedirs(folder, exist_ok=True)
+    reader = ScaleReader([preset_root], [picture_root, preset_root] + extra, picture_root, Locator(detector))
+    ReadScaleNode(reader, max(1, queue_size))
+    rospy.spin()

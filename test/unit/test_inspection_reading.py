@@ -1,0 +1,116 @@
+"""read_scale's core on a recorded synthetic preset: readings, foreign objects, every bad input."""
+import os
+
+import cv2
+import numpy as np
+import pytest
+
+from inspection_robot.inspection import synthetic as S
+from inspection_robot.inspection.geometry import flat_from_quads
+from inspection_robot.inspection.locate import Locator
+from inspection_robot.inspection.preset import load_preset
+from inspection_robot.inspection.reading import ReadError, ScaleReader
+
+SIZE = (480, 270)
+STAMP = "20260102_080000"
+
+
+@pytest.fixture(scope="module")
+def setup(tmp_path_factory):
+    root = tmp_path_factory.mktemp("inspection")
+    presets, pictures = str(root / "presets"), str(root / "pictures")
+    os.makedirs(pictures)
+    rng = np.random.default_rng(8)
+    scene = S.PlanarScene(rng, targets=S.demo_targets())
+    optics = S.linear_optics(*SIZE)
+    path = S.record_synthetic_preset(presets, "meter_1", "20260101_120000", scene, (1200, 750),
+                                     [1.5, 0.75, 0.375], SIZE, optics)
+    # the robot comes back: the head points a little off, the meter reads 1.234, lamp off, switch open
+    scene.targets[0]["value"], scene.targets[1]["on"], scene.targets[2]["closed"] = 1.234, False, False
+    matrix = scene.homography((1185, 760), 1.6, SIZE)
+    picture = os.path.join(pictures, "zoom0_20260102_080000_01.jpg")
+    cv2.imwrite(picture, scene.render(matrix, SIZE), [cv2.IMWRITE_JPEG_QUALITY, 95])
+    preset = load_preset(path)
+    located = Locator("orb").locate(cv2.imread(preset.picture(0)), cv2.imread(picture),
+                                    [t.boxes[0] for t in preset.targets])
+    reader = ScaleReader([presets], [pictures, presets], pictures)
+    return reader, path, picture, flat_from_quads(located.quads), scene
+
+
+def test_reads_every_box(setup):
+    reader, path, picture, roi, _scene = setup
+    out = reader.read(path, 0, [picture], [], roi, [], STAMP)
+    assert abs(out.scale[0] - 1.234) / 1.6 * 100 < 1.0
+    assert out.scale[1:] == [0.0, 0.0]          # lamp off, switch open
+    assert len(out.possibility) == 3 and all(0 <= p <= 100 for p in out.possibility)
+    assert out.possibility[0] > 50
+    assert all(os.path.isfile(p) and "/meter_1/" in p for p in out.picture_path)
+    assert out.foreign_scale == []
+
+
+def test_foreign_object_present_and_absent(setup):
+    reader, path, picture, roi, _scene = setup
+    clean = reader.read(path, 1, [], [picture], [], [], STAMP)
+    assert clean.foreign_scale == [0.0] and clean.scale == []
+    dirty_image = cv2.imread(picture)
+    cv2.ellipse(dirty_image, (60, 232), (40, 22), 0, 0, 360, (30, 60, 90), -1)
+    dirty = picture.replace("_01.jpg", "_02.jpg")
+    cv2.imwrite(dirty, dirty_image)
+    both = reader.read(path, 2, [picture], [dirty], roi, [], STAMP)
+    assert both.foreign_scale[0] >= 1 and both.foreign_possibility[0] > 50
+    assert len(both.scale) == 3
+
+
+@pytest.mark.parametrize("change,reason", [
+    (dict(directory="/nonexistent/meter"), "outside the allowed roots"),
+    (dict(directory="PRESETS/meter_1/19990101_000000"), "not found"),
+    (dict(foreign_detect=3), "foreign_detect"),
+    (dict(filename=[]), "filename has 0 entries"),
+    (dict(filename=["PIC", "PIC"]), "filename has 2 entries"),
+    (dict(filename=["PICTURES/missing.jpg"]), "unreadable"),
+    (dict(roi_vertex=[1, 2, 3]), "8 numbers per box"),
+    (dict(roi_vertex="DROP8"), "roi_vertex has 2 box"),
+    (dict(roi_vertex="SHIFT"), "outside the 480x270 picture"),
+    (dict(roi_vertex="TWIST"), "not a convex"),
+    (dict(roi_vertex_thermal=[0] * 8), "roi_vertex_thermal has 1 box"),
+    (dict(foreign_detect=1, foreign_filename=[]), "foreign_filename is empty"),
+])
+def test_bad_requests_fail_with_a_reason(setup, change, reason):
+    reader, path, picture, roi, _scene = setup
+    args = dict(directory=path, foreign_detect=0, filename=[picture], foreign_filename=[], roi_vertex=roi,
+                roi_vertex_thermal=[])
+    args.update(change)
+    if args["roi_vertex"] == "DROP8":
+        args["roi_vertex"] = roi[:16]
+    elif args["roi_vertex"] == "SHIFT":
+        args["roi_vertex"] = [v + 400 for v in roi]
+    elif args["roi_vertex"] == "TWIST":
+        args["roi_vertex"] = roi[2:4] + roi[0:2] + roi[4:]
+    presets = os.path.dirname(os.path.dirname(path))
+    args["directory"] = args["directory"].replace("PRESETS", presets)
+    args["filename"] = [f.replace("PICTURES", os.path.dirname(picture)).replace("PIC", picture)
+                        if f != "PIC" else picture for f in args["filename"]]
+    with pytest.raises(ReadError) as err:
+        reader.read(args["directory"], args["foreign_detect"], args["filename"], args["foreign_filename"],
+                    args["roi_vertex"], args["roi_vertex_thermal"], STAMP)
+    assert reason in str(err.value)
+
+
+def test_thermal_target(tmp_path):
+    from inspection_robot.inspection.calibration import calibrate
+    from inspection_robot.inspection.preset import PresetDirWriter, PresetInfo, write_file_atomic
+    with PresetDirWriter(str(tmp_path), "hot", "20260101_000000") as writer:
+        cv2.imwrite(writer.file("zoom0.jpg"), np.zeros((90, 160, 3), np.uint8))
+        info = PresetInfo("hot", "infrared", True, "20260101_000000", 0, 0, 1.0, 0x4000, (0, 0, 0), [1.0], 160, 90)
+        write_file_atomic(writer.file("preset.ini"), info.to_ini())
+        calibrate(writer.path, [{"kind": "thermal", "box": [10, 10, 50, 10, 50, 50, 10, 50],
+                                 "thermal_box": [5, 5, 30, 5, 30, 30, 5, 30]}], S.linear_optics(160, 90))
+        path = writer.commit()
+    frame = np.full((60, 80), 20.0, np.float32)
+    frame[12, 14] = 65.25
+    np.save(str(tmp_path / "frame.npy"), frame)
+    reader = ScaleReader([str(tmp_path)], [str(tmp_path)], str(tmp_path / "out"))
+    out = reader.read(path, 0, [str(tmp_path / "frame.npy")], [], [10, 10, 50, 10, 50, 50, 10, 50],
+                      [5, 5, 30, 5, 30, 30, 5, 30], STAMP)
+    assert out.scale == [pytest.approx(65.25)]
+    assert os.path.isfile(out.picture_path[0])

@@ -1,0 +1,118 @@
+"""The pipeline end to end on the simulated yard without ROS: record, calibrate from ground truth,
+come back with a pose error, find, read; every reading checked against the world's truth."""
+import math
+import os
+
+import cv2
+import pytest
+import yaml
+
+from inspection_robot.camera.optics import ZoomOptics
+from inspection_robot.inspection.calibration import calibrate
+from inspection_robot.inspection.finder import Cancelled, Finder, FindError, ThermalGeometry
+from inspection_robot.inspection.locate import Locator
+from inspection_robot.inspection.preset import load_preset
+from inspection_robot.inspection.reading import ScaleReader
+from inspection_robot.inspection.recorder import record_preset, zoom_ladder
+from inspection_robot.sim.inspection_sim import RenderedHead, world_specs
+from inspection_robot.sim.render import Renderer, ThermalRenderer
+from inspection_robot.sim.world import World
+
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+WIDTH, HEIGHT = 800, 450
+
+
+def _optics():
+    with open(os.path.join(ROOT, "config", "camera_optics.yaml")) as f:
+        table = yaml.safe_load(f)["camera_optics"]
+    return ZoomOptics(table["zoom_hfov_deg"], WIDTH, HEIGHT)
+
+
+def test_zoom_ladder():
+    assert zoom_ladder(8.0, 1.0) == [8.0, 4.0, 2.0, 1.0]
+    assert zoom_ladder(1.0, 1.0) == [1.0]
+    assert zoom_ladder(3.0, 1.0) == [3.0, 1.5, 1.0]
+    assert len(zoom_ladder(30.0, 1.0)) == 6
+
+
+def _aim(face, dist):
+    normal = face.quad.normal
+    spot = face.quad.centre + normal * dist
+    tilt = math.degrees(math.atan2(1.2 - face.quad.centre[2], dist))
+    return (spot[0], spot[1], math.atan2(-normal[1], -normal[0])), tilt
+
+
+@pytest.fixture(scope="module")
+def yard():
+    world = World.load(os.path.join(ROOT, "config", "sim_world.yaml"))
+    return world, Renderer(world, seed=3), ThermalRenderer(world, seed=3)
+
+
+@pytest.mark.parametrize("face_id,dist,zoom", [("breaker_1/sf6_pressure", 3.0, 4.0),
+                                               ("transformer_1/oil_level", 4.0, 3.0)])
+def test_record_find_read_with_pose_error(tmp_path, yard, face_id, dist, zoom):
+    world, renderer, thermal = yard
+    optics = _optics()
+    face = world.faces[face_id]
+    pose, tilt = _aim(face, dist)
+    head = RenderedHead(renderer, optics, pose, 1.2, WIDTH, HEIGHT, thermal)
+    head.set_angles(0.0, tilt)
+    head.set_zoom(zoom)
+    presets, pictures = str(tmp_path / "presets"), str(tmp_path / "pictures")
+    state = {"pan_deg": 0.0, "tilt_deg": tilt, "zoom": zoom, "focus_position": 0x5000, "pose": pose}
+    path = record_preset(head, presets, "p1", "20260101_100000", state)
+    specs = world_specs(world, head, switch_picture_path=str(tmp_path / "%s_%s.png"))
+    assert any(s["kind"] == "pointer" for s in specs)
+    calibrate(path, specs, optics)
+    preset = load_preset(path)
+    # values change, the robot comes back 0.3 m / 5 deg off
+    truth = {}
+    for spec in specs:
+        f = world.faces[spec["name"]]
+        if f.type == "gauge":
+            truth[f.id] = f.set_value(f.range[0] + 0.37 * (f.range[1] - f.range[0]))
+        elif f.type == "lamp":
+            truth[f.id] = f.set_value("off" if f.value == "on" else "on")
+        elif f.type == "switch":
+            truth[f.id] = f.set_value("open" if f.value == "closed" else "closed")
+    back = (pose[0] + 0.3 * math.sin(pose[2]), pose[1] - 0.3 * math.cos(pose[2]), pose[2] + math.radians(5))
+    head.pose = back
+    finder = Finder(head, optics, Locator("orb"), pictures, max_moves=4)
+    correction = math.degrees(pose[2] - back[2])
+    result = finder.find(preset, "find_both", correction, "20260102_100000", cv2.imread)
+    assert os.path.basename(result.filename).startswith("zoom0_20260102_100000_")
+    assert len(result.roi_vertex) == 8 * len(preset.targets)
+    assert result.foreign_filename
+    reader = ScaleReader([presets], [pictures], pictures)
+    out = reader.read(path, 2, [result.filename], [result.foreign_filename], result.roi_vertex, [], "20260102_100001")
+    for target, value in zip(preset.targets, out.scale):
+        f = world.faces[target.name]
+        if f.type == "gauge":
+            assert abs(value - truth[f.id]) / (f.range[1] - f.range[0]) * 100 < 1.0, (f.id, value, truth[f.id])
+        elif f.type == "lamp":
+            assert (value > 0) == (truth[f.id] == "on"), (f.id, value)
+        else:
+            assert value == (1.0 if truth[f.id] == "closed" else 0.0), (f.id, value)
+    assert out.foreign_scale == [0.0], out.foreign_picture_path
+
+
+def test_find_fails_with_a_reason_when_the_view_is_gone(tmp_path, yard):
+    world, renderer, _thermal = yard
+    optics = _optics()
+    face = world.faces["breaker_1/sf6_pressure"]
+    pose, tilt = _aim(face, 3.0)
+    head = RenderedHead(renderer, optics, pose, 1.2, WIDTH, HEIGHT)
+    head.set_angles(0.0, tilt)
+    head.set_zoom(4.0)
+    state = {"pan_deg": 0.0, "tilt_deg": tilt, "zoom": 4.0, "pose": pose}
+    path = record_preset(head, str(tmp_path), "p2", "20260101_100000", state)
+    calibrate(path, world_specs(world, head), optics)
+    head.pose = (pose[0], pose[1], pose[2] + math.pi)   # facing away, and we claim no correction
+    finder = Finder(head, optics, Locator("orb"), str(tmp_path / "pic"), max_moves=2)
+    with pytest.raises(FindError) as err:
+        finder.find(load_preset(path), "find_scale", 0.0, "20260102_000000", cv2.imread)
+    assert "not found" in str(err.value)
+    cancelled = Finder(head, optics, Locator("orb"), str(tmp_path / "pic"), is_cancelled=lambda: True)
+    with pytest.raises(Cancelled):
+        cancelled.find(load_preset(path), "find_scale", 0.0, "20260102_000001", cv2.imread)
+    assert ThermalGeometry(500, 384, 288).width == 384
