@@ -1,8 +1,12 @@
 """Shared helpers for the rostest scripts: waiting for conditions with a deadline, never sleeping blind."""
+import itertools
 import threading
 import time
 
 import rospy
+
+from inspection_robot.msg import GeneralAck, GeneralCmd
+from inspection_robot.srv import ControlService
 
 
 def wait_for(condition, timeout, message="condition", period=0.01):
@@ -48,3 +52,44 @@ class Latest(object):
 
 def wait_subscribed(publisher, timeout=5.0):
     wait_for(lambda: publisher.get_num_connections() > 0, timeout, "subscriber of " + publisher.name)
+
+
+_TRANS_IDS = itertools.count(1000)
+
+
+class TwinClient(object):
+    """Reaches one device node through both twins: its ControlService and its cmd/ack topics.
+
+    Every request gets a fresh trans_id; the reply must echo it (and, on the topic, be
+    addressed back to the sender and signed by ``node``).
+    """
+
+    def __init__(self, service, cmd_topic, ack_topic, node, timeout=10.0):
+        rospy.wait_for_service(service, timeout)
+        self.node = node
+        self.proxy = rospy.ServiceProxy(service, ControlService)
+        self.acks = Latest(ack_topic, GeneralAck, queue_size=200)
+        self.publisher = rospy.Publisher(cmd_topic, GeneralCmd, queue_size=10)
+        wait_subscribed(self.publisher, timeout)
+        self.acks.wait_connected(timeout)
+
+    def call(self, cmd, data="", sender="server"):
+        """Service twin: returns the ControlService response."""
+        trans_id = next(_TRANS_IDS)
+        reply = self.proxy(sender=sender, cmd=cmd, data=data, trans_id=trans_id)
+        if reply.trans_id != trans_id:
+            raise AssertionError("%s: trans_id %d echoed as %d" % (cmd, trans_id, reply.trans_id))
+        return reply
+
+    def topic(self, cmd, data="", sender="server", timeout=10.0):
+        """Topic twin: publishes the command and returns its GeneralAck."""
+        trans_id = next(_TRANS_IDS)
+        self.publisher.publish(GeneralCmd(sender=sender, cmd=cmd, data=data, trans_id=trans_id))
+        ack = self.acks.wait(lambda m: m.trans_id == trans_id, timeout, "ack %d of %s" % (trans_id, cmd))
+        if (ack.receiver, ack.sender) != (sender, self.node):
+            raise AssertionError("ack of %s addressed %r from %r" % (cmd, ack.receiver, ack.sender))
+        return ack
+
+    def both(self):
+        """(name, callable) for the service twin and the topic twin; both return .ack/.data."""
+        return (("service", self.call), ("topic", self.topic))

@@ -7,9 +7,9 @@ import unittest
 import rospy
 import rostest
 
-from inspection_robot.msg import ControlStatus, GeneralAck, GeneralCmd
+from inspection_robot.msg import ControlStatus
 from inspection_robot.srv import ControlService
-from rostest_helpers import Latest, wait_for, wait_subscribed
+from rostest_helpers import TwinClient, wait_for, wait_subscribed
 
 
 def floats(text):
@@ -17,22 +17,16 @@ def floats(text):
 
 
 class ArmTest(unittest.TestCase):
-    trans_id = 100
-
     @classmethod
     def setUpClass(cls):
         rospy.init_node("test_ptz_arm")
         cls.root = rospy.get_param("~root")
-        rospy.wait_for_service("arm_control", 10.0)
+        cls.arm = TwinClient("arm_control", "arm_cmd", "arm_ack", "robot_arm")
+        cls.acks = cls.arm.acks
         rospy.wait_for_service("robot_arm/sim_control", 10.0)
-        cls.service = rospy.ServiceProxy("arm_control", ControlService)
         cls.sim = rospy.ServiceProxy("robot_arm/sim_control", ControlService)
-        cls.acks = Latest("arm_ack", GeneralAck, queue_size=200)
-        cls.cmd = rospy.Publisher("arm_cmd", GeneralCmd, queue_size=10)
         cls.control = rospy.Publisher("control_status", ControlStatus, queue_size=10, latch=True)
-        for pub in (cls.cmd, cls.control):
-            wait_subscribed(pub)
-        cls.acks.wait_connected()
+        wait_subscribed(cls.control)
         cls.control.publish(ControlStatus(mode=0))
 
     @classmethod
@@ -45,18 +39,13 @@ class ArmTest(unittest.TestCase):
         self.assertEqual(self.call("reset").ack, "success")
 
     def call(self, cmd, data="", sender="server"):
-        return self.service(sender=sender, cmd=cmd, data=data, trans_id=3)
+        return self.arm.call(cmd, data, sender)
 
     def topic(self, cmd, data="", sender="server"):
-        ArmTest.trans_id += 1
-        tid = ArmTest.trans_id
-        self.cmd.publish(GeneralCmd(sender=sender, cmd=cmd, data=data, trans_id=tid))
-        ack = self.acks.wait(lambda m: m.trans_id == tid, 8.0, "ack of %s" % cmd)
-        self.assertEqual((ack.receiver, ack.sender), (sender, "robot_arm"))
-        return ack
+        return self.arm.topic(cmd, data, sender)
 
     def both(self):
-        return (("service", self.call), ("topic", self.topic))
+        return self.arm.both()
 
     def position(self):
         return floats(self.call("get_position").data)

@@ -10,31 +10,28 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64
 
 from inspection_robot.camera.optics import ZoomOptics
-from inspection_robot.msg import ControlStatus, GeneralAck, GeneralCmd, PresetRotate
+from inspection_robot.msg import ControlStatus, PresetRotate
 from inspection_robot.srv import ControlService
-from rostest_helpers import Latest, wait_for, wait_subscribed
+from rostest_helpers import Latest, TwinClient, wait_for, wait_subscribed
 
 
 class TerraceTest(unittest.TestCase):
-    trans_id = 1000
+    trans_id = 50000  # preset_rotate ids; TwinClient numbers its own from 1000
 
     @classmethod
     def setUpClass(cls):
         rospy.init_node("test_ptz_terrace")
-        rospy.wait_for_service("terrace_control", 10.0)
+        cls.terrace = TwinClient("terrace_control", "terrace_cmd", "terrace_ack", "cloud_terrace")
+        cls.acks = cls.terrace.acks
         rospy.wait_for_service("sim_pelco_head/sim_control", 10.0)
-        cls.service = rospy.ServiceProxy("terrace_control", ControlService)
         cls.sim = rospy.ServiceProxy("sim_pelco_head/sim_control", ControlService)
-        cls.acks = Latest("terrace_ack", GeneralAck, queue_size=100)
         cls.state = Latest("terrace_state", JointState, queue_size=100)
         cls.diagnostics = Latest("diagnostics", DiagnosticArray, queue_size=100)
-        cls.cmd = rospy.Publisher("terrace_cmd", GeneralCmd, queue_size=10)
         cls.control = rospy.Publisher("control_status", ControlStatus, queue_size=10, latch=True)
         cls.rotate = rospy.Publisher("preset_rotate", PresetRotate, queue_size=10)
         cls.zoom = rospy.Publisher("camera_zoom", Float64, queue_size=1, latch=True)
-        for pub in (cls.cmd, cls.control, cls.rotate, cls.zoom):
+        for pub in (cls.control, cls.rotate, cls.zoom):
             wait_subscribed(pub)
-        cls.acks.wait_connected()
         cls.control.publish(ControlStatus(mode=0))
         wait_for(lambda: cls.call("get_angle").ack == "success", 10.0, "head answering")
 
@@ -46,16 +43,10 @@ class TerraceTest(unittest.TestCase):
 
     @classmethod
     def call(cls, cmd, data="", sender="server"):
-        return cls.service(sender=sender, cmd=cmd, data=data, trans_id=7)
+        return cls.terrace.call(cmd, data, sender)
 
     def topic(self, cmd, data="", sender="server"):
-        TerraceTest.trans_id += 1
-        tid = TerraceTest.trans_id
-        self.cmd.publish(GeneralCmd(sender=sender, cmd=cmd, data=data, trans_id=tid))
-        ack = self.acks.wait(lambda m: m.trans_id == tid, 6.0, "ack of %s" % cmd)
-        self.assertEqual(ack.receiver, sender)
-        self.assertEqual(ack.sender, "cloud_terrace")
-        return ack
+        return self.terrace.topic(cmd, data, sender)
 
     def sim_cmd(self, cmd, data=""):
         reply = self.sim(cmd=cmd, data=data)
@@ -67,9 +58,7 @@ class TerraceTest(unittest.TestCase):
         return pan, tilt, wiper, lamp
 
     def both(self):
-        """The service twin and the topic twin, as callables returning (ack, data)."""
-        return (("service", lambda c, d="", s="server": self.call(c, d, s)),
-                ("topic", lambda c, d="", s="server": self.topic(c, d, s)))
+        return self.terrace.both()
 
     def test_set_and_get_angles_both_twins(self):
         for name, run in self.both():
