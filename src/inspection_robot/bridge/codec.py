@@ -21,7 +21,7 @@ import base64
 import binascii
 import re
 
-from inspection_robot.bridge.cbor import ROS_ARRAY_TAGS, Tagged, typed_array
+from inspection_robot.bridge.cbor import ROS_ARRAY_TAGS, typed_array
 
 INT_RANGES = {
     "int8": (-2 ** 7, 2 ** 7 - 1), "byte": (-2 ** 7, 2 ** 7 - 1), "uint8": (0, 2 ** 8 - 1),

@@ -62,8 +62,8 @@ OPS = {
                      _f("timeout", NUMBER, type_name="number")],
     "advertise_service": [_f("service", str, True), _f("type", str, True)],
     "unadvertise_service": [_f("service", str, True)],
-    "service_response": [_f("service", str, True), _f("values", (dict, list, str, type(None)), default=None,
-                                                     type_name="object"),
+    "service_response": [_f("service", str, True),
+                         _f("values", (dict, list, str, type(None)), default=None, type_name="object"),
                          _f("result", bool, default=True)],
     "set_level": [_f("level", str, True)],
     "fragment": [_f("id", ANY_ID, True, type_name="string"), _f("data", str, True), _f("num", int, True),
@@ -383,8 +383,8 @@ class Session(object):
     def _op_subscribe(self, args, mid):
         topic = args["topic"]
         if args["compression"] not in COMPRESSIONS:
-            raise BridgeError("compression must be one of %s, not %r" % (", ".join(COMPRESSIONS),
-                                                                          args["compression"]))
+            raise BridgeError("compression must be one of %s, not %r"
+                              % (", ".join(COMPRESSIONS), args["compression"]))
         if args["throttle_rate"] < 0 or args["queue_length"] < 0:
             raise BridgeError("throttle_rate and queue_length must not be negative")
         sub = self._subscriptions.get(topic)
