@@ -274,6 +274,8 @@ class Session(object):
             getattr(self, "_op_" + op)(args, mid)
         except BridgeError as exc:
             self.status(exc.level, "%s: %s" % (op, exc), mid, op)
+        except ValueError as exc:  # bad message contents or type names (codec, type loading)
+            self.status("error", "%s: %s" % (op, exc), mid, op)
         except Exception as exc:  # boundary: one bad op never takes the connection down
             self._log("error", "client %s: %s failed: %r" % (self.client_id, op, exc))
             self.status("error", "%s: %s" % (op, exc), mid, op)
