@@ -202,8 +202,8 @@ class BridgeLinkTest(unittest.TestCase):
         for name, field, args in (("publishers", "publishers", {"topic": NS + "rosapi_topic"}),
                                   ("subscribers", "subscribers", {"topic": "/client_count"}),
                                   ("has_param", "exists", {"name": "/rosbridge_websocket/port"})):
-            result = roslibpy.Service(self.ros, "/rosapi/" + name, "rosapi/X").call(roslibpy.ServiceRequest(args),
-                                                                                   timeout=5.0)
+            service = roslibpy.Service(self.ros, "/rosapi/" + name, "rosapi/X")
+            result = service.call(roslibpy.ServiceRequest(args), timeout=5.0)
             self.assertTrue(result[field], name)
 
     # ------------------------------------------------------------------ encodings
