@@ -1,0 +1,101 @@
+"""A minimal blocking websocket client for tests and benchmarks of the bridge (tornado, own thread).
+
+Not used by the robot: it lets rostests and bench/bench_bridge.py send raw frames (JSON, CBOR,
+fragments, malformed input) that roslibpy cannot produce, and read every frame the server sends.
+"""
+import asyncio
+import json
+import queue
+import threading
+
+import tornado.httpclient
+import tornado.ioloop
+import tornado.websocket
+
+from inspection_robot.bridge import cbor
+
+CLOSED = object()
+
+
+class RawClient(object):
+    """Connects to ``url`` (ws:// or wss://); frames are read with :meth:`recv`."""
+
+    def __init__(self, url, timeout=5.0, ssl_options=None, max_message_size=64 * 1024 * 1024):
+        self.url = url
+        self.frames = queue.Queue()
+        self.close_code = None
+        self._error = None
+        self._conn = None
+        self._loop = None
+        self._ready = threading.Event()
+        self._request = tornado.httpclient.HTTPRequest(url, ssl_options=ssl_options) if ssl_options else url
+        self._max = max_message_size
+        self._thread = threading.Thread(target=self._run, name="raw_ws_client")
+        self._thread.daemon = True
+        self._thread.start()
+        if not self._ready.wait(timeout):
+            raise RuntimeError("no websocket connection to %s within %.1f s" % (url, timeout))
+        if self._error is not None:
+            raise self._error
+
+    def _run(self):
+        asyncio.set_event_loop(asyncio.new_event_loop())
+        self._loop = tornado.ioloop.IOLoop.current()
+        try:
+            self._conn = self._loop.run_sync(self._connect)
+        except Exception as exc:  # boundary: reported to the constructor's caller
+            self._error = exc
+            self._ready.set()
+            return
+        self._ready.set()
+        self._loop.start()
+
+    async def _connect(self):
+        return await tornado.websocket.websocket_connect(self._request, on_message_callback=self._on_message,
+                                                         max_message_size=self._max)
+
+    def _on_message(self, message):
+        if message is None:
+            self.close_code = self._conn.close_code if self._conn is not None else None
+            self.frames.put(CLOSED)
+        else:
+            self.frames.put(message)
+
+    def send(self, data):
+        """Send a dict (as JSON), a str (text frame) or bytes (binary frame)."""
+        if isinstance(data, dict):
+            data = json.dumps(data)
+        self._loop.add_callback(self._write, data)
+
+    def _write(self, data):
+        try:
+            self._conn.write_message(data, binary=isinstance(data, bytes))
+        except tornado.websocket.WebSocketClosedError:
+            pass
+
+    def recv(self, timeout=5.0):
+        """The next frame (str or bytes), CLOSED when the server closed; queue.Empty on timeout."""
+        return self.frames.get(timeout=timeout)
+
+    def recv_message(self, predicate=lambda m: True, timeout=5.0):
+        """The next decoded message (JSON or CBOR) satisfying ``predicate``; others are skipped."""
+        import time
+        deadline = time.monotonic() + timeout
+        while True:
+            remaining = deadline - time.monotonic()
+            if remaining <= 0:
+                raise queue.Empty()
+            frame = self.recv(remaining)
+            if frame is CLOSED:
+                raise ConnectionError("server closed the connection (code %s)" % self.close_code)
+            message = cbor.loads(frame) if isinstance(frame, bytes) else json.loads(frame)
+            if predicate(message):
+                return message
+
+    def close(self):
+        def shut():
+            self._conn.close()
+            self._loop.call_later(0.2, self._loop.stop)
+        if self._loop is not None and self._conn is not None:
+            self._loop.add_callback(shut)
+        self._thread.join(2.0)

@@ -1,0 +1,302 @@
+"""The ROS side of the bridge: shared publishers/subscribers, service calls and servers, graph.
+
+:class:`RosBackend` implements what protocol.Session needs. One rospy.Subscriber per topic
+serves every client; each ROS message is converted to JSON once, in rospy's thread, and handed
+to the event loop (``post``) for fan-out. Service calls and rosapi requests run on a thread
+pool; their results come back through ``post``. Services a client advertises are rospy.Services
+whose handler forwards the request to that client and waits (bounded) for its service_response.
+This module and ros_types.py are the bridge's only rospy users (test_import_rules.py exempts them).
+"""
+import concurrent.futures
+import threading
+
+import rosgraph
+import rospy
+import rosservice
+
+from inspection_robot.bridge.protocol import BridgeError, Outgoing
+
+
+def type_conflict(topic, wanted, established):
+    return BridgeError("Tried to register topic %s with type %s but it is already established with type %s"
+                       % (topic, wanted, established))
+
+
+class _Topic(object):
+    __slots__ = ("handle", "type_name", "sessions")
+
+    def __init__(self, handle, type_name):
+        self.handle = handle
+        self.type_name = type_name
+        self.sessions = set()
+
+
+class RosBackend(object):
+    """ROS operations for the sessions. ``post(fn, *args)`` runs fn on the event-loop thread."""
+
+    def __init__(self, types, codec, post, executor, service_timeout=10.0, subscriber_queue_size=100,
+                 log=None):
+        self._types = types
+        self._codec = codec
+        self._post = post
+        self._executor = executor
+        self._service_timeout = float(service_timeout)
+        self._sub_queue = int(subscriber_queue_size)
+        self._log = log or (lambda level, text: None)
+        self._publishers = {}   # topic -> _Topic(rospy.Publisher)
+        self._subscribers = {}  # topic -> _Topic(rospy.Subscriber)
+        self._services = {}     # service -> (rospy.Service, session, type)
+        self._service_types = {}  # cache: service -> type of ROS services called
+        self._proxies = {}      # (service, type) -> idle persistent ServiceProxy list
+        self._proxy_lock = threading.Lock()
+        self._master = rosgraph.Master(rospy.get_name())
+
+    # ---------------------------------------------------------------- graph queries
+    def topic_type(self, topic):
+        for table in (self._publishers, self._subscribers):
+            if topic in table:
+                return table[topic].type_name
+        resolved = rospy.resolve_name(topic)
+        for name, type_name in self._master.getTopicTypes():
+            if name == resolved:
+                return type_name
+        return None
+
+    def check_type(self, topic, type_name):
+        established = self.topic_type(topic)
+        if established and type_name and established != type_name:
+            raise type_conflict(topic, type_name, established)
+
+    def local_service_type(self, service):
+        entry = self._services.get(service) or self._services.get(rospy.resolve_name(service))
+        return entry[2] if entry else None
+
+    # ---------------------------------------------------------------- publishing
+    def advertise(self, session, topic, type_name, latch, queue_size):
+        entry = self._publishers.get(topic)
+        if entry is None:
+            self.check_type(topic, type_name)
+            cls = self._types.message_class(type_name)
+            entry = _Topic(rospy.Publisher(topic, cls, latch=latch, queue_size=queue_size), type_name)
+            self._publishers[topic] = entry
+        elif entry.type_name != type_name:
+            raise type_conflict(topic, type_name, entry.type_name)
+        entry.sessions.add(session)
+
+    def unadvertise(self, session, topic):
+        entry = self._publishers.get(topic)
+        if entry is None:
+            return
+        entry.sessions.discard(session)
+        if not entry.sessions:
+            del self._publishers[topic]
+            entry.handle.unregister()
+
+    def publish(self, topic, values):
+        entry = self._publishers[topic]
+        entry.handle.publish(self._codec.from_json(entry.handle.data_class, values))
+
+    # ---------------------------------------------------------------- subscribing
+    def subscribe(self, session, topic, type_name):
+        entry = self._subscribers.get(topic)
+        if entry is not None:
+            if type_name and type_name != entry.type_name:
+                raise type_conflict(topic, type_name, entry.type_name)
+            entry.sessions.add(session)
+            self._replay_latched(entry, session)
+            return
+        established = self.topic_type(topic)
+        if type_name and established and established != type_name:
+            raise type_conflict(topic, type_name, established)
+        type_name = type_name or established
+        if not type_name:
+            raise BridgeError("Cannot infer topic type for topic %s as it is not yet advertised" % topic)
+        cls = self._types.message_class(type_name)
+        entry = _Topic(None, type_name)
+        entry.sessions.add(session)
+        self._subscribers[topic] = entry
+        entry.handle = rospy.Subscriber(topic, cls, self._on_message, callback_args=topic,
+                                        queue_size=self._sub_queue)
+
+    def _replay_latched(self, entry, session):
+        # rospy calls a newly added callback at once with the latched messages it holds.
+        def replay(msg, _args):
+            outgoing = Outgoing(entry_topic, msg, self._codec, self._stamp())
+            outgoing.json_text()
+            self._post(self._deliver_one, session, outgoing)
+        entry_topic = next(t for t, e in self._subscribers.items() if e is entry)
+        impl = entry.handle.impl
+        impl.add_callback(replay, None)
+        impl.remove_callback(replay, None)
+
+    @staticmethod
+    def _stamp():
+        now = rospy.get_rostime()
+        return now.secs, now.nsecs
+
+    def _on_message(self, msg, topic):
+        try:
+            outgoing = Outgoing(topic, msg, self._codec, self._stamp())
+            outgoing.json_text()  # the common encoding, computed once outside the event loop
+        except Exception as exc:  # boundary: a message we cannot convert is logged and skipped
+            rospy.logwarn_throttle(5.0, "bridge: cannot convert a message on %s: %r" % (topic, exc))
+            return
+        self._post(self._deliver, topic, outgoing)
+
+    def _deliver(self, topic, outgoing):
+        entry = self._subscribers.get(topic)
+        if entry is not None:
+            for session in list(entry.sessions):
+                session.deliver(outgoing)
+
+    def _deliver_one(self, session, outgoing):
+        entry = self._subscribers.get(outgoing.topic)
+        if entry is not None and session in entry.sessions:
+            session.deliver(outgoing)
+
+    def unsubscribe(self, session, topic):
+        entry = self._subscribers.get(topic)
+        if entry is None:
+            return
+        entry.sessions.discard(session)
+        if not entry.sessions:
+            del self._subscribers[topic]
+            entry.handle.unregister()
+
+    # ---------------------------------------------------------------- calling services
+    def run_blocking(self, fn, done):
+        """Run ``fn()`` on the pool; ``done(True, result)`` or ``done(False, text)`` on the loop."""
+        def job():
+            try:
+                result = fn()
+            except Exception as exc:  # boundary: the error goes back to the client
+                self._post(done, False, str(exc) or type(exc).__name__)
+                return
+            self._post(done, True, result)
+        self._executor.submit(job)
+
+    def call_service(self, service, args, type_name, timeout, done):
+        self.run_blocking(lambda: self._call(service, args, type_name), done)
+
+    def service_type(self, service):
+        local = self.local_service_type(service)
+        if local:
+            return local
+        resolved = rospy.resolve_name(service)
+        try:
+            return rosservice.get_service_type(resolved)
+        except rosservice.ROSServiceIOException:
+            return None
+
+    def _call(self, service, args, type_name):
+        type_name = type_name or self._service_types.get(service) or self.service_type(service)
+        if not type_name:
+            raise BridgeError("Service %s does not exist" % service)
+        srv = self._types.service_class(type_name)
+        if isinstance(args, list):
+            slots = srv._request_class.__slots__
+            if len(args) > len(slots):
+                raise BridgeError("%s takes %d arguments, got %d" % (type_name, len(slots), len(args)))
+            args = dict(zip(slots, args))
+        request = self._codec.from_json(srv._request_class, args)
+        key = (service, type_name)
+        with self._proxy_lock:
+            idle = self._proxies.setdefault(key, [])
+            proxy = idle.pop() if idle else None
+        if proxy is None:
+            proxy = rospy.ServiceProxy(service, srv, persistent=True)
+        try:
+            response = proxy.call(request)
+        except (rospy.ServiceException, rospy.ROSException, OSError) as exc:
+            proxy.close()
+            self._service_types.pop(service, None)
+            raise BridgeError("service %s failed: %s" % (service, exc))
+        self._service_types[service] = type_name
+        with self._proxy_lock:
+            if len(self._proxies[key]) < 4:
+                self._proxies[key].append(proxy)
+            else:
+                proxy.close()
+        return self._codec.to_json(response)
+
+    # ---------------------------------------------------------------- serving services
+    def advertise_service(self, session, service, type_name):
+        entry = self._services.get(service)
+        if entry is not None and entry[1] is not session:
+            raise BridgeError("Service %s is already advertised by another client" % service)
+        srv = self._types.service_class(type_name)
+        handle = rospy.Service(service, srv, lambda request: self._serve(session, service, srv, request))
+        self._services[service] = (handle, session, type_name)
+
+    def unadvertise_service(self, session, service):
+        entry = self._services.get(service)
+        if entry is not None and entry[1] is session:
+            del self._services[service]
+            entry[0].shutdown("unadvertised by the bridge client")
+
+    def _serve(self, session, service, srv, request):
+        """rospy's service thread: forward to the client, wait for its service_response."""
+        answer = concurrent.futures.Future()
+        request_id = []
+
+        def done(ok, values):
+            if not answer.done():
+                answer.set_result((ok, values))
+
+        def start():
+            request_id.append(session.request(service, self._codec.to_json(request), done))
+        self._post(start)
+        try:
+            ok, values = answer.result(timeout=self._service_timeout)
+        except concurrent.futures.TimeoutError:
+            self._post(lambda: request_id and session.cancel_request(request_id[0]))
+            raise rospy.ServiceException("the bridge client did not answer %s within %.1f s"
+                                         % (service, self._service_timeout))
+        if not ok:
+            raise rospy.ServiceException("the bridge client failed %s: %s" % (service, values))
+        try:
+            return self._codec.from_json(srv._response_class, values)
+        except ValueError as exc:
+            raise rospy.ServiceException("bad response from the bridge client: %s" % exc)
+
+
+class RosGraph(object):
+    """Master, parameter server and clock queries for rosapi."""
+
+    def __init__(self, backend):
+        self._backend = backend
+        self._master = rosgraph.Master(rospy.get_name())
+
+    def resolve(self, name):
+        return rospy.resolve_name(name) if name else name
+
+    def topic_types(self):
+        return [(name, type_name) for name, type_name in self._master.getTopicTypes()]
+
+    def system_state(self):
+        return self._master.getSystemState()
+
+    def service_type(self, service):
+        return self._backend.service_type(service)
+
+    def get_param(self, name, default):
+        return rospy.get_param(name, default)
+
+    def set_param(self, name, value):
+        rospy.set_param(name, value)
+
+    def has_param(self, name):
+        return rospy.has_param(name)
+
+    def delete_param(self, name):
+        rospy.delete_param(name)
+
+    def search_param(self, name):
+        return rospy.search_param(name)
+
+    def param_names(self):
+        return rospy.get_param_names()
+
+    def now(self):
+        now = rospy.get_rostime()
+        return now.secs, now.nsecs

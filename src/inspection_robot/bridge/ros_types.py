@@ -1,0 +1,66 @@
+"""Type support for the bridge from genpy/roslib: message and service classes by name, time.
+
+The only bridge module besides ros_adapter.py that imports ROS Python packages
+(test_import_rules.py exempts it), so codec.py and protocol.py stay pure.
+"""
+import genpy
+import roslib.message
+
+from inspection_robot.bridge.codec import TypeSupport
+
+
+class UnknownTypeError(ValueError):
+    """A message or service type name that cannot be loaded."""
+
+
+def _valid_name(type_name):
+    return isinstance(type_name, str) and type_name.count("/") == 1 and all(type_name.split("/"))
+
+
+class GenpyTypes(TypeSupport):
+    """Resolves ``pkg/Type`` names to generated classes (cached); ``now`` returns the ROS time."""
+
+    def __init__(self, now=None):
+        self._now = now
+        self._messages = {}
+        self._services = {}
+
+    def message_class(self, type_name):
+        cls = self._messages.get(type_name)
+        if cls is None:
+            cls = None
+            if _valid_name(type_name):
+                try:
+                    cls = roslib.message.get_message_class(type_name)
+                except (ValueError, ImportError, AttributeError, TypeError):
+                    cls = None
+            if cls is None:
+                raise UnknownTypeError("Unable to load the message class for type %r" % (type_name,))
+            self._messages[type_name] = cls
+        return cls
+
+    def service_class(self, type_name):
+        cls = self._services.get(type_name)
+        if cls is None:
+            cls = None
+            if _valid_name(type_name):
+                try:
+                    cls = roslib.message.get_service_class(type_name)
+                except (ValueError, ImportError, AttributeError, TypeError):
+                    cls = None
+            if cls is None:
+                raise UnknownTypeError("Unable to load the service class for type %r" % (type_name,))
+            self._services[type_name] = cls
+        return cls
+
+    def time(self, secs, nsecs):
+        return genpy.Time(secs, nsecs)
+
+    def duration(self, secs, nsecs):
+        return genpy.Duration(secs, nsecs)
+
+    def now(self):
+        if self._now is None:
+            import rospy  # only where a node runs; unit tests inject ``now``
+            return rospy.get_rostime()
+        return self._now()

@@ -1,0 +1,144 @@
+"""rosbridge_websocket: the backend link, a rosbridge-v2-compatible websocket server.
+
+Speaks the rosbridge v2 protocol (JSON text frames, CBOR binary frames) to unmodified
+roslibjs/roslibpy clients and answers /rosapi/* calls in-process (see docs/interface.md,
+"Backend link").
+
+Publishes:   client_count (std_msgs/Int32, latched): connected websocket clients
+             plus every topic a client advertises (any type)
+Subscribes:  every topic a client subscribes to (one ROS subscriber per topic, shared)
+Services:    every service a client advertises; calls any ROS service for clients
+Parameters:  ~port (int, 9090; 0 = any free port), ~address (str, "127.0.0.1"; "" = all),
+             ~actual_port (int, written: the bound port),
+             ~certfile / ~keyfile (str, ""; both set = TLS), ~auth_token (str, ""; empty = no auth),
+             ~auth_window (s, 60.0), ~max_message_size (bytes, 10000000),
+             ~ping_interval (s, 10.0; 0 = off), ~ping_timeout (s, 30.0),
+             ~send_queue_size (messages per client, 1000), ~fragment_timeout (s, 600.0),
+             ~service_timeout (s, 10.0: wait for a client's service_response),
+             ~subscriber_queue_size (ROS messages per subscribed topic, 100),
+             ~service_threads (int, 8: concurrent service calls / rosapi requests)
+"""
+import asyncio
+import concurrent.futures
+import threading
+import time
+
+import rospy
+import tornado.ioloop
+from std_msgs.msg import Int32
+
+from inspection_robot.bridge.codec import Codec
+from inspection_robot.bridge.protocol import Authenticator, Session, SessionConfig
+from inspection_robot.bridge.ros_adapter import RosBackend, RosGraph
+from inspection_robot.bridge.ros_types import GenpyTypes
+from inspection_robot.bridge.rosapi import RosApi
+from inspection_robot.bridge.server import BridgeServer, make_ssl_context
+
+LOGGERS = {"info": rospy.loginfo, "warning": rospy.logwarn, "error": rospy.logerr}
+
+
+def log(level, text):
+    LOGGERS.get(level, rospy.loginfo)("bridge: " + text)
+
+
+def read_params():
+    params = {
+        "port": int(rospy.get_param("~port", 9090)),
+        "address": str(rospy.get_param("~address", "127.0.0.1")),
+        "certfile": str(rospy.get_param("~certfile", "")),
+        "keyfile": str(rospy.get_param("~keyfile", "")),
+        "auth_token": str(rospy.get_param("~auth_token", "")),
+        "auth_window": float(rospy.get_param("~auth_window", 60.0)),
+        "max_message_size": int(rospy.get_param("~max_message_size", 10000000)),
+        "ping_interval": float(rospy.get_param("~ping_interval", 10.0)),
+        "ping_timeout": float(rospy.get_param("~ping_timeout", 30.0)),
+        "send_queue_size": int(rospy.get_param("~send_queue_size", 1000)),
+        "fragment_timeout": float(rospy.get_param("~fragment_timeout", 600.0)),
+        "service_timeout": float(rospy.get_param("~service_timeout", 10.0)),
+        "subscriber_queue_size": int(rospy.get_param("~subscriber_queue_size", 100)),
+        "service_threads": int(rospy.get_param("~service_threads", 8)),
+    }
+    if not 0 <= params["port"] <= 65535:
+        raise ValueError("~port must be 0..65535, not %d" % params["port"])
+    for name in ("max_message_size", "send_queue_size", "subscriber_queue_size", "service_threads"):
+        if params[name] < 1:
+            raise ValueError("~%s must be positive" % name)
+    if bool(params["certfile"]) != bool(params["keyfile"]) and not params["certfile"]:
+        raise ValueError("~keyfile given without ~certfile")
+    return params
+
+
+class EventLoopThread(object):
+    """Runs the tornado IOLoop (the websocket server) in its own thread; rospy keeps the main thread."""
+
+    def __init__(self):
+        self.loop = None
+        self._ready = threading.Event()
+        self._thread = threading.Thread(target=self._run, name="bridge_ioloop")
+        self._thread.daemon = True
+
+    def start(self):
+        self._thread.start()
+        self._ready.wait()
+        return self.loop
+
+    def _run(self):
+        asyncio.set_event_loop(asyncio.new_event_loop())
+        self.loop = tornado.ioloop.IOLoop.current()
+        self._ready.set()
+        self.loop.start()
+
+    def run_sync(self, fn, timeout=10.0):
+        """Run ``fn`` on the loop thread and return its result."""
+        result = concurrent.futures.Future()
+
+        def call():
+            try:
+                result.set_result(fn())
+            except Exception as exc:  # boundary: re-raised in the calling thread
+                result.set_exception(exc)
+        self.loop.add_callback(call)
+        return result.result(timeout)
+
+    def stop(self, cleanup, timeout=3.0):
+        def stop():
+            cleanup()
+            self.loop.stop()
+        self.loop.add_callback(stop)
+        self._thread.join(timeout)
+
+
+def main():
+    rospy.init_node("rosbridge_websocket")
+    params = read_params()
+    io_thread = EventLoopThread()
+    loop = io_thread.start()
+    executor = concurrent.futures.ThreadPoolExecutor(max_workers=params["service_threads"],
+                                                     thread_name_prefix="bridge_call")
+    types = GenpyTypes()
+    codec = Codec(types)
+    backend = RosBackend(types, codec, loop.add_callback, executor, params["service_timeout"],
+                         params["subscriber_queue_size"], log)
+    rosapi = RosApi(RosGraph(backend), types)
+    authenticator = None
+    if params["auth_token"]:
+        authenticator = Authenticator(params["auth_token"], lambda: rospy.get_rostime().to_sec(),
+                                      params["auth_window"])
+    config = SessionConfig(authenticator, params["fragment_timeout"], params["max_message_size"],
+                           params["service_timeout"])
+    count_pub = rospy.Publisher("client_count", Int32, queue_size=1, latch=True)
+
+    def make_session(client_id, send, call_later, close):
+        return Session(client_id, backend, send, time.monotonic, call_later, close, config, rosapi, log)
+
+    ssl_context = make_ssl_context(params["certfile"], params["keyfile"]) if params["certfile"] else None
+    server = BridgeServer(make_session, params["address"], params["port"], ssl_context,
+                          params["ping_interval"], params["ping_timeout"], params["max_message_size"],
+                          params["send_queue_size"], lambda n: count_pub.publish(Int32(n)), log)
+    port = io_thread.run_sync(server.start)
+    rospy.set_param("~actual_port", port)
+    rospy.loginfo("bridge: rosbridge v2 websocket on %s://%s:%d%s", "wss" if ssl_context else "ws",
+                  params["address"] or "0.0.0.0", port, " (auth required)" if authenticator else "")
+    rospy.spin()
+    io_thread.stop(server.stop)
+    executor.shutdown(wait=False)

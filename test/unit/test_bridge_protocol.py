@@ -1,0 +1,232 @@
+"""protocol.Session against an in-memory backend: every op, errors as status, throttling, auth, cleanup."""
+import hashlib
+import json
+
+import genpy
+
+from bridge_fakes import FakeBackend, Harness
+from inspection_robot.bridge import cbor
+from inspection_robot.bridge.compression import fragments, png_decode
+from inspection_robot.bridge.protocol import Authenticator, Outgoing, SessionConfig
+
+
+def outgoing(backend, topic, text):
+    cls = backend.types.message_class("std_msgs/String")
+    return Outgoing(topic, cls(data=text), backend.codec)
+
+
+def errors(messages):
+    return [m for m in messages if m["op"] == "status" and m["level"] == "error"]
+
+
+def test_advertise_publish_unadvertise():
+    h = Harness()
+    h.send({"op": "advertise", "id": "a1", "topic": "/t", "type": "std_msgs/String"})
+    h.send({"op": "publish", "id": "p1", "topic": "/t", "msg": {"data": "hello"}})
+    assert h.messages() == []
+    assert h.backend.published[0][0] == "/t" and h.backend.published[0][1].data == "hello"
+    h.send({"op": "unadvertise", "id": "a1", "topic": "/t"})
+    assert "/t" not in h.backend.publishers
+
+
+def test_publish_without_advertise_infers_the_type_or_fails():
+    h = Harness()
+    h.send({"op": "publish", "topic": "/known", "msg": {"data": "x"}})
+    assert h.backend.published[0][1].data == "x"
+    h.send({"op": "publish", "id": 7, "topic": "/unknown", "msg": {}})
+    (err,) = errors(h.messages())
+    assert err["id"] == 7 and "Cannot infer topic type" in err["msg"] and err["msg"].startswith("publish:")
+
+
+def test_publish_type_errors_are_reported_with_id():
+    h = Harness()
+    h.send({"op": "advertise", "topic": "/t", "type": "std_msgs/String"})
+    h.send({"op": "publish", "id": "bad", "topic": "/t", "msg": {"data": 5}})
+    (err,) = errors(h.messages())
+    assert err == {"op": "status", "level": "error", "id": "bad",
+                   "msg": "publish: std_msgs/String message requires a string for field data, but got a <class 'int'>"}
+
+
+def test_type_conflict_and_unknown_type():
+    h = Harness()
+    h.send({"op": "advertise", "id": 1, "topic": "/known", "type": "std_msgs/Int32"})
+    h.send({"op": "advertise", "id": 2, "topic": "/x", "type": "no_such_pkg/Nope"})
+    first, second = errors(h.messages())
+    assert first["id"] == 1 and "already established with type std_msgs/String" in first["msg"]
+    assert second["id"] == 2 and "no_such_pkg/Nope" in second["msg"]
+
+
+def test_subscribe_delivers_json_once_per_client_and_unsubscribe_by_id():
+    h = Harness()
+    h.send({"op": "subscribe", "id": "s1", "topic": "/known"})
+    h.send({"op": "subscribe", "id": "s2", "topic": "/known", "type": "std_msgs/String"})
+    h.session.deliver(outgoing(h.backend, "/known", "a"))
+    assert h.messages() == [{"op": "publish", "topic": "/known", "msg": {"data": "a"}}]
+    h.send({"op": "unsubscribe", "id": "s1", "topic": "/known"})
+    assert "/known" in h.backend.subscribers
+    h.send({"op": "unsubscribe", "id": "s2", "topic": "/known"})
+    assert "/known" not in h.backend.subscribers
+    h.session.deliver(outgoing(h.backend, "/known", "b"))
+    assert h.messages() == []
+
+
+def test_subscribe_cbor_png_and_fragments():
+    h = Harness()
+    h.send({"op": "subscribe", "topic": "/known", "compression": "cbor"})
+    h.session.deliver(outgoing(h.backend, "/known", "c"))
+    (frame,) = h.sent.pop()
+    assert isinstance(frame, bytes) and cbor.loads(frame) == {"op": "publish", "topic": "/known", "msg": {"data": "c"}}
+    h.send({"op": "subscribe", "topic": "/p", "type": "std_msgs/String", "compression": "png"})
+    h.session.deliver(outgoing(h.backend, "/p", "png me"))
+    (png,) = h.messages()
+    assert png["op"] == "png"
+    assert json.loads(png_decode(png["data"])) == {"op": "publish", "topic": "/p", "msg": {"data": "png me"}}
+    h.send({"op": "subscribe", "topic": "/f", "type": "std_msgs/String", "fragment_size": 10})
+    h.session.deliver(outgoing(h.backend, "/f", "x" * 40))
+    parts = h.messages()
+    assert all(p["op"] == "fragment" for p in parts) and len(parts) == parts[0]["total"] > 1
+    text = "".join(p["data"] for p in sorted(parts, key=lambda p: p["num"]))
+    assert json.loads(text)["msg"]["data"] == "x" * 40
+
+
+def test_throttle_rate_without_queue_drops_messages_inside_the_interval():
+    h = Harness()
+    h.send({"op": "subscribe", "topic": "/known", "throttle_rate": 100})
+    for i in range(10):
+        h.session.deliver(outgoing(h.backend, "/known", str(i)))
+        h.advance(0.03)
+    got = [m["msg"]["data"] for m in h.messages()]
+    assert got == ["0", "4", "8"]
+
+
+def test_throttle_rate_with_queue_length_keeps_the_newest():
+    h = Harness()
+    h.send({"op": "subscribe", "topic": "/known", "throttle_rate": 100, "queue_length": 2})
+    for i in range(10):
+        h.session.deliver(outgoing(h.backend, "/known", str(i)))
+    h.advance(0.0)
+    assert [m["msg"]["data"] for m in h.messages()] == ["8"]  # the queue of 2 kept 8 and 9
+    h.advance(0.05)
+    assert h.messages() == []
+    h.advance(0.05)
+    assert [m["msg"]["data"] for m in h.messages()] == ["9"]
+    h.session.deliver(outgoing(h.backend, "/known", "10"))
+    h.advance(0.05)
+    assert h.messages() == []
+    h.advance(0.05)
+    assert [m["msg"]["data"] for m in h.messages()] == ["10"]
+
+
+def test_call_service_dict_and_list_args_and_failure():
+    h = Harness()
+    h.send({"op": "call_service", "id": "c1", "service": "/echo", "args": {"a": 1}})
+    h.send({"op": "call_service", "id": "c2", "service": "/missing", "args": [1, 2]})
+    ok, status, failed = h.messages()
+    assert ok == {"op": "service_response", "service": "/echo", "values": {"echo": {"a": 1}}, "result": True,
+                  "id": "c1"}
+    assert status["level"] == "error" and status["id"] == "c2"
+    assert failed["result"] is False and "does not exist" in failed["values"] and failed["id"] == "c2"
+    assert h.backend.calls[1] == ("/missing", [1, 2])
+
+
+def test_advertised_service_round_trip_and_cleanup_on_close():
+    h = Harness()
+    h.send({"op": "advertise_service", "service": "/svc", "type": "inspection_robot/ControlService"})
+    answers = []
+    h.session.request("/svc", {"cmd": "x"}, lambda ok, values: answers.append((ok, values)))
+    (request,) = h.messages()
+    assert request["op"] == "call_service" and request["args"] == {"cmd": "x"}
+    h.send({"op": "service_response", "id": request["id"], "service": "/svc", "values": {"ack": "success"},
+            "result": True})
+    assert answers == [(True, {"ack": "success"})]
+    h.send({"op": "service_response", "id": "nope", "service": "/svc", "values": {}, "result": True})
+    assert "No pending call" in errors(h.messages())[0]["msg"]
+    h.session.request("/svc", {}, lambda ok, values: answers.append((ok, values)))
+    h.send({"op": "advertise", "topic": "/t", "type": "std_msgs/String"})
+    h.send({"op": "subscribe", "topic": "/known"})
+    h.session.close()
+    assert answers[-1][0] is False and "disconnected" in answers[-1][1]
+    assert h.backend.services == {} and h.backend.publishers == {} and h.backend.subscribers == {}
+
+
+def test_malformed_frames_get_error_status_and_session_keeps_working():
+    h = Harness()
+    for frame in ["{not json", "[1, 2]", json.dumps({"id": "x"}), json.dumps({"op": "dance", "id": 3}),
+                  json.dumps({"op": "subscribe", "id": 4}), json.dumps({"op": "subscribe", "topic": 5, "id": 5}),
+                  b"\xff\x00", json.dumps({"op": "subscribe", "topic": "/known", "compression": "zip"})]:
+        h.send(frame)
+    errs = errors(h.messages())
+    assert len(errs) == 8
+    assert "Unknown operation: dance" in errs[3]["msg"] and errs[3]["id"] == 3
+    assert errs[4]["msg"] == "subscribe: Expected a topic field but none was found." and errs[4]["id"] == 4
+    assert "Expected field topic to be str" in errs[5]["msg"]
+    h.send({"op": "publish", "topic": "/known", "msg": {"data": "still fine"}})
+    assert h.backend.published[-1][1].data == "still fine"
+
+
+def test_set_level_filters_warnings():
+    h = Harness()
+    h.send({"op": "unsubscribe", "topic": "/nothing"})
+    assert h.messages() == []  # a warning, below the default level "error"
+    h.send({"op": "set_level", "level": "warning"})
+    h.send({"op": "unsubscribe", "topic": "/nothing", "id": "u"})
+    (warning,) = h.messages()
+    assert warning["level"] == "warning" and warning["id"] == "u"
+    h.send({"op": "set_level", "level": "none"})
+    h.send({"op": "dance"})
+    assert h.messages() == []
+
+
+def test_incoming_fragments_are_reassembled():
+    h = Harness()
+    text = json.dumps({"op": "publish", "topic": "/known", "msg": {"data": "y" * 100}})
+    parts = fragments(text, 17, "frag-1")
+    for part in reversed(parts):
+        h.send(part)
+    assert h.backend.published[-1][1].data == "y" * 100
+    h.send({"op": "fragment", "id": "z", "data": "a", "num": 3, "total": 2})
+    assert "outside" in errors(h.messages())[0]["msg"]
+
+
+def test_cbor_request_frames_are_accepted():
+    h = Harness()
+    h.send(cbor.dumps({"op": "publish", "topic": "/known", "msg": {"data": "from cbor"}}))
+    assert h.backend.published[-1][1].data == "from cbor"
+
+
+def test_auth_required_first():
+    config = SessionConfig(authenticator=Authenticator("s3cret", clock=lambda: 1000.0))
+    h = Harness(config=config)
+    h.send({"op": "subscribe", "topic": "/known", "id": 1})
+    assert h.closed and "Not authenticated" in errors(h.messages())[0]["msg"]
+    h = Harness(config=config)
+    h.send({"op": "auth", "mac": "wrong"})
+    assert h.closed
+    h = Harness(config=config)
+    h.send({"op": "auth", "mac": "s3cret"})
+    h.send({"op": "subscribe", "topic": "/known"})
+    assert not h.closed and "/known" in h.backend.subscribers
+    h = Harness(config=config)
+    mac = hashlib.sha512(b"s3cretclientdestrand999user2000").hexdigest()
+    h.send({"op": "auth", "mac": mac, "client": "client", "dest": "dest", "rand": "rand", "t": 999, "level": "user",
+            "end": 2000})
+    h.send({"op": "subscribe", "topic": "/known"})
+    assert not h.closed and h.messages() == []
+    h = Harness(config=config)
+    mac = hashlib.sha512(b"s3cretclientdestrand999user900").hexdigest()  # session already ended
+    h.send({"op": "auth", "mac": mac, "client": "client", "dest": "dest", "rand": "rand", "t": 999, "level": "user",
+            "end": 900})
+    assert h.closed
+
+
+def test_outgoing_encodes_once_and_keeps_nan_in_cbor():
+    backend = FakeBackend()
+    cls = backend.types.message_class("std_msgs/Float64MultiArray")
+    out = Outgoing("/f", cls(data=[1.0, float("nan")]), backend.codec)
+    assert json.loads(out.json_text())["msg"]["data"] == [1.0, None]
+    assert out.json_text() is out.json_text()
+    data = cbor.loads(out.cbor_frame())["msg"]["data"]
+    assert data[0] == 1.0 and data[1] != data[1]
+    raw = cbor.loads(Outgoing("/f", cls(data=[2.0]), backend.codec, (3, 4)).cbor_raw_frame())["msg"]
+    assert raw["secs"] == 3 and cls().deserialize(raw["bytes"]).data == (2.0,)
+    assert genpy.Time(1, 2) == backend.types.time(1, 2)
