@@ -95,6 +95,15 @@ class BridgeLinkTest(unittest.TestCase):
         publish_until(talker, {"data": "from client"}, from_client)
         self.assertEqual(from_client.last.data, "from client")
 
+    def test_first_publish_after_advertise_is_not_lost(self):
+        """As rosbridge does: a subscriber that connects just after the client's publish still gets it."""
+        heard = Latest(NS + "first_publish", String)
+        talker = roslibpy.Topic(self.ros, NS + "first_publish", "std_msgs/String")
+        self.addCleanup(talker.unadvertise)
+        talker.publish(roslibpy.Message({"data": "only once"}))  # advertises implicitly, publishes at once
+        heard.wait(lambda m: m.data == "only once", 5.0, "the single early message")
+        self.assertEqual([m.data for _t, m in heard.messages], ["only once"])
+
     def test_spec_messages_both_directions(self):
         acks = queue.Queue()
         listener = roslibpy.Topic(self.ros, NS + "camera_ack", "inspection_robot/GeneralAck")

@@ -9,6 +9,7 @@ This module and ros_types.py are the bridge's only rospy users (test_import_rule
 """
 import concurrent.futures
 import threading
+import time
 
 import rosgraph
 import rospy
@@ -23,12 +24,48 @@ def type_conflict(topic, wanted, established):
 
 
 class _Topic(object):
-    __slots__ = ("handle", "type_name", "sessions")
+    __slots__ = ("handle", "type_name", "sessions", "early")
 
-    def __init__(self, handle, type_name):
+    def __init__(self, handle, type_name, early=None):
         self.handle = handle
         self.type_name = type_name
         self.sessions = set()
+        self.early = early
+
+
+class EarlyMessageReplay(rospy.SubscribeListener):
+    """Hands messages published in the first ``window`` s of a publisher to late-connecting subscribers.
+
+    A client typically advertises and publishes at once, before TCPROS connections to the
+    topic's subscribers exist; rospy would drop those messages. rosbridge_library does the same
+    as this (its PublisherConsistencyListener, 1 s window), and backends rely on it.
+    """
+
+    MAX_MESSAGES = 100
+
+    def __init__(self, window=1.0):
+        super(EarlyMessageReplay, self).__init__()
+        self._window = float(window)
+        self._created = time.monotonic()
+        self._lock = threading.Lock()
+        self._messages = []
+
+    def _open(self):
+        return time.monotonic() - self._created < self._window
+
+    def record(self, msg):
+        if self._open():
+            with self._lock:
+                if len(self._messages) < self.MAX_MESSAGES:
+                    self._messages.append(msg)
+
+    def peer_subscribe(self, topic_name, topic_publish, peer_publish):
+        if not self._open():
+            return
+        with self._lock:
+            messages = list(self._messages)
+        for msg in messages:
+            peer_publish(msg)
 
 
 class RosBackend(object):
@@ -77,7 +114,9 @@ class RosBackend(object):
         if entry is None:
             self.check_type(topic, type_name)
             cls = self._types.message_class(type_name)
-            entry = _Topic(rospy.Publisher(topic, cls, latch=latch, queue_size=queue_size), type_name)
+            early = EarlyMessageReplay()
+            entry = _Topic(rospy.Publisher(topic, cls, latch=latch, queue_size=queue_size,
+                                           subscriber_listener=early), type_name, early)
             self._publishers[topic] = entry
         elif entry.type_name != type_name:
             raise type_conflict(topic, type_name, entry.type_name)
@@ -94,7 +133,9 @@ class RosBackend(object):
 
     def publish(self, topic, values):
         entry = self._publishers[topic]
-        entry.handle.publish(self._codec.from_json(entry.handle.data_class, values))
+        msg = self._codec.from_json(entry.handle.data_class, values)
+        entry.early.record(msg)
+        entry.handle.publish(msg)
 
     # ---------------------------------------------------------------- subscribing
     def subscribe(self, session, topic, type_name):

@@ -1,0 +1,141 @@
+#!/usr/bin/env python3
+"""rostest: sim.launch end to end, seen from the backend (roslibpy over the websocket only).
+
+Heartbeat online -> acquire backend mode -> drive -> command timeout stops -> PTZ, camera, voice
+through their twins -> a short move_action goal -> heartbeat loss stops and returns to task mode.
+rospy is used only to read the bridge's port and the simulator's true pose.
+"""
+import json
+import math
+import threading
+import time
+import unittest
+
+import roslibpy
+import roslibpy.actionlib
+import rospy
+import rostest
+from geometry_msgs.msg import PoseWithCovarianceStamped
+
+from rostest_helpers import Latest, wait_for
+
+
+class Heartbeat(object):
+    """Publishes server_status every ``period`` s through the bridge until stopped."""
+
+    def __init__(self, ros, period=0.3):
+        self._topic = roslibpy.Topic(ros, "/server_status", "inspection_robot/GeneralTopic")
+        self._period = period
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._run)
+        self._thread.daemon = True
+
+    def start(self):
+        self._thread.start()
+
+    def stop(self):
+        self._stop.set()
+        self._thread.join(2.0)
+
+    def _run(self):
+        while not self._stop.wait(self._period):
+            self._topic.publish(roslibpy.Message({"sender": "server", "data": "alive"}))
+
+
+class SystemSimTest(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        rospy.init_node("test_system_sim")
+        port = int(wait_for(lambda: rospy.get_param("/rosbridge_websocket/actual_port", None), 60.0, "bridge port"))
+        cls.ros = roslibpy.Ros("127.0.0.1", port)
+        cls.ros.run(timeout=20)
+        cls.true_pose = Latest("/sim/true_pose", PoseWithCovarianceStamped)
+        cls.status = []
+        cls.robot_status = roslibpy.Topic(cls.ros, "/robot_status", "inspection_robot/RobotStatus")
+        cls.robot_status.subscribe(cls.status.append)
+        cls.acks = []
+        for name in ("/voice_ack", "/control_ack"):
+            roslibpy.Topic(cls.ros, name, "inspection_robot/GeneralAck").subscribe(cls.acks.append)
+        cls.mode_cmd = roslibpy.Topic(cls.ros, "/mode_cmd", "inspection_robot/GeneralCmd")
+        cls.move_cmd = roslibpy.Topic(cls.ros, "/move_cmd", "inspection_robot/MoveCmd")
+        cls.voice_cmd = roslibpy.Topic(cls.ros, "/voice_cmd", "inspection_robot/VoiceCmd")
+
+    @classmethod
+    def tearDownClass(cls):
+        cls.ros.terminate()
+
+    def latest_status(self):
+        return self.status[-1] if self.status else None
+
+    def wait_status(self, predicate, timeout, what):
+        return wait_for(lambda: self.latest_status() is not None and predicate(self.latest_status())
+                        and self.latest_status(), timeout, what)
+
+    def call(self, service, cmd, data=""):
+        srv = roslibpy.Service(self.ros, service, "inspection_robot/ControlService")
+        reply = srv.call(roslibpy.ServiceRequest({"sender": "server", "trans_id": 77, "cmd": cmd, "data": data}),
+                         timeout=30)
+        self.assertEqual(reply["trans_id"], 77)
+        return reply["ack"], reply["data"]
+
+    def pose(self):
+        pose = self.true_pose.wait(timeout=10.0).pose.pose
+        return pose.position.x, pose.position.y
+
+    def test_backend_session(self):
+        heartbeat = Heartbeat(self.ros)
+        heartbeat.start()
+        self.addCleanup(heartbeat.stop)
+        self.wait_status(lambda s: s["offline_warn"] == 0, 20.0, "robot online")
+
+        # acquire backend remote control and drive forward for a second
+        self.mode_cmd.publish(roslibpy.Message({"sender": "server", "cmd": "acquire", "data": "server"}))
+        self.wait_status(lambda s: s["mode"] == 1, 10.0, "mode 1")
+        start = self.pose()
+        deadline = time.monotonic() + 1.5
+        while time.monotonic() < deadline:
+            self.move_cmd.publish(roslibpy.Message({"sender": "server", "velocity_x": 300.0, "velocity_yaw": 0.0,
+                                                    "wheel_control": 0}))
+            time.sleep(0.05)  # the backend's command rate (20 Hz), not synchronisation
+        self.wait_status(lambda s: s["velocity_x"] > 0.1, 5.0, "moving forward")
+        # the stream stops: cmd_timeout (0.5 s) brings the robot to rest
+        self.wait_status(lambda s: abs(s["velocity_x"]) < 0.01, 5.0, "stopped after cmd_timeout")
+        end = self.pose()
+        self.assertGreater(math.hypot(end[0] - start[0], end[1] - start[1]), 0.2)
+
+        # the head, the camera and the voice through their interfaces
+        self.assertEqual(self.call("/terrace_control", "set_angle", "4500,1000"), ("success", ""))
+        self.assertEqual(self.call("/terrace_control", "get_angle"), ("success", "4500,1000"))
+        ack, zoom = self.call("/camera_control", "get_zoom_level")
+        self.assertEqual(ack, "success")
+        self.assertGreaterEqual(float(zoom), 1.0)
+        self.assertEqual(self.call("/terrace_control", "no_such_cmd")[0], "failed")
+        self.voice_cmd.publish(roslibpy.Message({"sender": "server", "trans_id": 5, "language": "english",
+                                                 "data": ["[42]"]}))
+        wait_for(lambda: any(a.get("trans_id") == 5 and a["ack"] == "success" for a in self.acks), 20.0, "voice")
+
+        # release, then a short navigation goal in task mode through actionlib over the bridge
+        self.mode_cmd.publish(roslibpy.Message({"sender": "server", "cmd": "release", "data": ""}))
+        self.wait_status(lambda s: s["mode"] == 0, 10.0, "task mode")
+        x, y = self.pose()
+        client = roslibpy.actionlib.ActionClient(self.ros, "/move_action", "inspection_robot/GeneralAction")
+        goal_data = {"with_direction": 0, "precision": 0, "move_style": 0, "velocity_x": 0.5, "velocity_yaw": 0.5,
+                     "goal_pose": {"position": {"x": x + 2.0, "y": y, "z": 0},
+                                   "orientation": {"x": 0, "y": 0, "z": 0, "w": 1}}}
+        goal = roslibpy.actionlib.Goal(client, roslibpy.Message({"type": "move", "data": json.dumps(goal_data)}))
+        goal.send()
+        result = goal.wait(90)
+        self.assertEqual(result["ret_code"], "0", result)
+        x2, y2 = self.pose()
+        self.assertLess(math.hypot(x2 - (x + 2.0), y2 - y), 0.1)
+        client.dispose()
+
+        # losing the heartbeat in backend mode stops the robot and returns to task mode
+        self.mode_cmd.publish(roslibpy.Message({"sender": "server", "cmd": "acquire", "data": "server"}))
+        self.wait_status(lambda s: s["mode"] == 1, 10.0, "mode 1 again")
+        heartbeat.stop()
+        self.wait_status(lambda s: s["offline_warn"] == 1 and s["mode"] == 0, 3.0 + 2.0, "offline -> task mode")
+
+
+if __name__ == "__main__":
+    rostest.rosrun("inspection_robot", "system_sim", SystemSimTest)
