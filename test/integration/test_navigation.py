@@ -69,8 +69,11 @@ class NavigationTest(unittest.TestCase):
     @classmethod
     def on_true_pose(cls, msg):
         cls.true_pose = (msg.pose.pose.position.x, msg.pose.pose.position.y, yaw_of(msg.pose.pose.orientation))
-        if cls.relay_mode == "pass":
-            cls.relay.publish(msg)
+        if cls.relay_mode == "pass" and not rospy.is_shutdown():
+            try:
+                cls.relay.publish(msg)
+            except rospy.ROSException:
+                pass  # closed while the test process shuts down
 
     def setUp(self):
         NavigationTest.relay_mode = "pass"
@@ -158,25 +161,26 @@ class NavigationTest(unittest.TestCase):
 
     def test_04_virtual_wall_forces_detour(self):
         x0, y0, _ = self.true_pose
-        wall = {"id": "wall", "points": [[x0 + 3.0, -1.0], [x0 + 3.0, y0 + 2.0]], "closed": False}
+        wall_x, wall_end, gx = x0 - 3.0, y0 + 1.5, x0 - 6.0  # westwards: the next tests drive west
+        wall = {"id": "wall", "points": [[wall_x, -1.0], [wall_x, wall_end]], "closed": False}
         self.assertEqual(self.vo("add", json.dumps(wall)).ack, "success")
         self.plan.clear()
         track = []
         sub = rospy.Subscriber("sim/true_pose", PoseWithCovarianceStamped,
                                lambda m: track.append((m.pose.pose.position.x, m.pose.pose.position.y)), queue_size=100)
-        self.send(goal_data(x0 + 6.0, y0, velocity_x=1.0))
+        self.send(goal_data(gx, y0, velocity_x=1.0))
         code, data = self.finish(60.0)
         sub.unregister()
         self.assertEqual(code, "0", data)
         self.wait_still(3.0)
         x, y, _ = self.true_pose
-        rospy.loginfo("test_navigation: detour goal: position error %.4f m", math.hypot(x - (x0 + 6.0), y - y0))
-        self.assertLess(math.hypot(x - (x0 + 6.0), y - y0), 0.1)
+        rospy.loginfo("test_navigation: detour goal: position error %.4f m", math.hypot(x - gx, y - y0))
+        self.assertLess(math.hypot(x - gx, y - y0), 0.1)
         # the robot crossed the wall's line only beyond its end (plus the footprint)
-        crossings = [py for (ax, py), (bx, _y) in zip(track[:-1], track[1:]) if (ax - x0 - 3) * (bx - x0 - 3) <= 0]
+        crossings = [py for (ax, py), (bx, _y) in zip(track[:-1], track[1:]) if (ax - wall_x) * (bx - wall_x) <= 0]
         self.assertTrue(crossings)
-        self.assertTrue(all(py > y0 + 2.0 for py in crossings), crossings)
-        self.assertGreater(max(p.pose.position.y for p in self.plan.last.poses), y0 + 2.0)
+        self.assertTrue(all(py > wall_end + 0.45 for py in crossings), crossings)
+        self.assertGreater(max(p.pose.position.y for p in self.plan.last.poses), wall_end + 0.45)
         self.assertEqual(self.vo("delete", '{"id":"wall"}').ack, "success")
 
     def drop_rock_ahead(self, name):
@@ -200,7 +204,7 @@ class NavigationTest(unittest.TestCase):
         # 1. an obstacle that goes away within obstacle_wait: robot_control stops, the goal resumes
         self.drop_rock_ahead("rock1")
         self.control_status.wait(lambda m: m.stop_status & STOP_OBSTACLE, 3.0, "robot_control obstacle stop")
-        wait_for(lambda: len(self.alarms()) == 1, 5.0, "feedback 3 (alarm)")
+        wait_for(lambda: len(self.alarms()) >= 1, 5.0, "feedback 3 (alarm)")
         alarm = self.alarms()[0]
         self.assertTrue(alarm["nav_warn"] & 4)
         self.assertIn("obstacle", alarm["reason"])
@@ -215,7 +219,7 @@ class NavigationTest(unittest.TestCase):
         wait_for(lambda: self.true_pose[0] < resumed_at[0] - 0.5, 10.0, "robot resumed")
         # 2. an obstacle that stays: stop, and the goal ends with "3" after obstacle_wait (3 s here)
         rock_x = self.drop_rock_ahead("rock2")
-        wait_for(lambda: len(self.alarms()) == 2, 5.0, "second feedback 3 (alarm)")
+        wait_for(lambda: len(self.alarms()) >= 2, 5.0, "second feedback 3 (alarm)")
         self.control_status.wait(lambda m: m.stop_status & STOP_OBSTACLE, 3.0, "robot_control obstacle stop")
         self.wait_still(3.0)
         stopped_at = self.true_pose
@@ -255,7 +259,7 @@ class NavigationTest(unittest.TestCase):
 
     def test_08_control_mode_takeover_pauses_goal(self):
         x0, y0, _ = self.true_pose
-        gx, gy = x0 - 4.0, y0
+        gx, gy = x0 - 2.5, y0
         self.send(goal_data(gx, gy, velocity_x=0.8))
         self.wait_moving(15.0)
         wait_for(lambda: math.hypot(self.true_pose[0] - x0, self.true_pose[1] - y0) > 0.3, 15.0, "moving")
@@ -271,7 +275,7 @@ class NavigationTest(unittest.TestCase):
         self.assertIn("1", self.codes()[seen:])  # replanned
         self.wait_still(3.0)
         self.assertLess(math.hypot(self.true_pose[0] - gx, self.true_pose[1] - gy), 0.1)
-        # a goal while another mode holds the robot for longer than mode_wait (2 s here) ends with "4"
+        # a goal while another mode holds the robot for longer than mode_wait (1 s here) ends with "4"
         self.mode("acquire", "server", MODE_SERVER)
         self.addCleanup(self.mode, "release", "server", MODE_TASK)
         self.send(goal_data(x0, y0))
