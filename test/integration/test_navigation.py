@@ -1,6 +1,7 @@
 #!/usr/bin/env python3
-"""rostest: move_base end to end against the simulated chassis (goals, virtual obstacles, 3-D obstacles,
-cancel, localization loss, restart persistence, nav_status, location_cmd)."""
+"""rostest: move_base end to end against the real robot_control and its simulated chassis (goals, virtual
+obstacles, 3-D obstacles, cancel, localization loss, control-mode take-over, restart persistence,
+nav_status, location_cmd)."""
 import json
 import math
 import threading
@@ -16,7 +17,8 @@ from actionlib_msgs.msg import GoalStatus
 from geometry_msgs.msg import PoseWithCovarianceStamped
 from nav_msgs.msg import OccupancyGrid, Path
 
-from inspection_robot.msg import GeneralAck, GeneralAction, GeneralCmd, GeneralGoal, NavStatus
+from inspection_robot.interface import MODE_SERVER, MODE_TASK, STOP_OBSTACLE
+from inspection_robot.msg import ControlStatus, GeneralAck, GeneralAction, GeneralCmd, GeneralGoal, NavStatus
 from inspection_robot.srv import ControlService
 from rostest_helpers import Latest, wait_for, wait_subscribed
 
@@ -46,6 +48,8 @@ class NavigationTest(unittest.TestCase):
         cls.acks = Latest("virtual_obstacle_ack", GeneralAck)
         cls.plan = Latest("plan", Path)
         cls.initial = Latest("initialpose", PoseWithCovarianceStamped)
+        cls.control_status = Latest("control_status", ControlStatus)
+        cls.mode_cmd = rospy.Publisher("mode_cmd", GeneralCmd, queue_size=10)
         cls.vo_cmd = rospy.Publisher("virtual_obstacle_cmd", GeneralCmd, queue_size=10)
         cls.control = rospy.Publisher("control_cmd", GeneralCmd, queue_size=10)
         cls.location = rospy.Publisher("location_cmd", GeneralCmd, queue_size=10)
@@ -53,10 +57,11 @@ class NavigationTest(unittest.TestCase):
         assert cls.client.wait_for_server(rospy.Duration(30.0)), "move_action server"
         rospy.wait_for_service("sim_obstacle_control", 10.0)
         cls.sim_obstacles = rospy.ServiceProxy("sim_obstacle_control", ControlService)
-        for pub in (cls.vo_cmd, cls.control, cls.location, cls.relay):
+        for pub in (cls.vo_cmd, cls.control, cls.location, cls.relay, cls.mode_cmd):
             wait_subscribed(pub, 10.0)
         cls.acks.wait_connected(10.0)
         wait_for(lambda: cls.true_pose is not None, 10.0, "sim/true_pose")
+        cls.control_status.wait(lambda m: m.mode == MODE_TASK, 10.0, "robot_control in task mode")
         cls.trans_id = 0
         reply = cls.vo(cls, "clear", "")
         assert reply.ack == "success", reply
@@ -64,8 +69,11 @@ class NavigationTest(unittest.TestCase):
     @classmethod
     def on_true_pose(cls, msg):
         cls.true_pose = (msg.pose.pose.position.x, msg.pose.pose.position.y, yaw_of(msg.pose.pose.orientation))
-        if cls.relay_mode == "pass":
-            cls.relay.publish(msg)
+        if cls.relay_mode == "pass" and not rospy.is_shutdown():
+            try:
+                cls.relay.publish(msg)
+            except rospy.ROSException:
+                pass  # closed while the test process shuts down
 
     def setUp(self):
         NavigationTest.relay_mode = "pass"
@@ -122,22 +130,28 @@ class NavigationTest(unittest.TestCase):
     def test_02_closed_polygon_around_goal_fails_planning(self):
         ring = {"id": "fence", "points": [[48, 28], [52, 28], [52, 32], [48, 32]], "closed": True}
         self.assertEqual(self.vo("add", json.dumps(ring)).ack, "success")
+        self.addCleanup(self.vo, "delete", '{"id":"fence"}')
         self.send(goal_data(50, 30))
         code, data = self.finish(10.0)
         self.assertEqual(code, "1")
         self.assertIn("not reachable", data["reason"])
-        self.assertEqual(self.codes()[0], "0")
-        self.assertEqual(self.vo("delete", '{"id":"fence"}').ack, "success")
+        wait_for(lambda: self.codes()[:1] == ["0"], 2.0, "feedback 0 (planning)")
+        self.assertNotIn("1", self.codes())
 
     def test_03_reach_goal_30m_away_precisely_with_heading(self):
         start = self.true_pose
         gx, gy = start[0] + 30.0, start[1]
-        self.send(goal_data(gx, gy, yaw=math.pi / 2, with_direction=1, precision=1, velocity_x=1.2))
-        code, data = self.finish(90.0)
+        self.send(goal_data(gx, gy, yaw=math.pi / 2, with_direction=1, precision=1, velocity_x=1.0))
+        code, data = self.finish(60.0)
         self.assertEqual(code, "0", data)
+        self.wait_still(3.0)
         x, y, yaw = self.true_pose
-        self.assertLess(math.hypot(x - gx, y - gy), 0.02)
-        self.assertLess(abs(math.degrees(math.atan2(math.sin(yaw - math.pi / 2), math.cos(yaw - math.pi / 2)))), 3.0)
+        position_error = math.hypot(x - gx, y - gy)
+        heading_error = abs(math.degrees(math.atan2(math.sin(yaw - math.pi / 2), math.cos(yaw - math.pi / 2))))
+        rospy.loginfo("test_navigation: 30 m precise goal: position error %.4f m, heading error %.2f deg",
+                      position_error, heading_error)
+        self.assertLess(position_error, 0.02)
+        self.assertLess(heading_error, 3.0)
         codes = self.codes()
         self.assertEqual(codes[:2], ["0", "1"])
         self.assertIn("2", codes)
@@ -147,50 +161,77 @@ class NavigationTest(unittest.TestCase):
 
     def test_04_virtual_wall_forces_detour(self):
         x0, y0, _ = self.true_pose
-        wall = {"id": "wall", "points": [[x0 + 3.0, -1.0], [x0 + 3.0, y0 + 3.0]], "closed": False}
+        wall_x, wall_end, gx = x0 - 3.0, y0 + 1.5, x0 - 6.0  # westwards: the next tests drive west
+        wall = {"id": "wall", "points": [[wall_x, -1.0], [wall_x, wall_end]], "closed": False}
         self.assertEqual(self.vo("add", json.dumps(wall)).ack, "success")
         self.plan.clear()
         track = []
         sub = rospy.Subscriber("sim/true_pose", PoseWithCovarianceStamped,
                                lambda m: track.append((m.pose.pose.position.x, m.pose.pose.position.y)), queue_size=100)
-        self.send(goal_data(x0 + 6.0, y0, velocity_x=1.0))
+        self.send(goal_data(gx, y0, velocity_x=1.0))
         code, data = self.finish(60.0)
         sub.unregister()
         self.assertEqual(code, "0", data)
+        self.wait_still(3.0)
         x, y, _ = self.true_pose
-        self.assertLess(math.hypot(x - (x0 + 6.0), y - y0), 0.1)
+        rospy.loginfo("test_navigation: detour goal: position error %.4f m", math.hypot(x - gx, y - y0))
+        self.assertLess(math.hypot(x - gx, y - y0), 0.1)
         # the robot crossed the wall's line only beyond its end (plus the footprint)
-        crossings = [py for (ax, py), (bx, _y) in zip(track[:-1], track[1:]) if (ax - x0 - 3) * (bx - x0 - 3) <= 0]
+        crossings = [py for (ax, py), (bx, _y) in zip(track[:-1], track[1:]) if (ax - wall_x) * (bx - wall_x) <= 0]
         self.assertTrue(crossings)
-        self.assertTrue(all(py > y0 + 3.0 for py in crossings), crossings)
-        self.assertGreater(max(p.pose.position.y for p in self.plan.last.poses), y0 + 3.0)
+        self.assertTrue(all(py > wall_end + 0.45 for py in crossings), crossings)
+        self.assertGreater(max(p.pose.position.y for p in self.plan.last.poses), wall_end + 0.45)
         self.assertEqual(self.vo("delete", '{"id":"wall"}').ack, "success")
 
-    def test_05_obstacle_in_corridor_stops_and_finishes_3(self):
+    def drop_rock_ahead(self, name):
+        """Drop a 0.4 m rock 1.6 m ahead of the robot (driving west); return its x."""
+        px, py, _ = self.true_pose
+        reply = self.sim_obstacles(cmd="drop", data="%s,%.2f,%.2f,0.4,0.6" % (name, px - 1.6, py))
+        self.assertEqual(reply.ack, "success", reply.data)
+        return px - 1.6
+
+    def alarms(self):
+        with self.lock:
+            return [d for c, d in self.feedback if c == "3"]
+
+    def test_05_obstacle_stops_robot_resumes_when_cleared_and_finishes_3_if_it_stays(self):
         x0, y0, yaw0 = self.true_pose
-        gx, gy = x0 - 8.0, y0   # drive back west along the free lane
+        gx, gy = x0 - 9.0, y0   # drive back west along the free lane
         self.send(goal_data(gx, gy, velocity_x=0.8))
         self.wait_moving(15.0)
         wait_for(lambda: abs(math.cos(self.true_pose[2]) + 1) < 0.05 and self.true_pose[0] < x0 - 0.3, 15.0,
                  "driving west")
-        px, py, _ = self.true_pose
-        reply = self.sim_obstacles(cmd="drop", data="rock,%.2f,%.2f,0.4,0.6" % (px - 1.6, py))
-        self.assertEqual(reply.ack, "success", reply.data)
-        wait_for(lambda: "3" in self.codes(), 5.0, "feedback 3 (alarm)")
-        alarm = [d for c, d in self.feedback if c == "3"][0]
+        # 1. an obstacle that goes away within obstacle_wait: robot_control stops, the goal resumes
+        self.drop_rock_ahead("rock1")
+        self.control_status.wait(lambda m: m.stop_status & STOP_OBSTACLE, 3.0, "robot_control obstacle stop")
+        wait_for(lambda: len(self.alarms()) >= 1, 5.0, "feedback 3 (alarm)")
+        alarm = self.alarms()[0]
         self.assertTrue(alarm["nav_warn"] & 4)
         self.assertIn("obstacle", alarm["reason"])
         self.status.wait(lambda m: m.nav_warn & 4, 2.0, "nav_warn bit2")
         self.wait_still(3.0)
+        with self.lock:
+            seen = len(self.feedback)
+        self.assertEqual(self.sim_obstacles(cmd="remove", data="rock1").ack, "success")
+        self.control_status.wait(lambda m: not m.stop_status & STOP_OBSTACLE, 3.0, "obstacle stop released")
+        wait_for(lambda: "2" in self.codes()[seen:], 5.0, "moving again")
+        resumed_at = self.true_pose
+        wait_for(lambda: self.true_pose[0] < resumed_at[0] - 0.5, 10.0, "robot resumed")
+        # 2. an obstacle that stays: stop, and the goal ends with "3" after obstacle_wait (3 s here)
+        rock_x = self.drop_rock_ahead("rock2")
+        wait_for(lambda: len(self.alarms()) >= 2, 5.0, "second feedback 3 (alarm)")
+        self.control_status.wait(lambda m: m.stop_status & STOP_OBSTACLE, 3.0, "robot_control obstacle stop")
+        self.wait_still(3.0)
         stopped_at = self.true_pose
         code, data = self.finish(10.0)
         self.assertEqual(code, "3", data)
+        self.assertIn("blocked", data["reason"])
         self.assertLess(math.hypot(self.true_pose[0] - stopped_at[0], self.true_pose[1] - stopped_at[1]), 0.05)
-        self.assertGreater(self.true_pose[0], px - 1.6 + 0.2 + 0.45)  # never touched the rock
+        self.assertGreater(self.true_pose[0], rock_x + 0.2 + 0.45)  # never touched the rock
 
     def test_06_cancel_stops_robot_with_4(self):
-        x0, y0, _ = self.true_pose
-        self.send(goal_data(x0 + 0.5, y0 + 12.0, velocity_x=0.8))
+        x0, y0, _ = self.true_pose   # facing west on the free lane: the goals below start straight away
+        self.send(goal_data(x0 - 6.0, y0, velocity_x=0.8))
         self.wait_moving(15.0)
         wait_for(lambda: math.hypot(self.true_pose[0] - x0, self.true_pose[1] - y0) > 0.3, 15.0, "moving")
         self.client.cancel_goal()
@@ -201,7 +242,7 @@ class NavigationTest(unittest.TestCase):
 
     def test_07_localization_lost_ends_goal_with_2(self):
         x0, y0, _ = self.true_pose
-        self.send(goal_data(x0, y0 - 6.0 if y0 > 8 else y0 + 6.0, velocity_x=0.8))
+        self.send(goal_data(x0 - 6.0, y0, velocity_x=0.8))
         self.wait_moving(15.0)
         NavigationTest.relay_mode = "off"
         code, data = self.finish(5.0)
@@ -212,7 +253,38 @@ class NavigationTest(unittest.TestCase):
         NavigationTest.relay_mode = "pass"
         self.status.wait(lambda m: not m.nav_warn & 2, 2.0, "localization back")
 
-    def test_08_nav_status_enable_bits_follow_control_cmd(self):
+    def mode(self, cmd, data, expect):
+        self.mode_cmd.publish(GeneralCmd(sender="server", cmd=cmd, data=data))
+        self.control_status.wait(lambda m: m.mode == expect, 3.0, "control_status.mode %d" % expect)
+
+    def test_08_control_mode_takeover_pauses_goal(self):
+        x0, y0, _ = self.true_pose
+        gx, gy = x0 - 2.5, y0
+        self.send(goal_data(gx, gy, velocity_x=0.8))
+        self.wait_moving(15.0)
+        wait_for(lambda: math.hypot(self.true_pose[0] - x0, self.true_pose[1] - y0) > 0.3, 15.0, "moving")
+        # the backend takes the robot: robot_control stops it, move_base pauses with an alarm
+        self.mode("acquire", "server", MODE_SERVER)
+        wait_for(lambda: any("server mode" in d["reason"] for d in self.alarms()), 3.0, "feedback 3 (paused)")
+        self.wait_still(3.0)
+        seen = len(self.codes())
+        # ... and gives it back within mode_wait: the goal replans and succeeds
+        self.mode("release", "server", MODE_TASK)
+        code, data = self.finish(30.0)
+        self.assertEqual(code, "0", data)
+        self.assertIn("1", self.codes()[seen:])  # replanned
+        self.wait_still(3.0)
+        self.assertLess(math.hypot(self.true_pose[0] - gx, self.true_pose[1] - gy), 0.1)
+        # a goal while another mode holds the robot for longer than mode_wait (1 s here) ends with "4"
+        self.mode("acquire", "server", MODE_SERVER)
+        self.addCleanup(self.mode, "release", "server", MODE_TASK)
+        self.send(goal_data(x0, y0))
+        code, data = self.finish(10.0)
+        self.assertEqual(code, "4", data)
+        self.assertIn("server mode", data["reason"])
+        self.assertEqual(self.client.get_state(), GoalStatus.ABORTED)
+
+    def test_09_nav_status_enable_bits_follow_control_cmd(self):
         first = self.status.wait(lambda m: m.nav_status == 7, 3.0, "all enabled")
         self.assertEqual(len(first.position), 2)
         self.control.publish(GeneralCmd(sender="server", cmd="disable_obstacle"))
@@ -224,7 +296,7 @@ class NavigationTest(unittest.TestCase):
         wait_for(lambda: len(self.status.messages) >= 10, 3.0, "10 nav_status")
         self.assertLess(time.monotonic() - start, 1.6)   # ~10 Hz
 
-    def test_09_location_cmd_sets_initial_pose(self):
+    def test_10_location_cmd_sets_initial_pose(self):
         self.location.publish(GeneralCmd(sender="server", cmd="set_location", data="1.5,2.5,0.5"))
         msg = self.initial.wait(lambda m: abs(m.pose.pose.position.x - 1.5) < 1e-6, 3.0, "initialpose")
         self.assertAlmostEqual(msg.pose.pose.position.y, 2.5)
@@ -232,7 +304,25 @@ class NavigationTest(unittest.TestCase):
         self.location.publish(GeneralCmd(sender="server", cmd="set_location", data="init_pose"))
         self.initial.wait(lambda m: abs(m.pose.pose.position.x - 5.0) < 1e-6, 3.0, "init_pose")
 
-    def test_10_restart_keeps_virtual_obstacles(self):
+    def test_11_location_cmd_last_pose_is_the_saved_pose(self):
+        path = rospy.get_param("/move_base/last_pose_file")
+        x, y, yaw = self.true_pose  # the robot is at rest: the saved pose (every 0.5 s here) is this one
+
+        def saved():
+            try:
+                with open(path) as f:
+                    stored = json.load(f)
+            except (OSError, ValueError):
+                return None
+            return stored if math.hypot(stored["x"] - x, stored["y"] - y) < 0.01 else None
+        stored = wait_for(saved, 3.0, "last pose saved")
+        self.location.publish(GeneralCmd(sender="server", cmd="set_location", data="last_pose"))
+        msg = self.initial.wait(lambda m: abs(m.pose.pose.position.x - stored["x"]) < 1e-6, 3.0, "last_pose")
+        self.assertAlmostEqual(msg.pose.pose.position.y, stored["y"])
+        turn = yaw_of(msg.pose.pose.orientation) - yaw
+        self.assertLess(abs(math.atan2(math.sin(turn), math.cos(turn))), 0.01)
+
+    def test_12_restart_keeps_virtual_obstacles(self):
         wall = {"id": "keep_me", "points": [[10, 20], [12, 22]], "closed": False}
         self.assertEqual(self.vo("add", json.dumps(wall)).ack, "success")
         virtual = Latest("virtual_obstacle_map", OccupancyGrid)

@@ -28,8 +28,8 @@ ALIGN, TRACK, SPIN, DONE = "align", "track", "spin", "done"
 class FollowerParams(object):
     def __init__(self, lookahead_m=0.6, xy_tolerance_m=0.05, xy_tolerance_precise_m=0.01,
                  yaw_tolerance_rad=0.035, yaw_tolerance_precise_rad=0.015, spin_enter_rad=1.0,
-                 spin_exit_rad=0.15, slowdown_m=1.0, min_speed_m_s=0.05, min_speed_precise_m_s=0.02,
-                 min_yaw_rate_rad_s=0.05, yaw_gain=1.5):
+                 spin_exit_rad=0.15, decel_m_s2=0.5, approach_gain=1.5, min_speed_m_s=0.05,
+                 min_speed_precise_m_s=0.02, min_yaw_rate_rad_s=0.05, yaw_gain=3.0, yaw_decel_rad_s2=1.0):
         self.lookahead = float(lookahead_m)
         self.xy_tolerance = float(xy_tolerance_m)
         self.xy_tolerance_precise = float(xy_tolerance_precise_m)
@@ -37,7 +37,9 @@ class FollowerParams(object):
         self.yaw_tolerance_precise = float(yaw_tolerance_precise_rad)
         self.spin_enter = float(spin_enter_rad)
         self.spin_exit = float(spin_exit_rad)
-        self.slowdown = float(slowdown_m)
+        self.decel = float(decel_m_s2)
+        self.approach_gain = float(approach_gain)
+        self.yaw_decel = float(yaw_decel_rad_s2)
         self.min_speed = float(min_speed_m_s)
         self.min_speed_precise = float(min_speed_precise_m_s)
         self.min_yaw_rate = float(min_yaw_rate_rad_s)
@@ -121,14 +123,17 @@ class PathFollower(object):
         return np.array([self.goal.x, self.goal.y])
 
     def _spin(self, error):
-        rate = min(self.goal.velocity_yaw, max(self.p.min_yaw_rate, self.p.yaw_gain * abs(error)))
+        size = abs(error)
+        # braking profile: constant angular deceleration, then proportional
+        rate = min(self.goal.velocity_yaw, math.sqrt(2.0 * self.p.yaw_decel * size), self.p.yaw_gain * size)
+        rate = max(self.p.min_yaw_rate, rate)
         return Command(0.0, math.copysign(rate, error), WHEEL_STEER)
 
     def _pursue(self, alpha, goal_dist, remaining):
-        speed = self.goal.velocity_x * min(1.0, max(remaining, goal_dist) / self.p.slowdown)
+        to_go = max(remaining, goal_dist)
+        # braking profile: constant deceleration, then a proportional approach (no overshoot at 20 Hz)
+        speed = min(self.goal.velocity_x, math.sqrt(2.0 * self.p.decel * to_go), self.p.approach_gain * to_go)
         speed = max(speed, self.min_speed)
-        if goal_dist < 0.2:  # last centimetres: creep, at most the distance per second
-            speed = min(speed, max(goal_dist, self.min_speed))
         lookahead = max(min(self.p.lookahead, goal_dist), 1e-3)
         curvature = 2.0 * math.sin(alpha) / lookahead
         yaw_rate = speed * curvature

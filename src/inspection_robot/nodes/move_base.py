@@ -2,6 +2,7 @@
 
 Subscribes:  <~pose_topic> (geometry_msgs/PoseWithCovarianceStamped) robot pose in map
              obstacle_status (ObstacleStatus) from obstacle_detector
+             control_status (ControlStatus) from robot_control: a goal pauses while mode != 0 (task)
              control_cmd (GeneralCmd): enable_/disable_/switch_obstacle toggle the 3-D obstacle enable bit
              location_cmd (GeneralCmd): set_location init_pose | last_pose | x,y,yaw
              virtual_obstacle_cmd (GeneralCmd): add | modify | delete | query | clear (JSON data)
@@ -18,10 +19,11 @@ Parameters:  ~map_file (map_server YAML, required), ~pose_topic ("sim/true_pose"
              ~init_pose ([x, y, yaw], [0, 0, 0]),
              ~robot_radius (m, 0.45), ~safety_margin (m, 0.3), ~margin_cost (4.0), ~coarse_factor (8),
              ~control_rate (Hz, 20), ~status_rate (Hz, 10), ~feedback_period (s, 0.5),
-             ~default_velocity_x / ~max_velocity_x (m/s, 0.5 / 1.5),
+             ~default_velocity_x / ~max_velocity_x (m/s, 0.5 / 1.0),
              ~default_velocity_yaw / ~max_velocity_yaw (rad/s, 0.5 / 1.0),
              ~follower/* (see nav.follower.FollowerParams; m, rad, m/s),
              ~off_track_m (m, 0.5), ~replan_min_interval (s, 2.0), ~obstacle_wait (s, 10.0),
+             ~mode_wait (s, 60.0) paused by another control mode before the goal ends with "4",
              ~max_xy_std (m, 0.5), ~max_yaw_std (rad, 0.2), ~pose_timeout (s, 0.5),
              ~enable_bits (NavStatus enable bits at start, 7)
 """
@@ -40,14 +42,15 @@ from nav_msgs.msg import OccupancyGrid, Path
 
 from inspection_robot.command import CommandError, failed, parse_float, split_fields
 from inspection_robot.interface import (ACK_SUCCESS, LOCATION_CMD_SET, LOCATION_INIT_POSE, LOCATION_LAST_POSE,
+                                        MODE_NAMES, MODE_TASK,
                                         MOVE_FEEDBACK_ALARM, MOVE_FEEDBACK_MOVING, MOVE_FEEDBACK_PLANNED,
                                         MOVE_FEEDBACK_PLANNING, MOVE_RESULT_BLOCKED, MOVE_RESULT_CANCELLED,
                                         MOVE_RESULT_LOCALIZATION_LOST, MOVE_RESULT_PLAN_FAILED,
                                         MOVE_RESULT_SUCCESS, MOVE_VELOCITY_X_UNIT_M_S, MOVE_VELOCITY_YAW_UNIT_RAD_S,
                                         NAV_LOCALIZATION_LOST, NAV_OBSTACLE_3D, NAV_OFF_TRACK, SENDER_MOVE_BASE,
                                         WHEEL_STRAIGHT)
-from inspection_robot.msg import (GeneralAck, GeneralAction, GeneralCmd, GeneralFeedback, GeneralResult, MoveCmd,
-                                  NavStatus, ObstacleStatus)
+from inspection_robot.msg import (ControlStatus, GeneralAck, GeneralAction, GeneralCmd, GeneralFeedback, GeneralResult,
+                                  MoveCmd, NavStatus, ObstacleStatus)
 from inspection_robot.nav.costmap import Costmap
 from inspection_robot.nav.follower import DONE, FollowerParams, PathFollower
 from inspection_robot.nav.goal import parse_move_goal, quaternion_from_yaw, yaw_from_quaternion
@@ -80,7 +83,7 @@ def pose_json(pose):
 
 
 class Aborted(Exception):
-    """Ends the running goal with ``ret_code`` and ``reason``."""
+    """Ends the running goal with ``ret_code`` and ``reason`` (actionlib state ABORTED)."""
 
     def __init__(self, ret_code, reason):
         Exception.__init__(self, reason)
@@ -99,6 +102,7 @@ class MoveBase(object):
         self.enable_bits = int(cfg["enable_bits"])
         self.obstacle = False
         self.off_track = False
+        self.control_mode = MODE_TASK  # robot_control's mode; task until heard otherwise
         self._costmap_lock = threading.Lock()
         self._replan = threading.Event()
         self._last_saved_pose = None
@@ -117,6 +121,7 @@ class MoveBase(object):
 
         rospy.Subscriber(cfg["pose_topic"], PoseWithCovarianceStamped, self._on_pose, queue_size=10)
         rospy.Subscriber("obstacle_status", ObstacleStatus, self._on_obstacle, queue_size=10)
+        rospy.Subscriber("control_status", ControlStatus, self._on_control_status, queue_size=10)
         rospy.Subscriber("control_cmd", GeneralCmd, self._on_control, queue_size=10)
         rospy.Subscriber("location_cmd", GeneralCmd, self._on_location, queue_size=10)
         rospy.Subscriber("virtual_obstacle_cmd", GeneralCmd, self._on_virtual_cmd, queue_size=50)
@@ -138,6 +143,9 @@ class MoveBase(object):
 
     def _on_obstacle(self, msg):
         self.obstacle = bool(msg.obstacle)
+
+    def _on_control_status(self, msg):
+        self.control_mode = int(msg.mode)
 
     def _on_control(self, msg):
         if msg.cmd not in OBSTACLE_CONTROL:
@@ -276,10 +284,11 @@ class MoveBase(object):
         self._server.publish_feedback(GeneralFeedback(event_code=code, data=json.dumps(data)))
 
     def _execute(self, goal_msg):
+        aborted = False
         try:
             ret_code, data = self._run(goal_msg)
         except Aborted as end:
-            ret_code, data = end.ret_code, {"reason": str(end)}
+            ret_code, data, aborted = end.ret_code, {"reason": str(end)}, True
         except rospy.ROSInterruptException:
             ret_code, data = MOVE_RESULT_CANCELLED, {"reason": "shutting down"}
         except Exception as err:  # boundary: the goal fails, the node lives on
@@ -291,7 +300,7 @@ class MoveBase(object):
         result = GeneralResult(ret_code=ret_code, data=json.dumps(data))
         if ret_code == MOVE_RESULT_SUCCESS:
             self._server.set_succeeded(result)
-        elif ret_code == MOVE_RESULT_CANCELLED:
+        elif ret_code == MOVE_RESULT_CANCELLED and not aborted:
             self._server.set_preempted(result)
         else:
             self._server.set_aborted(result, data.get("reason", ""))
@@ -329,13 +338,29 @@ class MoveBase(object):
             raise Aborted(MOVE_RESULT_PLAN_FAILED, "bad goal: %s" % err)
         follower = self._plan(goal)
         rate = rospy.Rate(cfg["control_rate"])
-        blocked_since = None
+        blocked_since = paused_since = None
         last_feedback = last_replan = 0.0
         while not rospy.is_shutdown():
             if self._server.is_preempt_requested():
                 return MOVE_RESULT_CANCELLED, {"reason": "cancelled"}
             pose = self._check_localization()
             now = time.monotonic()
+            mode = self.control_mode
+            if mode != MODE_TASK:
+                # another mode holds the robot: robot_control ignores our move_cmd, so send none
+                if paused_since is None:
+                    paused_since = now
+                    self._feedback(MOVE_FEEDBACK_ALARM, nav_warn=self.nav_warn(),
+                                   reason="robot_control in %s mode (%d): goal paused"
+                                   % (MODE_NAMES.get(mode, "unknown"), mode))
+                elif now - paused_since > cfg["mode_wait"]:
+                    raise Aborted(MOVE_RESULT_CANCELLED, "robot_control in %s mode (%d) for %.1f s: goal given up"
+                                  % (MODE_NAMES.get(mode, "unknown"), mode, cfg["mode_wait"]))
+                rate.sleep()
+                continue
+            if paused_since is not None:
+                paused_since = None
+                self._replan.set()  # the robot was driven elsewhere meanwhile
             if self.obstacle and self.enable_bits & NAV_OBSTACLE_3D:
                 self.stop()
                 if blocked_since is None:
@@ -384,8 +409,9 @@ def _params():
     }
     floats = {"last_pose_period": 5.0, "robot_radius": 0.45, "safety_margin": 0.3, "margin_cost": 4.0,
               "control_rate": 20.0, "status_rate": 10.0, "feedback_period": 0.5,
-              "default_velocity_x": 0.5, "max_velocity_x": 1.5, "default_velocity_yaw": 0.5,
+              "default_velocity_x": 0.5, "max_velocity_x": 1.0, "default_velocity_yaw": 0.5,
               "max_velocity_yaw": 1.0, "off_track_m": 0.5, "replan_min_interval": 2.0, "obstacle_wait": 10.0,
+              "mode_wait": 60.0,
               "max_xy_std": 0.5, "max_yaw_std": 0.2, "pose_timeout": 0.5, "coarse_factor": 8}
     for name, default in floats.items():
         cfg[name] = float(rospy.get_param("~" + name, default))

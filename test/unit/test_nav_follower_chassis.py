@@ -1,0 +1,94 @@
+"""Path follower in closed loop with the real motion stack: MotionController + SimChassis on a fake clock.
+
+The follower runs at 20 Hz and sends move_cmd in the spec's units (sender move_base); robot_control's
+controller ticks at 50 Hz and drives the simulated chassis (acceleration limits, minimum turning
+radius in straight mode, 1 s straight/steer switch). The figures are those of the navigation rostest.
+"""
+import math
+
+import numpy as np
+import pytest
+
+from inspection_robot.interface import MOVE_VELOCITY_X_UNIT_M_S, MOVE_VELOCITY_YAW_UNIT_RAD_S, SENDER_MOVE_BASE
+from inspection_robot.motion.controller import MotionController
+from inspection_robot.motion.velocity import VelocityLimits
+from inspection_robot.nav.follower import DONE, FollowerParams, PathFollower
+from inspection_robot.nav.goal import MoveGoal
+from inspection_robot.nav.localization import wrap_angle
+from inspection_robot.sim.chassis import SimChassis
+
+TICK = 0.01  # s of simulated time per step; follower every 5 steps, controller every 2
+
+
+class FakeClock(object):
+    def __init__(self):
+        self.now = 0.0
+
+    def __call__(self):
+        return self.now
+
+
+def drive(path, goal, start, timeout=90.0):
+    """Return (final pose after the robot came to rest, seconds until DONE, phases seen)."""
+    clock = FakeClock()
+    chassis = SimChassis(clock, start)
+    controller = MotionController(chassis, VelocityLimits(1.0, 1.0, 5.0, 5.0), 0.5, clock)
+    follower = PathFollower(np.asarray(path, dtype=float), goal, FollowerParams())
+    phases = []
+    done_at = None
+    step = 0
+    while clock.now < timeout:
+        if step % 5 == 0 and done_at is None:
+            (x, y, yaw), _velocity = chassis.true_pose()
+            progress = follower.step(x, y, yaw)
+            if not phases or phases[-1] != progress.phase:
+                phases.append(progress.phase)
+            cmd = progress.command
+            controller.on_move_cmd(SENDER_MOVE_BASE, cmd.velocity_x / MOVE_VELOCITY_X_UNIT_M_S,
+                                   cmd.velocity_yaw / MOVE_VELOCITY_YAW_UNIT_RAD_S, cmd.wheel_control)
+            if progress.phase == DONE:
+                done_at = clock.now
+        if step % 2 == 0:
+            controller.tick()
+        if done_at is not None and clock.now > done_at + 2.0:
+            break
+        clock.now += TICK
+        step += 1
+    assert done_at is not None, "goal not reached in %.0f s (phases %s)" % (timeout, phases)
+    return chassis.true_pose()[0], done_at, phases
+
+
+def test_30m_precise_goal_with_heading():
+    goal = MoveGoal(35.0, 5.0, math.pi / 2, True, True, False, 1.0, 0.8)
+    (x, y, yaw), seconds, phases = drive([[5, 5], [35, 5]], goal, (5.0, 5.0, 0.0))
+    assert math.hypot(x - 35.0, y - 5.0) < 0.02
+    assert abs(math.degrees(wrap_angle(yaw - math.pi / 2))) < 3.0
+    assert phases == ["track", "spin", "done"]
+    assert seconds < 40.0  # 30 m at 1 m/s, braking, switch to steer mode, quarter turn
+
+
+def test_plain_goal_within_10_cm_and_no_overshoot_on_the_way():
+    goal = MoveGoal(15.0, 0.0, 0.0, False, False, False, 1.0, 0.8)
+    (x, y, _yaw), _seconds, _phases = drive([[0, 0], [15, 0]], goal, (0.0, 0.0, 0.0))
+    assert math.hypot(x - 15.0, y) < 0.1
+    assert x <= 15.0 + 0.01
+
+
+@pytest.mark.parametrize("path, start", [
+    ([[0, 0], [5, 0], [5, 5]], (0.0, 0.0, 0.0)),                       # right-angle corner
+    ([[0, 0], [2, 0], [3, 3.8], [4.5, 3.8], [6, 0]], (0.0, 0.0, 0.0)),  # detour around a wall
+    ([[0, 0], [-8, 0]], (0.0, 0.0, 0.0)),                              # goal behind: spin first
+])
+def test_sharp_paths_reached_within_10_cm(path, start):
+    gx, gy = path[-1]
+    goal = MoveGoal(gx, gy, 0.0, False, False, False, 1.0, 0.8)
+    (x, y, _yaw), _seconds, phases = drive(path, goal, start)
+    assert math.hypot(x - gx, y - gy) < 0.1
+    assert phases[-1] == DONE
+
+
+def test_backward_goal_on_the_chassis():
+    goal = MoveGoal(-6.0, 0.0, 0.0, False, False, True, 0.8, 0.8)
+    (x, y, yaw), _seconds, phases = drive([[0, 0], [-6, 0]], goal, (0.0, 0.0, 0.0))
+    assert math.hypot(x + 6.0, y) < 0.1
+    assert abs(yaw) < 0.05 and "align" not in phases
