@@ -167,9 +167,11 @@ class Finder(object):
         roi = flat_from_quads(quads)
         infrared_filename, infrared_roi = "", []
         if preset.info.infrared and self.thermal is not None:
+            self._check_cancel()
             infrared_filename, infrared_roi = self._thermal(preset, folder, stamp, moves, quads, shape)
         foreign_filename = ""
         if kind in ("find_foreign", "find_both"):
+            self._check_cancel()
             k = 1 if len(levels) > 1 else 0
             self.head.set_zoom(levels[k])
             foreign_filename = os.path.join(folder, "zoom%d_%s_%02d.jpg" % (k, stamp, moves))

@@ -78,8 +78,9 @@ def _box_ok(corners, width, height):
 def world_specs(world, head, switch_picture_path=None, hot_spot_box_px=None):
     """Calibration target descriptions for every face (and hot spot) the head sees well now.
 
-    Switches are rendered open and closed into ``switch_picture_path % (face, state)`` for their
-    references. Thermal hot spots need ``head.thermal_renderer``.
+    Switches (and lamps) are rendered open and closed (on and off) into
+    ``switch_picture_path % (face, state)`` for their references; without it switches are left out
+    and lamps have no references. Thermal hot spots need ``head.thermal_renderer``.
     """
     camera = head.camera()
     truth = ground_truth(world, camera)
@@ -96,19 +97,21 @@ def world_specs(world, head, switch_picture_path=None, hot_spot_box_px=None):
                         aspect=face.quad.width / face.quad.height, start_angle=face.start_angle,
                         end_angle=face.end_angle, start_value=face.range[0], end_value=face.range[1],
                         unit=face.unit)
-        elif face.type == "lamp":
+        elif face.type == "lamp" and switch_picture_path is None:
             spec.update(kind="lamp", colour=face.color)
         else:
             if switch_picture_path is None:
                 continue
             state = face.value
-            for name in ("open", "closed"):
+            for name in (("on", "off") if face.type == "lamp" else ("open", "closed")):
                 face.set_value(name)
                 path = switch_picture_path % (face_id.replace("/", "_"), name)
                 cv2.imwrite(path, head.renderer.render(camera))
                 spec[name + "_picture"] = path
             face.set_value(state)
-            spec["kind"] = "switch"
+            spec["kind"] = face.type
+            if face.type == "lamp":
+                spec["colour"] = face.color
         specs.append(spec)
     if head.thermal_renderer is not None:
         tcam = head.thermal_camera()
