@@ -149,8 +149,8 @@ class TestInspectionAcceptance(unittest.TestCase):
 
     def calibrate(self, preset_dir):
         tool = roslib.packages.find_node("inspection_robot", "calibrate_preset")[0]
-        proc = subprocess.run([sys.executable, tool, preset_dir, "--from-world", self.world_file], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                              universal_newlines=True, timeout=90)
+        proc = subprocess.run([sys.executable, tool, preset_dir, "--from-world", self.world_file],
+                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, universal_newlines=True, timeout=90)
         self.assertEqual(proc.returncode, 0, proc.stderr)
         rospy.loginfo("calibrate_preset: %s" % proc.stdout)
         return [t.name for t in load_preset(preset_dir).targets]

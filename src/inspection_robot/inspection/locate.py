@@ -98,7 +98,6 @@ class Locator(object):
             confidences.append(min(100.0, 100.0 * box_inliers / (4.0 * self.min_inliers)))
         return Located(out, matrix, inliers, len(src), confidences)
 
-
     def _refine(self, quad, src, dst, matrix, inliers):
         """The box through the global homography, corrected with the matches near it.
 

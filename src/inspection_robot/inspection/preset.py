@@ -237,7 +237,8 @@ class Target(object):
         elif kind == "lamp":
             params = {"colour": section.get("colour", "")}
             if section.get("on_reference") or section.get("off_reference"):
-                params.update(on_reference=section.get("on_reference", ""), off_reference=section.get("off_reference", ""))
+                params.update(on_reference=section.get("on_reference", ""),
+                              off_reference=section.get("off_reference", ""))
         elif kind == "switch":
             params = {"open_reference": section.get("open_reference", ""),
                       "closed_reference": section.get("closed_reference", "")}
