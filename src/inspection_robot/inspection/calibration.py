@@ -5,7 +5,8 @@ web page would post) has ``kind`` (pointer | lamp | switch | thermal), ``box`` (
 TR, BR, BL in zoom0.jpg) and the kind's parameters (see preset.Target). Switch targets give
 ``open_picture`` / ``closed_picture``: pictures of the same view with the switch open / closed,
 from which reference patches are cut; lamps may give ``on_picture`` / ``off_picture`` likewise.
-Boxes in the wider zoom pictures follow from the zoom levels and the camera's optics (the pictures share the optical centre).
+Boxes in the wider zoom pictures follow from the zoom levels and the camera's optics (the pictures
+share the optical centre).
 """
 import os
 
