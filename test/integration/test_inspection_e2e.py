@@ -18,6 +18,7 @@ import roslib.packages
 import rospy
 import rostest
 from actionlib_msgs.msg import GoalStatus
+from sensor_msgs.msg import JointState
 
 from inspection_robot.inspection.preset import load_preset
 from inspection_robot.msg import (GeneralAction, GeneralGoal, NavStatus, PresetScaleAck, PresetScaleCmd,
@@ -66,6 +67,7 @@ class TestInspectionAcceptance(unittest.TestCase):
         cls.preset_acks = Latest("preset_scale_ack", PresetScaleAck)
         cls.read_acks = Latest("read_scale_ack", ReadScaleAck)
         cls.nav = Latest("nav_status", NavStatus, queue_size=1)
+        cls.joints = Latest("terrace_state", JointState, queue_size=1)
         names = ("terrace_control", "camera_control", "sim/set_world_value", "sim/get_world_value",
                  "sim/inject_fault", "arm_control")
         for name in names:
@@ -140,6 +142,10 @@ class TestInspectionAcceptance(unittest.TestCase):
         tilt = math.degrees(math.atan2(1.2 - aim_height, dist))
         self.call(self.terrace, "set_angle", "0,%d" % round(tilt * 100))
         self.call(self.camera, "set_zoom_level", "%.2f" % zoom)
+        # like an operator, record once the live view (the simulated camera follows terrace_state) has settled
+        wait_for(lambda: self.joints.last is not None and abs(math.degrees(self.joints.last.position[1]) -
+                                                              round(tilt * 100) / 100.0) < 0.02,
+                 5.0, "terrace_state at tilt %.2f" % tilt)
         trans_id = self.next_id()
         self.preset_pub.publish(PresetScaleCmd(sender="server", trans_id=trans_id, preset_id=preset_id, type="meter",
                                                infrared=infrared, extra_data=extra_data))
