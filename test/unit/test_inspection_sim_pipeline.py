@@ -49,7 +49,8 @@ def yard():
 
 
 @pytest.mark.parametrize("face_id,dist,zoom", [("breaker_1/sf6_pressure", 3.0, 4.0),
-                                               ("transformer_1/oil_level", 4.0, 3.0)])
+                                               ("transformer_1/oil_level", 4.0, 3.0),
+                                               ("breaker_2/sf6_pressure", 3.5, 2.0)])   # + lamps, switch
 def test_record_find_read_with_pose_error(tmp_path, yard, face_id, dist, zoom):
     world, renderer, thermal = yard
     optics = _optics()
@@ -63,6 +64,8 @@ def test_record_find_read_with_pose_error(tmp_path, yard, face_id, dist, zoom):
     path = record_preset(head, presets, "p1", "20260101_100000", state)
     specs = world_specs(world, head, switch_picture_path=str(tmp_path / "%s_%s.png"))
     assert any(s["kind"] == "pointer" for s in specs)
+    if face_id.startswith("breaker_2"):
+        assert sorted(s["kind"] for s in specs) == ["lamp", "lamp", "pointer", "switch"]
     calibrate(path, specs, optics)
     preset = load_preset(path)
     # values change, the robot comes back 0.3 m / 5 deg off

@@ -4,8 +4,9 @@ A target description (a dict, e.g. one entry of the YAML the command-line tool r
 web page would post) has ``kind`` (pointer | lamp | switch | thermal), ``box`` (8 numbers: TL,
 TR, BR, BL in zoom0.jpg) and the kind's parameters (see preset.Target). Switch targets give
 ``open_picture`` / ``closed_picture``: pictures of the same view with the switch open / closed,
-from which reference patches are cut. Boxes in the wider zoom pictures follow from the zoom
-levels and the camera's optics (the pictures share the optical centre).
+from which reference patches are cut; lamps may give ``on_picture`` / ``off_picture`` likewise.
+Boxes in the wider zoom pictures follow from the zoom levels and the camera's optics (the pictures
+share the optical centre).
 """
 import os
 
@@ -14,7 +15,7 @@ import numpy as np
 
 from inspection_robot.inspection.geometry import quad_inside, quad_is_convex
 from inspection_robot.inspection.preset import PresetError, Target, load_info, write_calibration
-from inspection_robot.inspection.readers import switch_patch
+from inspection_robot.inspection.readers import lamp_patch, switch_patch
 
 
 def derive_zoom_boxes(box0, zoom_levels, optics, width, height):
@@ -53,15 +54,18 @@ def build_targets(preset_dir, specs, optics):
             raise PresetError("target %d: box is not a convex TL,TR,BR,BL quad" % i)
         if not quad_inside(box, width, height):
             raise PresetError("target %d: box lies outside the %dx%d picture" % (i, width, height))
-        if kind == "switch":
-            for state in ("open", "closed"):
-                picture = spec.pop(state + "_picture", None)
-                image = cv2.imread(picture) if picture else None
-                if image is None:
-                    raise PresetError("target %d: %s_picture missing or unreadable: %s" % (i, state, picture))
-                name = "target_%d_%s.png" % (i, state)
-                cv2.imwrite(os.path.join(preset_dir, name), switch_patch(image, box))
-                spec[state + "_reference"] = name
+        states = {"switch": ("open", "closed"), "lamp": ("on", "off")}.get(kind, ())
+        if kind == "lamp" and not any(spec.get(state + "_picture") for state in states):
+            states = ()   # lamp references are optional
+        for state in states:
+            picture = spec.pop(state + "_picture", None)
+            image = cv2.imread(picture) if picture else None
+            if image is None:
+                raise PresetError("target %d: %s_picture missing or unreadable: %s" % (i, state, picture))
+            name = "target_%d_%s.png" % (i, state)
+            patch = switch_patch(image, box) if kind == "switch" else lamp_patch(image, box)
+            cv2.imwrite(os.path.join(preset_dir, name), patch)
+            spec[state + "_reference"] = name
         name = str(spec.pop("name", ""))
         try:
             targets.append(Target(kind, derive_zoom_boxes(box, info.zoom_levels, optics, width, height),

@@ -17,10 +17,11 @@ with the simulated renderer). Steps for find_scale | find_foreign | find_both:
 import os
 from collections import namedtuple
 
+import cv2
 import numpy as np
 
 from inspection_robot.inspection.gauge import angle_diff
-from inspection_robot.inspection.geometry import flat_from_quads, quad_center, quad_inside
+from inspection_robot.inspection.geometry import flat_from_quads, quad_center, quad_inside, transform_quad
 from inspection_robot.inspection.locate import LocateError
 
 FindResult = namedtuple("FindResult",
@@ -53,10 +54,28 @@ class Head(object):
 
 
 class ThermalGeometry(object):
-    """Fixed thermal lens next to the visible camera: focal length in px and picture size."""
+    """Fixed thermal lens next to the visible camera: focal length in px, picture size, lens offset.
 
-    def __init__(self, focal_px, width, height):
+    ``offset_px`` (dx, dy): where the visible camera's optical axis lands in the thermal picture,
+    relative to the thermal picture's centre (0, 0 when both lenses are aligned, as in simulation;
+    on a robot it is measured once by pointing both at one distant hot object).
+    """
+
+    def __init__(self, focal_px, width, height, offset_px=(0.0, 0.0)):
         self.focal_px, self.width, self.height = float(focal_px), int(width), int(height)
+        self.offset = np.asarray(offset_px, np.float64).reshape(2)
+
+    def from_visible(self, points, focal_px, width, height):
+        """Visible picture pixels (N, 2) at focal length ``focal_px`` -> thermal picture pixels."""
+        c_v = np.array([(width - 1) / 2.0, (height - 1) / 2.0])
+        c_t = np.array([(self.width - 1) / 2.0, (self.height - 1) / 2.0]) + self.offset
+        return c_t + (np.asarray(points, np.float64).reshape(-1, 2) - c_v) * (self.focal_px / float(focal_px))
+
+    def to_visible(self, points, focal_px, width, height):
+        """The inverse of ``from_visible``."""
+        c_v = np.array([(width - 1) / 2.0, (height - 1) / 2.0])
+        c_t = np.array([(self.width - 1) / 2.0, (self.height - 1) / 2.0]) + self.offset
+        return c_v + (np.asarray(points, np.float64).reshape(-1, 2) - c_t) * (float(focal_px) / self.focal_px)
 
 
 class Finder(object):
@@ -148,9 +167,11 @@ class Finder(object):
         roi = flat_from_quads(quads)
         infrared_filename, infrared_roi = "", []
         if preset.info.infrared and self.thermal is not None:
+            self._check_cancel()
             infrared_filename, infrared_roi = self._thermal(preset, folder, stamp, moves, quads, shape)
         foreign_filename = ""
         if kind in ("find_foreign", "find_both"):
+            self._check_cancel()
             k = 1 if len(levels) > 1 else 0
             self.head.set_zoom(levels[k])
             foreign_filename = os.path.join(folder, "zoom%d_%s_%02d.jpg" % (k, stamp, moves))
@@ -180,18 +201,26 @@ class Finder(object):
         raise FindError("target not found at the final zoom (%s) nor in any wider reference picture" % reason)
 
     def _thermal(self, preset, folder, stamp, moves, quads, shape):
-        """Thermal picture + frame; thermal boxes shifted by the visible targets' angular offset."""
+        """Thermal picture + frame; thermal boxes moved like their visible boxes.
+
+        Both lenses share the head (same centre of projection up to the lens offset), so a thermal
+        pixel and a visible pixel are related by the ratio of focal lengths about the optical axes.
+        The recorded thermal box is taken into the reference visible picture, carried by the
+        homography from the reference box to the box found now (exact for the target's plane,
+        parallax and perspective included), and taken back into the thermal picture.
+        """
         picture = os.path.join(folder, "thermal_%s_%02d.jpg" % (stamp, moves))
         frame = os.path.join(folder, "thermal_%s_%02d.png" % (stamp, moves))
         self.head.capture_thermal(picture, frame)
-        ratio = self.thermal.focal_px / self.optics.focal_px(preset.info.zoom_levels[0], shape[1])
+        height, width = shape[:2]
+        focal = self.optics.focal_px(preset.info.zoom_levels[0], width)
         out = []
         for target, quad in zip(preset.targets, quads):
             if target.kind != "thermal":
                 continue
-            # the thermal lens shares the head: the box moves like the visible target, scaled by
-            # the ratio of focal lengths
-            shift = (quad_center(quad) - quad_center(target.boxes[0])) * ratio
-            dx, dy = shift
-            out.extend(flat_from_quads([target.params["thermal_box"] + [dx, dy]]))
+            moved = cv2.getPerspectiveTransform(np.asarray(target.boxes[0], np.float32),
+                                                np.asarray(quad, np.float32))
+            ref = self.thermal.to_visible(np.reshape(target.params["thermal_box"], (4, 2)), focal, width, height)
+            now = transform_quad(moved, ref)
+            out.extend(flat_from_quads([self.thermal.from_visible(now, focal, width, height)]))
         return frame, out

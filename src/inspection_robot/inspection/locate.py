@@ -2,10 +2,10 @@
 
 Features (AKAZE, else ORB; SIFT when the OpenCV build has it and it is asked for) are matched
 with a ratio test; a RANSAC homography maps the reference onto the new picture. Each box is then
-refined with a homography estimated only from matches near it (parallax after a pose error makes
-one global homography wrong away from the plane of the target), and the box corners TL, TR, BR, BL
-are mapped through it. Pictures are matched at a reduced size for speed; coordinates are in the
-full pictures.
+refined with the matches near it (parallax after a pose error makes one global homography wrong
+away from the dominant plane): the globally mapped box is shifted by the median residual of the
+near matches that roughly agree with the global homography. Box corners TL, TR, BR, BL. Pictures
+are matched at a reduced size for speed; coordinates are in the full pictures.
 """
 from collections import namedtuple
 
@@ -90,21 +90,32 @@ class Locator(object):
         height, width = new.shape
         out, confidences = [], []
         for quad in quads:
-            quad = np.asarray(quad, np.float64)
-            box_matrix, box_inliers = matrix, inliers
-            centre = quad_center(quad)
-            size = max(np.ptp(quad[:, 0]), np.ptp(quad[:, 1]))
-            near = np.hypot(src[:, 0] - centre[0], src[:, 1] - centre[1]) < self.local_radius * size
-            if near.sum() >= self.min_inliers:
-                local, local_inliers = self._homography(src[near], dst[near])
-                if local is not None and local_inliers >= self.min_inliers and _plausible(local):
-                    box_matrix, box_inliers = local, local_inliers
-            mapped = transform_quad(box_matrix, quad)
+            mapped, box_inliers = self._refine(np.asarray(quad, np.float64), src, dst, matrix, inliers)
             if not quad_is_convex(mapped):
                 raise LocateError("target box maps to a degenerate shape")
             out.append(mapped)
             confidences.append(min(100.0, 100.0 * box_inliers / (4.0 * self.min_inliers)))
         return Located(out, matrix, inliers, len(src), confidences)
+
+    def _refine(self, quad, src, dst, matrix, inliers):
+        """The box through the global homography, shifted by the median residual of the matches near it.
+
+        Parallax after a pose error moves a small region off the dominant plane mostly sideways;
+        a local homography fitted to a few clustered matches on a plain panel is exact where they
+        are and wild at the box (measured on the simulated yard: up to 8 px corner error against
+        2-4 px for the shift), so only the shift is estimated locally.
+        """
+        centre = quad_center(quad)
+        size = max(np.ptp(quad[:, 0]), np.ptp(quad[:, 1]))
+        mapped = transform_quad(matrix, quad)
+        near = np.hypot(src[:, 0] - centre[0], src[:, 1] - centre[1]) < self.local_radius * size
+        if near.sum() < 4:
+            return mapped, inliers
+        residual = dst[near] - transform_quad(matrix, src[near])
+        agree = np.hypot(residual[:, 0], residual[:, 1]) < max(0.5 * size, 4.0 * self.ransac_px)
+        if agree.sum() < 4:
+            return mapped, inliers
+        return mapped + np.median(residual[agree], axis=0), max(inliers, int(agree.sum()))
 
 
 def _plausible(matrix):

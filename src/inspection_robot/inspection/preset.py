@@ -178,7 +178,8 @@ class Target(object):
     ``boxes``: {zoom index: 4x2 array TL, TR, BR, BL}. Pointer parameters: centre (pivot as
     fractions of the box), radius (dial radius as a fraction of the box width), aspect (physical
     width / height of the box), start/end angle (deg clockwise from up) and
-    value, unit, optional scale_table [(value, angle)]. Lamp: colour. Switch: open_reference,
+    value, unit, optional scale_table [(value, angle)]. Lamp: colour, optional on_reference and
+    off_reference (patch file names). Switch: open_reference,
     closed_reference (patch file names in the preset directory). Thermal: thermal_box (4x2 in the
     thermal picture).
     """
@@ -195,6 +196,8 @@ class Target(object):
                                     params["end_value"], params.get("scale_table") or None)
         elif kind == "lamp" and params.get("colour") not in LAMP_COLOURS:
             raise PresetError("lamp colour must be one of %s" % "|".join(LAMP_COLOURS))
+        elif kind == "lamp" and bool(params.get("on_reference")) != bool(params.get("off_reference")):
+            raise PresetError("a lamp needs both on_reference and off_reference, or neither")
         elif kind == "switch" and not (params.get("open_reference") and params.get("closed_reference")):
             raise PresetError("a switch needs open_reference and closed_reference")
         elif kind == "thermal":
@@ -212,6 +215,8 @@ class Target(object):
                         "scale_table": ";".join("%g:%g" % (v, a) for v, a in (p.get("scale_table") or []))})
         elif self.kind == "lamp":
             out["colour"] = p["colour"]
+            if p.get("on_reference") and p.get("off_reference"):
+                out.update({"on_reference": p["on_reference"], "off_reference": p["off_reference"]})
         elif self.kind == "switch":
             out.update({"open_reference": p["open_reference"], "closed_reference": p["closed_reference"]})
         else:
@@ -231,6 +236,9 @@ class Target(object):
                       "unit": section.get("unit", ""), "scale_table": _table(section.get("scale_table", ""))}
         elif kind == "lamp":
             params = {"colour": section.get("colour", "")}
+            if section.get("on_reference") or section.get("off_reference"):
+                params.update(on_reference=section.get("on_reference", ""),
+                              off_reference=section.get("off_reference", ""))
         elif kind == "switch":
             params = {"open_reference": section.get("open_reference", ""),
                       "closed_reference": section.get("closed_reference", "")}

@@ -156,14 +156,21 @@ class ScaleReader(object):
             return self.pointer.read(image, quad, target.scale, p.get("centre", (0.5, 0.5)), p.get("radius", 0.45),
                                      p.get("aspect", 1.0))
         if target.kind == "lamp":
-            return read_lamp(image, quad, p["colour"])
-        refs = []
-        for key in ("open_reference", "closed_reference"):
-            ref = cv2.imread(preset.file(p[key]), cv2.IMREAD_GRAYSCALE)
-            if ref is None:
-                raise ReadError("switch reference missing or unreadable: %s" % preset.file(p[key]))
-            refs.append(ref)
+            refs = None
+            if p.get("on_reference"):
+                refs = [self._reference_patch(preset, p[key], cv2.IMREAD_COLOR, "lamp")
+                        for key in ("on_reference", "off_reference")]
+            return read_lamp(image, quad, p["colour"], references=refs)
+        refs = [self._reference_patch(preset, p[key], cv2.IMREAD_GRAYSCALE, "switch")
+                for key in ("open_reference", "closed_reference")]
         return read_switch(image, quad, refs[0], refs[1])
+
+    @staticmethod
+    def _reference_patch(preset, name, flags, kind):
+        ref = cv2.imread(preset.file(name), flags)
+        if ref is None:
+            raise ReadError("%s reference missing or unreadable: %s" % (kind, preset.file(name)))
+        return ref
 
     def _foreign(self, preset, foreign_filenames, out_dir, stamp, outcome):
         if not foreign_filenames:

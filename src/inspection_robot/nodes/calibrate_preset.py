@@ -1,9 +1,17 @@
-"""Command-line calibration tool: ``calibrate_preset PRESET_DIR TARGETS_YAML [--optics FILE]``.
+"""Command-line calibration tool (not a ROS node: no rospy; it lives here so ``rosrun
+inspection_robot calibrate_preset`` finds it).
 
-Not a ROS node (no rospy): it lives here so ``rosrun inspection_robot calibrate_preset`` finds
-it. TARGETS_YAML holds ``targets: [{kind: pointer, box: [8 numbers], start_angle: ..}, ..]``
-(see inspection.calibration); the optics file is config/camera_optics.yaml. Writes
-preset_calib_info.ini and zoomX.xml into PRESET_DIR; exits 1 with the reason on bad input.
+    calibrate_preset PRESET_DIR TARGETS_YAML [--optics FILE]
+    calibrate_preset PRESET_DIR --from-world [WORLD_YAML] [--only ID[,ID...]] [--optics FILE]
+                     [--thermal-hfov DEG] [--thermal-size WxH]
+
+TARGETS_YAML holds ``targets: [{kind: pointer, box: [8 numbers], start_angle: ..}, ..]`` (see
+inspection.calibration). ``--from-world`` calibrates from the simulated world's ground truth
+instead (default world: config/sim_world.yaml): every face the recorded view sees well (and, for
+infrared presets, every hot spot in both pictures) becomes a target (sim.inspection_sim
+.calibrate_from_world). The optics file is config/camera_optics.yaml. Writes
+preset_calib_info.ini and zoomX.xml into PRESET_DIR and prints one line per target; exits 1 with
+the reason on bad input, writing nothing.
 """
 import argparse
 import os
@@ -14,35 +22,72 @@ import yaml
 from inspection_robot.camera.optics import ZoomOptics
 from inspection_robot.inspection.calibration import calibrate
 from inspection_robot.inspection.preset import PresetError
+from inspection_robot.sim.inspection_sim import calibrate_from_world
+from inspection_robot.sim.world import World, WorldError
+
+
+def _config_file(name):
+    here = os.path.dirname(os.path.abspath(__file__))
+    candidate = os.path.normpath(os.path.join(here, "..", "..", "..", "config", name))
+    if os.path.isfile(candidate):
+        return candidate
+    try:   # installed / devel space: the package's share directory
+        import rospkg
+        candidate = os.path.join(rospkg.RosPack().get_path("inspection_robot"), "config", name)
+    except Exception:  # boundary: no ROS package path; the user passes the file
+        return None
+    return candidate if os.path.isfile(candidate) else None
 
 
 def default_optics_file():
-    here = os.path.dirname(os.path.abspath(__file__))
-    for candidate in (os.path.join(here, "..", "..", "..", "config", "camera_optics.yaml"),):
-        if os.path.isfile(candidate):
-            return os.path.normpath(candidate)
-    return None
+    return _config_file("camera_optics.yaml")
+
+
+def _size(text):
+    try:
+        width, height = (int(v) for v in text.lower().split("x"))
+    except ValueError:
+        raise argparse.ArgumentTypeError("expected WxH, e.g. 384x288")
+    return width, height
 
 
 def run(argv=None):
     """The tool; returns the exit status."""
     parser = argparse.ArgumentParser(description="Calibrate the target boxes of a recorded preset.")
     parser.add_argument("preset_dir")
-    parser.add_argument("targets_yaml")
+    parser.add_argument("targets_yaml", nargs="?", help="target descriptions (not with --from-world)")
+    parser.add_argument("--from-world", nargs="?", const="", default=None, metavar="WORLD_YAML",
+                        help="calibrate from the simulated world's ground truth (default config/sim_world.yaml)")
+    parser.add_argument("--only", default="", help="with --from-world: comma separated face/hot spot ids to keep")
     parser.add_argument("--optics", default=default_optics_file(), help="camera_optics.yaml")
+    parser.add_argument("--thermal-hfov", type=float, default=25.0, help="thermal lens hfov, deg (--from-world)")
+    parser.add_argument("--thermal-size", type=_size, default=(384, 288), help="thermal picture WxH (--from-world)")
     args = parser.parse_args(argv)
+    if (args.from_world is None) == (args.targets_yaml is None):
+        parser.error("give either TARGETS_YAML or --from-world")
     try:
-        with open(args.targets_yaml) as f:
-            specs = (yaml.safe_load(f) or {}).get("targets", [])
         if not args.optics:
             raise PresetError("no optics file found; pass --optics")
         with open(args.optics) as f:
             optics_cfg = yaml.safe_load(f)["camera_optics"]
         optics = ZoomOptics(optics_cfg["zoom_hfov_deg"], optics_cfg["width"], optics_cfg["height"])
-        targets = calibrate(args.preset_dir, specs, optics)
-    except (OSError, yaml.YAMLError, KeyError, ValueError, PresetError) as err:
+        if args.from_world is not None:
+            world_file = args.from_world or _config_file("sim_world.yaml")
+            if not world_file:
+                raise PresetError("no world file found; pass --from-world WORLD_YAML")
+            names = [n for n in args.only.split(",") if n] or None
+            targets = calibrate_from_world(args.preset_dir, World.load(world_file), optics,
+                                           thermal_hfov_deg=args.thermal_hfov, thermal_size=args.thermal_size,
+                                           names=names)
+        else:
+            with open(args.targets_yaml) as f:
+                specs = (yaml.safe_load(f) or {}).get("targets", [])
+            targets = calibrate(args.preset_dir, specs, optics)
+    except (OSError, yaml.YAMLError, KeyError, ValueError, PresetError, WorldError) as err:
         sys.stderr.write("calibrate_preset: %s\n" % (err,))
         return 1
+    for i, target in enumerate(targets):
+        sys.stdout.write("target_%d %s %s\n" % (i, target.kind, target.name))
     sys.stdout.write("calibrated %d target(s) in %s\n" % (len(targets), args.preset_dir))
     return 0
 

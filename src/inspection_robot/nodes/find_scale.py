@@ -12,7 +12,9 @@ Parameters:  ~preset_root (str, /var/lib/inspection_robot/presets), ~picture_roo
              ~camera_optics (dict, config/camera_optics.yaml): zoom -> field of view
              ~detector (str, orb), ~max_moves (int, 3): PTZ re-centring moves,
              ~centre_tolerance (fraction of the picture, 0.05), ~service_timeout (s, 10.0)
-             ~thermal_hfov_deg (deg, 25.0), ~thermal_width / ~thermal_height (px, 384 / 288)
+             ~thermal_hfov_deg (deg, 25.0), ~thermal_width / ~thermal_height (px, 384 / 288),
+             ~thermal_offset_px ([dx, dy] px, [0, 0]): where the visible optical axis lands in the
+             thermal picture relative to its centre (lens offset, measured once per robot)
 """
 import json
 import math
@@ -124,7 +126,10 @@ def main():
     optics = ZoomOptics(optics_cfg["zoom_hfov_deg"], optics_cfg["width"], optics_cfg["height"])
     hfov = float(rospy.get_param("~thermal_hfov_deg", 25.0))
     t_width, t_height = int(rospy.get_param("~thermal_width", 384)), int(rospy.get_param("~thermal_height", 288))
-    thermal = ThermalGeometry(t_width / 2.0 / math.tan(math.radians(hfov) / 2.0), t_width, t_height)
+    offset = [float(v) for v in rospy.get_param("~thermal_offset_px", [0.0, 0.0])]
+    if len(offset) != 2:
+        raise ValueError("~thermal_offset_px must be [dx, dy]")
+    thermal = ThermalGeometry(t_width / 2.0 / math.tan(math.radians(hfov) / 2.0), t_width, t_height, offset)
     head = RosHead(NODE_NAME, float(rospy.get_param("~service_timeout", 10.0)))
     finder = Finder(head, optics, Locator(rospy.get_param("~detector", "orb")), picture_root,
                     max_moves=int(rospy.get_param("~max_moves", 3)),

@@ -2,6 +2,8 @@
 
 Services:    sim/set_world_value (ControlService): cmd = face or hot spot id, data = value
              (gauge: number within its range; lamp: on|off; switch: open|closed; hot spot: degC);
+             cmd = foreign/<name>: drops a foreign object (data "equipment,side,u,v,w,h", m, a
+             plate 8 cm in front of that side; "" removes it);
              ack success with the canonical value, or failed with the reason
              sim/get_world_value (ControlService): cmd = id; data = the current value
 Publishes:   sim/world_state (GeneralTopic, latched): JSON {"values": {id: value}} on every change;

@@ -210,6 +210,23 @@ def paint_panel(rng, width, height, colour, label=None):
     return img
 
 
+def paint_foreign(seed, width, height):
+    """A bird's nest / hanging debris: dark twigs criss-crossing over a brown tangle."""
+    rng = np.random.RandomState(seed % (2 ** 31))
+    field = _value_noise(rng, height, width, max(4, min(width, height) // 6))
+    img = np.empty((height, width, 3), np.uint8)
+    for ch, base in enumerate((40, 70, 105)):
+        img[..., ch] = np.clip(base * (0.6 + 0.8 * field), 0, 255)
+    for _ in range(max(20, width * height // 150)):
+        x0, y0 = rng.randint(0, width), rng.randint(0, height)
+        angle, length = rng.uniform(0, math.pi), rng.uniform(0.2, 0.6) * max(width, height)
+        x1, y1 = int(x0 + length * math.cos(angle)), int(y0 + length * math.sin(angle))
+        shade = int(rng.randint(15, 90))
+        cv2.line(img, (int(x0), int(y0)), (x1, y1), (shade // 2, shade, int(shade * 1.5)),
+                 max(1, int(min(width, height) / 40)))
+    return img
+
+
 def paint_hot_spot(size_px):
     """Float32 profile of a hot spot spanning 4 radii: 1 on the core (r <= R), fading to 0 at 2R."""
     coords = (np.arange(size_px, dtype=np.float32) + 0.5) / size_px * 4.0 - 2.0   # in radii

@@ -3,15 +3,21 @@
 ``RenderedHead`` implements inspection.finder.Head on the camera team's renderer (robot pose,
 pan/tilt, zoom -> picture), so finding and reading run end to end without ROS. ``world_specs``
 turns the world's ground truth into calibration target descriptions (inspection.calibration),
-which is how the calibration tool calibrates automatically in simulation.
+which is how the calibration tool calibrates automatically in simulation
+(``calibrate_from_world``, the CLI's ``--from-world``).
 """
 import math
+import os
+import shutil
+import tempfile
 
 import cv2
 import numpy as np
 
+from inspection_robot.inspection.calibration import calibrate
+from inspection_robot.inspection.preset import PresetError, load_info
 from inspection_robot.sim.camera import focal_for_hfov
-from inspection_robot.sim.render import PinholeCamera, ground_truth
+from inspection_robot.sim.render import PinholeCamera, Renderer, ThermalRenderer, ground_truth
 
 MIN_BOX_PX = 24.0
 
@@ -72,8 +78,9 @@ def _box_ok(corners, width, height):
 def world_specs(world, head, switch_picture_path=None, hot_spot_box_px=None):
     """Calibration target descriptions for every face (and hot spot) the head sees well now.
 
-    Switches are rendered open and closed into ``switch_picture_path % (face, state)`` for their
-    references. Thermal hot spots need ``head.thermal_renderer``.
+    Switches (and lamps) are rendered open and closed (on and off) into
+    ``switch_picture_path % (face, state)`` for their references; without it switches are left out
+    and lamps have no references. Thermal hot spots need ``head.thermal_renderer``.
     """
     camera = head.camera()
     truth = ground_truth(world, camera)
@@ -90,19 +97,21 @@ def world_specs(world, head, switch_picture_path=None, hot_spot_box_px=None):
                         aspect=face.quad.width / face.quad.height, start_angle=face.start_angle,
                         end_angle=face.end_angle, start_value=face.range[0], end_value=face.range[1],
                         unit=face.unit)
-        elif face.type == "lamp":
+        elif face.type == "lamp" and switch_picture_path is None:
             spec.update(kind="lamp", colour=face.color)
         else:
             if switch_picture_path is None:
                 continue
             state = face.value
-            for name in ("open", "closed"):
+            for name in (("on", "off") if face.type == "lamp" else ("open", "closed")):
                 face.set_value(name)
                 path = switch_picture_path % (face_id.replace("/", "_"), name)
                 cv2.imwrite(path, head.renderer.render(camera))
                 spec[name + "_picture"] = path
             face.set_value(state)
-            spec["kind"] = "switch"
+            spec["kind"] = face.type
+            if face.type == "lamp":
+                spec["colour"] = face.color
         specs.append(spec)
     if head.thermal_renderer is not None:
         tcam = head.thermal_camera()
@@ -120,3 +129,32 @@ def world_specs(world, head, switch_picture_path=None, hot_spot_box_px=None):
                     _box_ok(np.reshape(tbox, (4, 2)), tcam.width, tcam.height):
                 specs.append({"kind": "thermal", "box": box, "thermal_box": tbox, "name": spot_id})
     return specs
+
+
+def calibrate_from_world(preset_dir, world, optics, thermal_hfov_deg=25.0, thermal_size=(384, 288), names=None,
+                         seed=5):
+    """Calibrate a recorded preset from the world's ground truth (the calibration tool's --from-world).
+
+    The view is rebuilt from preset.ini (robot pose, pan/tilt, zoom, picture size); every face the
+    view sees well becomes a target (``names``: only these ids), switch references are rendered
+    open and closed, and infrared presets add their visible hot spots as thermal targets.
+    Returns the Target list; raises PresetError (nothing written) when no target is in view.
+    """
+    info = load_info(preset_dir)
+    width, height = (info.width, info.height) if info.width > 0 else (optics.width, optics.height)
+    thermal = ThermalRenderer(world, seed=seed) if info.infrared else None
+    head = RenderedHead(Renderer(world, seed=seed), optics, info.pose, world.sensor_height, width, height,
+                        thermal_renderer=thermal, thermal_size=tuple(thermal_size),
+                        thermal_hfov_deg=thermal_hfov_deg)
+    head.set_angles(info.pan_deg, info.tilt_deg)
+    head.set_zoom(info.zoom_levels[0])
+    scratch = tempfile.mkdtemp(prefix="calibrate_preset_")
+    try:
+        specs = world_specs(world, head, switch_picture_path=os.path.join(scratch, "%s_%s.png"))
+        if names is not None:
+            specs = [s for s in specs if s["name"] in set(names)]
+        if not specs:
+            raise PresetError("no face or hot spot of the world is in view of preset %s" % preset_dir)
+        return calibrate(preset_dir, specs, optics)
+    finally:
+        shutil.rmtree(scratch, ignore_errors=True)

@@ -14,6 +14,7 @@ noise) is seeded: the same seed, view and frame index give the same picture bit 
 No rospy here: the inspection team uses ``ground_truth`` and ``Renderer`` on its own.
 """
 import math
+import zlib
 
 import cv2
 import numpy as np
@@ -120,11 +121,12 @@ def _clip(poly, plane):
 def ground_truth(world, camera):
     """Where every face and hot spot lands in ``camera``'s picture.
 
-    Returns {"faces": {id: {...}}, "hot_spots": {id: {...}}}. Each face entry: type, value,
+    Returns {"faces": {id: {...}}, "hot_spots": {id: {...}}, "foreign": {id: {...}}}. Each face entry: type, value,
     corners (TL, TR, BR, BL as seen from the front, px), center, depth (m, along the optical axis),
     facing, in_picture (all corners inside), visible (in front, facing, in picture; occlusion by
     other equipment is not checked); gauges add pivot, needle_tip (px) and needle_angle_deg.
-    Hot spot entries: center (px), radius_px, temperature, visible.
+    Hot spot entries: center (px), radius_px, temperature, visible. Foreign objects present:
+    corners, visible.
     """
     faces = {}
     for face in world.faces.values():
@@ -152,7 +154,14 @@ def ground_truth(world, camera):
                        and 0 <= u < camera.width and 0 <= v < camera.height)
         spots[spot.id] = {"center": centre[0].tolist(), "radius_px": float(radius_px), "depth": float(depth[0]),
                           "temperature": spot.temperature, "visible": visible}
-    return {"faces": faces, "hot_spots": spots}
+    foreign = {}
+    for thing in world.foreign.values():
+        if not thing.present:
+            continue
+        corners, depth = camera.project(thing.quad.corners())
+        inside = bool(np.all(depth > NEAR_M) and np.all((corners >= 0) & (corners <= [camera.width, camera.height])))
+        foreign[thing.id] = {"corners": corners.tolist(), "visible": bool(inside and camera.facing(thing.quad))}
+    return {"faces": faces, "hot_spots": spots, "foreign": foreign}
 
 
 # --- scene ------------------------------------------------------------------------------------
@@ -278,7 +287,20 @@ class Renderer(object):
                 if extent < 1.0:
                     continue
                 _draw(img, camera, face.quad, self._face_texture(face, extent))
+            for thing in self.world.foreign.values():
+                if thing.present and thing.equipment.id == eq_id and camera.facing(thing.quad):
+                    _draw(img, camera, thing.quad, self._foreign_texture(thing))
         return self._post(img, frame_index)
+
+    def _foreign_texture(self, thing):
+        key = ("foreign", thing.id, thing.value)
+        tex = self._face_cache.get(key)
+        if tex is None:
+            width = max(16, int(thing.quad.width * 400))
+            height = max(16, int(thing.quad.height * 400))
+            tex = painter.paint_foreign(zlib.crc32(thing.id.encode("utf-8")), width, height)
+            self._face_cache[key] = tex
+        return tex
 
     def _far_to_near(self, camera):
         return sorted(self.world.equipment,

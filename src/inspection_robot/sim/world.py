@@ -23,6 +23,9 @@ SWITCH_VALUES = ("open", "closed")
 ZONE_COLORS = ("red", "green", "yellow")
 HOT_SPOT_RANGE_C = (-40.0, 600.0)
 FACE_STANDOFF_M = 0.005  # faces sit this far in front of their side so they never z-fight with it
+FOREIGN_PREFIX = "foreign/"
+FOREIGN_STANDOFF_M = 0.08  # a foreign object hangs this far in front of the side it is dropped on
+FOREIGN_MAX_SIZE_M = 2.0
 
 
 class WorldError(ValueError):
@@ -244,6 +247,51 @@ class HotSpot(object):
         return self.value
 
 
+class ForeignObject(object):
+    """Something that does not belong on the equipment (a bird's nest, hanging debris): a textured
+    plate ``FOREIGN_STANDOFF_M`` in front of a side. Its value is the placement text
+    ``equipment,side,u,v,w,h`` (m, like a face's center and size) or ``""`` when absent."""
+
+    def __init__(self, item_id, equipment_by_id):
+        self.id = item_id
+        self.type = "foreign"
+        self.equipment = None
+        self.quad = None
+        self.value = ""
+        self._equipment_by_id = equipment_by_id
+
+    def parse_value(self, value):
+        text = "" if value is None else str(value).strip()
+        if not text:
+            return None, None, ""
+        fields = text.split(",")
+        if len(fields) != 6:
+            raise WorldError("foreign object %s: value must be 'equipment,side,u,v,w,h' or empty, got '%s'"
+                             % (self.id, text))
+        equipment = self._equipment_by_id.get(fields[0])
+        if equipment is None:
+            raise WorldError("foreign object %s: unknown equipment '%s'" % (self.id, fields[0]))
+        if fields[1] not in SIDES:
+            raise WorldError("foreign object %s: side must be one of %s" % (self.id, "|".join(SIDES)))
+        try:
+            u, v, w, h = (float(f) for f in fields[2:])
+        except ValueError:
+            raise WorldError("foreign object %s: u,v,w,h must be numbers, got '%s'" % (self.id, text))
+        if not all(math.isfinite(n) for n in (u, v, w, h)) or not (0 < w <= FOREIGN_MAX_SIZE_M
+                                                                   and 0 < h <= FOREIGN_MAX_SIZE_M):
+            raise WorldError("foreign object %s: size must be within (0, %g] m" % (self.id, FOREIGN_MAX_SIZE_M))
+        quad = _side_quad(equipment, fields[1], (u, v), (w, h), FOREIGN_STANDOFF_M)
+        return equipment, quad, "%s,%s,%g,%g,%g,%g" % (equipment.id, fields[1], u, v, w, h)
+
+    def set_value(self, value):
+        self.equipment, self.quad, self.value = self.parse_value(value)
+        return self.value
+
+    @property
+    def present(self):
+        return self.quad is not None
+
+
 class World(object):
     """The yard: equipment, faces, hot spots, thermal surface temperatures, robot start."""
 
@@ -275,6 +323,7 @@ class World(object):
             self.equipment_c = {str(k): float(v) for k, v in (thermal.get("equipment", {}) or {}).items()}
         except (TypeError, ValueError, AttributeError) as err:
             raise WorldError("world thermal: %s" % err)
+        self.foreign = {}
         self.hot_spots = {}
         for item in thermal.get("hot_spots", []) or []:
             spot = HotSpot(item, self.equipment)
@@ -301,13 +350,16 @@ class World(object):
         return self.equipment_c.get(equipment_id, self.ambient_c)
 
     def item(self, item_id):
-        item = self.faces.get(item_id) or self.hot_spots.get(item_id)
+        """A face, hot spot or foreign object; a foreign object id (``foreign/<name>``) is created on first use."""
+        item = self.faces.get(item_id) or self.hot_spots.get(item_id) or self.foreign.get(item_id)
+        if item is None and str(item_id).startswith(FOREIGN_PREFIX) and len(str(item_id)) > len(FOREIGN_PREFIX):
+            item = self.foreign[item_id] = ForeignObject(str(item_id), self.equipment)
         if item is None:
             raise WorldError("unknown face or hot spot '%s'" % (item_id,))
         return item
 
     def set_value(self, item_id, value):
-        """Set a face's value or a hot spot's temperature; returns the canonical value."""
+        """Set a face's value, a hot spot's temperature or a foreign object's placement; returns the canonical value."""
         return self.item(item_id).set_value(value)
 
     def get_value(self, item_id):
@@ -317,6 +369,7 @@ class World(object):
         """Every settable value: {id: value}."""
         result = {fid: f.value for fid, f in self.faces.items()}
         result.update({sid: s.value for sid, s in self.hot_spots.items()})
+        result.update({oid: o.value for oid, o in self.foreign.items()})
         return result
 
     def apply_values(self, values):

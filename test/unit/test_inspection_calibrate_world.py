@@ -1,0 +1,66 @@
+"""calibrate_preset --from-world: calibration from the simulated world's ground truth."""
+import math
+import os
+
+import pytest
+import yaml
+
+from inspection_robot.camera.optics import ZoomOptics
+from inspection_robot.inspection.preset import CALIB_INI, load_preset
+from inspection_robot.inspection.recorder import record_preset
+from inspection_robot.nodes.calibrate_preset import run
+from inspection_robot.sim.inspection_sim import RenderedHead
+from inspection_robot.sim.render import Renderer, ThermalRenderer
+from inspection_robot.sim.world import World
+
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+WORLD = os.path.join(ROOT, "config", "sim_world.yaml")
+OPTICS = os.path.join(ROOT, "config", "camera_optics.yaml")
+WIDTH, HEIGHT = 800, 450
+
+
+def _record(tmp_path, yaw_offset=0.0):
+    with open(OPTICS) as f:
+        table = yaml.safe_load(f)["camera_optics"]
+    optics = ZoomOptics(table["zoom_hfov_deg"], WIDTH, HEIGHT)
+    world = World.load(WORLD)
+    base, normal, _r, _w = world.equipment["breaker_1"].side_frame("front")
+    p = base + normal * 3.5
+    pose = (p[0], p[1], math.atan2(-normal[1], -normal[0]) + yaw_offset)
+    tilt = math.degrees(math.atan2(1.2 - 1.8, 3.5))
+    head = RenderedHead(Renderer(world, seed=2), optics, pose, 1.2, WIDTH, HEIGHT, ThermalRenderer(world))
+    head.set_angles(0.0, tilt)
+    head.set_zoom(1.5)
+    state = {"pan_deg": 0.0, "tilt_deg": tilt, "zoom": 1.5, "focus_position": 0, "pose": pose}
+    return record_preset(head, str(tmp_path), "b1", "20260101_000000", state, infrared=True)
+
+
+def test_from_world_calibrates_every_face_and_hot_spot_in_view(tmp_path, capsys):
+    path = _record(tmp_path)
+    assert run([path, "--from-world", WORLD]) == 0
+    targets = load_preset(path).targets
+    kinds = dict((t.name, t.kind) for t in targets)
+    assert kinds == {"breaker_1/lamp_closed": "lamp", "breaker_1/lamp_open": "lamp", "breaker_1/position": "switch",
+                     "breaker_1/sf6_pressure": "pointer", "breaker_1/terminal": "thermal"}
+    assert "calibrated 5 target(s)" in capsys.readouterr().out
+    assert os.path.isfile(os.path.join(path, "target_%d_open.png" % [t.name for t in targets].index(
+        "breaker_1/position")))
+    # the default world file, and a subset
+    assert run([path, "--from-world", "--only", "breaker_1/sf6_pressure,breaker_1/terminal"]) == 0
+    assert [t.name for t in load_preset(path).targets] == ["breaker_1/sf6_pressure", "breaker_1/terminal"]
+
+
+def test_from_world_with_nothing_in_view_fails_and_writes_nothing(tmp_path, capsys):
+    path = _record(tmp_path, yaw_offset=math.pi)
+    assert run([path, "--from-world"]) == 1
+    assert "no face or hot spot" in capsys.readouterr().err
+    assert not os.path.exists(os.path.join(path, CALIB_INI))
+    assert run([path, "--from-world", "--only", "nothing/here"]) == 1
+
+
+def test_from_world_argument_errors(tmp_path):
+    with pytest.raises(SystemExit):
+        run([str(tmp_path), "targets.yaml", "--from-world"])
+    with pytest.raises(SystemExit):
+        run([str(tmp_path)])
+    assert run([str(tmp_path / "missing"), "--from-world"]) == 1
