@@ -49,6 +49,21 @@ class Latest(object):
     def wait_connected(self, timeout=5.0):
         wait_for(lambda: self._sub.get_num_connections() > 0, timeout, "publisher of " + self._sub.name)
 
+    def handshake(self, send, predicate, timeout=10.0, period=0.5):
+        """Repeat ``send()`` until a reply satisfying ``predicate`` arrives.
+
+        A subscriber counts its connection before the publisher has added it, so the first reply
+        after wait_connected can still be lost; one confirmed round trip closes that window.
+        """
+        deadline = time.monotonic() + timeout
+        while True:
+            send()
+            try:
+                return self.wait(predicate, min(period, max(deadline - time.monotonic(), 0.01)), "handshake")
+            except AssertionError:
+                if time.monotonic() >= deadline:
+                    raise AssertionError("no reply on %s within %.1f s" % (self._sub.name, timeout))
+
 
 def wait_subscribed(publisher, timeout=5.0):
     wait_for(lambda: publisher.get_num_connections() > 0, timeout, "subscriber of " + publisher.name)
@@ -72,6 +87,9 @@ class TwinClient(object):
         self.publisher = rospy.Publisher(cmd_topic, GeneralCmd, queue_size=10)
         wait_subscribed(self.publisher, timeout)
         self.acks.wait_connected(timeout)
+        ping_id = next(_TRANS_IDS)
+        self.acks.handshake(lambda: self.publisher.publish(GeneralCmd(sender="rostest", cmd="ping", trans_id=ping_id)),
+                            lambda m: m.trans_id == ping_id, timeout)
 
     def call(self, cmd, data="", sender="server"):
         """Service twin: returns the ControlService response."""

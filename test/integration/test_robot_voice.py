@@ -19,6 +19,9 @@ class RobotVoiceTest(unittest.TestCase):
         cls.pub = rospy.Publisher("voice_cmd", VoiceCmd, queue_size=10)
         wait_subscribed(cls.pub)
         cls.acks.wait_connected()
+        cls.acks.handshake(lambda: cls.pub.publish(VoiceCmd(sender="rostest", trans_id=999, language="english",
+                                                            data=["[0]"])),
+                           lambda m: m.trans_id == 999)
 
     def say(self, trans_id, language, data):
         self.pub.publish(VoiceCmd(sender="server", trans_id=trans_id, language=language, data=data))

@@ -18,8 +18,6 @@ Parameters:  ~port (pyserial URL or device, "/tmp/inspection_robot_pelco"), ~bau
              ~move_timeout (s, 10.0), ~poll_period (s, 0.05), ~state_rate (Hz, 20.0),
              ~camera_optics (config/camera_optics.yaml: width, height, zoom_hfov_deg)
 """
-import queue
-import threading
 
 import rospy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
@@ -31,6 +29,7 @@ from inspection_robot.command import CommandError, failed, success
 from inspection_robot.msg import PresetRotate
 from inspection_robot.interface import ACK_SUCCESS, BUSY, SENDER_JOY
 from inspection_robot.nodes.twin import CommandTwin, ModeWatcher
+from inspection_robot.nodes.worker import RequestWorker
 from inspection_robot.ptz import pelco
 from inspection_robot.ptz.driver import HeadError, PelcoHead
 from inspection_robot.ptz.terrace import Terrace, format_centi
@@ -51,32 +50,17 @@ class CloudTerrace(object):
         self.twin = CommandTwin(terrace.table(), "terrace_control", "terrace_cmd", "terrace_ack", NODE_NAME)
         self._state_pub = rospy.Publisher("terrace_state", JointState, queue_size=10)
         self._diag_pub = rospy.Publisher("diagnostics", DiagnosticArray, queue_size=10)
-        self._rotations = queue.Queue(maxsize=10)
+        self._rotations = RequestWorker(NODE_NAME + ": preset_rotate",
+                                        lambda msg: self.twin.publish_ack(self._rotate(msg), msg),
+                                        lambda msg: self.twin.publish_ack(failed("preset_rotate: busy, queue full"),
+                                                                          msg), 10)
         rospy.Subscriber("camera_zoom", Float64, self._on_zoom, queue_size=1)
-        rospy.Subscriber("preset_rotate", PresetRotate, self._on_preset_rotate, queue_size=10)
-        worker = threading.Thread(target=self._rotate_worker, name="preset_rotate_worker")
-        worker.daemon = True
-        worker.start()
+        rospy.Subscriber("preset_rotate", PresetRotate, self._rotations.submit, queue_size=10)
         self._state_timer = rospy.Timer(rospy.Duration(1.0 / state_rate_hz), self._on_state_timer)
         self._diag_timer = rospy.Timer(rospy.Duration(1.0), self._on_diag_timer)
 
     def _on_zoom(self, msg):
         self._zoom = msg.data
-
-    def _on_preset_rotate(self, msg):
-        try:
-            self._rotations.put_nowait(msg)
-        except queue.Full:
-            rospy.logwarn_throttle(1.0, "%s: preset_rotate queue full, dropping one" % NODE_NAME)
-            self.twin.publish_ack(failed("preset_rotate: busy, queue full"), msg)
-
-    def _rotate_worker(self):
-        while not rospy.is_shutdown():
-            try:
-                msg = self._rotations.get(timeout=0.2)
-            except queue.Empty:
-                continue
-            self.twin.publish_ack(self._rotate(msg), msg)
 
     def _rotate(self, msg):
         if self._modes.joystick_holds() and msg.sender != SENDER_JOY:

@@ -30,7 +30,6 @@ Parameters:  ~map_file (map_server YAML, required), ~pose_topic ("sim/true_pose"
 import json
 import math
 import os
-import queue
 import threading
 import time
 import traceback
@@ -40,8 +39,8 @@ import rospy
 from geometry_msgs.msg import PoseStamped, PoseWithCovarianceStamped
 from nav_msgs.msg import OccupancyGrid, Path
 
-from inspection_robot.command import CommandError, failed, parse_float, split_fields
-from inspection_robot.interface import (ACK_SUCCESS, LOCATION_CMD_SET, LOCATION_INIT_POSE, LOCATION_LAST_POSE,
+from inspection_robot.command import CommandError, parse_float, split_fields
+from inspection_robot.interface import (LOCATION_CMD_SET, LOCATION_INIT_POSE, LOCATION_LAST_POSE,
                                         MODE_NAMES, MODE_TASK,
                                         MOVE_FEEDBACK_ALARM, MOVE_FEEDBACK_MOVING, MOVE_FEEDBACK_PLANNED,
                                         MOVE_FEEDBACK_PLANNING, MOVE_RESULT_BLOCKED, MOVE_RESULT_CANCELLED,
@@ -49,7 +48,7 @@ from inspection_robot.interface import (ACK_SUCCESS, LOCATION_CMD_SET, LOCATION_
                                         MOVE_RESULT_SUCCESS, MOVE_VELOCITY_X_UNIT_M_S, MOVE_VELOCITY_YAW_UNIT_RAD_S,
                                         NAV_LOCALIZATION_LOST, NAV_OBSTACLE_3D, NAV_OFF_TRACK, SENDER_MOVE_BASE,
                                         WHEEL_STRAIGHT)
-from inspection_robot.msg import (ControlStatus, GeneralAck, GeneralAction, GeneralCmd, GeneralFeedback, GeneralResult,
+from inspection_robot.msg import (ControlStatus, GeneralAction, GeneralCmd, GeneralFeedback, GeneralResult,
                                   MoveCmd, NavStatus, ObstacleStatus)
 from inspection_robot.nav.costmap import Costmap
 from inspection_robot.nav.follower import DONE, FollowerParams, PathFollower
@@ -59,6 +58,7 @@ from inspection_robot.nav.localization import LocalizationMonitor, wrap_angle
 from inspection_robot.nav.persist import read_json, write_json_atomic
 from inspection_robot.nav.planner import Planner, PlanningError
 from inspection_robot.nav.virtual_obstacles import VirtualObstacles
+from inspection_robot.nodes.twin import CommandTwin
 
 OBSTACLE_CONTROL = {"enable_obstacle": True, "disable_obstacle": False, "switch_obstacle": None}
 
@@ -106,7 +106,6 @@ class MoveBase(object):
         self._costmap_lock = threading.Lock()
         self._replan = threading.Event()
         self._last_saved_pose = None
-        self._vo_queue = queue.Queue(maxsize=50)
 
         stamp = rospy.Time.now()
         self._map_pub = rospy.Publisher("map", OccupancyGrid, queue_size=1, latch=True)
@@ -115,7 +114,6 @@ class MoveBase(object):
         self._plan_pub = rospy.Publisher("plan", Path, queue_size=1, latch=True)
         self._cmd_pub = rospy.Publisher("move_cmd", MoveCmd, queue_size=10)
         self._status_pub = rospy.Publisher("nav_status", NavStatus, queue_size=10)
-        self._ack_pub = rospy.Publisher("virtual_obstacle_ack", GeneralAck, queue_size=50)
         self._initial_pub = rospy.Publisher("initialpose", PoseWithCovarianceStamped, queue_size=1, latch=True)
         self._publish_virtual()
 
@@ -124,10 +122,8 @@ class MoveBase(object):
         rospy.Subscriber("control_status", ControlStatus, self._on_control_status, queue_size=10)
         rospy.Subscriber("control_cmd", GeneralCmd, self._on_control, queue_size=10)
         rospy.Subscriber("location_cmd", GeneralCmd, self._on_location, queue_size=10)
-        rospy.Subscriber("virtual_obstacle_cmd", GeneralCmd, self._on_virtual_cmd, queue_size=50)
-        worker = threading.Thread(target=self._virtual_worker, name="virtual_obstacle_worker")
-        worker.daemon = True
-        worker.start()
+        self._virtual_twin = CommandTwin(self.obstacles.table, None, "virtual_obstacle_cmd", "virtual_obstacle_ack",
+                                         SENDER_MOVE_BASE, busy_when_joystick=False)
 
         self._server = actionlib.SimpleActionServer("move_action", GeneralAction, self._execute, auto_start=False)
         self._server.start()
@@ -190,25 +186,6 @@ class MoveBase(object):
         x, y, yaw = split_fields(data, 3)
         return parse_float(x, "x"), parse_float(y, "y"), wrap_angle(parse_float(yaw, "yaw"))
 
-    def _on_virtual_cmd(self, msg):
-        try:
-            self._vo_queue.put_nowait(msg)
-        except queue.Full:
-            self._ack(failed("busy: command queue full"), msg)
-
-    def _virtual_worker(self):
-        while not rospy.is_shutdown():
-            try:
-                msg = self._vo_queue.get(timeout=0.2)
-            except queue.Empty:
-                continue
-            try:
-                reply = self.obstacles.table.dispatch(msg.cmd, msg.data)
-            except Exception as err:  # boundary: one bad command must not kill the worker
-                rospy.logerr("move_base: virtual_obstacle_cmd %s raised: %s\n%s", msg.cmd, err, traceback.format_exc())
-                reply = failed("internal error: %s" % (err,))
-            self._ack(reply, msg)
-
     def on_virtual_change(self, _listing):
         """Called by the store after a change was saved: re-inflate, republish, replan."""
         with self._costmap_lock:
@@ -216,14 +193,6 @@ class MoveBase(object):
             self.planner.refresh()
         self._publish_virtual()
         self._replan.set()
-
-    def _ack(self, reply, request):
-        ack = GeneralAck(ack=reply.ack, data=reply.data, sender=SENDER_MOVE_BASE, receiver=request.sender,
-                         trans_id=request.trans_id)
-        ack.header.stamp = rospy.Time.now()
-        self._ack_pub.publish(ack)
-        if reply.ack != ACK_SUCCESS:
-            rospy.logwarn("move_base: virtual_obstacle_cmd %s failed: %s", request.cmd, reply.data)
 
     # --- outputs -------------------------------------------------------------------------------
     def _publish_virtual(self):

@@ -12,8 +12,6 @@ Parameters:  ~preset_root (str, /var/lib/inspection_robot/presets): holds <prese
 Requests are served one at a time in arrival order by a worker thread.
 """
 import os
-import queue
-import threading
 import time
 import traceback
 
@@ -23,6 +21,7 @@ from inspection_robot.inspection.locate import Locator
 from inspection_robot.inspection.reading import ReadError, ScaleReader
 from inspection_robot.interface import ACK_FAILED, ACK_SUCCESS
 from inspection_robot.msg import ReadScaleAck, ReadScaleCmd
+from inspection_robot.nodes.worker import RequestWorker
 
 NODE_NAME = "read_scale"
 
@@ -30,27 +29,11 @@ NODE_NAME = "read_scale"
 class ReadScaleNode(object):
     def __init__(self, reader, queue_size):
         self._reader = reader
-        self._queue = queue.Queue(maxsize=queue_size)
         self._pub = rospy.Publisher("read_scale_ack", ReadScaleAck, queue_size=10)
-        self._worker = threading.Thread(target=self._work, name="read_scale_worker")
-        self._worker.daemon = True
-        self._worker.start()
-        self._sub = rospy.Subscriber("read_scale_cmd", ReadScaleCmd, self._on_cmd, queue_size=queue_size)
-
-    def _on_cmd(self, msg):
-        try:
-            self._queue.put_nowait(msg)
-        except queue.Full:
-            rospy.logwarn_throttle(1.0, "read_scale: request queue full, refusing trans_id %d" % msg.trans_id)
-            self._publish(self._failed(msg, "busy: request queue full"))
-
-    def _work(self):
-        while not rospy.is_shutdown():
-            try:
-                msg = self._queue.get(timeout=0.2)
-            except queue.Empty:
-                continue
-            self._publish(self.serve(msg))
+        self._worker = RequestWorker(NODE_NAME, lambda msg: self._publish(self.serve(msg)),
+                                     lambda msg: self._publish(self._failed(msg, "busy: request queue full")),
+                                     queue_size)
+        self._sub = rospy.Subscriber("read_scale_cmd", ReadScaleCmd, self._worker.submit, queue_size=queue_size)
 
     def serve(self, msg):
         """Turn one ReadScaleCmd into its ReadScaleAck; never raises."""

@@ -9,13 +9,12 @@ Requests are played one after another by a worker thread; a full queue drops the
 with a failed ack rather than delaying every later prompt.
 """
 import os
-import queue
-import threading
 
 import rospy
 
 from inspection_robot.interface import ACK_FAILED, ACK_SUCCESS
 from inspection_robot.msg import GeneralAck, VoiceCmd
+from inspection_robot.nodes.worker import RequestWorker
 from inspection_robot.voice.phrases import Speech, VoiceError, parse_command
 from inspection_robot.voice.player import FileOutput, SpeakerOutput
 
@@ -23,27 +22,12 @@ from inspection_robot.voice.player import FileOutput, SpeakerOutput
 class RobotVoice(object):
     def __init__(self, output, queue_size):
         self._output = output
-        self._queue = queue.Queue(maxsize=queue_size)
         self._ack = rospy.Publisher("voice_ack", GeneralAck, queue_size=20)
-        self._worker = threading.Thread(target=self._work, name="voice_worker")
-        self._worker.daemon = True
-        self._worker.start()
-        rospy.Subscriber("voice_cmd", VoiceCmd, self._on_cmd, queue_size=20)
+        self._worker = RequestWorker("robot_voice", self._speak, self._refuse, queue_size)
+        rospy.Subscriber("voice_cmd", VoiceCmd, self._worker.submit, queue_size=20)
 
-    def _on_cmd(self, msg):
-        try:
-            self._queue.put_nowait(msg)
-        except queue.Full:
-            rospy.logwarn_throttle(2.0, "robot_voice: queue full, dropping a request from %s" % msg.sender)
-            self._reply(msg, ACK_FAILED, "busy: voice queue full")
-
-    def _work(self):
-        while not rospy.is_shutdown():
-            try:
-                msg = self._queue.get(timeout=0.2)
-            except queue.Empty:
-                continue
-            self._speak(msg)
+    def _refuse(self, msg):
+        self._reply(msg, ACK_FAILED, "busy: voice queue full")
 
     def _speak(self, msg):
         try:

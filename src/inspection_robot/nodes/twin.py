@@ -1,20 +1,21 @@
 """The service/topic twin every device node offers (INTERFACE.md section 3).
 
 ``X_control`` (ControlService) and ``X_cmd``/``X_ack`` (GeneralCmd/GeneralAck) reach the same
-CommandTable. Service calls run in rospy's per-call thread; topic commands are queued to one
-worker thread so the subscriber callback returns at once and commands run in arrival order.
+CommandTable. Service calls run in rospy's per-call thread; topic commands go to one
+RequestWorker so the subscriber callback returns at once and commands run in arrival order.
+A node with only the topic pair (move_base's virtual obstacles) passes ``service=None``.
 While the joystick holds the robot (mode 2) every request from another sender is answered
 ``failed``/``busy`` without reaching the table.
 """
-import queue
 import threading
 import traceback
 
 import rospy
 
 from inspection_robot.command import failed
-from inspection_robot.interface import BUSY, MODE_JOY, SENDER_JOY
+from inspection_robot.interface import ACK_SUCCESS, BUSY, MODE_JOY, SENDER_JOY
 from inspection_robot.msg import ControlStatus, GeneralAck, GeneralCmd
+from inspection_robot.nodes.worker import RequestWorker
 from inspection_robot.srv import ControlService, ControlServiceResponse
 
 
@@ -46,13 +47,11 @@ class CommandTwin(object):
         self._node_name = node_name
         self._modes = ModeWatcher() if busy_when_joystick else None
         self._lock = threading.Lock()  # one command at a time reaches the device
-        self._queue = queue.Queue(maxsize=queue_size)
         self._ack_pub = rospy.Publisher(ack_topic, GeneralAck, queue_size=50)
-        self._worker = threading.Thread(target=self._work, name=cmd_topic + "_worker")
-        self._worker.daemon = True
-        self._worker.start()
-        self._cmd_sub = rospy.Subscriber(cmd_topic, GeneralCmd, self._on_cmd, queue_size=50)
-        self._service = rospy.Service(service, ControlService, self._on_service)
+        self._worker = RequestWorker(node_name + ": " + cmd_topic, self._run_topic_command, self._refuse,
+                                     queue_size)
+        self._cmd_sub = rospy.Subscriber(cmd_topic, GeneralCmd, self._worker.submit, queue_size=50)
+        self._service = rospy.Service(service, ControlService, self._on_service) if service else None
 
     def handle(self, sender, cmd, data):
         """Run one command and return its Reply; the single entry point of both twins."""
@@ -60,30 +59,24 @@ class CommandTwin(object):
             return failed(BUSY)
         try:
             with self._lock:
-                return self._table.dispatch(cmd, data)
+                reply = self._table.dispatch(cmd, data)
         except Exception as err:  # boundary: a bug in one command must not kill the node
             rospy.logerr("%s: command %s(%r) raised: %s\n%s", self._node_name, cmd, data, err,
                          traceback.format_exc())
             return failed("internal error: %s" % (err,))
+        if reply.ack != ACK_SUCCESS:
+            rospy.logwarn("%s: %s(%r) from %r failed: %s", self._node_name, cmd, data[:80], sender, reply.data)
+        return reply
 
     def _on_service(self, req):
         reply = self.handle(req.sender, req.cmd, req.data)
         return ControlServiceResponse(trans_id=req.trans_id, ack=reply.ack, data=reply.data)
 
-    def _on_cmd(self, msg):
-        try:
-            self._queue.put_nowait(msg)
-        except queue.Full:
-            rospy.logwarn_throttle(1.0, "%s: command queue full, dropping %s" % (self._node_name, msg.cmd))
-            self.publish_ack(failed("busy: command queue full"), msg)
+    def _run_topic_command(self, msg):
+        self.publish_ack(self.handle(msg.sender, msg.cmd, msg.data), msg)
 
-    def _work(self):
-        while not rospy.is_shutdown():
-            try:
-                msg = self._queue.get(timeout=0.2)
-            except queue.Empty:
-                continue
-            self.publish_ack(self.handle(msg.sender, msg.cmd, msg.data), msg)
+    def _refuse(self, msg):
+        self.publish_ack(failed("busy: command queue full"), msg)
 
     def publish_ack(self, reply, request=None):
         """Publish ``reply`` on the ack topic, echoing ``request``'s trans_id and sender."""
