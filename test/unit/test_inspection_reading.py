@@ -48,6 +48,16 @@ def test_reads_every_box(setup):
     assert out.foreign_scale == []
 
 
+def test_two_reads_in_one_second_keep_both_result_pictures(setup):
+    reader, path, picture, roi, _scene = setup
+    stamp = "20260102_090000"
+    first = reader.read(path, 0, [picture], [], roi, [], stamp).picture_path
+    second = reader.read(path, 0, [picture], [], roi, [], stamp).picture_path
+    assert len(set(first + second)) == len(first) + len(second)
+    assert all(os.path.isfile(p) for p in first + second)
+    assert second[0].endswith(stamp + "_read_00_2.jpg")
+
+
 def test_foreign_object_present_and_absent(setup):
     reader, path, picture, roi, _scene = setup
     clean = reader.read(path, 1, [], [picture], [], [], STAMP)

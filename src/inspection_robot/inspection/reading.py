@@ -251,8 +251,15 @@ def _annotate(image, quad, text, colour=(0, 255, 0)):
 
 
 def _save(image, folder, name):
+    """Write a JPEG atomically under a name no earlier result uses (two reads of one preset in the
+    same second get ``<stamp>_read_00.jpg`` and ``<stamp>_read_00_2.jpg``: no result is overwritten)."""
     os.makedirs(folder, exist_ok=True)
     path = os.path.join(folder, name)
+    stem, ext = os.path.splitext(path)
+    copy = 1
+    while os.path.exists(path):
+        copy += 1
+        path = "%s_%d%s" % (stem, copy, ext)
     ok, data = cv2.imencode(".jpg", image, [cv2.IMWRITE_JPEG_QUALITY, 90])
     if not ok:
         raise ReadError("cannot encode %s" % path)
