@@ -428,13 +428,19 @@ class Session(object):
     # ------------------------------------------------------------------ services
     def _op_call_service(self, args, mid):
         service = args["service"]
-        fragment_size, compression = args["fragment_size"], args["compression"]
+        fragment_size, compression, timeout = args["fragment_size"], args["compression"], args["timeout"]
         if compression not in COMPRESSIONS:
             raise BridgeError("compression must be one of %s" % ", ".join(COMPRESSIONS))
+        if timeout is not None and not (timeout > 0 and timeout < 1e9):
+            raise BridgeError("timeout must be a positive number of seconds, not %r" % (timeout,))
+        state = {"answered": False, "timer": None}
 
         def done(ok, values):
-            if self._closed:
+            if self._closed or state["answered"]:
                 return
+            state["answered"] = True
+            if state["timer"] is not None:
+                state["timer"].cancel()
             message = {"op": "service_response", "service": service, "values": values, "result": ok}
             if mid is not None:
                 message["id"] = mid
@@ -443,10 +449,20 @@ class Session(object):
             self._send_json(message, fragment_size, compression)
 
         call_args = args["args"] if args["args"] is not None else {}
-        if self._rosapi is not None and self._rosapi.handles(service):
-            self._backend.run_blocking(lambda: self._rosapi.call(service, call_args), done)
-        else:
-            self._backend.call_service(service, call_args, args["type"], args["timeout"], done)
+        if timeout is not None:
+            # as rosbridge (ros2 branch): past the timeout the call fails; a late response is dropped
+            state["timer"] = self._call_later(timeout, lambda: done(
+                False, "Timeout exceeded while waiting for service %s (%g s)" % (service, timeout)))
+        try:
+            if self._rosapi is not None and self._rosapi.handles(service):
+                self._backend.run_blocking(lambda: self._rosapi.call(service, call_args), done)
+            else:
+                self._backend.call_service(service, call_args, args["type"], timeout, done)
+        except Exception:
+            state["answered"] = True  # the error status answers the call
+            if state["timer"] is not None:
+                state["timer"].cancel()
+            raise
 
     def _op_advertise_service(self, args, mid):
         service = args["service"]
