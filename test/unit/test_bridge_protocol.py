@@ -264,3 +264,10 @@ def test_outgoing_encodes_once_and_keeps_nan_in_cbor():
     raw = cbor.loads(Outgoing("/f", cls(data=[2.0]), backend.codec, (3, 4)).cbor_raw_frame())["msg"]
     assert raw["secs"] == 3 and cls().deserialize(raw["bytes"]).data == (2.0,)
     assert genpy.Time(1, 2) == backend.types.time(1, 2)
+
+
+def test_incoming_png_is_an_unknown_op_as_in_rosbridge():
+    h = Harness()
+    h.send({"op": "png", "id": "p", "data": "aGk="})
+    status, = h.messages()
+    assert status["level"] == "error" and status["id"] == "p" and status["msg"].startswith("Unknown operation: png")
