@@ -146,6 +146,29 @@ class BridgeLinkTest(unittest.TestCase):
         self.assertFalse(reply["result"])
         self.assertIn("does not exist", reply["values"])
 
+    def test_call_service_timeout(self):
+        release = threading.Event()
+        self.addCleanup(release.set)
+
+        def stuck(request):
+            release.wait(5.0)
+            return ControlServiceResponse(trans_id=request.trans_id, ack="success", data="late")
+        service = rospy.Service(NS + "stuck_control", ControlService, stuck)
+        self.addCleanup(service.shutdown)
+        client = self.raw()
+        start = time.monotonic()
+        client.send({"op": "call_service", "id": "slow", "service": NS + "stuck_control", "timeout": 0.3,
+                     "args": {"sender": "s", "trans_id": 1, "cmd": "c", "data": "d"}})
+        reply = client.recv_message(lambda m: m["op"] == "service_response", timeout=3.0)
+        self.assertEqual((reply["id"], reply["result"]), ("slow", False))
+        self.assertIn("Timeout", reply["values"])
+        self.assertLess(time.monotonic() - start, 2.0)
+        release.set()  # the late ROS response is dropped; the connection keeps serving
+        client.send({"op": "call_service", "id": "after", "service": NS + "test_control", "timeout": 5,
+                     "args": {"sender": "s", "trans_id": 2, "cmd": "c", "data": "d"}})
+        reply = client.recv_message(lambda m: m["op"] == "service_response", timeout=5.0)
+        self.assertEqual((reply["id"], reply["result"]), ("after", True))
+
     def test_client_advertised_service_called_from_ros(self):
         def handler(request, response):
             response["trans_id"] = request["trans_id"]

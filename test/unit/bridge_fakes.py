@@ -21,6 +21,7 @@ class FakeBackend(object):
         self.subscribers = {}
         self.services = {}
         self.calls = []
+        self.pending = []
 
     def topic_type(self, topic):
         return self.topic_types.get(topic)
@@ -70,6 +71,9 @@ class FakeBackend(object):
 
     def call_service(self, service, args, type_name, timeout, done):
         self.calls.append((service, args))
+        if service == "/slow":  # answered later by the test through self.pending
+            self.pending.append(done)
+            return
         if service == "/echo":
             done(True, {"echo": args})
         else:

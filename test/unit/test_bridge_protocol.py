@@ -129,6 +129,40 @@ def test_call_service_dict_and_list_args_and_failure():
     assert h.backend.calls[1] == ("/missing", [1, 2])
 
 
+def test_call_service_timeout_fails_the_call_and_drops_the_late_response():
+    h = Harness()
+    h.send({"op": "call_service", "id": "t1", "service": "/slow", "args": {}, "timeout": 0.5})
+    h.advance(0.4)
+    assert h.messages() == []
+    h.advance(0.2)
+    status, failed = h.messages()
+    assert status["level"] == "error" and status["id"] == "t1"
+    assert failed["op"] == "service_response" and failed["result"] is False and failed["id"] == "t1"
+    assert "Timeout" in failed["values"]
+    h.backend.pending.pop()(True, {"late": 1})
+    assert h.messages() == []
+    # answered in time: the timer is cancelled, nothing more follows
+    h.send({"op": "call_service", "id": "t2", "service": "/slow", "timeout": 1})
+    h.backend.pending.pop()(True, {"x": 1})
+    h.advance(2.0)
+    assert [(m["id"], m["result"]) for m in h.messages()] == [("t2", True)]
+    # no timeout given: the call waits as long as the backend does
+    h.send({"op": "call_service", "id": "t3", "service": "/slow"})
+    h.advance(1000.0)
+    assert h.messages() == []
+    h.backend.pending.pop()(True, {})
+    assert h.messages()[0]["id"] == "t3"
+
+
+def test_call_service_rejects_a_bad_timeout():
+    h = Harness()
+    for i, timeout in enumerate((0, -1, "soon", True)):
+        h.send({"op": "call_service", "id": "b%d" % i, "service": "/echo", "timeout": timeout})
+        status, = h.messages()
+        assert status["op"] == "status" and status["level"] == "error" and status["id"] == "b%d" % i
+    assert h.backend.calls == [] and h.timers == []
+
+
 def test_advertised_service_round_trip_and_cleanup_on_close():
     h = Harness()
     h.send({"op": "advertise_service", "service": "/svc", "type": "inspection_robot/ControlService"})
@@ -230,3 +264,10 @@ def test_outgoing_encodes_once_and_keeps_nan_in_cbor():
     raw = cbor.loads(Outgoing("/f", cls(data=[2.0]), backend.codec, (3, 4)).cbor_raw_frame())["msg"]
     assert raw["secs"] == 3 and cls().deserialize(raw["bytes"]).data == (2.0,)
     assert genpy.Time(1, 2) == backend.types.time(1, 2)
+
+
+def test_incoming_png_is_an_unknown_op_as_in_rosbridge():
+    h = Harness()
+    h.send({"op": "png", "id": "p", "data": "aGk="})
+    status, = h.messages()
+    assert status["level"] == "error" and status["id"] == "p" and status["msg"].startswith("Unknown operation: png")

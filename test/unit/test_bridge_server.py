@@ -16,7 +16,7 @@ import tornado.ioloop
 from bridge_fakes import FakeBackend
 from inspection_robot.bridge.client import CLOSED, RawClient
 from inspection_robot.bridge.protocol import Session, SessionConfig
-from inspection_robot.bridge.server import BridgeServer, SendQueue, make_ssl_context
+from inspection_robot.bridge.server import BridgeServer, LoopPoster, SendQueue, make_ssl_context, ws_frame
 
 
 def test_send_queue_drops_oldest_topic_messages_and_honours_per_topic_limits():
@@ -106,9 +106,67 @@ def test_silent_client_is_dropped_by_keepalive(live):
                   "Sec-WebSocket-Key: %s\r\nSec-WebSocket-Version: 13\r\n\r\n" % key).encode())
     assert b"101" in sock.recv(1024).split(b"\r\n")[0]
     live.wait_count(1)
-    # never answers pings: closed after ping_timeout, plus tornado's 5 s wait for the close handshake
-    live.wait_count(0, timeout=8.0)
+    start = time.monotonic()
+    # never answers pings: its socket is closed once ping_timeout (0.5 s) passed, without waiting
+    # for a close handshake (tornado's own keep-alive would add 5 s)
+    live.wait_count(0, timeout=3.0)
+    assert time.monotonic() - start < 1.5
+    sock.settimeout(2.0)
+    while sock.recv(4096):  # the server closed its end: recv drains the pings, then sees EOF
+        pass
     sock.close()
+
+
+def test_answering_client_is_kept_alive(live):
+    client = RawClient("ws://127.0.0.1:%d" % live.port)  # tornado's client answers pings
+    live.wait_count(1)
+    time.sleep(1.5)  # three ping timeouts long: the client must stay connected
+    client.send({"op": "call_service", "id": "alive", "service": "/echo"})
+    assert client.recv_message()["id"] == "alive"
+    assert live.counts[-1] == 1
+    client.close()
+
+
+def test_loop_poster_runs_in_order_once_per_burst_and_isolates_failures():
+    calls, wakeups, errors = [], [], []
+
+    class Loop(object):
+        def add_callback(self, fn):
+            wakeups.append(fn)
+
+    poster = LoopPoster(Loop(), lambda level, text: errors.append(text))
+    poster.post(calls.append, 1)
+    poster.post(lambda: 1 / 0)
+    poster.post(calls.append, 2)
+    assert len(wakeups) == 1 and calls == []
+    wakeups.pop()()
+    assert calls == [1, 2] and len(errors) == 1
+    poster.post(calls.append, 3)
+    assert len(wakeups) == 1
+    wakeups.pop()()
+    assert calls == [1, 2, 3]
+
+
+def test_ws_frame_headers():
+    assert ws_frame("hi") == b"\x81\x02hi"
+    assert ws_frame(b"\x00") == b"\x82\x01\x00"
+    assert ws_frame("x" * 126)[:4] == b"\x81\x7e\x00\x7e"
+    assert ws_frame(b"y" * 70000)[:10] == b"\x82\x7f" + (70000).to_bytes(8, "big")
+
+
+def test_batched_frames_of_every_length_class_arrive_intact():
+    server = LiveServer(ping_interval=0)
+    try:
+        client = RawClient("ws://127.0.0.1:%d" % server.port)
+        sizes = [0, 100, 125, 126, 65535, 65536, 200000]
+        for i, size in enumerate(sizes):  # sent back to back: the replies share socket writes
+            client.send({"op": "call_service", "id": i, "service": "/echo", "args": {"s": "z" * size}})
+        for i, size in enumerate(sizes):
+            reply = client.recv_message(lambda m: m.get("op") == "service_response")
+            assert reply["id"] == i and reply["values"] == {"echo": {"s": "z" * size}}
+        client.close()
+    finally:
+        server.stop()
 
 
 @pytest.mark.skipif(shutil.which("openssl") is None, reason="needs the openssl CLI to make a certificate")

@@ -21,6 +21,9 @@ COMPRESSIONS = ("none", "png", "cbor", "cbor-raw")
 NUMBER = (int, float)
 ANY_ID = (str, int, float)
 ORIGINAL_MAX = 200  # characters of an offending frame quoted back in a status message
+# one shared compact encoder: json.dumps(..., separators=...) would build a new encoder per call
+compact_json = json.JSONEncoder(separators=(",", ":")).encode
+_PUBLISH_PREFIX = {}  # topic -> '{"op":"publish","topic":"<topic>","msg":'
 
 
 class BridgeError(Exception):
@@ -142,8 +145,12 @@ class Outgoing(object):
 
     def json_text(self):
         if self._json is None:
-            self._json = json.dumps({"op": "publish", "topic": self.topic, "msg": self._codec.to_json(self.msg)},
-                                    separators=(",", ":"))
+            prefix = _PUBLISH_PREFIX.get(self.topic)
+            if prefix is None:
+                if len(_PUBLISH_PREFIX) > 10000:
+                    _PUBLISH_PREFIX.clear()
+                prefix = _PUBLISH_PREFIX[self.topic] = '{"op":"publish","topic":%s,"msg":' % compact_json(self.topic)
+            self._json = prefix + compact_json(self._codec.to_json(self.msg)) + "}"
         return self._json
 
     def cbor_frame(self):
@@ -163,7 +170,7 @@ class Outgoing(object):
 
     def png_text(self):
         if self._png is None:
-            self._png = json.dumps({"op": "png", "data": png_encode(self.json_text())}, separators=(",", ":"))
+            self._png = compact_json({"op": "png", "data": png_encode(self.json_text())})
         return self._png
 
 
@@ -296,9 +303,9 @@ class Session(object):
         if compression in ("cbor", "cbor-raw"):
             self._send([cbor.dumps(message)], None, None, droppable)
             return
-        text = json.dumps(message, separators=(",", ":"))
+        text = compact_json(message)
         if compression == "png":
-            text = json.dumps({"op": "png", "data": png_encode(text)}, separators=(",", ":"))
+            text = compact_json({"op": "png", "data": png_encode(text)})
         self._send(self._fragmented(text, fragment_size, message.get("id")), None, None, droppable)
 
     def _fragmented(self, text, fragment_size, mid):
@@ -307,7 +314,7 @@ class Session(object):
         if mid is None:
             self._request_counter += 1
             mid = "fragment:%s:%d" % (self.client_id, self._request_counter)
-        return [json.dumps(f, separators=(",", ":")) for f in fragments(text, fragment_size, mid)]
+        return [compact_json(f) for f in fragments(text, fragment_size, mid)]
 
     def deliver(self, outgoing):
         """A ROS message arrived on a topic this client subscribes to (event-loop thread)."""
@@ -421,13 +428,19 @@ class Session(object):
     # ------------------------------------------------------------------ services
     def _op_call_service(self, args, mid):
         service = args["service"]
-        fragment_size, compression = args["fragment_size"], args["compression"]
+        fragment_size, compression, timeout = args["fragment_size"], args["compression"], args["timeout"]
         if compression not in COMPRESSIONS:
             raise BridgeError("compression must be one of %s" % ", ".join(COMPRESSIONS))
+        if timeout is not None and not (timeout > 0 and timeout < 1e9):
+            raise BridgeError("timeout must be a positive number of seconds, not %r" % (timeout,))
+        state = {"answered": False, "timer": None}
 
         def done(ok, values):
-            if self._closed:
+            if self._closed or state["answered"]:
                 return
+            state["answered"] = True
+            if state["timer"] is not None:
+                state["timer"].cancel()
             message = {"op": "service_response", "service": service, "values": values, "result": ok}
             if mid is not None:
                 message["id"] = mid
@@ -436,10 +449,20 @@ class Session(object):
             self._send_json(message, fragment_size, compression)
 
         call_args = args["args"] if args["args"] is not None else {}
-        if self._rosapi is not None and self._rosapi.handles(service):
-            self._backend.run_blocking(lambda: self._rosapi.call(service, call_args), done)
-        else:
-            self._backend.call_service(service, call_args, args["type"], args["timeout"], done)
+        if timeout is not None:
+            # as rosbridge (ros2 branch): past the timeout the call fails; a late response is dropped
+            state["timer"] = self._call_later(timeout, lambda: done(
+                False, "Timeout exceeded while waiting for service %s (%g s)" % (service, timeout)))
+        try:
+            if self._rosapi is not None and self._rosapi.handles(service):
+                self._backend.run_blocking(lambda: self._rosapi.call(service, call_args), done)
+            else:
+                self._backend.call_service(service, call_args, args["type"], timeout, done)
+        except Exception:
+            state["answered"] = True  # the error status answers the call
+            if state["timer"] is not None:
+                state["timer"].cancel()
+            raise
 
     def _op_advertise_service(self, args, mid):
         service = args["service"]
@@ -470,8 +493,8 @@ class Session(object):
         self._request_counter += 1
         request_id = "service_request:%s:%d" % (service, self._request_counter)
         self._pending_requests[request_id] = (service, callback)
-        self._send([json.dumps({"op": "call_service", "id": request_id, "service": service, "args": args},
-                               separators=(",", ":"))], None, None, False)
+        self._send([compact_json({"op": "call_service", "id": request_id, "service": service, "args": args})],
+                   None, None, False)
         return request_id
 
     def cancel_request(self, request_id):

@@ -5,11 +5,18 @@ Topic messages are droppable: past ``send_queue_size`` waiting messages the olde
 and a subscription's ``queue_length`` bounds its own waiting messages, so a slow client loses
 old data instead of stalling others or growing memory. Replies (service responses, status,
 requests) are never dropped; a client that lets more than ``send_queue_size`` of them pile up is
-disconnected. Pings every ``ping_interval`` s drop clients silent for ``ping_timeout`` s; frames
-over ``max_message_size`` bytes close the connection (1009). TLS when an ssl context is given.
+disconnected. Frames leave in batches: everything queued when the writer runs is framed and
+handed to the socket in one write, and the writer waits for the socket only once per batch.
+Keep-alive: every ``ping_interval`` s each client is pinged; one that sent nothing (no frame, no
+pong) for ``ping_timeout`` s has its socket closed within the next second (checks run every
+KEEPALIVE_TICK s), at once: no close handshake is awaited from a peer that is not answering.
+Frames over ``max_message_size`` bytes close the connection (1009). TLS when an ssl context is
+given. :class:`LoopPoster` hands work from other threads to the event loop.
 """
 import collections
 import ssl
+import struct
+import time
 
 import tornado.httpserver
 import tornado.ioloop
@@ -17,6 +24,57 @@ import tornado.netutil
 import tornado.web
 import tornado.websocket
 from tornado.iostream import StreamClosedError
+
+KEEPALIVE_TICK = 1.0  # s between checks for silent clients (pings go out every ping_interval)
+
+
+class LoopPoster(object):
+    """``post(fn, *args)`` from any thread runs ``fn(*args)`` on the loop, in posting order.
+
+    One ``add_callback`` (a wake-up of the loop) per burst instead of one per call: a callback
+    is scheduled only when none is pending, and it runs what was queued when it started. Lock-free:
+    the flag is cleared before the queue is read, so an item posted meanwhile is either run by
+    this pass or schedules the next one.
+    """
+
+    def __init__(self, loop, log=None):
+        self._loop = loop
+        self._items = collections.deque()
+        self._scheduled = False
+        self._log = log or (lambda level, text: None)
+
+    def post(self, fn, *args):
+        self._items.append((fn, args))
+        if not self._scheduled:
+            self._scheduled = True
+            self._loop.add_callback(self._run)
+
+    def _run(self):
+        self._scheduled = False
+        items = self._items
+        for _ in range(len(items)):
+            fn, args = items.popleft()
+            try:
+                fn(*args)
+            except Exception as exc:  # boundary: one failing callback must not drop the others
+                self._log("error", "callback %r failed: %r" % (fn, exc))
+
+
+def ws_frame(payload):
+    """An unmasked, final websocket frame: text for str, binary for bytes (RFC 6455 5.2)."""
+    if isinstance(payload, str):
+        payload = payload.encode("utf-8")
+        first = 0x81
+    else:
+        first = 0x82
+    size = len(payload)
+    if size < 126:
+        header = struct.pack("!BB", first, size)
+    elif size <= 0xFFFF:
+        header = struct.pack("!BBH", first, 126, size)
+    else:
+        header = struct.pack("!BBQ", first, 127, size)
+    return header + payload
 
 
 class SendQueue(object):
@@ -41,17 +99,19 @@ class SendQueue(object):
         entry = [frames, key, True]
         self._topics.append(entry)
         self._alive += 1
-        if key is not None:
-            per_key = self._by_key.setdefault(key, collections.deque())
+        if key is not None and limit:
+            per_key = self._by_key.get(key)
+            if per_key is None:
+                per_key = self._by_key[key] = collections.deque()
             per_key.append(entry)
-            if limit:
-                self._trim(key, per_key)
-                while len(per_key) > limit:
-                    self._kill(per_key.popleft())
-        while self._alive > self.max_messages:
+            self._trim(key, per_key)
+            while len(per_key) > limit:
+                self._kill(per_key.popleft())
+        if self._alive > self.max_messages:
+            while self._alive > self.max_messages:
+                self._prune()
+                self._kill(self._topics[0])
             self._prune()
-            self._kill(self._topics[0])
-        self._prune()
         return True
 
     def _kill(self, entry):
@@ -81,7 +141,7 @@ class SendQueue(object):
         entry = self._topics.popleft()
         entry[2] = False
         self._alive -= 1
-        if entry[1] is not None and entry[1] in self._by_key:
+        if self._by_key and entry[1] in self._by_key:
             self._trim(entry[1], self._by_key[entry[1]])
         return entry[0]
 
@@ -95,6 +155,7 @@ class BridgeHandler(tornado.websocket.WebSocketHandler):
         self._writing = False
         self._closing = False
         self.session = None
+        self.last_heard = time.monotonic()
 
     def check_origin(self, origin):
         return True  # as rosbridge: any origin; restrict with the address/auth parameters
@@ -107,8 +168,20 @@ class BridgeHandler(tornado.websocket.WebSocketHandler):
         self.session = self._server.opened(self)
 
     def on_message(self, message):
+        self.last_heard = time.monotonic()
         if self.session is not None:
             self.session.on_frame(message)
+
+    def on_pong(self, data):
+        self.last_heard = time.monotonic()
+
+    def abort(self):
+        """Close the socket now, without a close handshake (the peer is not answering)."""
+        connection = self.ws_connection
+        if connection is not None and getattr(connection, "stream", None) is not None:
+            connection.stream.close()
+        else:
+            self.close()
 
     def on_close(self):
         self._server.closed(self)
@@ -135,21 +208,32 @@ class BridgeHandler(tornado.websocket.WebSocketHandler):
             self.close()
 
     async def _drain(self):
+        # Everything queued now goes out in one stream write; the next batch waits until the socket
+        # took this one, so at most one queue's worth sits in tornado's buffer.
         try:
             while True:
+                chunks = []
                 frames = self._queue.pop()
-                if frames is None:
+                while frames is not None:
+                    chunks.extend(ws_frame(frame) for frame in frames)
+                    frames = self._queue.pop()
+                if not chunks:
                     break
-                for frame in frames:
-                    future = self.write_message(frame, binary=isinstance(frame, bytes))
-                    if not future.done():
-                        await future
+                future = self._write_raw(b"".join(chunks) if len(chunks) > 1 else chunks[0])
+                if not future.done():
+                    await future
         except (tornado.websocket.WebSocketClosedError, StreamClosedError):
             pass
         finally:
             self._writing = False
         if self._closing:
             self.close()
+
+    def _write_raw(self, data):
+        connection = self.ws_connection
+        if connection is None or connection.is_closing():
+            raise tornado.websocket.WebSocketClosedError()
+        return connection.stream.write(data)
 
 
 class _Timer(object):
@@ -185,6 +269,8 @@ class BridgeServer(object):
         self._clients = set()
         self._next_id = 0
         self._http = None
+        self._pinger = None
+        self._last_ping = 0.0
         self.port = None
         self.dropped_messages = 0
 
@@ -192,8 +278,9 @@ class BridgeServer(object):
         """Bind and listen; returns the actual port."""
         settings = {"websocket_max_message_size": self._max_message_size}
         if self._ping_interval > 0:
-            settings["websocket_ping_interval"] = self._ping_interval
-            settings["websocket_ping_timeout"] = self._ping_timeout
+            tick = min(self._ping_interval, KEEPALIVE_TICK)
+            self._pinger = tornado.ioloop.PeriodicCallback(self._keep_alive, tick * 1000.0)
+            self._pinger.start()
         app = tornado.web.Application([(r"/.*", BridgeHandler, {"server": self})], **settings)
         sockets = tornado.netutil.bind_sockets(self._port, self._address or None)
         self._http = tornado.httpserver.HTTPServer(app, ssl_options=self._ssl, max_buffer_size=self._max_message_size
@@ -204,10 +291,30 @@ class BridgeServer(object):
         return self.port
 
     def stop(self):
+        if self._pinger is not None:
+            self._pinger.stop()
         if self._http is not None:
             self._http.stop()
         for handler in list(self._clients):
             handler.close(1001, "bridge shutting down")
+
+    def _keep_alive(self):
+        now = time.monotonic()
+        ping = now - self._last_ping >= self._ping_interval - 1e-3
+        if ping:
+            self._last_ping = now
+        for handler in list(self._clients):
+            if now - handler.last_heard > self._ping_timeout:
+                self.log("warning", "client %s silent for %.1f s; dropping it"
+                         % (handler.session.client_id if handler.session else "?", now - handler.last_heard))
+                handler.abort()
+                continue
+            if not ping:
+                continue
+            try:
+                handler.ping(b"")
+            except (tornado.websocket.WebSocketClosedError, StreamClosedError):
+                pass
 
     @property
     def client_count(self):

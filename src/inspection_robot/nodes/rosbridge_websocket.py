@@ -32,7 +32,7 @@ from inspection_robot.bridge.protocol import Authenticator, Session, SessionConf
 from inspection_robot.bridge.ros_adapter import RosBackend, RosGraph
 from inspection_robot.bridge.ros_types import GenpyTypes
 from inspection_robot.bridge.rosapi import RosApi
-from inspection_robot.bridge.server import BridgeServer, make_ssl_context
+from inspection_robot.bridge.server import BridgeServer, LoopPoster, make_ssl_context
 
 LOGGERS = {"info": rospy.loginfo, "warning": rospy.logwarn, "error": rospy.logerr}
 
@@ -117,7 +117,7 @@ def main():
                                                      thread_name_prefix="bridge_call")
     types = GenpyTypes()
     codec = Codec(types)
-    backend = RosBackend(types, codec, loop.add_callback, executor, params["service_timeout"],
+    backend = RosBackend(types, codec, LoopPoster(loop, log).post, executor, params["service_timeout"],
                          params["subscriber_queue_size"], log)
     rosapi = RosApi(RosGraph(backend), types)
     authenticator = None
