@@ -26,7 +26,7 @@ import actionlib
 import cv2
 import rospy
 
-from inspection_robot.camera.optics import ZoomOptics
+from inspection_robot.camera.optics import ZoomOptics, focal_for_hfov
 from inspection_robot.command import CommandError, confine_path
 from inspection_robot.inspection.finder import Cancelled, Finder, FindError, ThermalGeometry
 from inspection_robot.inspection.locate import Locator
@@ -129,7 +129,7 @@ def main():
     offset = [float(v) for v in rospy.get_param("~thermal_offset_px", [0.0, 0.0])]
     if len(offset) != 2:
         raise ValueError("~thermal_offset_px must be [dx, dy]")
-    thermal = ThermalGeometry(t_width / 2.0 / math.tan(math.radians(hfov) / 2.0), t_width, t_height, offset)
+    thermal = ThermalGeometry(focal_for_hfov(t_width, hfov), t_width, t_height, offset)
     head = RosHead(NODE_NAME, float(rospy.get_param("~service_timeout", 10.0)))
     finder = Finder(head, optics, Locator(rospy.get_param("~detector", "orb")), picture_root,
                     max_moves=int(rospy.get_param("~max_moves", 3)),

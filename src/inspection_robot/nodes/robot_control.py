@@ -32,7 +32,6 @@ Parameters:  ~driver ("sim" or "package.module:Class"), ~driver_params ({}): ven
                  file): the simulated robot starts at world.robot.start_pose ([x, y, yaw] in map)
 """
 import importlib
-import math
 import time
 import traceback
 
@@ -41,6 +40,7 @@ import tf2_ros
 from geometry_msgs.msg import PoseWithCovarianceStamped, TransformStamped, TwistStamped
 from nav_msgs.msg import Odometry
 
+from inspection_robot.angles import quaternion_from_yaw
 from inspection_robot.interface import VOICE_LANGUAGES
 from inspection_robot.motion.controller import MotionController
 from inspection_robot.motion.velocity import VelocityLimits
@@ -215,8 +215,7 @@ class RobotControl(object):
         msg.header.frame_id = "map"
         msg.pose.pose.position.x = x
         msg.pose.pose.position.y = y
-        msg.pose.pose.orientation.z = math.sin(yaw / 2.0)
-        msg.pose.pose.orientation.w = math.cos(yaw / 2.0)
+        _, _, msg.pose.pose.orientation.z, msg.pose.pose.orientation.w = quaternion_from_yaw(yaw)
         self._true_pose_pub.publish(msg)
 
     def _on_driver_command(self, velocity_x, velocity_yaw, _wheel_mode):

@@ -13,8 +13,8 @@ import rospy
 from geometry_msgs.msg import PoseWithCovarianceStamped
 from sensor_msgs.msg import PointCloud2, PointField
 
+from inspection_robot.angles import yaw_from_quaternion
 from inspection_robot.command import CommandError, CommandTable, parse_float, success
-from inspection_robot.nav.goal import yaw_from_quaternion
 from inspection_robot.nav.obstacle import cloud_bytes
 from inspection_robot.sim.nav_yard import ObstacleCloud
 from inspection_robot.srv import ControlService, ControlServiceResponse
