@@ -31,7 +31,6 @@ Parameters:  ~driver ("sim" or "package.module:Class"), ~driver_params ({}): ven
              ~sim ({}): SimChassis parameters; ~sim_world (config/sim_world.yaml, loaded by the launch
                  file): the simulated robot starts at world.robot.start_pose ([x, y, yaw] in map)
 """
-import importlib
 import time
 import traceback
 
@@ -45,9 +44,10 @@ from inspection_robot.interface import VOICE_LANGUAGES
 from inspection_robot.motion.controller import MotionController
 from inspection_robot.motion.velocity import VelocityLimits
 from inspection_robot.msg import ControlStatus, GeneralAck, GeneralCmd, MoveCmd, ObstacleStatus, RobotStatus, VoiceCmd
-from inspection_robot.nodes.twin import CommandTwin
+from inspection_robot.plugin import load_class
+from inspection_robot.nodes.twin import CommandTwin, control_response
 from inspection_robot.sim.chassis import SimChassis
-from inspection_robot.srv import ControlService, ControlServiceResponse
+from inspection_robot.srv import ControlService
 
 NODE_NAME = "robot_control"
 # Fields whose change publishes control_status at once; analog ones (battery, temperatures) go at the fixed rate.
@@ -137,7 +137,7 @@ class RobotControl(object):
             reply = self._fault_table.dispatch(req.cmd, req.data)
         rospy.loginfo("%s: sim/inject_fault %s(%r): %s %s" % (NODE_NAME, req.cmd, req.data, reply.ack, reply.data))
         self._publish_status_if_changed()
-        return ControlServiceResponse(trans_id=req.trans_id, ack=reply.ack, data=reply.data)
+        return control_response(req, reply)
 
     def _guard(self, what, fn, *args):
         try:
@@ -240,14 +240,6 @@ def _as_tuple(value):
     return tuple(value) if isinstance(value, (list, tuple, bytes)) else value
 
 
-def _load_driver(spec, params):
-    """``package.module:Class`` -> Class(**params)."""
-    module_name, _, class_name = spec.partition(":")
-    if not module_name or not class_name:
-        raise ValueError("~driver must be 'sim' or 'package.module:Class', got %r" % (spec,))
-    return getattr(importlib.import_module(module_name), class_name)(**params)
-
-
 def _log(level, text):
     (rospy.logwarn if level == "warn" else rospy.loginfo)("%s: %s" % (NODE_NAME, text))
 
@@ -274,7 +266,7 @@ def main():
             raise ValueError("~start_pose must be [x, y, yaw]")
         sim = driver = SimChassis(time.monotonic, start_pose, **rospy.get_param("~sim", {}))
     else:
-        driver = _load_driver(driver_spec, rospy.get_param("~driver_params", {}))
+        driver = load_class(driver_spec)(**rospy.get_param("~driver_params", {}))
     controller = MotionController(driver, limits, cmd_timeout, time.monotonic, log=_log)
     node = RobotControl(controller, rate_hz, status_rate_hz, str(rospy.get_param("~odom_frame", "odom")),
                         str(rospy.get_param("~base_frame", "base_link")), bool(rospy.get_param("~publish_tf", True)),

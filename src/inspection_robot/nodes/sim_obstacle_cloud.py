@@ -16,8 +16,8 @@ from sensor_msgs.msg import PointCloud2, PointField
 from inspection_robot.angles import yaw_from_quaternion
 from inspection_robot.command import CommandError, CommandTable, parse_float, success
 from inspection_robot.nav.obstacle import cloud_bytes
+from inspection_robot.nodes.twin import serve_table
 from inspection_robot.sim.nav_yard import ObstacleCloud
-from inspection_robot.srv import ControlService, ControlServiceResponse
 
 FIELDS = [PointField(name=n, offset=4 * i, datatype=PointField.FLOAT32, count=1) for i, n in enumerate("xyz")]
 
@@ -30,7 +30,7 @@ class SimObstacleCloud(object):
                                     "list": lambda _d: ",".join(self._cloud.dropped)})
         self._pub = rospy.Publisher("obstacle_cloud", PointCloud2, queue_size=1)
         rospy.Subscriber("sim/true_pose", PoseWithCovarianceStamped, self._on_pose, queue_size=1)
-        rospy.Service("sim_obstacle_control", ControlService, self._on_service)
+        self._service = serve_table("sim_obstacle_control", self._table)
         rospy.Timer(rospy.Duration(1.0 / rate_hz), self._tick)
 
     def _on_pose(self, msg):
@@ -54,10 +54,6 @@ class SimObstacleCloud(object):
 
     def _clear(self, _data):
         self._cloud.clear()
-
-    def _on_service(self, req):
-        reply = self._table.dispatch(req.cmd, req.data)
-        return ControlServiceResponse(trans_id=req.trans_id, ack=reply.ack, data=reply.data)
 
     def _tick(self, _event):
         if self._pose is None or not all(math.isfinite(v) for v in self._pose):
