@@ -107,12 +107,13 @@ def main():
     state_rate = float(rospy.get_param("~state_rate", 20.0))
     optics_param = rospy.get_param("~camera_optics")
     optics = ZoomOptics(optics_param["zoom_hfov_deg"], optics_param["width"], optics_param["height"])
-    if not isinstance(backoff, list) or len(backoff) != 2:
-        raise ValueError("~reconnect_backoff must be [first, max] seconds, got %r" % (backoff,))
-    if state_rate <= 0 or move_timeout <= 0 or poll_period <= 0:
-        raise ValueError("~state_rate, ~move_timeout and ~poll_period must be positive")
+    reply_timeout = float(rospy.get_param("~reply_timeout", 0.3))
+    if not isinstance(backoff, list) or len(backoff) != 2 or not 0 < float(backoff[0]) <= float(backoff[1]):
+        raise ValueError("~reconnect_backoff must be [first, max] seconds, 0 < first <= max, got %r" % (backoff,))
+    if state_rate <= 0 or move_timeout <= 0 or poll_period <= 0 or reply_timeout <= 0:
+        raise ValueError("~state_rate, ~move_timeout, ~poll_period and ~reply_timeout must be positive")
     head = PelcoHead(port, baudrate=rospy.get_param("~baudrate", 9600), address=rospy.get_param("~address", 1),
-                     reply_timeout=rospy.get_param("~reply_timeout", 0.3), backoff=backoff,
+                     reply_timeout=reply_timeout, backoff=backoff,
                      logger=lambda text: rospy.loginfo("%s: %s" % (NODE_NAME, text)))
     terrace = Terrace(head, speeds, tilt_limits, tolerance, move_timeout, poll_period)
 

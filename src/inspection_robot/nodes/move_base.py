@@ -115,7 +115,8 @@ class MoveBase(object):
         self._plan_pub = rospy.Publisher("plan", Path, queue_size=1, latch=True)
         self._cmd_pub = rospy.Publisher("move_cmd", MoveCmd, queue_size=10)
         self._status_pub = rospy.Publisher("nav_status", NavStatus, queue_size=10)
-        self._initial_pub = rospy.Publisher("initialpose", PoseWithCovarianceStamped, queue_size=1, latch=True)
+        # not latched: a localizer that (re)starts later must not be reset to an old set_location
+        self._initial_pub = rospy.Publisher("initialpose", PoseWithCovarianceStamped, queue_size=1)
         self._publish_virtual()
 
         rospy.Subscriber(cfg["pose_topic"], PoseWithCovarianceStamped, self._on_pose, queue_size=10)

@@ -14,6 +14,7 @@ Subscribes:  mode_cmd (GeneralCmd): acquire joy|server, release
 Publishes:   control_status (ControlStatus) at ~status_rate and at once when a discrete field changes
              control_ack (GeneralAck) the result of each control_cmd (project extension)
              robot_odom (nav_msgs/Odometry, odom -> base_link) and TF odom -> base_link at ~rate
+                 (on /tf; motion.launch remaps it to the relative tf so a robot namespace holds it)
              imu_ack (GeneralAck), voice_cmd (VoiceCmd) for query_status
              sim only: sim/true_pose (geometry_msgs/PoseWithCovarianceStamped, frame map) at ~rate,
                  sim/chassis_cmd (geometry_msgs/TwistStamped) every command reaching the driver
@@ -40,7 +41,7 @@ from geometry_msgs.msg import PoseWithCovarianceStamped, TransformStamped, Twist
 from nav_msgs.msg import Odometry
 
 from inspection_robot.angles import quaternion_from_yaw
-from inspection_robot.interface import VOICE_LANGUAGES
+from inspection_robot.interface import ACK_SUCCESS, VOICE_LANGUAGES
 from inspection_robot.motion.controller import MotionController
 from inspection_robot.motion.velocity import VelocityLimits
 from inspection_robot.msg import ControlStatus, GeneralAck, GeneralCmd, MoveCmd, ObstacleStatus, RobotStatus, VoiceCmd
@@ -113,7 +114,7 @@ class RobotControl(object):
     def _on_move_cmd(self, msg):
         reply = self._guard("move_cmd", self._ctl.on_move_cmd, msg.sender, msg.velocity_x, msg.velocity_yaw,
                             msg.wheel_control)
-        if reply is not None and reply.ack != "success":
+        if reply is not None and reply.ack != ACK_SUCCESS:
             rospy.logwarn_throttle(2.0, "%s: move_cmd from %r not obeyed: %s" % (NODE_NAME, msg.sender, reply.data))
 
     def _on_control_cmd(self, msg):
@@ -151,7 +152,7 @@ class RobotControl(object):
         try:
             self._ctl.shutdown()
         except Exception as err:  # boundary: nothing more we can do than report it
-            rospy.logerr_throttle(1.0, "%s: driver stop failed: %s" % (NODE_NAME, err))
+            rospy.logerr_throttle(1.0, "%s: driver stop failed: %s\n%s" % (NODE_NAME, err, traceback.format_exc()))
 
     # --- outputs -----------------------------------------------------------------------------
     def _on_tick(self, _event):

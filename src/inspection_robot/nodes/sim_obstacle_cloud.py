@@ -4,8 +4,8 @@ Subscribes:  sim/true_pose (geometry_msgs/PoseWithCovarianceStamped) from the ch
 Publishes:   obstacle_cloud (sensor_msgs/PointCloud2, frame "base_link", float32 x/y/z) at ~rate
 Services:    sim_obstacle_control (ControlService): drop "id,x,y[,size[,height]]" (map m, default 0.5 m
              cube), remove "id", clear, list -> "id,id,..."
-Parameters:  ~world (the world: block of config/sim_world.yaml), ~rate (Hz, 10), ~range (m, 8),
-             ~spacing (m, 0.1)
+Parameters:  ~world (the world: block of config/sim_world.yaml, required), ~rate (Hz, 10), ~range (m, 8),
+             ~spacing (m between surface points, 0.1)
 """
 import math
 
@@ -70,8 +70,10 @@ def main():
     rospy.init_node("sim_obstacle_cloud")
     world = rospy.get_param("~world")
     rate_hz = float(rospy.get_param("~rate", 10.0))
-    if rate_hz <= 0:
-        raise ValueError("~rate must be positive")
-    cloud = ObstacleCloud(world, float(rospy.get_param("~range", 8.0)), float(rospy.get_param("~spacing", 0.1)))
+    sensor_range = float(rospy.get_param("~range", 8.0))
+    spacing = float(rospy.get_param("~spacing", 0.1))
+    if rate_hz <= 0 or sensor_range <= 0 or spacing <= 0:
+        raise ValueError("~rate, ~range and ~spacing must be positive")
+    cloud = ObstacleCloud(world, sensor_range, spacing)
     SimObstacleCloud(cloud, rate_hz)
     rospy.spin()
