@@ -12,7 +12,7 @@ import numpy as np
 import yaml
 
 from inspection_robot.camera.optics import ZoomOptics
-from inspection_robot.sim.camera import focal_for_hfov
+from inspection_robot.camera.optics import focal_for_hfov
 from inspection_robot.sim.render import PinholeCamera, Renderer, ThermalRenderer
 from inspection_robot.sim.world import World
 

@@ -17,7 +17,7 @@ from std_msgs.msg import Float64
 
 from inspection_robot.camera.optics import ZoomOptics
 from inspection_robot.msg import ControlStatus, GeneralAck, GeneralCmd
-from inspection_robot.sim.camera import focal_for_hfov
+from inspection_robot.camera.optics import focal_for_hfov
 from inspection_robot.sim.render import PinholeCamera, ground_truth
 from inspection_robot.sim.world import World
 from inspection_robot.srv import ControlService

@@ -156,3 +156,24 @@ def test_isapi_driver_against_the_fake_camera():
         fake.stop()
     with pytest.raises(CameraError, match="unreachable"):
         driver.probe()
+
+
+def _fake_on_a_port_containing_401():
+    for port in list(range(40100, 40200)) + list(range(14010, 14020)):
+        try:
+            return FakeIsapiCamera(user="admin", password="pw", port=port).start()
+        except OSError:
+            continue
+    pytest.skip("no free port containing '401'")
+
+
+def test_snapshot_fallback_does_not_depend_on_the_port_number():
+    # the fallback decision once looked for "401" in the error text, which holds the URL: on a port
+    # such as 40143 an HTTP 400 from the picture endpoint was taken for a refused login
+    fake = _fake_on_a_port_containing_401()
+    try:
+        fake.picture_endpoint = False
+        assert IsapiCamera(fake.url, "admin", "pw", timeout=1.0).capture_jpeg() == fake.picture
+        assert any("/onvif-http/snapshot" in path for _, path, _ in fake.requests)
+    finally:
+        fake.stop()

@@ -16,7 +16,7 @@ from inspection_robot.inspection.locate import Locator
 from inspection_robot.inspection.preset import load_preset
 from inspection_robot.inspection.reading import ScaleReader
 from inspection_robot.inspection.recorder import record_preset
-from inspection_robot.sim.camera import focal_for_hfov
+from inspection_robot.camera.optics import focal_for_hfov
 from inspection_robot.sim.inspection_sim import RenderedHead, world_specs
 from inspection_robot.sim.render import Renderer, ThermalRenderer, ground_truth
 from inspection_robot.sim.world import World

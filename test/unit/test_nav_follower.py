@@ -7,7 +7,7 @@ import pytest
 from inspection_robot.interface import WHEEL_STEER, WHEEL_STRAIGHT
 from inspection_robot.nav.follower import DONE, FollowerParams, PathFollower
 from inspection_robot.nav.goal import MoveGoal
-from inspection_robot.nav.localization import wrap_angle
+from inspection_robot.angles import wrap_angle
 
 DT = 0.05
 

@@ -14,7 +14,7 @@ from inspection_robot.motion.controller import MotionController
 from inspection_robot.motion.velocity import VelocityLimits
 from inspection_robot.nav.follower import DONE, FollowerParams, PathFollower
 from inspection_robot.nav.goal import MoveGoal
-from inspection_robot.nav.localization import wrap_angle
+from inspection_robot.angles import wrap_angle
 from inspection_robot.sim.chassis import SimChassis
 
 TICK = 0.01  # s of simulated time per step; follower every 5 steps, controller every 2

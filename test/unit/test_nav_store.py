@@ -10,7 +10,8 @@ import yaml
 from inspection_robot.command import CommandError
 from inspection_robot.nav import persist
 from inspection_robot.nav.gridmap import GridMap, MapError, load_map, save_map
-from inspection_robot.nav.goal import parse_move_goal, quaternion_from_yaw
+from inspection_robot.angles import quaternion_from_yaw
+from inspection_robot.nav.goal import parse_move_goal
 from inspection_robot.nav.localization import LocalizationMonitor
 from inspection_robot.nav.virtual_obstacles import VirtualObstacles
 from inspection_robot.sim.nav_yard import occupancy_map
@@ -95,7 +96,7 @@ def test_corrupt_file_raises(tmp_path):
 def goal_json(**over):
     obj = {"with_direction": 1, "precision": 0, "move_style": 0, "velocity_x": 0.8, "velocity_yaw": 0.5,
            "goal_pose": {"position": {"x": 3.0, "y": -2.0, "z": 0},
-                         "orientation": dict(quaternion_from_yaw(1.2))}}
+                         "orientation": dict(zip("xyzw", quaternion_from_yaw(1.2)))}}
     obj.update(over)
     return json.dumps(obj)
 

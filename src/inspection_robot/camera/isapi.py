@@ -40,6 +40,14 @@ def _find_all(root, name):
     return [el for el in root.iter() if _local(el.tag) == name]
 
 
+class CameraUnreachable(CameraError):
+    """No HTTP exchange with the camera (connection refused/reset, timeout, DNS)."""
+
+
+class CameraRefused(CameraError):
+    """The camera refused the credentials (HTTP 401 after the digest challenge)."""
+
+
 class IsapiCamera(CameraDriver):
     def __init__(self, url, user, password, channel=1, timeout=2.0, snapshot_url="/onvif-http/snapshot?Profile_1"):
         self._base = url.rstrip("/")
@@ -64,12 +72,12 @@ class IsapiCamera(CameraDriver):
                 payload = response.read()
         except urllib.error.HTTPError as err:
             if err.code == 401:
-                raise CameraError("camera %s refused the credentials (HTTP 401, digest)" % self._base)
+                raise CameraRefused("camera %s refused the credentials (HTTP 401, digest)" % self._base)
             where = url[len(self._base):] if url.startswith(self._base) else url
             raise CameraError("camera %s answered HTTP %d to %s %s" % (self._base, err.code, method, where))
         except (urllib.error.URLError, OSError) as err:
             reason = getattr(err, "reason", err)
-            raise CameraError("camera unreachable at %s: %s" % (self._base, reason))
+            raise CameraUnreachable("camera unreachable at %s: %s" % (self._base, reason))
         return payload
 
     def _get_xml(self, path):
@@ -225,9 +233,10 @@ class IsapiCamera(CameraDriver):
             payload = self._request("GET", path)
             if payload.startswith(JPEG_MAGIC):
                 return payload
-        except CameraError as err:
-            if "unreachable" in str(err) or "401" in str(err):
-                raise
+        except (CameraUnreachable, CameraRefused):
+            raise   # the snapshot URL would fail the same way
+        except CameraError:
+            pass    # e.g. HTTP 400/404: no ISAPI picture endpoint on this firmware
         # some firmware lacks the ISAPI picture endpoint: the snapshot URL still serves JPEG
         payload = self._request("GET", self._snapshot_url)
         if not payload.startswith(JPEG_MAGIC):

@@ -8,6 +8,11 @@ import bisect
 import math
 
 
+def focal_for_hfov(width, hfov_deg):
+    """Focal length in px of a lens with horizontal field of view ``hfov_deg`` on a picture ``width`` px wide."""
+    return width / 2.0 / math.tan(math.radians(hfov_deg) / 2.0)
+
+
 class ZoomOptics(object):
     def __init__(self, zoom_hfov_deg, width, height):
         """``zoom_hfov_deg``: [[zoom, hfov_deg], ...] with increasing zoom; width/height in px."""
@@ -18,7 +23,7 @@ class ZoomOptics(object):
         self.height = int(height)
         self.zooms = [z for z, _ in table]
         # focal length in pixels at each table row
-        self._focal_px = [self.width / 2.0 / math.tan(math.radians(f) / 2.0) for _, f in table]
+        self._focal_px = [focal_for_hfov(self.width, f) for _, f in table]
 
     @property
     def min_zoom(self):

@@ -18,8 +18,8 @@ import math
 import threading
 
 from inspection_robot.command import CommandError, CommandTable, failed, success
-from inspection_robot.interface import (BATTERY_CHARGING, CIRCUIT_JOY_COMM_LOST, IMU_COMMANDS, MODE_CMD_ACQUIRE,
-                                        MODE_JOY, MODE_SERVER, WHEEL_STRAIGHT)
+from inspection_robot.interface import (ACK_SUCCESS, BATTERY_CHARGING, CIRCUIT_JOY_COMM_LOST, IMU_COMMANDS,
+                                        MODE_CMD_ACQUIRE, MODE_JOY, MODE_SERVER, WHEEL_STRAIGHT)
 from inspection_robot.motion.arbitration import Decision, ModeArbiter
 from inspection_robot.motion.chassis import ChassisError
 from inspection_robot.motion.odometry import Odometry
@@ -126,7 +126,7 @@ class MotionController(object):
     def on_control_cmd(self, sender, cmd, data):
         with self._lock:
             reply = self.control_table.dispatch(cmd, data)
-            self._log("info" if reply.ack == "success" else "warn",
+            self._log("info" if reply.ack == ACK_SUCCESS else "warn",
                       "control_cmd %s(%r) from %r: %s %s" % (cmd, data, sender, reply.ack, reply.data))
             return reply
 

@@ -1,6 +1,8 @@
 """Dead-reckoning odometry (odom -> base_link) from the chassis' measured velocities."""
 import math
 
+from inspection_robot.angles import quaternion_from_yaw, wrap_angle
+
 
 class Odometry(object):
     """Integrates (velocity_x, velocity_yaw) over time with the midpoint heading."""
@@ -19,10 +21,10 @@ class Odometry(object):
         mid = self.yaw + 0.5 * velocity_yaw * dt
         self.x += velocity_x * math.cos(mid) * dt
         self.y += velocity_x * math.sin(mid) * dt
-        self.yaw = math.atan2(math.sin(self.yaw + velocity_yaw * dt), math.cos(self.yaw + velocity_yaw * dt))
+        self.yaw = wrap_angle(self.yaw + velocity_yaw * dt)
         self.velocity_x = velocity_x
         self.velocity_yaw = velocity_yaw
 
     def quaternion(self):
         """(x, y, z, w) of the heading."""
-        return (0.0, 0.0, math.sin(self.yaw / 2.0), math.cos(self.yaw / 2.0))
+        return quaternion_from_yaw(self.yaw)

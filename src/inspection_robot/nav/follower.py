@@ -17,7 +17,7 @@ from collections import namedtuple
 import numpy as np
 
 from inspection_robot.interface import WHEEL_STEER, WHEEL_STRAIGHT
-from inspection_robot.nav.localization import wrap_angle
+from inspection_robot.angles import wrap_angle
 
 Command = namedtuple("Command", "velocity_x velocity_yaw wheel_control")
 Progress = namedtuple("Progress", "phase remaining lateral_error command")

@@ -10,6 +10,7 @@ import json
 import math
 from collections import namedtuple
 
+from inspection_robot.angles import yaw_from_quaternion
 from inspection_robot.command import CommandError
 from inspection_robot.interface import MOVE_GOAL_TYPE
 
@@ -32,14 +33,6 @@ def _flag(obj, key):
     if value not in (0, 1):
         raise CommandError("%s must be 0 or 1, got %s" % (key, json.dumps(value)))
     return bool(value)
-
-
-def yaw_from_quaternion(x, y, z, w):
-    return math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
-
-
-def quaternion_from_yaw(yaw):
-    return {"x": 0.0, "y": 0.0, "z": math.sin(yaw / 2.0), "w": math.cos(yaw / 2.0)}
 
 
 def parse_move_goal(goal_type, data, default_velocity_x, default_velocity_yaw, max_velocity_x, max_velocity_yaw):

@@ -5,9 +5,7 @@ names why localization counts as lost (nav_warn bit1, goal aborted with ret_code
 """
 import math
 
-
-def wrap_angle(angle):
-    return math.atan2(math.sin(angle), math.cos(angle))
+from inspection_robot.angles import wrap_angle
 
 
 class LocalizationMonitor(object):

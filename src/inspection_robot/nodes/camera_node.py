@@ -18,15 +18,16 @@ Parameters:  ~driver (sim|isapi, "sim"), ~camera_optics ({width, height, zoom_hf
              lighting_variation (0.08), zoom_rate (x per s, 2.0), focus_rate (units per s, 16384)}
 """
 import threading
+import traceback
 
 import rospy
-from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from sensor_msgs.msg import CameraInfo, Image
 from std_msgs.msg import Float64
 
 from inspection_robot.camera.commands import CameraCommands, format_zoom
 from inspection_robot.camera.driver import CameraError, DeviceHealth
 from inspection_robot.camera.optics import ZoomOptics
+from inspection_robot.nodes.diagnostics import DiagnosticsPublisher, probe_device
 from inspection_robot.nodes.twin import CommandTwin
 
 NODE = "camera_node"
@@ -49,16 +50,6 @@ def camera_info_msg(width, height, focal, stamp, frame_id):
     return msg
 
 
-def diagnostics_msg(name, hardware_id, health, values):
-    status = DiagnosticStatus(name=name, hardware_id=hardware_id,
-                              level=DiagnosticStatus.OK if health.ok else DiagnosticStatus.ERROR,
-                              message=health.message,
-                              values=[KeyValue(str(k), str(v)) for k, v in values])
-    msg = DiagnosticArray(status=[status])
-    msg.header.stamp = rospy.Time.now()
-    return msg
-
-
 class CameraNode(object):
     def __init__(self, driver, optics, roots, image_rate, image_width, status_rate, frame_id):
         self._driver = driver
@@ -72,7 +63,7 @@ class CameraNode(object):
         self._zoom_pub = rospy.Publisher("camera_zoom", Float64, queue_size=1, latch=True)
         self._image_pub = rospy.Publisher("camera/image_raw", Image, queue_size=1)
         self._info_pub = rospy.Publisher("camera/camera_info", CameraInfo, queue_size=1)
-        self._diag_pub = rospy.Publisher("diagnostics", DiagnosticArray, queue_size=10)
+        self._diagnostics = DiagnosticsPublisher("%s: camera" % NODE, HARDWARE_ID)
         self._twin = CommandTwin(self.commands.table, "camera_control", "camera_cmd", "camera_ack", NODE)
         self._status_timer = rospy.Timer(rospy.Duration(1.0 / status_rate), self._on_status)
         self._image_timer = None
@@ -80,20 +71,11 @@ class CameraNode(object):
             self._image_timer = rospy.Timer(rospy.Duration(1.0 / image_rate), self._on_image)
 
     def _on_status(self, _event):
-        try:
-            zoom = self._driver.get_zoom()
-        except CameraError as err:
-            self._health.failure(err)
-            rospy.logwarn_throttle(10.0, "%s: %s" % (NODE, err))
-        except Exception as err:  # boundary: a timer tick must not die
-            self._health.failure("internal error: %s" % err)
-            rospy.logerr_throttle(10.0, "%s: status tick failed: %s" % (NODE, err))
-        else:
-            self._health.success()
+        answered, zoom = probe_device(NODE, self._health, self._driver.get_zoom, CameraError)
+        if answered:
             self._publish_zoom(zoom)
-        self._diag_pub.publish(diagnostics_msg("%s: camera" % NODE, HARDWARE_ID, self._health,
-                                               [("zoom", format_zoom(self._last_zoom or 0.0)),
-                                                ("failures", self._health.failures)]))
+        self._diagnostics.publish(self._health.ok, self._health.message,
+                                  [("zoom", format_zoom(self._last_zoom or 0.0)), ("failures", self._health.failures)])
 
     def _publish_zoom(self, zoom):
         zoom = round(float(zoom), 2)
@@ -113,8 +95,8 @@ class CameraNode(object):
             self._health.failure(err)
             rospy.logwarn_throttle(10.0, "%s: no picture: %s" % (NODE, err))
             return
-        except Exception as err:  # boundary
-            rospy.logerr_throttle(10.0, "%s: image tick failed: %s" % (NODE, err))
+        except Exception as err:  # boundary: a timer tick must not die
+            rospy.logerr_throttle(10.0, "%s: image tick failed: %s\n%s" % (NODE, err, traceback.format_exc()))
             return
         stamp = rospy.Time.now()
         height, width = img.shape[:2]

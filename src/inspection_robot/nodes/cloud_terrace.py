@@ -20,7 +20,6 @@ Parameters:  ~port (pyserial URL or device, "/tmp/inspection_robot_pelco"), ~bau
 """
 
 import rospy
-from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64
 
@@ -28,6 +27,7 @@ from inspection_robot.camera.optics import ZoomOptics
 from inspection_robot.command import CommandError, failed, success
 from inspection_robot.msg import PresetRotate
 from inspection_robot.interface import ACK_SUCCESS, BUSY, SENDER_JOY
+from inspection_robot.nodes.diagnostics import DiagnosticsPublisher
 from inspection_robot.nodes.twin import CommandTwin, ModeWatcher
 from inspection_robot.nodes.worker import RequestWorker
 from inspection_robot.ptz import pelco
@@ -49,7 +49,7 @@ class CloudTerrace(object):
         self._modes = ModeWatcher()
         self.twin = CommandTwin(terrace.table(), "terrace_control", "terrace_cmd", "terrace_ack", NODE_NAME)
         self._state_pub = rospy.Publisher("terrace_state", JointState, queue_size=10)
-        self._diag_pub = rospy.Publisher("diagnostics", DiagnosticArray, queue_size=10)
+        self._diagnostics = DiagnosticsPublisher("%s: pan/tilt head" % rospy.get_name(), HARDWARE_ID)
         self._rotations = RequestWorker(NODE_NAME + ": preset_rotate",
                                         lambda msg: self.twin.publish_ack(self._rotate(msg), msg),
                                         lambda msg: self.twin.publish_ack(failed("preset_rotate: busy, queue full"),
@@ -88,18 +88,10 @@ class CloudTerrace(object):
         self._state_pub.publish(msg)
 
     def _on_diag_timer(self, _event):
-        status = DiagnosticStatus(name="%s: pan/tilt head" % rospy.get_name(), hardware_id=HARDWARE_ID)
         fresh = self._last_state_time is not None and rospy.get_time() - self._last_state_time < STATE_STALE_S
-        if self._head.connected and fresh:
-            status.level, status.message = DiagnosticStatus.OK, "head answering"
-        else:
-            status.level = DiagnosticStatus.ERROR
-            status.message = "head lost: %s" % (self._head.last_error or "no reply")
-        status.values = [KeyValue(key=k, value=str(v)) for k, v in sorted(self._head.stats.items())]
-        status.values.append(KeyValue(key="port", value=self._head.port))
-        msg = DiagnosticArray(status=[status])
-        msg.header.stamp = rospy.Time.now()
-        self._diag_pub.publish(msg)
+        ok = self._head.connected and fresh
+        message = "head answering" if ok else "head lost: %s" % (self._head.last_error or "no reply")
+        self._diagnostics.publish(ok, message, sorted(self._head.stats.items()) + [("port", self._head.port)])
 
 
 def main():
@@ -115,12 +107,13 @@ def main():
     state_rate = float(rospy.get_param("~state_rate", 20.0))
     optics_param = rospy.get_param("~camera_optics")
     optics = ZoomOptics(optics_param["zoom_hfov_deg"], optics_param["width"], optics_param["height"])
-    if not isinstance(backoff, list) or len(backoff) != 2:
-        raise ValueError("~reconnect_backoff must be [first, max] seconds, got %r" % (backoff,))
-    if state_rate <= 0 or move_timeout <= 0 or poll_period <= 0:
-        raise ValueError("~state_rate, ~move_timeout and ~poll_period must be positive")
+    reply_timeout = float(rospy.get_param("~reply_timeout", 0.3))
+    if not isinstance(backoff, list) or len(backoff) != 2 or not 0 < float(backoff[0]) <= float(backoff[1]):
+        raise ValueError("~reconnect_backoff must be [first, max] seconds, 0 < first <= max, got %r" % (backoff,))
+    if state_rate <= 0 or move_timeout <= 0 or poll_period <= 0 or reply_timeout <= 0:
+        raise ValueError("~state_rate, ~move_timeout, ~poll_period and ~reply_timeout must be positive")
     head = PelcoHead(port, baudrate=rospy.get_param("~baudrate", 9600), address=rospy.get_param("~address", 1),
-                     reply_timeout=rospy.get_param("~reply_timeout", 0.3), backoff=backoff,
+                     reply_timeout=reply_timeout, backoff=backoff,
                      logger=lambda text: rospy.loginfo("%s: %s" % (NODE_NAME, text)))
     terrace = Terrace(head, speeds, tilt_limits, tolerance, move_timeout, poll_period)
 

@@ -6,6 +6,8 @@ Actions:     find_scale_action (inspection_robot/GeneralAction), server. Goal ty
              "infrared_filename", "foreign_filename", "roi_vertex", "infrared_roi_vertex"} or "1"
              with {"reason"}; a cancelled goal is preempted with ret_code "1", reason "cancelled".
 Subscribes:  nav_status (NavStatus): current heading for the pan correction
+             terrace_state (sensor_msgs/JointState): after each set_angle, waits (<= 2 s) until the head
+             reports the new angle, so the next picture is taken from the new view
 Services:    terrace_control, camera_control, infrared_control (ControlService), client
 Parameters:  ~preset_root (str, /var/lib/inspection_robot/presets), ~picture_root (str,
              /var/lib/inspection_robot/pictures): pictures go to <picture_root>/<preset_id>/
@@ -26,7 +28,7 @@ import actionlib
 import cv2
 import rospy
 
-from inspection_robot.camera.optics import ZoomOptics
+from inspection_robot.camera.optics import ZoomOptics, focal_for_hfov
 from inspection_robot.command import CommandError, confine_path
 from inspection_robot.inspection.finder import Cancelled, Finder, FindError, ThermalGeometry
 from inspection_robot.inspection.locate import Locator
@@ -129,11 +131,17 @@ def main():
     offset = [float(v) for v in rospy.get_param("~thermal_offset_px", [0.0, 0.0])]
     if len(offset) != 2:
         raise ValueError("~thermal_offset_px must be [dx, dy]")
-    thermal = ThermalGeometry(t_width / 2.0 / math.tan(math.radians(hfov) / 2.0), t_width, t_height, offset)
-    head = RosHead(NODE_NAME, float(rospy.get_param("~service_timeout", 10.0)))
+    if not 0.0 < hfov < 180.0 or t_width <= 0 or t_height <= 0:
+        raise ValueError("~thermal_hfov_deg must be in (0, 180) and ~thermal_width/~thermal_height positive")
+    service_timeout = float(rospy.get_param("~service_timeout", 10.0))
+    max_moves = int(rospy.get_param("~max_moves", 3))
+    centre_tolerance = float(rospy.get_param("~centre_tolerance", 0.05))
+    if service_timeout <= 0 or max_moves < 0 or not 0.0 < centre_tolerance < 1.0:
+        raise ValueError("~service_timeout must be > 0, ~max_moves >= 0 and 0 < ~centre_tolerance < 1")
+    thermal = ThermalGeometry(focal_for_hfov(t_width, hfov), t_width, t_height, offset)
+    head = RosHead(NODE_NAME, service_timeout)
     finder = Finder(head, optics, Locator(rospy.get_param("~detector", "orb")), picture_root,
-                    max_moves=int(rospy.get_param("~max_moves", 3)),
-                    centre_tolerance=float(rospy.get_param("~centre_tolerance", 0.05)), thermal=thermal)
+                    max_moves=max_moves, centre_tolerance=centre_tolerance, thermal=thermal)
     for folder in (preset_root, picture_root):
         os.makedirs(folder, exist_ok=True)
     FindScaleNode(finder, head, HeadingWatcher(), preset_root)

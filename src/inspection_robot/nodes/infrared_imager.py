@@ -14,13 +14,13 @@ Parameters:  ~driver ("sim", a vendor plug-in "package.module:Class", or "" = no
              unsupported (list of commands to refuse, [])}
 """
 import rospy
-from diagnostic_msgs.msg import DiagnosticArray
 
 from inspection_robot.camera.driver import DeviceHealth
-from inspection_robot.nodes.camera_node import diagnostics_msg
+from inspection_robot.nodes.diagnostics import DiagnosticsPublisher, probe_device
 from inspection_robot.nodes.twin import CommandTwin
 from inspection_robot.thermal.commands import ThermalCommands
-from inspection_robot.thermal.driver import NoImager, ThermalError, load_driver_class
+from inspection_robot.plugin import load_class
+from inspection_robot.thermal.driver import NoImager, ThermalError
 
 NODE = "infrared_imager"
 HARDWARE_ID = "thermal_imager"
@@ -31,25 +31,15 @@ class InfraredNode(object):
         self._driver = driver
         self._health = health
         self.commands = commands
-        self._diag_pub = rospy.Publisher("diagnostics", DiagnosticArray, queue_size=10)
+        self._diagnostics = DiagnosticsPublisher("%s: thermal imager" % NODE, HARDWARE_ID)
         self._twin = CommandTwin(commands.table, "infrared_control", "infrared_cmd", "infrared_ack", NODE)
         self._timer = rospy.Timer(rospy.Duration(1.0 / status_rate), self._on_status)
 
     def _on_status(self, _event):
-        try:
-            self._driver.probe()
-        except ThermalError as err:
-            self._health.failure(err)
-            rospy.logwarn_throttle(10.0, "%s: %s" % (NODE, err))
-        except Exception as err:  # boundary: a timer tick must not die
-            self._health.failure("internal error: %s" % err)
-            rospy.logerr_throttle(10.0, "%s: status tick failed: %s" % (NODE, err))
-        else:
-            self._health.success()
+        probe_device(NODE, self._health, self._driver.probe, ThermalError)
         x, y = self.commands.measure_spot
-        self._diag_pub.publish(diagnostics_msg("%s: thermal imager" % NODE, HARDWARE_ID, self._health,
-                                               [("measure_spot", "%d,%d" % (x, y)),
-                                                ("failures", self._health.failures)]))
+        self._diagnostics.publish(self._health.ok, self._health.message,
+                                  [("measure_spot", "%d,%d" % (x, y)), ("failures", self._health.failures)])
 
 
 def make_driver(kind, width, height):
@@ -66,7 +56,7 @@ def make_driver(kind, width, height):
     if not kind:
         rospy.logerr("%s: no thermal imager driver configured (~driver); every command will fail" % NODE)
         return NoImager()
-    return load_driver_class(kind)(**rospy.get_param("~driver_params", {}))
+    return load_class(kind)(**rospy.get_param("~driver_params", {}))
 
 
 def main():

@@ -37,15 +37,15 @@ class JoyControl(object):
 
     def _on_joy(self, msg):
         with self._lock:
-            actions = self._teleop.on_joy(msg.axes, msg.buttons, time.monotonic())
-        self._publish(actions)
+            self._publish(self._teleop.on_joy(msg.axes, msg.buttons, time.monotonic()))
 
     def _on_tick(self, _event):
         with self._lock:
-            actions = self._teleop.tick(time.monotonic())
-        self._publish(actions)
+            self._publish(self._teleop.tick(time.monotonic()))
 
     def _publish(self, actions):
+        """Called under self._lock: the joy callback and the timer run on different threads, and
+        trans_id must increase and the messages leave in the order the teleop decided them."""
         for action in actions:
             self._trans_id += 1
             kind = action[0]
@@ -65,8 +65,7 @@ class JoyControl(object):
     def shutdown(self):
         self._timer.shutdown()
         with self._lock:
-            actions = self._teleop.tick(float("inf"))  # as if the stream went silent: one stop
-        self._publish(actions)
+            self._publish(self._teleop.tick(float("inf")))  # as if the stream went silent: one stop
 
 
 def main():

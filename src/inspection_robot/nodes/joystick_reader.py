@@ -88,9 +88,9 @@ class JoystickReader(object):
 def main():
     rospy.init_node("joystick_reader")
     rate = float(rospy.get_param("~autorepeat_rate", 20.0))
-    if rate <= 0:
-        raise ValueError("~autorepeat_rate must be positive")
-    node = JoystickReader(str(rospy.get_param("~device", "/dev/input/js0")), rate,
-                          float(rospy.get_param("~reconnect_max", 5.0)))
+    reconnect_max = float(rospy.get_param("~reconnect_max", 5.0))
+    if rate <= 0 or reconnect_max <= 0:
+        raise ValueError("~autorepeat_rate and ~reconnect_max must be positive")
+    node = JoystickReader(str(rospy.get_param("~device", "/dev/input/js0")), rate, reconnect_max)
     rospy.on_shutdown(node.shutdown)
     rospy.spin()

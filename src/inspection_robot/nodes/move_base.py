@@ -39,6 +39,7 @@ import rospy
 from geometry_msgs.msg import PoseStamped, PoseWithCovarianceStamped
 from nav_msgs.msg import OccupancyGrid, Path
 
+from inspection_robot.angles import quaternion_from_yaw, wrap_angle, yaw_from_quaternion
 from inspection_robot.command import CommandError, parse_float, split_fields
 from inspection_robot.interface import (LOCATION_CMD_SET, LOCATION_INIT_POSE, LOCATION_LAST_POSE,
                                         MODE_NAMES, MODE_TASK,
@@ -52,9 +53,9 @@ from inspection_robot.msg import (ControlStatus, GeneralAction, GeneralCmd, Gene
                                   MoveCmd, NavStatus, ObstacleStatus)
 from inspection_robot.nav.costmap import Costmap
 from inspection_robot.nav.follower import DONE, FollowerParams, PathFollower
-from inspection_robot.nav.goal import parse_move_goal, quaternion_from_yaw, yaw_from_quaternion
+from inspection_robot.nav.goal import parse_move_goal
 from inspection_robot.nav.gridmap import load_map
-from inspection_robot.nav.localization import LocalizationMonitor, wrap_angle
+from inspection_robot.nav.localization import LocalizationMonitor
 from inspection_robot.nav.persist import read_json, write_json_atomic
 from inspection_robot.nav.planner import Planner, PlanningError
 from inspection_robot.nav.virtual_obstacles import VirtualObstacles
@@ -114,7 +115,8 @@ class MoveBase(object):
         self._plan_pub = rospy.Publisher("plan", Path, queue_size=1, latch=True)
         self._cmd_pub = rospy.Publisher("move_cmd", MoveCmd, queue_size=10)
         self._status_pub = rospy.Publisher("nav_status", NavStatus, queue_size=10)
-        self._initial_pub = rospy.Publisher("initialpose", PoseWithCovarianceStamped, queue_size=1, latch=True)
+        # not latched: a localizer that (re)starts later must not be reset to an old set_location
+        self._initial_pub = rospy.Publisher("initialpose", PoseWithCovarianceStamped, queue_size=1)
         self._publish_virtual()
 
         rospy.Subscriber(cfg["pose_topic"], PoseWithCovarianceStamped, self._on_pose, queue_size=10)
@@ -163,8 +165,7 @@ class MoveBase(object):
         out.header.frame_id = "map"
         out.header.stamp = rospy.Time.now()
         out.pose.pose.position.x, out.pose.pose.position.y = x, y
-        q = quaternion_from_yaw(yaw)
-        out.pose.pose.orientation.z, out.pose.pose.orientation.w = q["z"], q["w"]
+        _, _, out.pose.pose.orientation.z, out.pose.pose.orientation.w = quaternion_from_yaw(yaw)
         out.pose.covariance[0] = out.pose.covariance[7] = 0.25 ** 2
         out.pose.covariance[35] = 0.1 ** 2
         self._initial_pub.publish(out)

@@ -57,11 +57,15 @@ def main():
         ("half_width", 0.45), ("front_offset", 0.45), ("rear_offset", 0.45), ("distance", 1.2),
         ("ground_height", 0.08), ("max_height", 1.8), ("spin_radius", 0.8))}
     sensor_pose = [float(v) for v in rospy.get_param("~sensor_pose", [0.0, 0.0, 0.0, 0.0])]
+    min_points, clear_count = int(rospy.get_param("~min_points", 5)), int(rospy.get_param("~clear_count", 3))
     if len(sensor_pose) != 4:
         raise ValueError("~sensor_pose must be [x, y, z, yaw]")
+    if any(p[name] <= 0 for name in ("half_width", "distance", "spin_radius")) or p["max_height"] <= p["ground_height"]:
+        raise ValueError("~half_width, ~distance, ~spin_radius must be positive and ~max_height above ~ground_height")
+    if min_points < 1 or clear_count < 1:
+        raise ValueError("~min_points and ~clear_count must be >= 1")
     detector = CorridorDetector(p["half_width"], p["front_offset"], p["rear_offset"], p["distance"],
-                                p["ground_height"], p["max_height"], p["spin_radius"],
-                                int(rospy.get_param("~min_points", 5)), int(rospy.get_param("~clear_count", 3)),
+                                p["ground_height"], p["max_height"], p["spin_radius"], min_points, clear_count,
                                 sensor_pose)
     ObstacleDetector(detector, rospy.get_param("~cloud_topic", "obstacle_cloud"))
     rospy.spin()

@@ -1,6 +1,7 @@
 """preset_scale: records a preset (INTERFACE.md section 4, "Preset recording").
 
 Subscribes:  preset_scale_cmd (PresetScaleCmd); nav_status (NavStatus): the robot's map pose
+             terrace_state (sensor_msgs/JointState): after a set_angle, waits (<= 2 s) for the head to report it
 Publishes:   preset_scale_ack (PresetScaleAck): result success|failed, directory = the new
              preset directory, or the reason on failure
 Services:    camera_control (get_zoom_level, get_focus_position, set_osd_mode, set_zoom_level,
@@ -97,7 +98,10 @@ def main():
                                                      "~/.ros/inspection_robot/arm/default_orbit.csv"))
     arm_roots = [os.path.expanduser(p) for p in rospy.get_param("~arm_trajectory_roots",
                                                                 ["~/.ros/inspection_robot/arm"])]
+    service_timeout = float(rospy.get_param("~service_timeout", 10.0))
+    if service_timeout <= 0:
+        raise ValueError("~service_timeout must be positive")
     os.makedirs(preset_root, exist_ok=True)
-    PresetScaleNode(RosHead(NODE_NAME, float(rospy.get_param("~service_timeout", 10.0))), HeadingWatcher(),
+    PresetScaleNode(RosHead(NODE_NAME, service_timeout), HeadingWatcher(),
                     preset_root, optics.min_zoom, arm_default, arm_roots)
     rospy.spin()

@@ -8,7 +8,7 @@ Parameters:  ~preset_root (str, /var/lib/inspection_robot/presets): holds <prese
              ~picture_root (str, /var/lib/inspection_robot/pictures): results in <preset_id>/
              ~extra_picture_roots (list of str, []): further roots input pictures may come from
              ~detector (str, orb): orb | akaze | sift, for aligning foreign pictures with the reference
-             ~queue_size (int, 10): pending requests before new ones are refused
+             ~queue_size (int >= 1, 10): pending requests before new ones are refused
 Requests are served one at a time in arrival order by a worker thread.
 """
 import os
@@ -81,8 +81,10 @@ def main():
     extra = [os.path.expanduser(p) for p in rospy.get_param("~extra_picture_roots", [])]
     detector = rospy.get_param("~detector", "orb")
     queue_size = int(rospy.get_param("~queue_size", 10))
+    if queue_size < 1:
+        raise ValueError("~queue_size must be >= 1, got %d" % queue_size)
     for folder in (preset_root, picture_root):
         os.makedirs(folder, exist_ok=True)
     reader = ScaleReader([preset_root], [picture_root, preset_root] + extra, picture_root, Locator(detector))
-    ReadScaleNode(reader, max(1, queue_size))
+    ReadScaleNode(reader, queue_size)
     rospy.spin()

@@ -23,9 +23,8 @@ from inspection_robot.arm.controller import AXIS_NAMES, ArmController
 from inspection_robot.arm.driver import Limits
 from inspection_robot.command import CommandTable, failed
 from inspection_robot.interface import ARM_COMMANDS, UNSUPPORTED
-from inspection_robot.nodes.twin import CommandTwin
+from inspection_robot.nodes.twin import CommandTwin, serve_table
 from inspection_robot.sim.arm import SimArm
-from inspection_robot.srv import ControlService, ControlServiceResponse
 
 NODE_NAME = "robot_arm"
 DEFAULT_LIMITS = {"position_mm": {"x": [-600, 600], "y": [-600, 600], "z": [-200, 800]},
@@ -39,12 +38,9 @@ def _limits(param):
 
 
 def _serve_sim_faults(arm):
-    def on_service(req):
-        if req.cmd != "fault":
-            return ControlServiceResponse(trans_id=req.trans_id, ack="failed", data="unknown command '%s'" % req.cmd)
-        arm.fault = req.data or None
-        return ControlServiceResponse(trans_id=req.trans_id, ack="success", data="")
-    return rospy.Service("~sim_control", ControlService, on_service)
+    def set_fault(data):
+        arm.fault = data or None
+    return serve_table("~sim_control", CommandTable({"fault": set_fault}))
 
 
 def main():

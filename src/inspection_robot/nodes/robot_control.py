@@ -14,6 +14,7 @@ Subscribes:  mode_cmd (GeneralCmd): acquire joy|server, release
 Publishes:   control_status (ControlStatus) at ~status_rate and at once when a discrete field changes
              control_ack (GeneralAck) the result of each control_cmd (project extension)
              robot_odom (nav_msgs/Odometry, odom -> base_link) and TF odom -> base_link at ~rate
+                 (on /tf; motion.launch remaps it to the relative tf so a robot namespace holds it)
              imu_ack (GeneralAck), voice_cmd (VoiceCmd) for query_status
              sim only: sim/true_pose (geometry_msgs/PoseWithCovarianceStamped, frame map) at ~rate,
                  sim/chassis_cmd (geometry_msgs/TwistStamped) every command reaching the driver
@@ -31,8 +32,6 @@ Parameters:  ~driver ("sim" or "package.module:Class"), ~driver_params ({}): ven
              ~sim ({}): SimChassis parameters; ~sim_world (config/sim_world.yaml, loaded by the launch
                  file): the simulated robot starts at world.robot.start_pose ([x, y, yaw] in map)
 """
-import importlib
-import math
 import time
 import traceback
 
@@ -41,13 +40,15 @@ import tf2_ros
 from geometry_msgs.msg import PoseWithCovarianceStamped, TransformStamped, TwistStamped
 from nav_msgs.msg import Odometry
 
-from inspection_robot.interface import VOICE_LANGUAGES
+from inspection_robot.angles import quaternion_from_yaw
+from inspection_robot.interface import ACK_SUCCESS, VOICE_LANGUAGES
 from inspection_robot.motion.controller import MotionController
 from inspection_robot.motion.velocity import VelocityLimits
 from inspection_robot.msg import ControlStatus, GeneralAck, GeneralCmd, MoveCmd, ObstacleStatus, RobotStatus, VoiceCmd
-from inspection_robot.nodes.twin import CommandTwin
+from inspection_robot.plugin import load_class
+from inspection_robot.nodes.twin import CommandTwin, control_response
 from inspection_robot.sim.chassis import SimChassis
-from inspection_robot.srv import ControlService, ControlServiceResponse
+from inspection_robot.srv import ControlService
 
 NODE_NAME = "robot_control"
 # Fields whose change publishes control_status at once; analog ones (battery, temperatures) go at the fixed rate.
@@ -113,7 +114,7 @@ class RobotControl(object):
     def _on_move_cmd(self, msg):
         reply = self._guard("move_cmd", self._ctl.on_move_cmd, msg.sender, msg.velocity_x, msg.velocity_yaw,
                             msg.wheel_control)
-        if reply is not None and reply.ack != "success":
+        if reply is not None and reply.ack != ACK_SUCCESS:
             rospy.logwarn_throttle(2.0, "%s: move_cmd from %r not obeyed: %s" % (NODE_NAME, msg.sender, reply.data))
 
     def _on_control_cmd(self, msg):
@@ -137,7 +138,7 @@ class RobotControl(object):
             reply = self._fault_table.dispatch(req.cmd, req.data)
         rospy.loginfo("%s: sim/inject_fault %s(%r): %s %s" % (NODE_NAME, req.cmd, req.data, reply.ack, reply.data))
         self._publish_status_if_changed()
-        return ControlServiceResponse(trans_id=req.trans_id, ack=reply.ack, data=reply.data)
+        return control_response(req, reply)
 
     def _guard(self, what, fn, *args):
         try:
@@ -151,7 +152,7 @@ class RobotControl(object):
         try:
             self._ctl.shutdown()
         except Exception as err:  # boundary: nothing more we can do than report it
-            rospy.logerr_throttle(1.0, "%s: driver stop failed: %s" % (NODE_NAME, err))
+            rospy.logerr_throttle(1.0, "%s: driver stop failed: %s\n%s" % (NODE_NAME, err, traceback.format_exc()))
 
     # --- outputs -----------------------------------------------------------------------------
     def _on_tick(self, _event):
@@ -215,8 +216,7 @@ class RobotControl(object):
         msg.header.frame_id = "map"
         msg.pose.pose.position.x = x
         msg.pose.pose.position.y = y
-        msg.pose.pose.orientation.z = math.sin(yaw / 2.0)
-        msg.pose.pose.orientation.w = math.cos(yaw / 2.0)
+        _, _, msg.pose.pose.orientation.z, msg.pose.pose.orientation.w = quaternion_from_yaw(yaw)
         self._true_pose_pub.publish(msg)
 
     def _on_driver_command(self, velocity_x, velocity_yaw, _wheel_mode):
@@ -239,14 +239,6 @@ class RobotControl(object):
 
 def _as_tuple(value):
     return tuple(value) if isinstance(value, (list, tuple, bytes)) else value
-
-
-def _load_driver(spec, params):
-    """``package.module:Class`` -> Class(**params)."""
-    module_name, _, class_name = spec.partition(":")
-    if not module_name or not class_name:
-        raise ValueError("~driver must be 'sim' or 'package.module:Class', got %r" % (spec,))
-    return getattr(importlib.import_module(module_name), class_name)(**params)
 
 
 def _log(level, text):
@@ -275,7 +267,7 @@ def main():
             raise ValueError("~start_pose must be [x, y, yaw]")
         sim = driver = SimChassis(time.monotonic, start_pose, **rospy.get_param("~sim", {}))
     else:
-        driver = _load_driver(driver_spec, rospy.get_param("~driver_params", {}))
+        driver = load_class(driver_spec)(**rospy.get_param("~driver_params", {}))
     controller = MotionController(driver, limits, cmd_timeout, time.monotonic, log=_log)
     node = RobotControl(controller, rate_hz, status_rate_hz, str(rospy.get_param("~odom_frame", "odom")),
                         str(rospy.get_param("~base_frame", "base_link")), bool(rospy.get_param("~publish_tf", True)),

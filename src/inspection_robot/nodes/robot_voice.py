@@ -3,8 +3,10 @@
 Subscribes:  voice_cmd (VoiceCmd)
 Publishes:   voice_ack (GeneralAck): success with the spoken text, or failed with the reason;
              trans_id echoed (a project addition: the spec defines no reply)
-Parameters:  ~output (speaker|file, file in simulation), ~clip_dir (dir of <name>.wav clips),
-             ~out_dir (file output: where utterances are written), ~queue_size (10)
+Parameters:  ~output (speaker|file, "file"; the launch file picks file in simulation, speaker otherwise),
+             ~clip_dir (dir of <name>.wav clips, "~/.ros/voice_clips"; the launch file passes config/voice_clips),
+             ~out_dir (file output: where utterances are written, "~/.ros/voice_out"),
+             ~queue_size (requests waiting, >= 1, 10)
 Requests are played one after another by a worker thread; a full queue drops the new request
 with a failed ack rather than delaying every later prompt.
 """
@@ -53,6 +55,8 @@ def main():
     kind = rospy.get_param("~output", "file")
     clip_dir = os.path.expanduser(rospy.get_param("~clip_dir", "~/.ros/voice_clips"))
     queue_size = int(rospy.get_param("~queue_size", 10))
+    if queue_size < 1:  # 0 would make the worker's queue unbounded: nothing ever refused
+        raise ValueError("~queue_size must be >= 1, got %d" % queue_size)
     if kind == "file":
         out_dir = os.path.expanduser(rospy.get_param("~out_dir", "~/.ros/voice_out"))
         output = FileOutput(clip_dir, out_dir)

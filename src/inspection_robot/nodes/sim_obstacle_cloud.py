@@ -4,8 +4,8 @@ Subscribes:  sim/true_pose (geometry_msgs/PoseWithCovarianceStamped) from the ch
 Publishes:   obstacle_cloud (sensor_msgs/PointCloud2, frame "base_link", float32 x/y/z) at ~rate
 Services:    sim_obstacle_control (ControlService): drop "id,x,y[,size[,height]]" (map m, default 0.5 m
              cube), remove "id", clear, list -> "id,id,..."
-Parameters:  ~world (the world: block of config/sim_world.yaml), ~rate (Hz, 10), ~range (m, 8),
-             ~spacing (m, 0.1)
+Parameters:  ~world (the world: block of config/sim_world.yaml, required), ~rate (Hz, 10), ~range (m, 8),
+             ~spacing (m between surface points, 0.1)
 """
 import math
 
@@ -13,11 +13,11 @@ import rospy
 from geometry_msgs.msg import PoseWithCovarianceStamped
 from sensor_msgs.msg import PointCloud2, PointField
 
+from inspection_robot.angles import yaw_from_quaternion
 from inspection_robot.command import CommandError, CommandTable, parse_float, success
-from inspection_robot.nav.goal import yaw_from_quaternion
 from inspection_robot.nav.obstacle import cloud_bytes
+from inspection_robot.nodes.twin import serve_table
 from inspection_robot.sim.nav_yard import ObstacleCloud
-from inspection_robot.srv import ControlService, ControlServiceResponse
 
 FIELDS = [PointField(name=n, offset=4 * i, datatype=PointField.FLOAT32, count=1) for i, n in enumerate("xyz")]
 
@@ -30,7 +30,7 @@ class SimObstacleCloud(object):
                                     "list": lambda _d: ",".join(self._cloud.dropped)})
         self._pub = rospy.Publisher("obstacle_cloud", PointCloud2, queue_size=1)
         rospy.Subscriber("sim/true_pose", PoseWithCovarianceStamped, self._on_pose, queue_size=1)
-        rospy.Service("sim_obstacle_control", ControlService, self._on_service)
+        self._service = serve_table("sim_obstacle_control", self._table)
         rospy.Timer(rospy.Duration(1.0 / rate_hz), self._tick)
 
     def _on_pose(self, msg):
@@ -55,10 +55,6 @@ class SimObstacleCloud(object):
     def _clear(self, _data):
         self._cloud.clear()
 
-    def _on_service(self, req):
-        reply = self._table.dispatch(req.cmd, req.data)
-        return ControlServiceResponse(trans_id=req.trans_id, ack=reply.ack, data=reply.data)
-
     def _tick(self, _event):
         if self._pose is None or not all(math.isfinite(v) for v in self._pose):
             return
@@ -74,8 +70,10 @@ def main():
     rospy.init_node("sim_obstacle_cloud")
     world = rospy.get_param("~world")
     rate_hz = float(rospy.get_param("~rate", 10.0))
-    if rate_hz <= 0:
-        raise ValueError("~rate must be positive")
-    cloud = ObstacleCloud(world, float(rospy.get_param("~range", 8.0)), float(rospy.get_param("~spacing", 0.1)))
+    sensor_range = float(rospy.get_param("~range", 8.0))
+    spacing = float(rospy.get_param("~spacing", 0.1))
+    if rate_hz <= 0 or sensor_range <= 0 or spacing <= 0:
+        raise ValueError("~rate, ~range and ~spacing must be positive")
+    cloud = ObstacleCloud(world, sensor_range, spacing)
     SimObstacleCloud(cloud, rate_hz)
     rospy.spin()

@@ -16,7 +16,7 @@ import rospy
 from inspection_robot.command import CommandError, CommandTable, parse_choice
 from inspection_robot.ptz import pelco
 from inspection_robot.sim.pelco_head import FAULTS, PtyPelcoServer, SimPelcoHead
-from inspection_robot.srv import ControlService, ControlServiceResponse
+from inspection_robot.nodes.twin import serve_table
 
 
 class SimPelcoHeadNode(object):
@@ -24,11 +24,7 @@ class SimPelcoHeadNode(object):
         self._server = server
         self._table = CommandTable({"fault": self._fault, "unplug": self._unplug, "replug": self._replug,
                                     "get_state": self._get_state})
-        self._service = rospy.Service("~sim_control", ControlService, self._on_service)
-
-    def _on_service(self, req):
-        reply = self._table.dispatch(req.cmd, req.data)
-        return ControlServiceResponse(trans_id=req.trans_id, ack=reply.ack, data=reply.data)
+        self._service = serve_table("~sim_control", self._table)
 
     def _fault(self, data):
         self._server.head.fault = parse_choice(data, "fault", FAULTS)

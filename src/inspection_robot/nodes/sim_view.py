@@ -13,6 +13,7 @@ import rospy
 from geometry_msgs.msg import PoseWithCovarianceStamped
 from sensor_msgs.msg import JointState
 
+from inspection_robot.angles import yaw_from_quaternion
 from inspection_robot.msg import GeneralTopic
 from inspection_robot.sim.world import WorldError
 
@@ -35,7 +36,7 @@ class SimView(object):
 
     def _on_pose(self, msg):
         p, q = msg.pose.pose.position, msg.pose.pose.orientation
-        yaw = math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
+        yaw = yaw_from_quaternion(q.x, q.y, q.z, q.w)
         if all(math.isfinite(v) for v in (p.x, p.y, yaw)):
             with self._lock:
                 self._pose = (p.x, p.y, yaw)

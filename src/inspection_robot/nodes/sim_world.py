@@ -17,7 +17,8 @@ import rospy
 from inspection_robot.command import failed, success
 from inspection_robot.msg import GeneralTopic
 from inspection_robot.sim.world import World, WorldError
-from inspection_robot.srv import ControlService, ControlServiceResponse
+from inspection_robot.nodes.twin import control_response
+from inspection_robot.srv import ControlService
 
 
 class SimWorldNode(object):
@@ -41,14 +42,14 @@ class SimWorldNode(object):
         else:
             self._publish()
             reply = success(value)
-        return ControlServiceResponse(trans_id=req.trans_id, ack=reply.ack, data=reply.data)
+        return control_response(req, reply)
 
     def _on_get(self, req):
         try:
             reply = success(self._world.get_value(req.cmd))
         except WorldError as err:
             reply = failed(err)
-        return ControlServiceResponse(trans_id=req.trans_id, ack=reply.ack, data=reply.data)
+        return control_response(req, reply)
 
 
 def main():

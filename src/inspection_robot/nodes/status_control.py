@@ -87,7 +87,7 @@ def main():
     stale = {"control": 1.0, "nav": 2.0, "odom": 1.0}
     stale.update({k: float(v) for k, v in rospy.get_param("~stale_timeout", {}).items()})
     sensor_bits = rospy.get_param("~sensor_hardware_bits", {"camera": 0, "thermal_imager": 1})
-    if rate_hz <= 0:
-        raise ValueError("~rate must be positive")
+    if rate_hz <= 0 or timeout <= 0 or any(v <= 0 for v in stale.values()):
+        raise ValueError("~rate, ~heartbeat_timeout and every ~stale_timeout must be positive")
     StatusControl(StatusMerger(Heartbeat(timeout), stale), rate_hz, sensor_bits)
     rospy.spin()

@@ -19,6 +19,16 @@ from inspection_robot.nodes.worker import RequestWorker
 from inspection_robot.srv import ControlService, ControlServiceResponse
 
 
+def control_response(request, reply):
+    """The ControlService response carrying ``reply`` (a command.Reply), trans_id echoed."""
+    return ControlServiceResponse(trans_id=request.trans_id, ack=reply.ack, data=reply.data)
+
+
+def serve_table(name, table):
+    """A ControlService ``name`` answering each call with ``table.dispatch(cmd, data)`` (simulator controls)."""
+    return rospy.Service(name, ControlService, lambda req: control_response(req, table.dispatch(req.cmd, req.data)))
+
+
 class ModeWatcher(object):
     """Tracks robot_control's current mode from control_status."""
 
@@ -69,8 +79,7 @@ class CommandTwin(object):
         return reply
 
     def _on_service(self, req):
-        reply = self.handle(req.sender, req.cmd, req.data)
-        return ControlServiceResponse(trans_id=req.trans_id, ack=reply.ack, data=reply.data)
+        return control_response(req, self.handle(req.sender, req.cmd, req.data))
 
     def _run_topic_command(self, msg):
         self.publish_ack(self.handle(msg.sender, msg.cmd, msg.data), msg)

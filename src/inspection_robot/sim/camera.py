@@ -5,7 +5,6 @@ distance, WDR, exposure, iris, OSD) and moves zoom and focus continuously at fix
 zoom_in/zoom_out/focus_far/focus_near is running. Pictures come from ``sim.render.Renderer`` for
 the view that ``view_source()`` returns: (robot pose (x, y, yaw), pan rad, tilt rad).
 """
-import math
 import threading
 import time
 
@@ -196,8 +195,3 @@ class SimulatedCamera(CameraDriver):
 
     def grab_frame(self, width):
         return self._picture(int(width))
-
-
-def focal_for_hfov(width, hfov_deg):
-    """Focal length in px of a fixed lens with horizontal field of view ``hfov_deg``."""
-    return width / 2.0 / math.tan(math.radians(hfov_deg) / 2.0)

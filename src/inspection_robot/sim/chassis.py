@@ -22,6 +22,7 @@ simulator needs no thread and a test can drive it with a fake clock.
 """
 import math
 
+from inspection_robot.angles import wrap_angle
 from inspection_robot.command import CommandError, CommandTable, parse_choice, parse_float, split_fields
 from inspection_robot.interface import (
     BATTERY_CHARGING, BATTERY_DISCHARGING, BATTERY_UNDER_VOLTAGE, CIRCUIT_BATTERY_CRITICAL,
@@ -184,7 +185,7 @@ class SimChassis(ChassisDriver):
 
     def imu_reading(self):
         self._advance()
-        return ImuReading(0.0, 0.0, math.atan2(math.sin(self._imu_yaw), math.cos(self._imu_yaw)),
+        return ImuReading(0.0, 0.0, wrap_angle(self._imu_yaw),
                           self._imu_calibrated)
 
     def close(self):
@@ -289,7 +290,7 @@ class SimChassis(ChassisDriver):
         self.pose[0] += vx_mean * math.cos(yaw_mid) * dt
         self.pose[1] += vx_mean * math.sin(yaw_mid) * dt
         yaw = self.pose[2] + wz_mean * dt
-        self.pose[2] = math.atan2(math.sin(yaw), math.cos(yaw))
+        self.pose[2] = wrap_angle(yaw)
         self._imu_yaw += (wz_mean + self._imu_bias) * dt
         self._update_power(dt)
         self._update_temperatures(dt)

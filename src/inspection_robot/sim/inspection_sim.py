@@ -16,7 +16,7 @@ import numpy as np
 
 from inspection_robot.inspection.calibration import calibrate
 from inspection_robot.inspection.preset import PresetError, load_info
-from inspection_robot.sim.camera import focal_for_hfov
+from inspection_robot.camera.optics import focal_for_hfov
 from inspection_robot.sim.render import PinholeCamera, Renderer, ThermalRenderer, ground_truth
 
 MIN_BOX_PX = 24.0

@@ -7,7 +7,7 @@ Fixed lens (``hfov_deg``) on the pan/tilt head next to the visible camera; frame
 import threading
 
 from inspection_robot.interface import INFRARED_COMMANDS
-from inspection_robot.sim.camera import focal_for_hfov
+from inspection_robot.camera.optics import focal_for_hfov
 from inspection_robot.sim.render import PinholeCamera
 from inspection_robot.thermal.driver import ThermalDriver, ThermalError
 

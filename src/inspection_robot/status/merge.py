@@ -6,6 +6,7 @@ each source; a source silent for longer than its timeout is *flagged* in ``other
 """
 import math
 
+from inspection_robot.angles import wrap_angle
 from inspection_robot.interface import MOTOR_COUNT, TEMPERATURE_COUNT, TEMPERATURE_NOT_SAMPLED
 
 # other_status[0] of robot_status: which inputs are stale (no message within their timeout).
@@ -60,11 +61,6 @@ def fit_array(name, values):
     return (values + [fill] * length)[:length]
 
 
-def normalize_angle(angle):
-    """Wrap to [-pi, pi]."""
-    return math.atan2(math.sin(angle), math.cos(angle))
-
-
 class StatusMerger(object):
     """Holds the latest value of every input and builds the robot_status field dict."""
 
@@ -108,7 +104,7 @@ class StatusMerger(object):
             problems.append("nav_status pose invalid: position=%s orientation=%s" % (position, orientation))
         else:
             self.position = [float(position[0]), float(position[1])]
-            self.orientation = normalize_angle(orientation)
+            self.orientation = wrap_angle(orientation)
         self.nav_warn = int(nav_warn)
         self._seen["nav"] = now
         return problems

@@ -1,11 +1,10 @@
-"""Thermal imager driver interface and vendor plug-in loading.
+"""Thermal imager driver interface (vendor plug-ins are loaded with inspection_robot.plugin).
 
 A driver delivers radiometric frames (float32 degC per pixel) and may support only a subset of
 the spec's commands (vendors differ): ``supports(command)`` says which; the command table answers
 the rest ``failed``/``unsupported``. Vendor plug-ins are classes named "package.module:Class"
 (parameter ``~driver``), constructed with keyword arguments from ``~driver_params``.
 """
-import importlib
 
 
 class ThermalError(Exception):
@@ -34,18 +33,6 @@ class ThermalDriver(object):
 
     def close(self):
         pass
-
-
-def load_driver_class(spec):
-    """Import "package.module:Class" and return the class."""
-    module_name, sep, class_name = str(spec).partition(":")
-    if not sep or not module_name or not class_name:
-        raise ValueError("driver must be 'package.module:Class', got %r" % (spec,))
-    module = importlib.import_module(module_name)
-    try:
-        return getattr(module, class_name)
-    except AttributeError:
-        raise ValueError("%s has no class %s" % (module_name, class_name))
 
 
 class NoImager(ThermalDriver):
