@@ -75,7 +75,9 @@ class CommandTwin(object):
                          traceback.format_exc())
             return failed("internal error: %s" % (err,))
         if reply.ack != ACK_SUCCESS:
-            rospy.logwarn("%s: %s(%r) from %r failed: %s", self._node_name, cmd, data[:80], sender, reply.data)
+            # identical failures (a sender repeating one bad command) are logged once a second
+            rospy.logwarn_throttle_identical(1.0, "%s: %s(%r) from %r failed: %s"
+                                             % (self._node_name, cmd, data[:80], sender, reply.data))
         return reply
 
     def _on_service(self, req):
