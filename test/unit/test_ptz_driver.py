@@ -93,6 +93,7 @@ def test_pty_simulator_round_trip_unplug_replug(tmp_path):
         server.unplug()
         reply = terrace.table().dispatch("get_angle", "")
         assert reply.ack == "failed"
+        assert not head.connected     # the dead link is dropped by the failed command itself
         server.plug()
         assert head.wait_connected(3.0)
         assert terrace.table().dispatch("get_angle", "").data == "-12345,-4500"

@@ -181,8 +181,13 @@ class PelcoHead(PanTiltHead):
             try:
                 link.write(frame_bytes)
                 link.flush()
+                return
             except (serial.SerialException, OSError) as err:
-                raise HeadError("pan/tilt head write failed on %s: %s" % (self.port, err))
+                reason = "pan/tilt head write failed on %s: %s" % (self.port, err)
+        # A dead link is dropped at once (not only when the reader notices), so `connected`
+        # is false until the port really reopens and the next command does not reuse it.
+        self._drop_link(reason)
+        raise HeadError(reason)
 
     def _query(self, frame_bytes, reply_cmd):
         slot = {"event": threading.Event(), "frame": None, "error": None}
