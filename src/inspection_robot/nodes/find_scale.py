@@ -29,7 +29,7 @@ import cv2
 import rospy
 
 from inspection_robot.camera.optics import ZoomOptics, focal_for_hfov
-from inspection_robot.command import CommandError, confine_path
+from inspection_robot.command import CommandError, confine_path, parse_json
 from inspection_robot.inspection.finder import Cancelled, Finder, FindError, ThermalGeometry
 from inspection_robot.inspection.locate import Locator
 from inspection_robot.inspection.preset import PresetError, load_preset
@@ -51,10 +51,7 @@ def parse_goal(goal_type, data, preset_roots):
     """(type, preset directory) of a goal; CommandError with the reason on bad input."""
     if goal_type not in FIND_GOAL_TYPES:
         raise CommandError("unknown goal type '%s' (one of %s)" % (goal_type, "|".join(FIND_GOAL_TYPES)))
-    try:
-        fields = json.loads(data)
-    except ValueError as err:
-        raise CommandError("goal data is not JSON: %s" % err)
+    fields = parse_json(data, "goal data")
     if not isinstance(fields, dict) or not isinstance(fields.get("preset_path"), str):
         raise CommandError('goal data must be {"preset_path": "<dir>"}')
     return goal_type, confine_path(fields["preset_path"], preset_roots)
