@@ -64,6 +64,16 @@ class CommandTable(object):
         return success("" if result is None else result)
 
 
+def no_data(handler):
+    """Wrap the handler of a command without arguments: non-empty data fails instead of being ignored
+    (``get_zoom_level 4`` is a mistake the caller should hear about)."""
+    def checked(data):
+        if data != "":
+            raise CommandError("this command takes no data, got '%s'" % (data,))
+        return handler(data)
+    return checked
+
+
 def split_fields(data, count, name="data"):
     """Split comma-separated ``data`` into exactly ``count`` fields (no spaces allowed)."""
     fields = str(data).split(",")
