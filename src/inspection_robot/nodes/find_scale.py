@@ -33,7 +33,7 @@ from inspection_robot.command import CommandError, confine_path, parse_json
 from inspection_robot.inspection.finder import Cancelled, Finder, FindError, ThermalGeometry
 from inspection_robot.inspection.locate import Locator
 from inspection_robot.inspection.preset import PresetError, load_preset
-from inspection_robot.interface import (FIND_FEEDBACK_FINDING, FIND_FEEDBACK_PRESET_SET, FIND_GOAL_TYPES,
+from inspection_robot.interface import (FIND_FEEDBACK_PRESET_SET, FIND_GOAL_TYPES,
                                         FIND_RESULT_FAILED, FIND_RESULT_SUCCESS)
 from inspection_robot.msg import GeneralAction, GeneralFeedback, GeneralResult
 from inspection_robot.nodes.inspection_ros import HeadingWatcher, RosHead
@@ -111,7 +111,7 @@ class FindScaleNode(object):
             correction = 0.0
         else:
             correction = math.degrees(preset.info.pose[2] - pose[2])
-        self._feedback(FIND_FEEDBACK_FINDING, {"heading_correction_deg": round(correction, 2)})
+        # feedback "0" (preset set, with the correction) comes from the finder, then "1" per picture
         result = self._finder.find(preset, kind, correction, time.strftime("%Y%m%d_%H%M%S"), cv2.imread)
         return result_data(result.filename, result.infrared_filename, result.foreign_filename, result.roi_vertex,
                            result.infrared_roi_vertex)
