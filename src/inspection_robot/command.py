@@ -126,8 +126,8 @@ def parse_choice(text, name, choices):
 
 def _check_length(text, name):
     if len(text) > MAX_NUMBER_CHARS:
-        raise CommandError("%s is too long (%d characters, at most %d): '%s...'" % (name, len(text), MAX_NUMBER_CHARS,
-                                                                                  text[:20]))
+        raise CommandError("%s is too long (%d characters, at most %d): '%s...'"
+                           % (name, len(text), MAX_NUMBER_CHARS, text[:20]))
 
 
 def parse_json(data, name="data"):

@@ -73,7 +73,8 @@ def test_query_status_clips_are_spoken_without_recorded_clips(tmp_path, language
     names = set()
     for mode in MODE_NAMES:
         fields = {"mode": mode, "battery_quantity": 50, "battery_voltage": 480, "temperature": [250] * 13,
-                  "circuit_status": CIRCUIT_BATTERY_CRITICAL | CIRCUIT_JOY_COMM_LOST, "battery_status": BATTERY_CHARGING}
+                  "circuit_status": CIRCUIT_BATTERY_CRITICAL | CIRCUIT_JOY_COMM_LOST,
+                  "battery_status": BATTERY_CHARGING}
         names.update(w for w in status_sentence(fields, latch.reasons()) if isinstance(parse_item(w, language), Clip))
     names.add("status_normal")
     assert len(names) == len(BUILTIN_PHRASES) and names == set(BUILTIN_PHRASES)
