@@ -5,6 +5,7 @@ answers ``cmd``/``data`` strings with ``ack``/``data`` strings. This module owns
 share: dispatch by name, the failure reply for unknown commands, and parsers that turn malformed
 input into a clear reason instead of an exception deep inside a driver.
 """
+import json
 import math
 import os
 from collections import namedtuple
@@ -12,6 +13,10 @@ from collections import namedtuple
 from inspection_robot.interface import ACK_FAILED, ACK_SUCCESS
 
 Reply = namedtuple("Reply", "ack data")
+
+# Longest number text the parsers look at. Python's str -> int is quadratic in the digit count
+# (Python 3.8 has no limit), so a 10 MB run of digits from a careless client would stall a node.
+MAX_NUMBER_CHARS = 64
 
 
 class CommandError(Exception):
@@ -59,6 +64,16 @@ class CommandTable(object):
         return success("" if result is None else result)
 
 
+def no_data(handler):
+    """Wrap the handler of a command without arguments: non-empty data fails instead of being ignored
+    (``get_zoom_level 4`` is a mistake the caller should hear about)."""
+    def checked(data):
+        if data != "":
+            raise CommandError("this command takes no data, got '%s'" % (data,))
+        return handler(data)
+    return checked
+
+
 def split_fields(data, count, name="data"):
     """Split comma-separated ``data`` into exactly ``count`` fields (no spaces allowed)."""
     fields = str(data).split(",")
@@ -75,6 +90,7 @@ def parse_int(text, name, low=None, high=None):
     text = str(text)
     if text != text.strip():
         raise CommandError("%s must not contain spaces, got '%s'" % (name, text))
+    _check_length(text, name)
     try:
         value = int(text, 10)
     except ValueError:
@@ -88,6 +104,7 @@ def parse_float(text, name, low=None, high=None):
     text = str(text)
     if text != text.strip():
         raise CommandError("%s must not contain spaces, got '%s'" % (name, text))
+    _check_length(text, name)
     try:
         value = float(text)
     except ValueError:
@@ -105,6 +122,20 @@ def parse_choice(text, name, choices):
     if text not in allowed:
         raise CommandError("%s must be one of %s, got '%s'" % (name, "|".join(allowed), text))
     return text
+
+
+def _check_length(text, name):
+    if len(text) > MAX_NUMBER_CHARS:
+        raise CommandError("%s is too long (%d characters, at most %d): '%s...'"
+                           % (name, len(text), MAX_NUMBER_CHARS, text[:20]))
+
+
+def parse_json(data, name="data"):
+    """Decode JSON text; malformed, too deeply nested or non-text data raises CommandError."""
+    try:
+        return json.loads(data)
+    except (TypeError, ValueError, RecursionError) as err:
+        raise CommandError("%s is not valid JSON: %s" % (name, err))
 
 
 def _check_range(value, name, low, high):

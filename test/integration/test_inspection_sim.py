@@ -141,7 +141,8 @@ class TestInspectionSim(unittest.TestCase):
 
     def test_bad_goals_fail_with_reasons(self):
         cases = [("look_around", json.dumps({"preset_path": self.root}), "unknown goal type"),
-                 ("find_scale", "{not json", "not JSON"),
+                 ("find_scale", "{not json", "not valid JSON"),
+                 ("find_scale", "[" * 100000 + "]" * 100000, "not valid JSON"),
                  ("find_scale", json.dumps({"path": "x"}), "preset_path"),
                  ("find_scale", json.dumps({"preset_path": "/etc"}), "outside"),
                  ("find_scale", json.dumps({"preset_path": "presets/none/20000101_000000"}), "not found")]

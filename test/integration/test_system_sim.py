@@ -3,16 +3,21 @@
 
 Heartbeat online -> acquire backend mode -> drive -> command timeout stops -> PTZ, camera, voice
 through their twins -> a short move_action goal -> heartbeat loss stops and returns to task mode.
-rospy is used only to read the bridge's port and the simulator's true pose.
+Then what a careless backend sends (junk velocities, huge numbers, bad JSON, data where none is
+taken): each gets a clear ``failed``, nothing moves, no node restarts; query_status is spoken.
+rospy is used only to read the bridge's port, the simulator's true pose and the nodes' pids.
 """
 import json
 import math
 import threading
 import time
 import unittest
+from xmlrpc.client import ServerProxy
 
 import roslibpy
+import rosgraph
 import roslibpy.actionlib
+import rosnode
 import rospy
 import rostest
 from geometry_msgs.msg import PoseWithCovarianceStamped
@@ -59,6 +64,10 @@ class SystemSimTest(unittest.TestCase):
         cls.mode_cmd = roslibpy.Topic(cls.ros, "/mode_cmd", "inspection_robot/GeneralCmd")
         cls.move_cmd = roslibpy.Topic(cls.ros, "/move_cmd", "inspection_robot/MoveCmd")
         cls.voice_cmd = roslibpy.Topic(cls.ros, "/voice_cmd", "inspection_robot/VoiceCmd")
+        cls.acks_by_topic = {}
+        for name in ("/virtual_obstacle_ack", "/voice_ack"):
+            cls.acks_by_topic[name] = []
+            roslibpy.Topic(cls.ros, name, "inspection_robot/GeneralAck").subscribe(cls.acks_by_topic[name].append)
 
     @classmethod
     def tearDownClass(cls):
@@ -135,6 +144,68 @@ class SystemSimTest(unittest.TestCase):
         self.wait_status(lambda s: s["mode"] == 1, 10.0, "mode 1 again")
         heartbeat.stop()
         self.wait_status(lambda s: s["offline_warn"] == 1 and s["mode"] == 0, 3.0 + 2.0, "offline -> task mode")
+
+    def node_pids(self):
+        pids = {}
+        for name in rosnode.get_node_names():
+            if name.startswith("/test_") or name == "/rosout":
+                continue
+            uri = rosgraph.Master("/test_system_sim").lookupNode(name)
+            pids[name] = ServerProxy(uri).getPid("/test_system_sim")[2]
+        return pids
+
+    def test_careless_backend(self):
+        pids = self.node_pids()
+        self.assertIn("/cloud_terrace", pids)
+        heartbeat = Heartbeat(self.ros)
+        heartbeat.start()
+        self.addCleanup(heartbeat.stop)
+        self.wait_status(lambda s: s["offline_warn"] == 0, 20.0, "robot online")
+        self.mode_cmd.publish(roslibpy.Message({"sender": "server", "cmd": "acquire", "data": "server"}))
+        self.wait_status(lambda s: s["mode"] == 1, 10.0, "mode 1")
+        start = self.pose()
+        # junk velocities: refused (robot stopped), never clamped into motion
+        for velocity_x, velocity_yaw, wheel in ((float("nan"), 0.0, 0), (1e308, 0.0, 0), (300.0, float("inf"), 0),
+                                                (300.0, 0.0, 7)):
+            for _ in range(5):
+                self.move_cmd.publish(roslibpy.Message({"sender": "server", "velocity_x": velocity_x,
+                                                        "velocity_yaw": velocity_yaw, "wheel_control": wheel}))
+                time.sleep(0.05)  # the backend's command rate, not synchronisation
+        self.mode_cmd.publish(roslibpy.Message({"sender": "server", "cmd": "release", "data": ""}))
+        self.wait_status(lambda s: s["mode"] == 0, 10.0, "task mode")
+        end = self.pose()
+        self.assertLess(math.hypot(end[0] - start[0], end[1] - start[1]), 0.01)
+
+        # huge numbers and data where none is taken: a reason, never an internal error
+        ack, reason = self.call("/terrace_control", "set_angle", "1" * 100000 + ",0")
+        self.assertEqual(ack, "failed")
+        self.assertIn("out of range", reason)
+        self.assertEqual(self.call("/camera_control", "get_zoom_level", "4"),
+                         ("failed", "this command takes no data, got '4'"))
+        self.assertEqual(self.call("/infrared_control", "get_max_temperature", "x"),
+                         ("failed", "this command takes no data, got 'x'"))
+
+        # virtual obstacles: bad JSON, deep nesting, a unit error (mm for m)
+        vo_cmd = roslibpy.Topic(self.ros, "/virtual_obstacle_cmd", "inspection_robot/GeneralCmd")
+        acks = self.acks_by_topic["/virtual_obstacle_ack"]
+        for trans_id, data, reason in ((301, "{bad", "not valid JSON"),
+                                       (302, '{"id":"w","points":' + "[" * 50000 + "]" * 50000 + "}", "not valid JSON"),
+                                       (303, '{"id":"w","points":[[2,2],[12300000,2]]}', "metres, not mm?")):
+            vo_cmd.publish(roslibpy.Message({"sender": "server", "trans_id": trans_id, "cmd": "add", "data": data}))
+            ack = wait_for(lambda: [a for a in acks if a["trans_id"] == trans_id], 10.0, "vo ack %d" % trans_id)[0]
+            self.assertEqual(ack["ack"], "failed")
+            self.assertIn(reason, ack["data"])
+
+        # query_status is spoken (robot_voice acks robot_control's voice_cmd)
+        control = roslibpy.Topic(self.ros, "/control_cmd", "inspection_robot/GeneralCmd")
+        control.publish(roslibpy.Message({"sender": "server", "trans_id": 401, "cmd": "query_status", "data": ""}))
+        spoken = wait_for(lambda: [a for a in self.acks_by_topic["/voice_ack"] if a["receiver"] == "robot_control"],
+                          20.0, "query_status spoken")[0]
+        self.assertEqual(spoken["ack"], "success", spoken["data"])
+
+        # still the same processes, and they still answer
+        self.assertEqual(self.call("/terrace_control", "get_pan_angle")[0], "success")
+        self.assertEqual(self.node_pids(), pids)
 
 
 if __name__ == "__main__":

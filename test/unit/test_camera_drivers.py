@@ -5,7 +5,7 @@ import os
 import numpy as np
 import pytest
 
-from inspection_robot.camera.commands import CameraCommands
+from inspection_robot.camera.commands import NO_DATA_COMMANDS, CameraCommands
 from inspection_robot.camera.driver import CameraError, DeviceHealth
 from inspection_robot.camera.isapi import IsapiCamera
 from inspection_robot.camera.optics import ZoomOptics
@@ -14,6 +14,7 @@ from inspection_robot.sim.fake_isapi import FakeIsapiCamera
 from inspection_robot.sim.render import Renderer, ThermalRenderer
 from inspection_robot.sim.thermal import SimulatedImager
 from inspection_robot.sim.world import World
+from inspection_robot.thermal.commands import NO_DATA_COMMANDS as THERMAL_NO_DATA
 from inspection_robot.thermal.commands import ThermalCommands, load_radiometric, save_radiometric
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
@@ -110,6 +111,21 @@ def test_camera_bad_values_fail(camera, cmd, data):
     table = camera[0]
     reply = table.dispatch(cmd, data)
     assert reply.ack == "failed" and reply.data
+
+
+def test_commands_without_arguments_refuse_data_like_the_head_and_arm(camera, world, tmp_path):
+    table = camera[0]
+    assert set(NO_DATA_COMMANDS) >= {"get_zoom_level", "camera_stop", "get_iris"}
+    for name in NO_DATA_COMMANDS:
+        assert table.dispatch(name, "4") == ("failed", "this command takes no data, got '4'"), name
+        assert table.dispatch(name, "").ack == "success", name
+    imager = SimulatedImager(ThermalRenderer(world, noise_sigma=0.0), lambda: (world.start_pose, 0.0, 0.0),
+                             world.sensor_height)
+    thermal = ThermalCommands(imager, [str(tmp_path)], DeviceHealth(), 384, 288).table
+    assert set(THERMAL_NO_DATA) == {"get_max_temperature", "get_high_temperature", "get_low_temperature", "auto_focus"}
+    for name in THERMAL_NO_DATA:
+        assert thermal.dispatch(name, "x") == ("failed", "this command takes no data, got 'x'"), name
+        assert thermal.dispatch(name, "").ack == "success", name
 
 
 def test_thermal_commands_and_radiometric_files(world, tmp_path):

@@ -4,7 +4,7 @@ import os
 import pytest
 
 from inspection_robot.command import (CommandError, CommandTable, confine_path, parse_choice,
-                                      parse_float, parse_int, split_fields, success)
+                                      parse_float, parse_int, parse_json, split_fields, success)
 
 
 def test_dispatch_unknown_command_fails_with_its_name():
@@ -31,6 +31,20 @@ def test_parse_int_rejects_junk(text):
 def test_parse_float_rejects_non_finite_and_junk(text):
     with pytest.raises(CommandError):
         parse_float(text, "x")
+
+
+def test_huge_numbers_are_refused_by_length_not_parsed():
+    # str -> int is quadratic (no limit on Python 3.8): a megabyte of digits must not reach int()
+    for parse in (parse_int, parse_float):
+        with pytest.raises(CommandError, match="too long"):
+            parse("9" * 1000000, "x")
+    assert parse_int("-" + "0" * 40 + "5", "x") == -5
+
+
+@pytest.mark.parametrize("text", ["not json", "[" * 100000 + "]" * 100000, None, ""])
+def test_parse_json_turns_every_bad_input_into_a_command_error(text):
+    with pytest.raises(CommandError, match="goal data is not valid JSON"):
+        parse_json(text, "goal data")
 
 
 def test_ranges():

@@ -80,9 +80,14 @@ def test_record_find_read_with_pose_error(tmp_path, yard, face_id, dist, zoom):
             truth[f.id] = f.set_value("open" if f.value == "closed" else "closed")
     back = (pose[0] + 0.3 * math.sin(pose[2]), pose[1] - 0.3 * math.cos(pose[2]), pose[2] + math.radians(5))
     head.pose = back
-    finder = Finder(head, optics, Locator("orb"), pictures, max_moves=4)
+    events = []
+    finder = Finder(head, optics, Locator("orb"), pictures, max_moves=4, feedback=lambda c, d: events.append((c, d)))
     correction = math.degrees(pose[2] - back[2])
     result = finder.find(preset, "find_both", correction, "20260102_100000", cv2.imread)
+    # spec order: "0" preset set (with the heading correction applied), then "1" finding
+    assert events[0] == ("0", {"pan": events[0][1]["pan"], "tilt": round(tilt, 2), "zoom": zoom,
+                               "heading_correction_deg": round(correction, 2)})
+    assert [c for c, _ in events[1:]] == ["1"] * (len(events) - 1) and len(events) >= 2
     assert os.path.basename(result.filename).startswith("zoom0_20260102_100000_")
     assert len(result.roi_vertex) == 8 * len(preset.targets)
     assert result.foreign_filename

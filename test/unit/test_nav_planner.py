@@ -7,6 +7,7 @@ import pytest
 from inspection_robot.nav.costmap import Costmap, rasterise_polylines
 from inspection_robot.nav.gridmap import GridMap
 from inspection_robot.nav.planner import Planner, PlanningError
+from inspection_robot.nav.virtual_obstacles import MAX_COORDINATE_M
 
 RES = 0.05
 
@@ -124,6 +125,15 @@ def test_rasterised_polyline_cells():
     # 8-connected without holes: every column between the ends holds at least one cell
     cols = np.nonzero(diagonal.any(axis=0))[0]
     assert list(cols) == list(range(cols.min(), cols.max() + 1))
+
+
+@pytest.mark.parametrize("resolution", [0.05, 0.01])
+def test_wall_to_the_farthest_accepted_point_goes_the_right_way(resolution):
+    # beyond int32 the fixed-point rasteriser wrapped and drew the wall towards -x instead
+    mask = rasterise_polylines((100, 100), [([[2 * resolution * 20, 0.5], [MAX_COORDINATE_M, 0.5]], False)],
+                               resolution, (0.0, 0.0))
+    cols = np.nonzero(mask.any(axis=0))[0]
+    assert cols.min() == 40 and cols.max() == 99
 
 
 def test_virtual_obstacles_never_touch_the_static_map():

@@ -102,7 +102,7 @@ def test_pty_simulator_round_trip_unplug_replug(tmp_path):
         server.unplug()
 
 
-@pytest.mark.parametrize("text", ["abc", "123.5", "1e3", "", " 1", "+-1", "١٢٣", "18001"])
+@pytest.mark.parametrize("text", ["abc", "123.5", "1e3", "", " 1", "+-1", "١٢٣", "18001", "1" * 100000])
 def test_parse_centi_rejects(text):
     with pytest.raises(CommandError):
         parse_centi(text, "pan", -17999, 18000)

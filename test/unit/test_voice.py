@@ -5,7 +5,11 @@ import wave
 
 import pytest
 
-from inspection_robot.voice.phrases import Clip, Speech, VoiceError, parse_command, parse_item, zh_integer
+from inspection_robot.interface import BATTERY_CHARGING, CIRCUIT_BATTERY_CRITICAL, CIRCUIT_JOY_COMM_LOST, MODE_NAMES
+from inspection_robot.motion.safety import SafetyLatch
+from inspection_robot.motion.voice import status_sentence
+from inspection_robot.voice.phrases import (BUILTIN_PHRASES, Clip, Speech, VoiceError, parse_command, parse_item,
+                                            zh_integer)
 from inspection_robot.voice.player import FileOutput
 
 
@@ -57,3 +61,28 @@ def test_file_output_synthesises_wav_and_rejects_missing_clip(tmp_path):
     with pytest.raises(VoiceError, match="missing_clip"):
         out.check(parse_command(["missing_clip"], "chinese"))
     assert len(os.listdir(str(tmp_path / "out"))) == 1
+
+
+@pytest.mark.parametrize("language", ["chinese", "english"])
+def test_query_status_clips_are_spoken_without_recorded_clips(tmp_path, language):
+    # robot_control's query_status names clips; with no <name>.wav shipped, robot_voice used to fail
+    # the whole request ("clip status_report.wav not found"), so the robot said nothing
+    latch = SafetyLatch()
+    for flag in ("soft_estop", "hard_estop", "bumper", "fall_left", "fall_right", "obstacle", "drive_fault"):
+        setattr(latch, flag, True)
+    names = set()
+    for mode in MODE_NAMES:
+        fields = {"mode": mode, "battery_quantity": 50, "battery_voltage": 480, "temperature": [250] * 13,
+                  "circuit_status": CIRCUIT_BATTERY_CRITICAL | CIRCUIT_JOY_COMM_LOST,
+                  "battery_status": BATTERY_CHARGING}
+        names.update(w for w in status_sentence(fields, latch.reasons()) if isinstance(parse_item(w, language), Clip))
+    names.add("status_normal")
+    assert len(names) == len(BUILTIN_PHRASES) and names == set(BUILTIN_PHRASES)
+    out = FileOutput(str(tmp_path), str(tmp_path / "out"))
+    parts = out.resolve(parse_command(sorted(names) + ["[5]"], language), language)
+    assert all(isinstance(p, Speech) and p.text for p in parts)
+    assert parts[sorted(names).index("volt")] == Speech("伏" if language == "chinese" else "volts")
+    (tmp_path / "volt.wav").write_bytes(b"RIFF")   # a recorded clip takes precedence
+    assert out.resolve([Clip("volt")], language) == [Clip("volt")]
+    with pytest.raises(VoiceError, match="no_such_clip.wav not found"):
+        out.resolve([Clip("no_such_clip")], language)

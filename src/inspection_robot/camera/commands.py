@@ -9,13 +9,15 @@ import os
 import threading
 
 from inspection_robot.camera.driver import CameraError
-from inspection_robot.command import (CommandError, CommandTable, confine_path, parse_choice,
+from inspection_robot.command import (CommandError, CommandTable, confine_path, no_data, parse_choice,
                                       parse_float, parse_int)
 from inspection_robot.interface import (EXPOSURE_MODES, FOCUS_MODES, FOCUS_POSITION_MAX,
                                         FOCUS_POSITION_MIN, IRIS_VALUES, MIN_FOCUS_DISTANCES_CM,
                                         WDR_LEVEL_MAX, WDR_LEVEL_MIN)
 
 MOVE_DURATION_MAX_MS = 600000
+NO_DATA_COMMANDS = ("get_zoom_level", "get_focus_mode", "get_focus_position", "camera_stop", "get_min_focus_distance",
+                    "get_wdr_level", "get_wdr_mode", "get_exposure_mode", "get_iris")
 
 
 def format_zoom(zoom):
@@ -46,7 +48,7 @@ class CameraCommands(object):
         self._timer_factory = timer_factory
         self._moves = {"zoom": (0, None), "focus": (0, None)}   # generation, timer
         self._moves_lock = threading.Lock()
-        self.table = CommandTable({
+        handlers = {
             "set_zoom_level": self.set_zoom_level,
             "get_zoom_level": lambda data: format_zoom(self._call(driver.get_zoom)),
             "capture_picture": self.capture_picture,
@@ -76,7 +78,10 @@ class CameraCommands(object):
             "get_exposure_mode": lambda data: self._call(driver.get_exposure_mode),
             "set_iris": self.set_iris,
             "get_iris": lambda data: str(self._call(driver.get_iris)),
-        })
+        }
+        for name in NO_DATA_COMMANDS:
+            handlers[name] = no_data(handlers[name])
+        self.table = CommandTable(handlers)
 
     def _call(self, method, *args):
         try:

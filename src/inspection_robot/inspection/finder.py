@@ -128,7 +128,8 @@ class Finder(object):
         folder = os.path.join(self.picture_root, preset.preset_id)
         os.makedirs(folder, exist_ok=True)
         pan, tilt = self.restore(preset, heading_correction_deg)
-        self.feedback("0", {"pan": round(pan, 2), "tilt": round(tilt, 2), "zoom": preset.info.zoom_levels[0]})
+        self.feedback("0", {"pan": round(pan, 2), "tilt": round(tilt, 2), "zoom": preset.info.zoom_levels[0],
+                            "heading_correction_deg": round(heading_correction_deg, 2)})
         levels = preset.info.zoom_levels
         ref_quads = [t.boxes[0] for t in preset.targets]
         ref_centre = np.mean([quad_center(q) for q in ref_quads], axis=0)

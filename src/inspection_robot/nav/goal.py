@@ -11,7 +11,7 @@ import math
 from collections import namedtuple
 
 from inspection_robot.angles import yaw_from_quaternion
-from inspection_robot.command import CommandError
+from inspection_robot.command import CommandError, parse_json
 from inspection_robot.interface import MOVE_GOAL_TYPE
 
 MoveGoal = namedtuple("MoveGoal", "x y yaw with_direction precision backward velocity_x velocity_yaw")
@@ -38,10 +38,7 @@ def _flag(obj, key):
 def parse_move_goal(goal_type, data, default_velocity_x, default_velocity_yaw, max_velocity_x, max_velocity_yaw):
     if goal_type != MOVE_GOAL_TYPE:
         raise CommandError("goal type must be '%s', got '%s'" % (MOVE_GOAL_TYPE, goal_type))
-    try:
-        obj = json.loads(data)
-    except (TypeError, ValueError) as err:
-        raise CommandError("goal data is not valid JSON: %s" % (err,))
+    obj = parse_json(data, "goal data")
     if not isinstance(obj, dict):
         raise CommandError("goal data must be a JSON object")
     pose = obj.get("goal_pose")

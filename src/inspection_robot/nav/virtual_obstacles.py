@@ -13,19 +13,19 @@ Every change is saved atomically before it is acknowledged; ``on_change`` then g
 import json
 import math
 
-from inspection_robot.command import CommandError, CommandTable
+from inspection_robot.command import CommandError, CommandTable, parse_json
 from inspection_robot.nav.persist import read_json, write_json_atomic
 
 MAX_POINTS = 10000
 MAX_ID_LENGTH = 128
+# |x|, |y| at most 100 km: a substation map is far smaller, and larger values (a unit error, mm for
+# m) would overflow the costmap's fixed-point rasteriser, which then drew the wall the wrong way.
+MAX_COORDINATE_M = 1.0e5
 
 
 def parse_obstacle(data, need_points=True):
     """Validate command JSON; return (id, points, closed). Raises CommandError with the reason."""
-    try:
-        obj = json.loads(data)
-    except (TypeError, ValueError) as err:
-        raise CommandError("data is not valid JSON: %s" % (err,))
+    obj = parse_json(data)
     if not isinstance(obj, dict):
         raise CommandError("data must be a JSON object")
     ident = obj.get("id")
@@ -41,6 +41,9 @@ def parse_obstacle(data, need_points=True):
         if not isinstance(point, (list, tuple)) or len(point) != 2 or not all(
                 isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in point):
             raise CommandError("points[%d] must be [x, y] with finite numbers, got %s" % (i, json.dumps(point)))
+        if max(abs(point[0]), abs(point[1])) > MAX_COORDINATE_M:
+            raise CommandError("points[%d] is %.6g m from the map origin (at most %.0f m; metres, not mm?)"
+                               % (i, max(abs(point[0]), abs(point[1])), MAX_COORDINATE_M))
         clean.append([float(point[0]), float(point[1])])
     closed = obj.get("closed", False)
     if not isinstance(closed, bool):

@@ -29,11 +29,11 @@ import cv2
 import rospy
 
 from inspection_robot.camera.optics import ZoomOptics, focal_for_hfov
-from inspection_robot.command import CommandError, confine_path
+from inspection_robot.command import CommandError, confine_path, parse_json
 from inspection_robot.inspection.finder import Cancelled, Finder, FindError, ThermalGeometry
 from inspection_robot.inspection.locate import Locator
 from inspection_robot.inspection.preset import PresetError, load_preset
-from inspection_robot.interface import (FIND_FEEDBACK_FINDING, FIND_FEEDBACK_PRESET_SET, FIND_GOAL_TYPES,
+from inspection_robot.interface import (FIND_FEEDBACK_PRESET_SET, FIND_GOAL_TYPES,
                                         FIND_RESULT_FAILED, FIND_RESULT_SUCCESS)
 from inspection_robot.msg import GeneralAction, GeneralFeedback, GeneralResult
 from inspection_robot.nodes.inspection_ros import HeadingWatcher, RosHead
@@ -51,10 +51,7 @@ def parse_goal(goal_type, data, preset_roots):
     """(type, preset directory) of a goal; CommandError with the reason on bad input."""
     if goal_type not in FIND_GOAL_TYPES:
         raise CommandError("unknown goal type '%s' (one of %s)" % (goal_type, "|".join(FIND_GOAL_TYPES)))
-    try:
-        fields = json.loads(data)
-    except ValueError as err:
-        raise CommandError("goal data is not JSON: %s" % err)
+    fields = parse_json(data, "goal data")
     if not isinstance(fields, dict) or not isinstance(fields.get("preset_path"), str):
         raise CommandError('goal data must be {"preset_path": "<dir>"}')
     return goal_type, confine_path(fields["preset_path"], preset_roots)
@@ -114,7 +111,7 @@ class FindScaleNode(object):
             correction = 0.0
         else:
             correction = math.degrees(preset.info.pose[2] - pose[2])
-        self._feedback(FIND_FEEDBACK_FINDING, {"heading_correction_deg": round(correction, 2)})
+        # feedback "0" (preset set, with the correction) comes from the finder, then "1" per picture
         result = self._finder.find(preset, kind, correction, time.strftime("%Y%m%d_%H%M%S"), cv2.imread)
         return result_data(result.filename, result.infrared_filename, result.foreign_filename, result.roi_vertex,
                            result.infrared_roi_vertex)

@@ -5,7 +5,8 @@ Publishes:   voice_ack (GeneralAck): success with the spoken text, or failed wit
              trans_id echoed (a project addition: the spec defines no reply)
 Parameters:  ~output (speaker|file, "file"; the launch file picks file in simulation, speaker otherwise),
              ~clip_dir (dir of <name>.wav clips, "~/.ros/voice_clips"; the launch file passes config/voice_clips),
-             ~out_dir (file output: where utterances are written, "~/.ros/voice_out"),
+             ~out_dir (file output: where utterances are written, "$ROS_HOME/voice_out", i.e.
+             "~/.ros/voice_out" without ROS_HOME and ".ws/ros_home/voice_out" through scripts/rosenv),
              ~queue_size (requests waiting, >= 1, 10)
 Requests are played one after another by a worker thread; a full queue drops the new request
 with a failed ack rather than delaying every later prompt.
@@ -33,8 +34,7 @@ class RobotVoice(object):
 
     def _speak(self, msg):
         try:
-            parts = parse_command(list(msg.data), msg.language)
-            self._output.check(parts)
+            parts = self._output.resolve(parse_command(list(msg.data), msg.language), msg.language)
             self._output.play(parts, msg.language)
         except VoiceError as err:
             rospy.logwarn("robot_voice: %s (from %s)" % (err, msg.sender))
@@ -58,7 +58,8 @@ def main():
     if queue_size < 1:  # 0 would make the worker's queue unbounded: nothing ever refused
         raise ValueError("~queue_size must be >= 1, got %d" % queue_size)
     if kind == "file":
-        out_dir = os.path.expanduser(rospy.get_param("~out_dir", "~/.ros/voice_out"))
+        default_dir = os.path.join(os.environ.get("ROS_HOME") or "~/.ros", "voice_out")
+        out_dir = os.path.expanduser(rospy.get_param("~out_dir", default_dir))
         output = FileOutput(clip_dir, out_dir)
     elif kind == "speaker":
         output = SpeakerOutput(clip_dir)

@@ -13,7 +13,7 @@ integer hundredths of a degree (``"12300"`` = 123.00 deg; decimals such as ``"12
 import math
 import time
 
-from inspection_robot.command import CommandError, CommandTable, parse_choice, split_fields
+from inspection_robot.command import MAX_NUMBER_CHARS, CommandError, CommandTable, parse_choice, split_fields
 from inspection_robot.interface import ANGLE_CENTI_DEG, TERRACE_SPEEDS
 from inspection_robot.ptz import pelco
 from inspection_robot.ptz.driver import HeadError
@@ -30,6 +30,9 @@ def parse_centi(text, name, low, high):
     if text != text.strip():
         raise CommandError("%s must not contain spaces, got '%s'" % (name, text))
     body = text[1:] if text[:1] in "+-" else text
+    if len(body) > MAX_NUMBER_CHARS:
+        raise CommandError("%s out of range [%d, %d] (hundredths of a degree): '%s...' (%d characters)"
+                           % (name, low, high, text[:20], len(text)))
     if not body.isdigit() or not body.isascii():
         raise CommandError("%s must be an integer number of hundredths of a degree (12300 = 123.00 deg), "
                            "got '%s'" % (name, text))

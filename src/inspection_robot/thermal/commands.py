@@ -10,11 +10,12 @@ import os
 import cv2
 import numpy as np
 
-from inspection_robot.command import CommandError, CommandTable, confine_path, parse_int, split_fields
+from inspection_robot.command import CommandError, CommandTable, confine_path, no_data, parse_int, split_fields
 from inspection_robot.command import failed
 from inspection_robot.interface import INFRARED_COMMANDS, UNSUPPORTED
 from inspection_robot.thermal.driver import ThermalError
 
+NO_DATA_COMMANDS = ("get_max_temperature", "get_high_temperature", "get_low_temperature", "auto_focus")
 KELVIN_OFFSET = 273.15
 CENTIKELVIN = 100.0
 
@@ -79,6 +80,8 @@ class ThermalCommands(object):
             "auto_focus": lambda data: self._call(driver.auto_focus),
             "set_measure_spot": self.set_measure_spot,
         }
+        for name in NO_DATA_COMMANDS:
+            handlers[name] = no_data(handlers[name])
         for name in INFRARED_COMMANDS:
             if not driver.supports(name):
                 handlers[name] = lambda data: failed(UNSUPPORTED)

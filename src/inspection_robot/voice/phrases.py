@@ -4,6 +4,9 @@ Each string of VoiceCmd.data is one item: ``[123]`` a number read as a number (�
 ``{123}`` read digit by digit (一二三), ``(34)`` a temperature (三十四摄氏度), ``%17%`` a
 percentage (百分之十七), anything else the name of a clip ``<name>.wav``. Numbers may be
 negative and decimal (``[-3.5]``). Both languages of the spec are supported.
+
+``BUILTIN_PHRASES`` gives the text of the clips robot_control's query_status uses, so the robot
+speaks its status out of the box; a recorded ``<name>.wav`` in the clip directory takes precedence.
 """
 import re
 from collections import namedtuple
@@ -26,6 +29,38 @@ EN_DIGITS = ("zero", "one", "two", "three", "four", "five", "six", "seven", "eig
 EN_TEENS = ("ten", "eleven", "twelve", "thirteen", "fourteen", "fifteen", "sixteen", "seventeen",
             "eighteen", "nineteen")
 EN_TENS = ("", "", "twenty", "thirty", "forty", "fifty", "sixty", "seventy", "eighty", "ninety")
+
+
+# clip name -> (chinese, english): every name motion.voice.status_sentence can produce
+BUILTIN_PHRASES = {
+    "status_report": ("机器人状态报告", "robot status report"),
+    "mode_task": ("任务模式", "task mode"),
+    "mode_server": ("后台遥控模式", "remote control mode"),
+    "mode_joy": ("手柄遥控模式", "joystick mode"),
+    "battery_quantity": ("电池电量", "battery charge"),
+    "battery_voltage": ("电池电压", "battery voltage"),
+    "volt": ("伏", "volts"),
+    "battery_temperature": ("电池温度", "battery temperature"),
+    "charging": ("正在充电", "charging"),
+    "status_normal": ("状态正常", "status normal"),
+    "alarm_soft_estop": ("软急停已开启", "soft emergency stop engaged"),
+    "alarm_hard_estop": ("急停按钮已按下", "emergency stop button pressed"),
+    "alarm_front_collision": ("防撞条触发", "bumper pressed"),
+    "alarm_left_fall": ("左侧防跌落报警", "left fall alarm"),
+    "alarm_right_fall": ("右侧防跌落报警", "right fall alarm"),
+    "alarm_obstacle": ("前方有障碍物", "obstacle ahead"),
+    "alarm_drive_fault": ("驱动器故障", "drive fault"),
+    "alarm_battery_critical": ("电池电量严重不足", "battery critically low"),
+    "alarm_joystick_lost": ("手柄通信中断", "joystick link lost"),
+}
+
+
+def builtin_phrase(name, language):
+    """Speech for a clip name without a recorded clip, or None if the name is not built in."""
+    texts = BUILTIN_PHRASES.get(name)
+    if texts is None:
+        return None
+    return Speech(texts[0] if language == "chinese" else texts[1])
 
 
 class VoiceError(ValueError):

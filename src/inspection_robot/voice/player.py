@@ -2,14 +2,15 @@
 
 ``SpeakerOutput`` plays on the robot's speaker (aplay); ``FileOutput`` (simulation) writes each
 utterance as a WAV file into a directory so a laptop run and the tests can hear and check it.
-Both synthesise with espeak-ng (cmn voice for chinese, en for english) and check that clips
-exist in the clip directory before anything is played.
+Both synthesise with espeak-ng (cmn voice for chinese, en for english) and resolve clips before
+anything is played: a recorded ``<name>.wav`` in the clip directory, else a built-in phrase
+(``phrases.BUILTIN_PHRASES``) spoken by synthesis, else the whole request fails.
 """
 import os
 import subprocess
 import time
 
-from inspection_robot.voice.phrases import Clip, VoiceError
+from inspection_robot.voice.phrases import Clip, VoiceError, builtin_phrase
 
 VOICES = {"chinese": "cmn", "english": "en"}
 
@@ -26,8 +27,21 @@ class _Output(object):
             raise VoiceError("clip %s.wav not found in %s" % (name, self.clip_dir))
         return path
 
+    def resolve(self, parts, language):
+        """``parts`` with each clip that has no file but a built-in phrase replaced by its Speech;
+        fails before anything is played if a clip is neither."""
+        resolved = []
+        for part in parts:
+            if isinstance(part, Clip) and not os.path.isfile(os.path.join(self.clip_dir, part.name + ".wav")):
+                phrase = builtin_phrase(part.name, language)
+                if phrase is None:
+                    self.clip_path(part.name)   # raises the "not found" reason
+                part = phrase
+            resolved.append(part)
+        return resolved
+
     def check(self, parts):
-        """Fail before playing anything if a clip is missing."""
+        """Fail before playing anything if a clip is missing (built-in phrases not considered)."""
         for part in parts:
             if isinstance(part, Clip):
                 self.clip_path(part.name)
