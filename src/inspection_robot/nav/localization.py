@@ -2,10 +2,13 @@
 
 Fed with every pose message (time, x, y, yaw, 6x6 row-major covariance); ``problem(now)``
 names why localization counts as lost (nav_warn bit1, goal aborted with ret_code "2"), or is None.
+``location_target`` turns a location_cmd into the pose handed to the localizer.
 """
 import math
 
 from inspection_robot.angles import wrap_angle
+from inspection_robot.command import CommandError, parse_float, split_fields
+from inspection_robot.interface import LOCATION_CMD_SET, LOCATION_INIT_POSE, LOCATION_LAST_POSE
 
 
 class LocalizationMonitor(object):
@@ -46,3 +49,31 @@ class LocalizationMonitor(object):
 
     def lost(self, now):
         return self.problem(now) is not None
+
+
+def location_target(cmd, data, init_pose, read_last_pose):
+    """The pose a location_cmd asks for, as (x, y, yaw) in map metres and radians.
+
+    ``cmd`` must be set_location; ``data`` is init_pose (``init_pose`` from config), last_pose
+    (``read_last_pose()`` returns the saved dict or None) or "x,y,yaw". Anything else, including a
+    damaged last-pose file, raises CommandError with the reason.
+    """
+    if cmd != LOCATION_CMD_SET:
+        raise CommandError("unknown command '%s'" % cmd)
+    if data == LOCATION_INIT_POSE:
+        return tuple(float(v) for v in init_pose)
+    if data == LOCATION_LAST_POSE:
+        try:
+            stored = read_last_pose()
+        except (OSError, ValueError) as err:
+            raise CommandError("last pose file unreadable: %s" % err)
+        if not stored:
+            raise CommandError("no last pose saved yet")
+        try:
+            values = [stored[k] for k in ("x", "y", "yaw")]
+        except (KeyError, TypeError):
+            raise CommandError("last pose file lacks x, y, yaw: %r" % (stored,))
+        x, y, yaw = [parse_float(v, k) for v, k in zip(values, ("x", "y", "yaw"))]
+        return x, y, wrap_angle(yaw)
+    x, y, yaw = split_fields(data, 3)
+    return parse_float(x, "x"), parse_float(y, "y"), wrap_angle(parse_float(yaw, "yaw"))

@@ -1,5 +1,6 @@
-"""Command-line calibration tool (not a ROS node: no rospy; it lives here so ``rosrun
-inspection_robot calibrate_preset`` finds it).
+"""Command-line calibration tool (not a ROS node: no rospy; it lives with the nodes so it is
+installed beside them: ``scripts/rosenv calibrate_preset ...``, or ``rosrun inspection_robot
+calibrate_preset ...`` in an ordinary catkin workspace).
 
     calibrate_preset PRESET_DIR TARGETS_YAML [--optics FILE]
     calibrate_preset PRESET_DIR --from-world [WORLD_YAML] [--only ID[,ID...]] [--optics FILE]

@@ -40,9 +40,8 @@ from geometry_msgs.msg import PoseStamped, PoseWithCovarianceStamped
 from nav_msgs.msg import OccupancyGrid, Path
 
 from inspection_robot.angles import quaternion_from_yaw, wrap_angle, yaw_from_quaternion
-from inspection_robot.command import CommandError, parse_float, split_fields
-from inspection_robot.interface import (LOCATION_CMD_SET, LOCATION_INIT_POSE, LOCATION_LAST_POSE,
-                                        MODE_NAMES, MODE_TASK,
+from inspection_robot.command import CommandError
+from inspection_robot.interface import (MODE_NAMES, MODE_TASK,
                                         MOVE_FEEDBACK_ALARM, MOVE_FEEDBACK_MOVING, MOVE_FEEDBACK_PLANNED,
                                         MOVE_FEEDBACK_PLANNING, MOVE_RESULT_BLOCKED, MOVE_RESULT_CANCELLED,
                                         MOVE_RESULT_LOCALIZATION_LOST, MOVE_RESULT_PLAN_FAILED,
@@ -55,7 +54,7 @@ from inspection_robot.nav.costmap import Costmap
 from inspection_robot.nav.follower import DONE, FollowerParams, PathFollower
 from inspection_robot.nav.goal import parse_move_goal
 from inspection_robot.nav.gridmap import load_map
-from inspection_robot.nav.localization import LocalizationMonitor
+from inspection_robot.nav.localization import LocalizationMonitor, location_target
 from inspection_robot.nav.persist import read_json, write_json_atomic
 from inspection_robot.nav.planner import Planner, PlanningError
 from inspection_robot.nav.virtual_obstacles import VirtualObstacles
@@ -157,7 +156,8 @@ class MoveBase(object):
 
     def _on_location(self, msg):
         try:
-            x, y, yaw = self._location_target(msg.cmd, msg.data)
+            x, y, yaw = location_target(msg.cmd, msg.data, self.cfg["init_pose"],
+                                        lambda: read_json(self.cfg["last_pose_file"]))
         except CommandError as err:
             rospy.logwarn("move_base: location_cmd %s(%r) from %s refused: %s", msg.cmd, msg.data, msg.sender, err)
             return
@@ -170,22 +170,6 @@ class MoveBase(object):
         out.pose.covariance[35] = 0.1 ** 2
         self._initial_pub.publish(out)
         rospy.loginfo("move_base: set_location %s -> initialpose (%.3f, %.3f, %.3f)", msg.data, x, y, yaw)
-
-    def _location_target(self, cmd, data):
-        if cmd != LOCATION_CMD_SET:
-            raise CommandError("unknown command '%s'" % cmd)
-        if data == LOCATION_INIT_POSE:
-            return tuple(self.cfg["init_pose"])
-        if data == LOCATION_LAST_POSE:
-            try:
-                stored = read_json(self.cfg["last_pose_file"])
-            except (OSError, ValueError) as err:
-                raise CommandError("last pose file unreadable: %s" % err)
-            if not stored:
-                raise CommandError("no last pose saved yet")
-            return float(stored["x"]), float(stored["y"]), float(stored["yaw"])
-        x, y, yaw = split_fields(data, 3)
-        return parse_float(x, "x"), parse_float(y, "y"), wrap_angle(parse_float(yaw, "yaw"))
 
     def on_virtual_change(self, _listing):
         """Called by the store after a change was saved: re-inflate, republish, replan."""
