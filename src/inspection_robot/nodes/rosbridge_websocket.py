@@ -34,7 +34,10 @@ from inspection_robot.bridge.ros_types import GenpyTypes
 from inspection_robot.bridge.rosapi import RosApi
 from inspection_robot.bridge.server import BridgeServer, LoopPoster, make_ssl_context
 
-LOGGERS = {"info": rospy.loginfo, "warning": rospy.logwarn, "error": rospy.logerr}
+# A client repeating one bad request must not flood the log: identical lines once a second.
+LOGGERS = {"info": rospy.loginfo,
+           "warning": lambda text: rospy.logwarn_throttle_identical(1.0, text),
+           "error": lambda text: rospy.logerr_throttle_identical(1.0, text)}
 
 
 def log(level, text):
