@@ -66,8 +66,9 @@ class JoystickTest(unittest.TestCase):
 
     def test_1_acquire_move_deadman_release(self):
         self.connect()
-        self.click(ACQUIRE)
-        self.status.wait(lambda m: m.mode == MODE_JOY, 2.0, "joystick mode")
+        # joy_control's mode_cmd connection to robot_control may still be forming right after
+        # start-up: press acquire again until the mode is taken (a repeat acquire is harmless)
+        self.status.handshake(lambda: self.click(ACQUIRE), lambda m: m.mode == MODE_JOY, 10.0, period=1.0)
         since = rospy.get_time()
         self.send(js_event(JS_EVENT_AXIS, AXIS_X, -32767))  # stick fully up: forward
         self.button(DEADMAN, True)
