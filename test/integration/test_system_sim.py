@@ -91,15 +91,19 @@ class SystemSimTest(unittest.TestCase):
         pose = self.true_pose.wait(timeout=10.0).pose.pose
         return pose.position.x, pose.position.y
 
-    def test_backend_session(self):
+    def take_remote_control(self):
+        """Heartbeat running, robot online, backend mode acquired: what a backend does first."""
         heartbeat = Heartbeat(self.ros)
         heartbeat.start()
         self.addCleanup(heartbeat.stop)
         self.wait_status(lambda s: s["offline_warn"] == 0, 20.0, "robot online")
-
-        # acquire backend remote control and drive forward for a second
         self.mode_cmd.publish(roslibpy.Message({"sender": "server", "cmd": "acquire", "data": "server"}))
         self.wait_status(lambda s: s["mode"] == 1, 10.0, "mode 1")
+        return heartbeat
+
+    def test_backend_session(self):
+        # acquire backend remote control and drive forward for a second
+        heartbeat = self.take_remote_control()
         start = self.pose()
         deadline = time.monotonic() + 1.5
         while time.monotonic() < deadline:
@@ -157,12 +161,7 @@ class SystemSimTest(unittest.TestCase):
     def test_careless_backend(self):
         pids = self.node_pids()
         self.assertIn("/cloud_terrace", pids)
-        heartbeat = Heartbeat(self.ros)
-        heartbeat.start()
-        self.addCleanup(heartbeat.stop)
-        self.wait_status(lambda s: s["offline_warn"] == 0, 20.0, "robot online")
-        self.mode_cmd.publish(roslibpy.Message({"sender": "server", "cmd": "acquire", "data": "server"}))
-        self.wait_status(lambda s: s["mode"] == 1, 10.0, "mode 1")
+        self.take_remote_control()
         start = self.pose()
         # junk velocities: refused (robot stopped), never clamped into motion
         for velocity_x, velocity_yaw, wheel in ((float("nan"), 0.0, 0), (1e308, 0.0, 0), (300.0, float("inf"), 0),
