@@ -108,11 +108,12 @@ def test_bad_requests_fail_with_a_reason(setup, change, reason):
 
 def test_thermal_target(tmp_path):
     from inspection_robot.inspection.calibration import calibrate
-    from inspection_robot.inspection.preset import PresetDirWriter, PresetInfo, write_file_atomic
+    from inspection_robot.atomic_file import write_atomic
+    from inspection_robot.inspection.preset import PresetDirWriter, PresetInfo
     with PresetDirWriter(str(tmp_path), "hot", "20260101_000000") as writer:
         cv2.imwrite(writer.file("zoom0.jpg"), np.zeros((90, 160, 3), np.uint8))
         info = PresetInfo("hot", "infrared", True, "20260101_000000", 0, 0, 1.0, 0x4000, (0, 0, 0), [1.0], 160, 90)
-        write_file_atomic(writer.file("preset.ini"), info.to_ini())
+        write_atomic(writer.file("preset.ini"), info.to_ini())
         calibrate(writer.path, [{"kind": "thermal", "box": [10, 10, 50, 10, 50, 50, 10, 50],
                                  "thermal_box": [5, 5, 30, 5, 30, 30, 5, 30]}], S.linear_optics(160, 90))
         path = writer.commit()

@@ -13,8 +13,9 @@ seconds since the first sample, non-decreasing; the pose is in the arm base fram
 """
 import math
 import os
-import tempfile
 from collections import namedtuple
+
+from inspection_robot.atomic_file import write_atomic
 
 MAGIC = "# inspection_robot arm trajectory v1"
 COLUMNS = "t_s,x_mm,y_mm,z_mm,roll_deg,pitch_deg,yaw_deg"
@@ -37,13 +38,8 @@ def dumps(samples, rate_hz):
 
 def save(path, samples, rate_hz):
     """Write atomically (temporary file + rename): a reader never sees half a trajectory."""
-    folder = os.path.dirname(path) or "."
     try:
-        os.makedirs(folder, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(prefix=".orbit_", dir=folder)
-        with os.fdopen(fd, "w") as f:
-            f.write(dumps(samples, rate_hz))
-        os.replace(tmp, path)
+        write_atomic(path, dumps(samples, rate_hz))
     except OSError as err:
         raise TrajectoryError("cannot write %s: %s" % (path, err))
 

@@ -8,6 +8,7 @@ the command answers at once, and a timer stops it; a newer move or camera_stop s
 import os
 import threading
 
+from inspection_robot.atomic_file import write_atomic
 from inspection_robot.camera.driver import CameraError
 from inspection_robot.command import (CommandError, CommandTable, confine_path, no_data, parse_choice,
                                       parse_float, parse_int)
@@ -116,8 +117,7 @@ class CameraCommands(object):
             raise CommandError("cannot create folder for '%s': %s" % (data, err.strerror))
         jpeg = self._call(self._driver.capture_jpeg)
         try:
-            with open(path, "wb") as stream:
-                stream.write(jpeg)
+            write_atomic(path, jpeg)
         except OSError as err:
             raise CommandError("cannot write '%s': %s" % (data, err.strerror))
         return path

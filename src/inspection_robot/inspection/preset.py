@@ -23,6 +23,7 @@ import xml.etree.ElementTree as ET
 
 import numpy as np
 
+from inspection_robot.atomic_file import write_atomic
 from inspection_robot.inspection.gauge import GaugeScale
 from inspection_robot.inspection.readers import LAMP_COLOURS
 
@@ -42,22 +43,6 @@ def zoom_picture_name(index):
 
 def zoom_xml_name(index):
     return "zoom%d.xml" % index
-
-
-# --- atomic writes ----------------------------------------------------------------------------
-def write_file_atomic(path, data):
-    """Write ``data`` (str or bytes) to ``path`` via a temporary file in the same directory."""
-    mode = "wb" if isinstance(data, bytes) else "w"
-    folder = os.path.dirname(os.path.abspath(path))
-    fd, tmp = tempfile.mkstemp(prefix=".tmp_", dir=folder)
-    try:
-        with os.fdopen(fd, mode) as f:
-            f.write(data)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
 
 
 def _ini_text(config):
@@ -293,9 +278,9 @@ def write_calibration(preset_dir, targets, info):
     for i, target in enumerate(targets):
         c["target_%d" % i] = target.section()
     for k, level in enumerate(info.zoom_levels):
-        write_file_atomic(os.path.join(preset_dir, zoom_xml_name(k)),
-                          boxes_to_xml(k, level, info.width, info.height, targets))
-    write_file_atomic(os.path.join(preset_dir, CALIB_INI), _ini_text(c))
+        write_atomic(os.path.join(preset_dir, zoom_xml_name(k)),
+                     boxes_to_xml(k, level, info.width, info.height, targets))
+    write_atomic(os.path.join(preset_dir, CALIB_INI), _ini_text(c))
 
 
 class Preset(object):

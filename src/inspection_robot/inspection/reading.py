@@ -14,6 +14,7 @@ from collections import namedtuple
 import cv2
 import numpy as np
 
+from inspection_robot.atomic_file import write_atomic
 from inspection_robot.command import CommandError, confine_path
 from inspection_robot.inspection.foreign import detect_foreign
 from inspection_robot.inspection.geometry import quad_inside, quad_is_convex, quads_from_flat, transform_quad
@@ -263,8 +264,5 @@ def _save(image, folder, name):
     ok, data = cv2.imencode(".jpg", image, [cv2.IMWRITE_JPEG_QUALITY, 90])
     if not ok:
         raise ReadError("cannot encode %s" % path)
-    tmp = path + ".tmp"
-    with open(tmp, "wb") as f:
-        f.write(data.tobytes())
-    os.replace(tmp, path)
+    write_atomic(path, data.tobytes())
     return path

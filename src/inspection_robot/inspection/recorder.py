@@ -7,7 +7,8 @@ everything into a temporary directory and renames it to ``<root>/<preset_id>/<st
 import os
 import shutil
 
-from inspection_robot.inspection.preset import PresetDirWriter, PresetInfo, write_file_atomic, zoom_picture_name
+from inspection_robot.atomic_file import write_atomic
+from inspection_robot.inspection.preset import PresetDirWriter, PresetInfo, zoom_picture_name
 
 MAX_WIDE_PICTURES = 6
 THERMAL_PICTURE = "thermal.jpg"
@@ -54,5 +55,5 @@ def record_preset(head, root, preset_id, stamp, state, infrared=False, preset_ty
                           state["zoom"], state.get("focus_position", 0), state["pose"], levels, width, height,
                           extra_data=extra_data, thermal_picture=thermal_picture, thermal_frame=thermal_frame,
                           arm_trajectory=arm_name)
-        write_file_atomic(writer.file("preset.ini"), info.to_ini())
+        write_atomic(writer.file("preset.ini"), info.to_ini())
         return writer.commit()

@@ -235,15 +235,15 @@ def record_synthetic_preset(root, preset_id, stamp, scene, view_centre, zoom_lev
     """Write a calibrated preset of ``scene`` seen at ``view_centre``: zoom<k>.jpg, preset.ini,
     preset_calib_info.ini, zoom<k>.xml, switch references. Returns the preset directory."""
     from inspection_robot.inspection.calibration import calibrate
-    from inspection_robot.inspection.preset import PresetDirWriter, PresetInfo, write_file_atomic, \
-        zoom_picture_name
+    from inspection_robot.atomic_file import write_atomic
+    from inspection_robot.inspection.preset import PresetDirWriter, PresetInfo, zoom_picture_name
     with PresetDirWriter(root, preset_id, stamp) as writer:
         for k, level in enumerate(zoom_levels):
             matrix = scene.homography(view_centre, level * wall_px_per_zoom, size)
             cv2.imwrite(writer.file(zoom_picture_name(k)), scene.render(matrix, size))
         info = PresetInfo(preset_id, "visible", False, stamp, 0.0, 0.0, zoom_levels[0], 0x4000, (0.0, 0.0, 0.0),
                           zoom_levels, size[0], size[1])
-        write_file_atomic(writer.file("preset.ini"), info.to_ini())
+        write_atomic(writer.file("preset.ini"), info.to_ini())
         matrix0 = scene.homography(view_centre, zoom_levels[0] * wall_px_per_zoom, size)
         specs = []
         for i, target in enumerate(scene.targets):

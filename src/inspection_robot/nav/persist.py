@@ -1,34 +1,14 @@
-"""Atomic JSON files: write to a temporary file in the same folder, fsync, then rename over.
+"""JSON state files of navigation (virtual obstacles, last pose), written atomically.
 
 A crash or power cut leaves either the old file or the new one, never a half-written mix.
 """
 import json
-import os
-import tempfile
+
+from inspection_robot.atomic_file import write_atomic
 
 
 def write_json_atomic(path, value):
-    folder = os.path.dirname(os.path.abspath(path))
-    os.makedirs(folder, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix="." + os.path.basename(path) + ".", suffix=".tmp", dir=folder)
-    try:
-        with os.fdopen(fd, "w") as f:
-            json.dump(value, f, sort_keys=True)
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
-    try:  # make the rename itself durable
-        dir_fd = os.open(folder, os.O_RDONLY)
-    except OSError:
-        return
-    try:
-        os.fsync(dir_fd)
-    finally:
-        os.close(dir_fd)
+    write_atomic(path, json.dumps(value, sort_keys=True))
 
 
 def read_json(path):

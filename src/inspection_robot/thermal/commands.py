@@ -5,11 +5,13 @@ Pixel coordinates ("x,y") are thermal-frame pixels, x right and y down from the 
 centred on the spot set by set_measure_spot (default: the frame centre), clipped to the frame.
 Temperatures are degC with two decimals. Radiometric files: see ``save_radiometric``.
 """
+import io
 import os
 
 import cv2
 import numpy as np
 
+from inspection_robot.atomic_file import write_atomic
 from inspection_robot.command import CommandError, CommandTable, confine_path, no_data, parse_int, split_fields
 from inspection_robot.command import failed
 from inspection_robot.interface import INFRARED_COMMANDS, UNSUPPORTED
@@ -37,8 +39,9 @@ def save_radiometric(path, frame):
     centikelvin (degC = p / 100 - 273.15; 0..655.35 K). ``.npy``: float32 array in degC."""
     extension = os.path.splitext(path)[1].lower()
     if extension == ".npy":
-        with open(path, "wb") as stream:
-            np.save(stream, frame.astype(np.float32))
+        stream = io.BytesIO()
+        np.save(stream, frame.astype(np.float32))
+        write_atomic(path, stream.getvalue())
         return
     if extension != ".png":
         raise CommandError("radiometric file must end in .png (16-bit centikelvin) or .npy (float32 degC): '%s'"
@@ -47,8 +50,7 @@ def save_radiometric(path, frame):
     ok, buf = cv2.imencode(".png", counts.astype(np.uint16))
     if not ok:
         raise CommandError("PNG encoding failed")
-    with open(path, "wb") as stream:
-        stream.write(buf.tobytes())
+    write_atomic(path, buf.tobytes())
 
 
 def load_radiometric(path):
@@ -132,8 +134,7 @@ class ThermalCommands(object):
         if not ok:
             raise CommandError("JPEG encoding failed")
         try:
-            with open(path, "wb") as stream:
-                stream.write(buf.tobytes())
+            write_atomic(path, buf.tobytes())
         except OSError as err:
             raise CommandError("cannot write '%s': %s" % (data, err.strerror))
         return path
