@@ -115,14 +115,7 @@ class Codec(object):
         return self._cbor_converter(type(msg))(msg)
 
     def _json_converter(self, cls):
-        conv = self._to_json.get(cls)
-        if conv is None:
-            fields = [(name, self._json_field(ftype)) for name, ftype in zip(cls.__slots__, cls._slot_types)]
-
-            def conv(msg):
-                return {name: (getattr(msg, name) if f is None else f(getattr(msg, name))) for name, f in fields}
-            self._to_json[cls] = conv
-        return conv
+        return _message_converter(self._to_json, self._json_field, cls)
 
     def _json_field(self, field_type):
         base, length = split_array(field_type)
@@ -142,14 +135,7 @@ class Codec(object):
         return self._json_converter(self._types.message_class(base))
 
     def _cbor_converter(self, cls):
-        conv = self._to_cbor.get(cls)
-        if conv is None:
-            fields = [(name, self._cbor_field(ftype)) for name, ftype in zip(cls.__slots__, cls._slot_types)]
-
-            def conv(msg):
-                return {name: (getattr(msg, name) if f is None else f(getattr(msg, name))) for name, f in fields}
-            self._to_cbor[cls] = conv
-        return conv
+        return _message_converter(self._to_cbor, self._cbor_field, cls)
 
     def _cbor_field(self, field_type):
         base, length = split_array(field_type)
@@ -309,3 +295,16 @@ class Codec(object):
                 raise _UnknownField(sorted(unknown)[0])
             return types.time(*parts) if kind == "time" else types.duration(*parts)
         return parse_time
+
+
+def _message_converter(cache, field_converter, cls):
+    """msg -> dict for ``cls``, compiled once per class and kept in ``cache``; ``field_converter(type)``
+    gives each field's conversion (None = the value as is). JSON and CBOR differ only there."""
+    conv = cache.get(cls)
+    if conv is None:
+        fields = [(name, field_converter(ftype)) for name, ftype in zip(cls.__slots__, cls._slot_types)]
+
+        def conv(msg):
+            return {name: (getattr(msg, name) if f is None else f(getattr(msg, name))) for name, f in fields}
+        cache[cls] = conv
+    return conv

@@ -26,32 +26,10 @@ class GenpyTypes(TypeSupport):
         self._services = {}
 
     def message_class(self, type_name):
-        cls = self._messages.get(type_name)
-        if cls is None:
-            cls = None
-            if _valid_name(type_name):
-                try:
-                    cls = roslib.message.get_message_class(type_name)
-                except (ValueError, ImportError, AttributeError, TypeError):
-                    cls = None
-            if cls is None:
-                raise UnknownTypeError("Unable to load the message class for type %r" % (type_name,))
-            self._messages[type_name] = cls
-        return cls
+        return _load(self._messages, roslib.message.get_message_class, "message", type_name)
 
     def service_class(self, type_name):
-        cls = self._services.get(type_name)
-        if cls is None:
-            cls = None
-            if _valid_name(type_name):
-                try:
-                    cls = roslib.message.get_service_class(type_name)
-                except (ValueError, ImportError, AttributeError, TypeError):
-                    cls = None
-            if cls is None:
-                raise UnknownTypeError("Unable to load the service class for type %r" % (type_name,))
-            self._services[type_name] = cls
-        return cls
+        return _load(self._services, roslib.message.get_service_class, "service", type_name)
 
     def time(self, secs, nsecs):
         return genpy.Time(secs, nsecs)
@@ -64,3 +42,18 @@ class GenpyTypes(TypeSupport):
             import rospy  # only where a node runs; unit tests inject ``now``
             return rospy.get_rostime()
         return self._now()
+
+
+def _load(cache, loader, kind, type_name):
+    """The generated class for ``type_name`` from ``cache`` or ``loader``; UnknownTypeError if none."""
+    cls = cache.get(type_name)
+    if cls is None:
+        if _valid_name(type_name):
+            try:
+                cls = loader(type_name)
+            except (ValueError, ImportError, AttributeError, TypeError):
+                cls = None
+        if cls is None:
+            raise UnknownTypeError("Unable to load the %s class for type %r" % (kind, type_name))
+        cache[type_name] = cls
+    return cls
