@@ -26,9 +26,9 @@ from std_msgs.msg import Float64
 from inspection_robot.camera.optics import ZoomOptics
 from inspection_robot.command import CommandError, failed, success
 from inspection_robot.msg import PresetRotate
-from inspection_robot.interface import ACK_SUCCESS, BUSY, SENDER_JOY
+from inspection_robot.interface import ACK_SUCCESS, BUSY
 from inspection_robot.nodes.diagnostics import DiagnosticsPublisher
-from inspection_robot.nodes.twin import CommandTwin, ModeWatcher
+from inspection_robot.nodes.twin import CommandTwin
 from inspection_robot.nodes.worker import RequestWorker
 from inspection_robot.ptz import pelco
 from inspection_robot.ptz.driver import HeadError, PelcoHead
@@ -46,7 +46,6 @@ class CloudTerrace(object):
         self._optics = optics
         self._zoom = optics.min_zoom
         self._last_state_time = None
-        self._modes = ModeWatcher()
         self.twin = CommandTwin(terrace.table(), "terrace_control", "terrace_cmd", "terrace_ack", NODE_NAME)
         self._state_pub = rospy.Publisher("terrace_state", JointState, queue_size=10)
         self._diagnostics = DiagnosticsPublisher("%s: pan/tilt head" % rospy.get_name(), HARDWARE_ID)
@@ -63,7 +62,7 @@ class CloudTerrace(object):
         self._zoom = msg.data
 
     def _rotate(self, msg):
-        if self._modes.joystick_holds() and msg.sender != SENDER_JOY:
+        if self.twin.busy_for(msg.sender):
             return failed(BUSY)
         try:
             target = self._terrace.pixel_target(self._optics, self._zoom, msg.width, msg.height,

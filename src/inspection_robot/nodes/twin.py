@@ -63,9 +63,13 @@ class CommandTwin(object):
         self._cmd_sub = rospy.Subscriber(cmd_topic, GeneralCmd, self._worker.submit, queue_size=50)
         self._service = rospy.Service(service, ControlService, self._on_service) if service else None
 
+    def busy_for(self, sender):
+        """True while the joystick holds the robot and ``sender`` is not the joystick."""
+        return self._modes is not None and self._modes.joystick_holds() and sender != SENDER_JOY
+
     def handle(self, sender, cmd, data):
         """Run one command and return its Reply; the single entry point of both twins."""
-        if self._modes is not None and self._modes.joystick_holds() and sender != SENDER_JOY:
+        if self.busy_for(sender):
             return failed(BUSY)
         try:
             with self._lock:
