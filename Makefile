@@ -1,5 +1,5 @@
 # Entry points; each installs what is missing first (scripts/setup is idempotent and fast).
-.PHONY: setup build run test unit integration lint bench clean
+.PHONY: setup build run shell test unit integration lint bench clean
 
 setup:
 	@bash scripts/setup
@@ -9,6 +9,9 @@ build: setup
 
 run: build
 	scripts/rosenv roslaunch inspection_robot sim.launch
+
+shell: build
+	@scripts/rosenv bash
 
 test: build
 	@bash scripts/test all
@@ -26,4 +29,4 @@ bench: build
 	@bash scripts/bench
 
 clean:
-	rm -rf .ws
+	rm -rf "$$(root=$$PWD; . scripts/ws.sh; echo $$ws)" test_logs

@@ -1,12 +1,35 @@
-"""Imports go one way: only inspection_robot.nodes (ROS wiring) may import rospy or ROS types."""
+"""Imports go one way: only the ROS wing (nodes/, ros/, tools/) may import ROS; the layout holds.
+
+The list of ROS modules is every ROS package that package.xml declares plus the client library's
+own modules that a package gets without declaring them (genpy, roslib, rosgraph ...), so a new
+dependency is covered the day it is declared.
+"""
 import ast
 import os
+import xml.etree.ElementTree as ElementTree
 
-SRC = os.path.join(os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))),
-                   "src", "inspection_robot")
-ROS_MODULES = ("rospy", "actionlib", "tf2_ros", "diagnostic_updater", "rosgraph")
-# Message conversion lives in one place outside nodes/ only where a pure module must name types.
-ALLOWED_OUTSIDE_NODES = {"bridge/ros_types.py", "bridge/ros_adapter.py"}
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+SRC = os.path.join(ROOT, "src", "inspection_robot")
+# Modules every rospy installation brings along, declared or not.
+ROS_CLIENT_MODULES = {"rospy", "genpy", "genmsg", "roslib", "rosgraph", "rospkg", "rosservice",
+                      "rostopic", "rosnode", "rosparam", "roslaunch", "rosmsg", "rosbag", "rostest",
+                      "actionlib", "tf", "tf2_py", "tf2_ros", "diagnostic_updater", "message_filters"}
+# nodes/ and tools/ hold entry points (executables' code); ros/ everything else that imports ROS.
+ROS_WING = ("nodes", "ros", "tools")
+
+
+def declared_ros_packages():
+    """ROS package names in package.xml: rosdep keys of system packages carry a hyphen."""
+    tree = ElementTree.parse(os.path.join(ROOT, "package.xml"))
+    names = set()
+    for element in tree.getroot():
+        if element.tag.endswith("depend") and element.text and "-" not in element.text:
+            names.add(element.text.strip())
+    return names
+
+
+def ros_modules():
+    return (declared_ros_packages() | ROS_CLIENT_MODULES) - {"catkin"}
 
 
 def imported_modules(path):
@@ -20,32 +43,71 @@ def imported_modules(path):
             yield node.module
 
 
-def test_only_nodes_import_rospy():
-    offenders = []
-    for folder, _dirs, files in os.walk(SRC):
-        rel_folder = os.path.relpath(folder, SRC)
-        if rel_folder.split(os.sep)[0] == "nodes":
-            continue
-        for name in files:
-            if not name.endswith(".py"):
-                continue
-            rel = os.path.normpath(os.path.join(rel_folder, name))
-            if rel in ALLOWED_OUTSIDE_NODES:
-                continue
-            for module in imported_modules(os.path.join(folder, name)):
-                if module.split(".")[0] in ROS_MODULES or module == "inspection_robot.msg" \
-                        or module == "inspection_robot.srv":
-                    offenders.append("%s imports %s" % (rel, module))
-    assert offenders == []
-
-
-def test_every_module_has_a_docstring():
-    missing = []
+def python_files():
     for folder, _dirs, files in os.walk(SRC):
         for name in files:
             if name.endswith(".py"):
                 path = os.path.join(folder, name)
-                with open(path) as f:
-                    if ast.get_docstring(ast.parse(f.read())) is None:
-                        missing.append(os.path.relpath(path, SRC))
+                yield os.path.relpath(path, SRC), path
+
+
+def is_ros_import(module, ros_names):
+    top = module.split(".")[0]
+    return (top in ros_names or top.endswith("_msgs") or top.endswith("_srvs")
+            or module.startswith("inspection_robot.msg") or module.startswith("inspection_robot.srv"))
+
+
+def test_declared_ros_packages_are_read():
+    assert {"rospy", "actionlib", "diagnostic_updater", "std_msgs"} <= declared_ros_packages()
+
+
+def test_only_the_ros_wing_imports_ros():
+    names = ros_modules()
+    offenders = []
+    for rel, path in python_files():
+        if rel.split(os.sep)[0] in ROS_WING:
+            continue
+        offenders.extend("%s imports %s" % (rel, module) for module in imported_modules(path)
+                         if is_ros_import(module, names))
+    assert offenders == []
+
+
+def test_the_rule_catches_a_leak():
+    names = ros_modules()
+    for module in ("genpy.message", "roslib.message", "rospkg", "sensor_msgs.msg", "tf2_ros",
+                   "inspection_robot.msg", "std_srvs.srv"):
+        assert is_ros_import(module, names), module
+    for module in ("numpy", "cv2", "tornado.web", "inspection_robot.nav.planner"):
+        assert not is_ros_import(module, names), module
+
+
+def test_nodes_holds_one_module_per_node():
+    """nodes/<name>.py exists exactly for the executables nodes/<name>: helpers live in ros/."""
+    modules = {os.path.splitext(name)[0] for name in os.listdir(os.path.join(SRC, "nodes"))
+               if name.endswith(".py") and name != "__init__.py"}
+    executables = set(os.listdir(os.path.join(ROOT, "nodes")))
+    assert modules == executables
+
+
+def test_every_executable_is_installed():
+    with open(os.path.join(ROOT, "CMakeLists.txt")) as f:
+        cmake = f.read()
+    missing = ["%s/%s" % (folder, name) for folder in ("nodes", "tools")
+               for name in sorted(os.listdir(os.path.join(ROOT, folder)))
+               if "%s/%s\n" % (folder, name) not in cmake]
+    assert missing == []
+
+
+def test_tools_have_their_module():
+    modules = {os.path.splitext(name)[0] for name in os.listdir(os.path.join(SRC, "tools"))
+               if name.endswith(".py") and name != "__init__.py"}
+    assert modules == set(os.listdir(os.path.join(ROOT, "tools")))
+
+
+def test_every_module_has_a_docstring():
+    missing = []
+    for rel, path in python_files():
+        with open(path) as f:
+            if ast.get_docstring(ast.parse(f.read())) is None:
+                missing.append(rel)
     assert missing == []

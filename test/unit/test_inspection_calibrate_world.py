@@ -8,7 +8,7 @@ import yaml
 from inspection_robot.camera.optics import ZoomOptics
 from inspection_robot.inspection.preset import CALIB_INI, load_preset
 from inspection_robot.inspection.recorder import record_preset
-from inspection_robot.nodes.calibrate_preset import run
+from inspection_robot.tools.calibrate_preset import run
 from inspection_robot.sim.inspection_sim import RenderedHead
 from inspection_robot.sim.render import Renderer, ThermalRenderer
 from inspection_robot.sim.world import World

@@ -9,7 +9,7 @@ from inspection_robot.inspection import synthetic as S
 from inspection_robot.inspection.calibration import derive_zoom_boxes
 from inspection_robot.inspection.preset import CALIB_INI, PresetDirWriter, PresetError, PresetInfo, \
     load_preset
-from inspection_robot.nodes.calibrate_preset import run as calibrate_cli
+from inspection_robot.tools.calibrate_preset import run as calibrate_cli
 
 SIZE = (480, 270)
 

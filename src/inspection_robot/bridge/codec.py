@@ -59,7 +59,7 @@ class _UnknownField(Exception):
 
 
 class TypeSupport(object):
-    """What the codec needs from the ROS side; ros_types.GenpyTypes implements it."""
+    """What the codec needs from the ROS side; ros.message_types.GenpyTypes implements it."""
 
     def message_class(self, type_name):
         raise NotImplementedError

@@ -3,7 +3,7 @@
 An op table (:data:`OPS`) declares every op's fields and their JSON types; a frame is parsed,
 checked against it and dispatched to ``Session._op_<name>``. Any problem becomes a ``status``
 message at level ``error`` naming the op and echoing the ``id``; the session keeps serving.
-ROS effects go through a backend (ros_adapter.RosBackend, or a fake in the unit tests), frames
+ROS effects go through a backend (ros.bridge_backend.RosBackend, or a fake in the unit tests), frames
 out through ``send(frames, key, limit)`` of the transport's bounded queue. All methods run on
 the transport's event-loop thread; the backend hands ROS callbacks over to that thread.
 """
@@ -211,7 +211,7 @@ class SessionConfig(object):
 class Session(object):
     """The protocol state of one client.
 
-    ``backend``: ROS side (see ros_adapter.RosBackend for the interface). ``send(frames, key, limit,
+    ``backend``: ROS side (see ros.bridge_backend.RosBackend for the interface). ``send(frames, key, limit,
     droppable)``: queue a list of frames (str text / bytes binary) as one message. ``clock()``:
     monotonic seconds. ``call_later(delay_s, fn)``: returns a handle with ``cancel()``.
     ``close()``: drop the connection after the queued frames. ``rosapi``: RosApi or None.

@@ -27,8 +27,8 @@ from std_msgs.msg import Float64
 from inspection_robot.camera.commands import CameraCommands, format_zoom
 from inspection_robot.camera.driver import CameraError, DeviceHealth
 from inspection_robot.camera.optics import ZoomOptics
-from inspection_robot.nodes.diagnostics import DiagnosticsPublisher, probe_device
-from inspection_robot.nodes.twin import CommandTwin
+from inspection_robot.ros.diagnostics import DeviceDiagnostics, probe_device
+from inspection_robot.ros.twin import CommandTwin
 
 NODE = "camera_node"
 HARDWARE_ID = "camera"
@@ -63,7 +63,7 @@ class CameraNode(object):
         self._zoom_pub = rospy.Publisher("camera_zoom", Float64, queue_size=1, latch=True)
         self._image_pub = rospy.Publisher("camera/image_raw", Image, queue_size=1)
         self._info_pub = rospy.Publisher("camera/camera_info", CameraInfo, queue_size=1)
-        self._diagnostics = DiagnosticsPublisher("%s: camera" % NODE, HARDWARE_ID)
+        self._diagnostics = DeviceDiagnostics("camera", HARDWARE_ID)
         self._twin = CommandTwin(self.commands.table, "camera_control", "camera_cmd", "camera_ack", NODE)
         self._status_timer = rospy.Timer(rospy.Duration(1.0 / status_rate), self._on_status)
         self._image_timer = None
@@ -117,7 +117,7 @@ def make_driver(kind, optics):
                            float(params.get("timeout", 2.0)),
                            str(params.get("snapshot_url", "/onvif-http/snapshot?Profile_1")))
     if kind == "sim":
-        from inspection_robot.nodes.sim_view import SimView
+        from inspection_robot.ros.sim_view import SimView
         from inspection_robot.sim.camera import SimulatedCamera
         from inspection_robot.sim.render import Renderer
         from inspection_robot.sim.world import World

@@ -8,8 +8,9 @@ Publishes:   terrace_ack (GeneralAck): replies to terrace_cmd, and the outcome o
                (its trans_id, data "pan,tilt" target or the reason)
              terrace_state (sensor_msgs/JointState): names [pan, tilt], rad, standard convention
                (pan CCW +, tilt down +), at ~state_rate while the head answers
-             diagnostics (diagnostic_msgs/DiagnosticArray): hardware_id "pan_tilt_head", 1 Hz;
-               ERROR while the head is lost
+             diagnostics (diagnostic_msgs/DiagnosticArray, diagnostic_updater): hardware_id
+               "pan_tilt_head", 1 Hz; "pan/tilt head" ERROR while the head is lost, and
+               "terrace_state rate" (FrequencyStatus against ~state_rate)
 Parameters:  ~port (pyserial URL or device, "/tmp/inspection_robot_pelco"), ~baudrate (9600),
              ~address (Pelco-D address, 1), ~reply_timeout (s, 0.3),
              ~reconnect_backoff ([first, max] s, [0.1, 2.0]),
@@ -19,6 +20,7 @@ Parameters:  ~port (pyserial URL or device, "/tmp/inspection_robot_pelco"), ~bau
              ~camera_optics (config/camera_optics.yaml: width, height, zoom_hfov_deg)
 """
 
+import diagnostic_updater
 import rospy
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64
@@ -27,9 +29,9 @@ from inspection_robot.camera.optics import ZoomOptics
 from inspection_robot.command import CommandError, failed, success
 from inspection_robot.msg import PresetRotate
 from inspection_robot.interface import ACK_SUCCESS, BUSY
-from inspection_robot.nodes.diagnostics import DiagnosticsPublisher
-from inspection_robot.nodes.twin import CommandTwin
-from inspection_robot.nodes.worker import RequestWorker
+from inspection_robot.ros.diagnostics import DeviceDiagnostics
+from inspection_robot.ros.twin import CommandTwin
+from inspection_robot.ros.worker import RequestWorker
 from inspection_robot.ptz import pelco
 from inspection_robot.ptz.driver import HeadError, PelcoHead
 from inspection_robot.ptz.terrace import Terrace, format_centi
@@ -48,7 +50,12 @@ class CloudTerrace(object):
         self._last_state_time = None
         self.twin = CommandTwin(terrace.table(), "terrace_control", "terrace_cmd", "terrace_ack", NODE_NAME)
         self._state_pub = rospy.Publisher("terrace_state", JointState, queue_size=10)
-        self._diagnostics = DiagnosticsPublisher("%s: pan/tilt head" % rospy.get_name(), HARDWARE_ID)
+        self._diagnostics = DeviceDiagnostics("pan/tilt head", HARDWARE_ID)
+        # terrace_state's rate: too low when the head answers slowly, ERROR when it stops answering.
+        self._state_rate = diagnostic_updater.FrequencyStatus(
+            diagnostic_updater.FrequencyStatusParam({"min": state_rate_hz, "max": state_rate_hz}, 0.5, 5),
+            "terrace_state rate")
+        self._diagnostics.add(self._state_rate)
         self._rotations = RequestWorker(NODE_NAME + ": preset_rotate",
                                         lambda msg: self.twin.publish_ack(self._rotate(msg), msg),
                                         lambda msg: self.twin.publish_ack(failed("preset_rotate: busy, queue full"),
@@ -85,6 +92,7 @@ class CloudTerrace(object):
         msg = JointState(name=["pan", "tilt"], position=[pelco.centi_to_radians(pan), pelco.centi_to_radians(tilt)])
         msg.header.stamp = rospy.Time.now()
         self._state_pub.publish(msg)
+        self._state_rate.tick()
 
     def _on_diag_timer(self, _event):
         fresh = self._last_state_time is not None and rospy.get_time() - self._last_state_time < STATE_STALE_S

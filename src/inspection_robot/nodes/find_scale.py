@@ -36,7 +36,7 @@ from inspection_robot.inspection.preset import PresetError, load_preset
 from inspection_robot.interface import (FIND_FEEDBACK_PRESET_SET, FIND_GOAL_TYPES,
                                         FIND_RESULT_FAILED, FIND_RESULT_SUCCESS)
 from inspection_robot.msg import GeneralAction, GeneralFeedback, GeneralResult
-from inspection_robot.nodes.inspection_ros import HeadingWatcher, RosHead
+from inspection_robot.ros.inspection_head import HeadingWatcher, RosHead
 
 NODE_NAME = "find_scale"
 

@@ -16,8 +16,8 @@ Parameters:  ~driver ("sim", a vendor plug-in "package.module:Class", or "" = no
 import rospy
 
 from inspection_robot.camera.driver import DeviceHealth
-from inspection_robot.nodes.diagnostics import DiagnosticsPublisher, probe_device
-from inspection_robot.nodes.twin import CommandTwin
+from inspection_robot.ros.diagnostics import DeviceDiagnostics, probe_device
+from inspection_robot.ros.twin import CommandTwin
 from inspection_robot.thermal.commands import ThermalCommands
 from inspection_robot.plugin import load_class
 from inspection_robot.thermal.driver import NoImager, ThermalError
@@ -31,7 +31,7 @@ class InfraredNode(object):
         self._driver = driver
         self._health = health
         self.commands = commands
-        self._diagnostics = DiagnosticsPublisher("%s: thermal imager" % NODE, HARDWARE_ID)
+        self._diagnostics = DeviceDiagnostics("thermal imager", HARDWARE_ID)
         self._twin = CommandTwin(commands.table, "infrared_control", "infrared_cmd", "infrared_ack", NODE)
         self._timer = rospy.Timer(rospy.Duration(1.0 / status_rate), self._on_status)
 
@@ -44,7 +44,7 @@ class InfraredNode(object):
 
 def make_driver(kind, width, height):
     if kind == "sim":
-        from inspection_robot.nodes.sim_view import SimView
+        from inspection_robot.ros.sim_view import SimView
         from inspection_robot.sim.render import ThermalRenderer
         from inspection_robot.sim.thermal import SimulatedImager
         from inspection_robot.sim.world import World

@@ -58,7 +58,7 @@ from inspection_robot.nav.localization import LocalizationMonitor, location_targ
 from inspection_robot.nav.persist import read_json, write_json_atomic
 from inspection_robot.nav.planner import Planner, PlanningError
 from inspection_robot.nav.virtual_obstacles import VirtualObstacles
-from inspection_robot.nodes.twin import CommandTwin
+from inspection_robot.ros.twin import CommandTwin
 
 OBSTACLE_CONTROL = {"enable_obstacle": True, "disable_obstacle": False, "switch_obstacle": None}
 

@@ -27,9 +27,9 @@ from inspection_robot.inspection.finder import FindError
 from inspection_robot.inspection.preset import PresetError
 from inspection_robot.inspection.recorder import record_preset
 from inspection_robot.interface import ACK_FAILED, ACK_SUCCESS
-from inspection_robot.nodes.worker import RequestWorker
+from inspection_robot.ros.worker import RequestWorker
 from inspection_robot.msg import PresetScaleAck, PresetScaleCmd
-from inspection_robot.nodes.inspection_ros import HeadingWatcher, RosHead
+from inspection_robot.ros.inspection_head import HeadingWatcher, RosHead
 
 NODE_NAME = "preset_scale"
 

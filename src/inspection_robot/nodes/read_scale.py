@@ -21,7 +21,7 @@ from inspection_robot.inspection.locate import Locator
 from inspection_robot.inspection.reading import ReadError, ScaleReader
 from inspection_robot.interface import ACK_FAILED, ACK_SUCCESS
 from inspection_robot.msg import ReadScaleAck, ReadScaleCmd
-from inspection_robot.nodes.worker import RequestWorker
+from inspection_robot.ros.worker import RequestWorker
 
 NODE_NAME = "read_scale"
 

@@ -23,7 +23,7 @@ from inspection_robot.arm.controller import AXIS_NAMES, ArmController
 from inspection_robot.arm.driver import Limits
 from inspection_robot.command import CommandTable, failed
 from inspection_robot.interface import ARM_COMMANDS, UNSUPPORTED
-from inspection_robot.nodes.twin import CommandTwin, serve_table
+from inspection_robot.ros.twin import CommandTwin, serve_table
 from inspection_robot.sim.arm import SimArm
 
 NODE_NAME = "robot_arm"

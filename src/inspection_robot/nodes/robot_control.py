@@ -46,7 +46,7 @@ from inspection_robot.motion.controller import MotionController
 from inspection_robot.motion.velocity import VelocityLimits
 from inspection_robot.msg import ControlStatus, GeneralAck, GeneralCmd, MoveCmd, ObstacleStatus, RobotStatus, VoiceCmd
 from inspection_robot.plugin import load_class
-from inspection_robot.nodes.twin import CommandTwin, control_response
+from inspection_robot.ros.twin import CommandTwin, control_response
 from inspection_robot.sim.chassis import SimChassis
 from inspection_robot.srv import ControlService
 

@@ -17,7 +17,7 @@ import rospy
 
 from inspection_robot.interface import ACK_FAILED, ACK_SUCCESS
 from inspection_robot.msg import GeneralAck, VoiceCmd
-from inspection_robot.nodes.worker import RequestWorker
+from inspection_robot.ros.worker import RequestWorker
 from inspection_robot.voice.phrases import Speech, VoiceError, parse_command
 from inspection_robot.voice.player import FileOutput, SpeakerOutput
 

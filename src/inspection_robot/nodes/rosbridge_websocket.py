@@ -29,8 +29,8 @@ from std_msgs.msg import Int32
 
 from inspection_robot.bridge.codec import Codec
 from inspection_robot.bridge.protocol import Authenticator, Session, SessionConfig
-from inspection_robot.bridge.ros_adapter import RosBackend, RosGraph
-from inspection_robot.bridge.ros_types import GenpyTypes
+from inspection_robot.ros.bridge_backend import RosBackend, RosGraph
+from inspection_robot.ros.message_types import GenpyTypes
 from inspection_robot.bridge.rosapi import RosApi
 from inspection_robot.bridge.server import BridgeServer, LoopPoster, make_ssl_context
 

@@ -16,7 +16,7 @@ from sensor_msgs.msg import PointCloud2, PointField
 from inspection_robot.angles import yaw_from_quaternion
 from inspection_robot.command import CommandError, CommandTable, parse_float, success
 from inspection_robot.nav.obstacle import cloud_bytes
-from inspection_robot.nodes.twin import serve_table
+from inspection_robot.ros.twin import serve_table
 from inspection_robot.sim.nav_yard import ObstacleCloud
 
 FIELDS = [PointField(name=n, offset=4 * i, datatype=PointField.FLOAT32, count=1) for i, n in enumerate("xyz")]

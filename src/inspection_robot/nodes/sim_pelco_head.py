@@ -16,7 +16,7 @@ import rospy
 from inspection_robot.command import CommandError, CommandTable, parse_choice
 from inspection_robot.ptz import pelco
 from inspection_robot.sim.pelco_head import FAULTS, PtyPelcoServer, SimPelcoHead
-from inspection_robot.nodes.twin import serve_table
+from inspection_robot.ros.twin import serve_table
 
 
 class SimPelcoHeadNode(object):

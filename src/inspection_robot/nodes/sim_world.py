@@ -17,7 +17,7 @@ import rospy
 from inspection_robot.command import failed, success
 from inspection_robot.msg import GeneralTopic
 from inspection_robot.sim.world import World, WorldError
-from inspection_robot.nodes.twin import control_response
+from inspection_robot.ros.twin import control_response
 from inspection_robot.srv import ControlService
 
 

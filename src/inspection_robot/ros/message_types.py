@@ -1,6 +1,6 @@
 """Type support for the bridge from genpy/roslib: message and service classes by name, time.
 
-The only bridge module besides ros_adapter.py that imports ROS Python packages
+The bridge's message classes from genpy (with bridge_backend.py the bridge's ROS side)
 (test_import_rules.py exempts it), so codec.py and protocol.py stay pure.
 """
 import genpy

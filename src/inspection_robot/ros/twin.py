@@ -15,7 +15,7 @@ import rospy
 from inspection_robot.command import failed
 from inspection_robot.interface import ACK_SUCCESS, BUSY, MODE_JOY, SENDER_JOY
 from inspection_robot.msg import ControlStatus, GeneralAck, GeneralCmd
-from inspection_robot.nodes.worker import RequestWorker
+from inspection_robot.ros.worker import RequestWorker
 from inspection_robot.srv import ControlService, ControlServiceResponse
 
 

@@ -5,7 +5,7 @@ serves every client; each ROS message is converted to JSON once, in rospy's thre
 to the event loop (``post``) for fan-out. Service calls and rosapi requests run on a thread
 pool; their results come back through ``post``. Services a client advertises are rospy.Services
 whose handler forwards the request to that client and waits (bounded) for its service_response.
-This module and ros_types.py are the bridge's only rospy users (test_import_rules.py exempts them).
+With message_types.py, the bridge's ROS side; both live in the ROS wing.
 """
 import concurrent.futures
 import threading
