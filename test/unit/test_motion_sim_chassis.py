@@ -207,3 +207,74 @@ def test_temperatures_rise_with_motion(clock):
     t1 = chassis.state().temperatures_c
     assert t1[1] > t0[1] + 5.0
     assert all(t is not None and math.isfinite(t) for t in t1)
+
+
+DOCK_SPEC = {"pose": [2.2, 5.0, 3.1416], "approach_pose": [3.7, 5.0, 3.1416], "tolerance_m": 0.03,
+             "tolerance_yaw": 0.05}
+
+
+def _world_chassis(clock, **params):
+    world = {"robot": {"start_pose": [3.7, 5.0, 3.1416]}, "dock": DOCK_SPEC}
+    return SimChassis.from_world(clock, world, battery_soc=50.0, **params)
+
+
+def test_charges_only_docked_within_tolerance_with_relay_and_power(clock):
+    chassis = _world_chassis(clock, battery_time_scale=100.0)
+    assert chassis.true_pose()[0] == pytest.approx((3.7, 5.0, 3.1416)) and not chassis.docked()
+    chassis.set_charge_relay(True)
+    clock.advance(1.0)
+    state = chassis.state()
+    assert not state.battery_status & BATTERY_CHARGING and state.battery_current < 0, "relay on, 1.5 m off the dock"
+    # drive 1.5 m forward onto the dock (heading pi: towards -x), stopping within tolerance
+    chassis.fault_table().dispatch("set_pose", "2.22,5.0,3.1416")
+    assert chassis.docked()
+    soc = chassis._soc
+    clock.advance(10.0)
+    state = chassis.state()
+    assert state.battery_status & BATTERY_CHARGING and state.battery_current > 0
+    # (10 A - 1.5 A idle) for 10 s, 100 times faster, into 40 Ah
+    assert chassis._soc - soc == pytest.approx(100.0 * 8.5 * 10.0 * 100.0 / 3600.0 / 40.0, rel=1e-3)
+    chassis.set_charge_relay(False)
+    clock.advance(1.0)
+    assert not chassis.state().battery_status & BATTERY_CHARGING
+    chassis.set_charge_relay(True)
+    chassis.inject("charger_off", True)
+    clock.advance(1.0)
+    assert not chassis.state().battery_status & BATTERY_CHARGING, "dock without power"
+    chassis.inject("charger_off", False)
+    for pose in ("2.26,5.0,3.1416", "2.2,5.0,3.0"):  # 6 cm off, 8 degrees off
+        chassis.fault_table().dispatch("set_pose", pose)
+        clock.advance(1.0)
+        assert not chassis.docked() and not chassis.state().battery_status & BATTERY_CHARGING, pose
+
+
+def test_drain_from_idling_driving_and_turning_scales_with_time_scale(clock):
+    def drain(scale, command):
+        chassis = _world_chassis(clock, battery_time_scale=scale, switch_time=0.0)
+        if command:
+            chassis.send_velocity(*command)
+        clock.advance(2.0)  # ramp up
+        soc = chassis.state() and chassis._soc
+        clock.advance(10.0)
+        chassis.state()
+        return soc - chassis._soc
+    idle = drain(1.0, None)
+    assert idle == pytest.approx(100.0 * 1.5 * 10.0 / 3600.0 / 40.0, rel=1e-3)
+    assert drain(60.0, None) == pytest.approx(60.0 * idle, rel=1e-3)
+    driving = drain(1.0, (0.5, 0.0, WHEEL_STRAIGHT))
+    assert driving == pytest.approx(idle * (1.5 + 12.0 * 0.5) / 1.5, rel=1e-3)
+    turning = drain(1.0, (0.0, 0.5, WHEEL_STEER))
+    assert turning == pytest.approx(idle * (1.5 + 6.0 * 0.5) / 1.5, rel=1e-3)
+
+
+def test_set_soc_and_bad_dock_or_scale(clock):
+    chassis = _world_chassis(clock)
+    table = chassis.fault_table()
+    assert table.dispatch("set_soc", "12.5").ack == "success" and chassis.state().battery_quantity == 12
+    assert table.dispatch("set_soc", "101").data == "state of charge out of range [0.0, 100.0]: 101.0"
+    assert table.dispatch("set_soc", "x").ack == "failed"
+    with pytest.raises(ValueError, match="battery_time_scale"):
+        _world_chassis(clock, battery_time_scale=0.0)
+    with pytest.raises(ValueError, match="dock.approach_pose"):
+        SimChassis.from_world(clock, {"dock": {"pose": [1, 2, 0], "approach_pose": [1, 2]}})
+    assert SimChassis.from_world(clock, {}).dock is None

@@ -5,6 +5,7 @@ import wave
 
 import pytest
 
+from inspection_robot.charge.machine import VOICE_CLIPS as CHARGE_VOICE_CLIPS
 from inspection_robot.interface import BATTERY_CHARGING, CIRCUIT_BATTERY_CRITICAL, CIRCUIT_JOY_COMM_LOST, MODE_NAMES
 from inspection_robot.motion.safety import SafetyLatch
 from inspection_robot.motion.voice import status_sentence
@@ -77,6 +78,7 @@ def test_query_status_clips_are_spoken_without_recorded_clips(tmp_path, language
                   "battery_status": BATTERY_CHARGING}
         names.update(w for w in status_sentence(fields, latch.reasons()) if isinstance(parse_item(w, language), Clip))
     names.add("status_normal")
+    names.update(CHARGE_VOICE_CLIPS)
     assert len(names) == len(BUILTIN_PHRASES) and names == set(BUILTIN_PHRASES)
     out = FileOutput(str(tmp_path), str(tmp_path / "out"))
     parts = out.resolve(parse_command(sorted(names) + ["[5]"], language), language)

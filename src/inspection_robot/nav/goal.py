@@ -10,7 +10,7 @@ import json
 import math
 from collections import namedtuple
 
-from inspection_robot.angles import yaw_from_quaternion
+from inspection_robot.angles import quaternion_from_yaw, yaw_from_quaternion
 from inspection_robot.command import CommandError, parse_json
 from inspection_robot.interface import MOVE_GOAL_TYPE
 
@@ -66,3 +66,21 @@ def parse_move_goal(goal_type, data, default_velocity_x, default_velocity_yaw, m
         speeds.append(min(value, limit))
     return MoveGoal(x, y, yaw, _flag(obj, "with_direction"), _flag(obj, "precision"), move_style == 1,
                     speeds[0], speeds[1])
+
+
+def move_goal_data(x, y, yaw, precision=False, backward=False, with_direction=True, velocity_x=None,
+                   velocity_yaw=None):
+    """The goal JSON ``parse_move_goal`` reads, for clients of move_action (charge_control, task_manager).
+
+    Speeds left None are omitted (move_base's defaults apply).
+    """
+    qx, qy, qz, qw = quaternion_from_yaw(yaw)
+    obj = {"with_direction": int(bool(with_direction)), "precision": int(bool(precision)),
+           "move_style": 1 if backward else 0,
+           "goal_pose": {"position": {"x": float(x), "y": float(y), "z": 0.0},
+                         "orientation": {"x": qx, "y": qy, "z": qz, "w": qw}}}
+    if velocity_x is not None:
+        obj["velocity_x"] = float(velocity_x)
+    if velocity_yaw is not None:
+        obj["velocity_yaw"] = float(velocity_yaw)
+    return json.dumps(obj, sort_keys=True)

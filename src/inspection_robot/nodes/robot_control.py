@@ -21,7 +21,7 @@ Publishes:   control_status (ControlStatus) at ~status_rate and at once when a d
 Services:    imu_control (ControlService): twin of imu_cmd/imu_ack
              sim only: sim/inject_fault (ControlService): cmd = fault (hard_estop, bumper, fall_left,
                  fall_right, motor_disconnect, joystick_link_lost, stepper_comm, low_battery) or
-                 condition (at_dock), data 1|0; query; set_pose "x,y,yaw"
+                 condition (at_dock, charger_off), data 1|0; query; set_pose "x,y,yaw"; set_soc "%"
 Parameters:  ~driver ("sim" or "package.module:Class"), ~driver_params ({}): vendor constructor kwargs
              ~rate (Hz, 50.0) control cycle; ~status_rate (Hz, 10.0)
              ~cmd_timeout (s, 0.5)
@@ -30,7 +30,8 @@ Parameters:  ~driver ("sim" or "package.module:Class"), ~driver_params ({}): ven
              ~odom_frame ("odom"), ~base_frame ("base_link"), ~publish_tf (true)
              ~voice_language ("chinese")
              ~sim ({}): SimChassis parameters; ~sim_world (config/sim_world.yaml, loaded by the launch
-                 file): the simulated robot starts at world.robot.start_pose ([x, y, yaw] in map)
+                 file): the simulated robot starts at world.robot.start_pose ([x, y, yaw] in map) and
+                 charges on world.dock
 """
 import time
 import traceback
@@ -262,10 +263,8 @@ def main():
         raise ValueError("~voice_language must be one of %s" % (VOICE_LANGUAGES,))
     sim = None
     if driver_spec == "sim":
-        start_pose = [float(v) for v in rospy.get_param("~sim_world/world/robot/start_pose", [0.0, 0.0, 0.0])]
-        if len(start_pose) != 3:
-            raise ValueError("~start_pose must be [x, y, yaw]")
-        sim = driver = SimChassis(time.monotonic, start_pose, **rospy.get_param("~sim", {}))
+        sim = driver = SimChassis.from_world(time.monotonic, rospy.get_param("~sim_world/world", {}),
+                                             **rospy.get_param("~sim", {}))
     else:
         driver = load_class(driver_spec)(**rospy.get_param("~driver_params", {}))
     controller = MotionController(driver, limits, cmd_timeout, time.monotonic, log=_log)

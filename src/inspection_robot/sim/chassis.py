@@ -7,8 +7,12 @@ Behaves like the motion board of a four-wheel-steering inspection robot:
 - Acceleration limits on both axes; ``stop()`` brakes at ``brake_decel``.
 - The straight/steer switch first brings the robot to rest, then turns the wheels for
   ``switch_time`` seconds (``switching`` True, wheel_status b2) and only then follows commands.
-- Battery: drains with an idle load plus a load proportional to speed; charges only with the
-  charge relay closed while the robot is at a dock. Voltage follows the state of charge.
+- Battery: drains with an idle load plus loads proportional to speed and to yaw rate; charges
+  only with the charge relay closed while the robot stands on the dock (its true pose within the
+  dock's tolerances, see charge.dock; or the ``at_dock`` condition forced) and the dock has power
+  (condition ``charger_off`` cleared). ``battery_time_scale`` multiplies how fast the state of
+  charge moves (currents stay physical), so tests see a drain and a charge in seconds. Voltage
+  follows the state of charge.
 - Temperatures: first-order towards ambient plus a load term (servos, steppers, battery).
 - Wheel encoders report the true velocity scaled by ``1 + encoder_scale_error`` (odometry drift).
 - IMU: yaw integrates the true yaw rate plus a gyro bias that ``imu_calibrate`` removes.
@@ -23,6 +27,7 @@ simulator needs no thread and a test can drive it with a fake clock.
 import math
 
 from inspection_robot.angles import wrap_angle
+from inspection_robot.charge.dock import is_docked, parse_dock
 from inspection_robot.command import CommandError, CommandTable, parse_choice, parse_float, split_fields
 from inspection_robot.interface import (
     BATTERY_CHARGING, BATTERY_DISCHARGING, BATTERY_UNDER_VOLTAGE, CIRCUIT_BATTERY_CRITICAL,
@@ -34,8 +39,9 @@ from inspection_robot.motion.chassis import ChassisDriver, ChassisError, Chassis
 # Injectable faults (sim/inject_fault cmd names). data 1 = fault present, 0 = cleared.
 FAULTS = ("hard_estop", "bumper", "fall_left", "fall_right", "motor_disconnect", "joystick_link_lost",
           "stepper_comm", "low_battery")
-# World conditions settable through the same service.
-CONDITIONS = ("at_dock",)
+# World conditions settable through the same service: at_dock forces "on the dock" wherever the
+# robot is; charger_off cuts the dock's power (relay closed, docked, yet no charging current).
+CONDITIONS = ("at_dock", "charger_off")
 SAFETY_FAULTS = frozenset(FAULTS)  # every fault changes a safety-relevant state
 
 DEFAULTS = dict(
@@ -52,6 +58,7 @@ DEFAULTS = dict(
     current_per_m_s=12.0,     # A per m/s
     current_per_rad_s=6.0,    # A per rad/s
     charge_current=10.0,      # A at a dock with the relay closed
+    battery_time_scale=1.0,   # state of charge moves this many times faster than real (tests)
     low_battery_soc=8.0,      # % the low_battery fault drops the charge to
     critical_soc=10.0,        # % below which circuit_status b7 is set
     under_voltage=46.0,       # V below which battery_status b0 is set
@@ -72,12 +79,18 @@ def battery_voltage(soc):
 
 
 class SimChassis(ChassisDriver):
-    def __init__(self, clock, start_pose=(0.0, 0.0, 0.0), **params):
+    """``dock`` (a charge.dock.Dock or None): where the robot charges; without one only the
+    ``at_dock`` condition lets it charge."""
+
+    def __init__(self, clock, start_pose=(0.0, 0.0, 0.0), dock=None, **params):
         unknown = set(params) - set(DEFAULTS)
         if unknown:
             raise ValueError("unknown simulator parameters: %s" % ", ".join(sorted(unknown)))
         self.params = dict(DEFAULTS)
         self.params.update({k: float(v) for k, v in params.items()})
+        if self.params["battery_time_scale"] <= 0:
+            raise ValueError("battery_time_scale must be positive")
+        self.dock = dock
         self._clock = clock
         self._last = clock()
         self._listener = None
@@ -192,6 +205,21 @@ class SimChassis(ChassisDriver):
         self.stop()
 
     # --- simulator ----------------------------------------------------------------------------
+    @classmethod
+    def from_world(cls, clock, world, **params):
+        """The chassis of the simulated yard ``world`` (the ``world`` mapping of config/sim_world.yaml):
+        it starts at world.robot.start_pose and charges on world.dock (optional)."""
+        start_pose = [float(v) for v in world.get("robot", {}).get("start_pose", [0.0, 0.0, 0.0])]
+        if len(start_pose) != 3:
+            raise ValueError("world.robot.start_pose must be [x, y, yaw]")
+        dock = parse_dock(world["dock"]) if "dock" in world else None
+        return cls(clock, start_pose, dock, **params)
+
+    def docked(self):
+        """True when the charge contacts touch: on the dock within tolerance, or ``at_dock`` forced."""
+        self._advance()
+        return self._docked()
+
     def true_pose(self):
         """(x, y, yaw) in the map frame, and the true (velocity_x, velocity_yaw)."""
         self._advance()
@@ -226,6 +254,7 @@ class SimChassis(ChassisDriver):
         table.register("query", lambda _data: ",".join(
             sorted(n for n, on in list(self.faults.items()) + list(self.conditions.items()) if on)))
         table.register("set_pose", self._set_pose)
+        table.register("set_soc", self._set_soc)
         return table
 
     def _fault_handler(self, name):
@@ -240,6 +269,16 @@ class SimChassis(ChassisDriver):
             raise CommandError("robot moving")
         self.pose = [x, y, yaw]
         return data
+
+    def _set_soc(self, data):
+        """Set the state of charge (%, 0-100): tests start a charge scenario without waiting."""
+        self._advance()
+        self._soc = parse_float(data, "state of charge", 0.0, 100.0)
+        self._soc_before_low = None
+        return data
+
+    def _docked(self):
+        return self.conditions["at_dock"] or (self.dock is not None and is_docked(self.dock, self.pose))
 
     def _notify_command(self, velocity_x, velocity_yaw, wheel_mode):
         for listener in self._command_listeners:
@@ -298,9 +337,9 @@ class SimChassis(ChassisDriver):
     def _update_power(self, dt):
         p = self.params
         load = p["idle_current"] + p["current_per_m_s"] * abs(self._vx) + p["current_per_rad_s"] * abs(self._wz)
-        charging = self._charge_relay and self.conditions["at_dock"]
+        charging = self._charge_relay and not self.conditions["charger_off"] and self._docked()
         self._current = (p["charge_current"] if charging else 0.0) - load
-        self._soc += 100.0 * self._current * dt / 3600.0 / p["battery_capacity_ah"]
+        self._soc += 100.0 * self._current * dt * p["battery_time_scale"] / 3600.0 / p["battery_capacity_ah"]
         self._soc = max(0.0, min(100.0, self._soc))
 
     def _update_temperatures(self, dt):

@@ -5,7 +5,7 @@ Each string of VoiceCmd.data is one item: ``[123]`` a number read as a number (�
 percentage (百分之十七), anything else the name of a clip ``<name>.wav``. Numbers may be
 negative and decimal (``[-3.5]``). Both languages of the spec are supported.
 
-``BUILTIN_PHRASES`` gives the text of the clips robot_control's query_status uses, so the robot
+``BUILTIN_PHRASES`` gives the text of the clips robot_control's query_status and charge_control use, so the robot
 speaks its status out of the box; a recorded ``<name>.wav`` in the clip directory takes precedence.
 """
 import re
@@ -31,7 +31,7 @@ EN_TEENS = ("ten", "eleven", "twelve", "thirteen", "fourteen", "fifteen", "sixte
 EN_TENS = ("", "", "twenty", "thirty", "forty", "fifty", "sixty", "seventy", "eighty", "ninety")
 
 
-# clip name -> (chinese, english): every name motion.voice.status_sentence can produce
+# clip name -> (chinese, english): every name motion.voice.status_sentence and charge_control can produce
 BUILTIN_PHRASES = {
     "status_report": ("机器人状态报告", "robot status report"),
     "mode_task": ("任务模式", "task mode"),
@@ -52,6 +52,18 @@ BUILTIN_PHRASES = {
     "alarm_drive_fault": ("驱动器故障", "drive fault"),
     "alarm_battery_critical": ("电池电量严重不足", "battery critically low"),
     "alarm_joystick_lost": ("手柄通信中断", "joystick link lost"),
+    # charge_control (charge.machine.VOICE_CLIPS)
+    "charge_battery_low": ("电量低", "battery low"),
+    "charge_going_to_dock": ("返回充电桩充电", "going to the charging dock"),
+    "charge_done": ("充电完成", "charging complete"),
+    "charge_alarm": ("充电故障", "charging fault"),
+    "charge_task_not_paused": ("巡检任务未暂停", "patrol did not pause"),
+    "charge_dock_unreachable": ("无法到达充电桩", "charging dock unreachable"),
+    "charge_relay_not_confirmed": ("充电继电器未闭合", "charge relay did not close"),
+    "charge_no_current": ("没有充电电流", "no charging current"),
+    "charge_relay_not_released": ("充电继电器未断开", "charge relay did not open"),
+    "charge_backoff_failed": ("无法离开充电桩", "could not leave the dock"),
+    "charge_task_not_resumed": ("巡检任务未恢复", "patrol did not resume"),
 }
 
 

@@ -1,0 +1,1 @@
+"""Charging: the dock's geometry and charge_control's docking state machine (no rospy)."""

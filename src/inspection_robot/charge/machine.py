@@ -1,0 +1,455 @@
+"""charge_control's docking state machine: when to charge, the docking sequence, retries and alarms.
+
+No rospy: the node feeds it robot_status (``on_battery``), task_status (``on_task_status``), the
+replies of task_control (``on_task_reply``) and move_action (``on_move_result``), and calls
+``tick()`` periodically; the machine acts only through its ``ports`` (see :class:`ChargePorts`),
+which never call back into it synchronously. Time comes from an injected ``clock`` (seconds), so
+unit tests drive every timeout with a fake clock.
+
+One charge cycle (docs/interface.md, "Charging (charge_control)")::
+
+    idle --low battery | dock--> pausing_task --paused/idle (or no task_manager)-->
+    to_approach --goal ok--> docking (precision 1) --goal ok--> relay_on --light b0-->
+    wait_current --battery b4--> charging --level >= full--> relay_off --light b0 clear-->
+    backing_off (backward to the approach pose) --goal ok--> resuming_task --> idle
+
+A failure is retried ``retries`` times (each kind counted separately within a cycle), then the
+cycle stops in ``failed``: the relay is opened, ``ports.alarm`` raises the reason (topic + voice)
+and the patrol stays paused until an operator sends ``dock`` (try again) or ``undock`` (relay
+off, back off if on the dock, resume the patrol). The robot drives only in task mode; in another
+mode the machine waits and says why in its status.
+"""
+import json
+from collections import namedtuple
+
+from inspection_robot.charge.dock import is_docked, near_dock
+from inspection_robot.command import CommandError, CommandTable, no_data
+from inspection_robot.interface import MODE_NAMES, MODE_TASK
+
+IDLE = "idle"
+PAUSING = "pausing_task"
+TO_APPROACH = "to_approach"
+DOCKING = "docking"
+RELAY_ON = "relay_on"
+WAIT_CURRENT = "wait_current"
+CHARGING = "charging"
+RELAY_OFF = "relay_off"
+BACKING_OFF = "backing_off"
+RESUMING = "resuming_task"
+FAILED = "failed"
+STATES = (IDLE, PAUSING, TO_APPROACH, DOCKING, RELAY_ON, WAIT_CURRENT, CHARGING, RELAY_OFF, BACKING_OFF,
+          RESUMING, FAILED)
+DRIVE_STATES = (TO_APPROACH, DOCKING, BACKING_OFF)
+
+TRIGGER_LOW_BATTERY = "low_battery"
+TRIGGER_MANUAL = "manual"
+
+# task_manager's task_status states in which the patrol sends no goal (charge_control may drive)
+TASK_QUIET_STATES = ("paused", "idle", "done", "cancelled", "failed")
+TASK_HOLD = "charge"  # data of task_control pause/resume
+
+# failure kind -> (voice clip, reason format); the reason is the alarm text (docs/interface.md)
+FAILURES = {
+    "pause": ("charge_task_not_paused", "task_manager did not pause: %s"),
+    "approach": ("charge_dock_unreachable", "dock unreachable: approach goal failed: %s"),
+    "dock": ("charge_dock_unreachable", "dock unreachable: docking goal failed: %s"),
+    "relay_on": ("charge_relay_not_confirmed", "relay not confirmed: %s"),
+    "current": ("charge_no_current", "no charging current: %s"),
+    "relay_off": ("charge_relay_not_released", "relay not released: %s"),
+    "backoff": ("charge_backoff_failed", "back-off failed: %s"),
+    "resume": ("charge_task_not_resumed", "task_manager did not resume: %s"),
+}
+VOICE_ALARM = "charge_alarm"
+VOICE_LOW_BATTERY = "charge_battery_low"
+VOICE_GOING_TO_DOCK = "charge_going_to_dock"
+VOICE_CHARGED = "charge_done"
+VOICE_CLIPS = (VOICE_ALARM, VOICE_LOW_BATTERY, VOICE_GOING_TO_DOCK, VOICE_CHARGED) + tuple(
+    sorted(set(clip for clip, _ in FAILURES.values())))
+
+Battery = namedtuple("Battery", "quantity charging relay mode pose")
+ChargeConfig = namedtuple("ChargeConfig", "low_level full_level retries pause_timeout relay_timeout "
+                                          "current_timeout current_lost_timeout status_timeout")
+
+
+def validate_config(config):
+    """Raise ValueError naming the first inconsistent parameter of a ChargeConfig."""
+    if not 0 <= config.low_level < config.full_level <= 100:
+        raise ValueError("need 0 <= low_level < full_level <= 100, got %s and %s"
+                         % (config.low_level, config.full_level))
+    if config.retries < 0 or int(config.retries) != config.retries:
+        raise ValueError("retries must be a whole number >= 0, got %s" % (config.retries,))
+    for name in ("pause_timeout", "relay_timeout", "current_timeout", "current_lost_timeout", "status_timeout"):
+        if not getattr(config, name) > 0:
+            raise ValueError("%s must be positive, got %s" % (name, getattr(config, name)))
+    return config
+
+
+class ChargePorts(object):
+    """What the machine asks of the outside world; the node implements it, tests record it."""
+
+    def task(self, token, cmd):
+        """Send task_control ``cmd`` (pause|resume) with data "charge"; answer with
+        ``on_task_reply(token, ok, data)``, ok None when task_manager is not running."""
+        raise NotImplementedError
+
+    def goal(self, token, pose, precision, backward):
+        """Send a move_action goal to ``pose`` (x, y, yaw); answer ``on_move_result(token, ok, reason)``."""
+        raise NotImplementedError
+
+    def cancel_goal(self):
+        raise NotImplementedError
+
+    def relay(self, closed):
+        """control_cmd enable_charge (True) or disable_charge (False)."""
+        raise NotImplementedError
+
+    def alarm(self, reason, clips):
+        """Report a failure that retries did not cure: alarm topic and voice prompt ``clips``."""
+        raise NotImplementedError
+
+    def speak(self, clips):
+        raise NotImplementedError
+
+    def warn(self, text):
+        """A throttled log warning (recoverable trouble, e.g. a retry or a missing task_manager)."""
+        raise NotImplementedError
+
+    def status(self, status):
+        """Publish the status dict (called only when it changed)."""
+        raise NotImplementedError
+
+
+class ChargeMachine(object):
+    def __init__(self, config, dock, ports, clock):
+        self._config = validate_config(config)
+        self._dock = dock
+        self._ports = ports
+        self._clock = clock
+        self.state = IDLE
+        self.trigger = ""
+        self.alarm = ""
+        self.waiting = ""
+        self._entered = clock()
+        self._battery = None
+        self._battery_time = None
+        self._task_state = None
+        self._token = 0
+        self._awaiting = None      # "task" or "goal" while a request with self._token is out
+        self._pause_acked = False
+        self._task_paused = False  # a charge hold is (or may be) in place on task_manager
+        self._after_backoff = RESUMING
+        self._attempts = {}
+        self._auto = True          # dock by itself on low battery (off after a manual undock)
+        self._charging_seen = self._entered
+        self._last_status = None
+        self._publish_status()
+
+    # --- inputs ---------------------------------------------------------------------------------
+    def on_battery(self, battery):
+        self._battery = battery
+        self._battery_time = self._clock()
+        self._step()
+
+    def on_task_status(self, state):
+        self._task_state = state
+        self._step()
+
+    def on_task_reply(self, token, ok, data):
+        if token != self._token or self._awaiting != "task":
+            return
+        self._awaiting = None
+        if self.state == PAUSING:
+            if ok is None:
+                self._ports.warn("task_manager not reachable (%s): charging without pausing a patrol" % (data,))
+                self._go_after_pause()
+            elif ok:
+                self._pause_acked = self._task_paused = True
+                self._step()
+            else:
+                self._fail("pause", "refused: %s" % (data,))
+        elif self.state == RESUMING:
+            if ok is None:
+                self._ports.warn("task_manager not reachable (%s): nothing to resume" % (data,))
+                self._finish()
+            elif ok:
+                self._finish()
+            else:
+                self._fail("resume", "refused: %s" % (data,))
+
+    def on_move_result(self, token, ok, reason):
+        if token != self._token or self._awaiting != "goal" or self.state not in DRIVE_STATES:
+            return
+        self._awaiting = None
+        if ok:
+            if self.state == TO_APPROACH:
+                self._drive(DOCKING)
+            elif self.state == DOCKING:
+                self._ports.relay(True)
+                self._enter(RELAY_ON)
+            else:
+                self._after_backoff_done()
+            return
+        if not self._in_task_mode():
+            # move_base gave the goal up because someone else holds the robot: not a dock fault;
+            # _step sends it again once robot_control is back in task mode
+            self._step()
+            return
+        kind = {TO_APPROACH: "approach", DOCKING: "dock", BACKING_OFF: "backoff"}[self.state]
+        self._fail(kind, reason)
+
+    def tick(self):
+        self._step()
+
+    # --- commands (charge_cmd / charge_control) ---------------------------------------------------
+    def command_table(self):
+        return CommandTable({"dock": no_data(self._cmd_dock), "undock": no_data(self._cmd_undock),
+                             "status": no_data(lambda _data: json.dumps(self.status(), sort_keys=True))})
+
+    def _cmd_dock(self, _data):
+        if self.state not in (IDLE, FAILED):
+            raise CommandError("busy: charge cycle already running (%s)" % (self.state,))
+        self._start(TRIGGER_MANUAL)
+        return "docking started"
+
+    def _cmd_undock(self, _data):
+        if self.state in (BACKING_OFF, RESUMING) or (self.state == RELAY_OFF and self._after_backoff == RESUMING):
+            return "already undocking (%s)" % (self.state,)
+        if self.state == IDLE:
+            if not self._near_dock():
+                raise CommandError("not at the dock")
+            self.trigger = TRIGGER_MANUAL
+        if self.state in (TO_APPROACH, DOCKING):
+            self._ports.cancel_goal()
+        self.alarm = ""
+        self._after_backoff = RESUMING
+        # the operator chose to leave: no automatic docking until the battery is above low_level again
+        self._auto = False
+        if self.state == PAUSING:
+            self._resume()
+        else:
+            self._ports.relay(False)
+            self._enter(RELAY_OFF)
+        return "undocking"
+
+    # --- status -----------------------------------------------------------------------------------
+    def status(self):
+        battery = self._battery
+        return {
+            "state": self.state,
+            "trigger": self.trigger,
+            "battery": battery.quantity if battery else None,
+            "charging": bool(battery and battery.charging),
+            "relay": bool(battery and battery.relay),
+            "docked": bool(battery and battery.pose and is_docked(self._dock, battery.pose)),
+            "waiting": self.waiting,
+            "alarm": self.alarm,
+            "task_paused": self._task_paused,
+            "auto": self._auto,
+            "attempts": dict(self._attempts),
+            "low_level": self._config.low_level,
+            "full_level": self._config.full_level,
+        }
+
+    def _publish_status(self):
+        status = self.status()
+        if status != self._last_status:
+            self._last_status = status
+            self._ports.status(status)
+
+    # --- the sequence -----------------------------------------------------------------------------
+    def _start(self, trigger):
+        self.trigger = trigger
+        self.alarm = ""
+        self._attempts = {}
+        self._after_backoff = DOCKING
+        clips = [VOICE_GOING_TO_DOCK] if trigger == TRIGGER_MANUAL else [VOICE_LOW_BATTERY, VOICE_GOING_TO_DOCK]
+        self._ports.speak(clips)
+        self._pause()
+
+    def _pause(self):
+        self._pause_acked = False
+        self._enter(PAUSING)
+        self._request_task("pause")
+
+    def _resume(self):
+        self._enter(RESUMING)
+        self._request_task("resume")
+
+    def _go_after_pause(self):
+        if self._near_dock():
+            self._after_backoff = DOCKING
+            self._drive(BACKING_OFF)  # standing on the dock: leave it straight before lining up again
+        else:
+            self._drive(TO_APPROACH)
+
+    def _after_backoff_done(self):
+        if self._after_backoff == DOCKING:
+            self._drive(DOCKING)
+        else:
+            self._resume()
+
+    def _finish(self):
+        self._task_paused = False
+        self._enter(IDLE)
+
+    def _step(self):
+        """Re-evaluate the current state against the latest inputs and the clock."""
+        now = self._clock()
+        elapsed = now - self._entered
+        battery = self._fresh_battery(now)
+        self.waiting = ""
+        state = self.state
+        if battery and battery.quantity > self._config.low_level:
+            self._auto = True
+        if state == IDLE:
+            if battery and battery.quantity <= self._config.low_level and not battery.charging:
+                if self._auto:
+                    self._start(TRIGGER_LOW_BATTERY)
+                    return
+                self.waiting = "battery low, automatic docking off after a manual undock (send dock)"
+        elif state == PAUSING:
+            if self._pause_acked and self._task_state in TASK_QUIET_STATES + (None,):
+                self._go_after_pause()
+                return
+            if elapsed > self._config.pause_timeout:
+                self._fail("pause", "task_status still '%s' %.0f s after pause" % (self._task_state, elapsed))
+                return
+            self.waiting = "task_manager finishing its current preset (%s)" % (self._task_state,)
+        elif state == RESUMING:
+            if elapsed > self._config.pause_timeout:
+                self._fail("resume", "no reply %.0f s after resume" % (elapsed,))
+                return
+        elif state in DRIVE_STATES:
+            if self._awaiting is None and self._in_task_mode():
+                self._send_goal()
+            elif not self._in_task_mode():
+                self.waiting = "robot_control in %s mode: waiting for task mode" % (self._mode_name(),)
+        elif state == RELAY_ON:
+            if battery and battery.relay:
+                self._enter(WAIT_CURRENT)
+                return
+            if elapsed > self._config.relay_timeout:
+                self._fail("relay_on", "light_status b0 not set %.0f s after enable_charge" % (elapsed,))
+                return
+        elif state == WAIT_CURRENT:
+            if battery and battery.charging:
+                self._enter(CHARGING)
+                return
+            if elapsed > self._config.current_timeout:
+                self._fail("current", "battery_status b4 not set %.0f s after the relay closed" % (elapsed,))
+                return
+        elif state == CHARGING:
+            self._step_charging(now, battery)
+            return
+        elif state == RELAY_OFF:
+            if battery and not battery.relay:
+                if self._near_dock():
+                    self._drive(BACKING_OFF)
+                elif self._after_backoff == DOCKING:
+                    self._drive(TO_APPROACH)
+                else:
+                    self._resume()
+                return
+            if elapsed > self._config.relay_timeout:
+                self._fail("relay_off", "light_status b0 still set %.0f s after disable_charge" % (elapsed,))
+                return
+        if state in (RELAY_ON, WAIT_CURRENT, RELAY_OFF, CHARGING) and battery is None:
+            self.waiting = "no robot_status for %.0f s" % (self._config.status_timeout,)
+        self._publish_status()
+
+    def _step_charging(self, now, battery):
+        if battery is None:
+            self.waiting = "no robot_status for %.0f s" % (self._config.status_timeout,)
+        elif battery.charging:
+            self._charging_seen = now
+            if battery.quantity >= self._config.full_level:
+                self._ports.speak([VOICE_CHARGED])
+                self._after_backoff = RESUMING
+                self._ports.relay(False)
+                self._enter(RELAY_OFF)
+                return
+        elif now - self._charging_seen > self._config.current_lost_timeout:
+            self._fail("current", "battery_status b4 cleared for %.0f s while charging at %d %%"
+                       % (now - self._charging_seen, battery.quantity))
+            return
+        self._publish_status()
+
+    def _fail(self, kind, detail):
+        clip, text = FAILURES[kind]
+        reason = text % (detail,)
+        count = self._attempts.get(kind, 0) + 1
+        self._attempts[kind] = count
+        if count <= self._config.retries:
+            self._ports.warn("%s; retry %d of %d" % (reason, count, self._config.retries))
+            self._retry(kind)
+            return
+        if kind in ("relay_on", "current", "relay_off"):
+            self._ports.relay(False)  # never leave the contacts live after giving up
+        self.alarm = reason
+        self._enter(FAILED)
+        self._ports.alarm(reason, [VOICE_ALARM, clip])
+
+    def _retry(self, kind):
+        if kind == "pause":
+            self._pause()
+        elif kind in ("approach", "dock"):
+            self._drive(TO_APPROACH)  # line up again before the precise approach
+        elif kind == "relay_on":
+            self._ports.relay(True)
+            self._enter(RELAY_ON)
+        elif kind == "current":
+            # contacts misaligned or dirty: open the relay, back off and dock again
+            self._after_backoff = DOCKING
+            self._ports.relay(False)
+            self._enter(RELAY_OFF)
+        elif kind == "relay_off":
+            self._ports.relay(False)
+            self._enter(RELAY_OFF)
+        elif kind == "backoff":
+            self._drive(BACKING_OFF)
+        else:
+            self._resume()
+
+    # --- helpers ----------------------------------------------------------------------------------
+    def _enter(self, state):
+        self.state = state
+        self._entered = self._clock()
+        self._charging_seen = self._entered
+        self._awaiting = None
+        self._token += 1  # late replies to anything sent before are ignored
+        self._step()
+
+    def _drive(self, state):
+        self._enter(state)  # _step sends the goal as soon as the robot is in task mode
+
+    def _send_goal(self):
+        dock = self._dock
+        if self.state == TO_APPROACH:
+            target, precision, backward = dock.approach, False, False
+        elif self.state == DOCKING:
+            target, precision, backward = dock.pose, True, False
+        else:
+            target, precision, backward = dock.approach, False, True
+        self._token += 1
+        self._awaiting = "goal"
+        self._ports.goal(self._token, target, precision, backward)
+
+    def _request_task(self, cmd):
+        self._token += 1
+        self._awaiting = "task"
+        self._ports.task(self._token, cmd)
+
+    def _fresh_battery(self, now):
+        if self._battery is None or now - self._battery_time > self._config.status_timeout:
+            return None
+        return self._battery
+
+    def _in_task_mode(self):
+        return self._battery is not None and self._battery.mode == MODE_TASK
+
+    def _mode_name(self):
+        return MODE_NAMES.get(self._battery.mode, "unknown") if self._battery else "unknown (no robot_status)"
+
+    def _near_dock(self):
+        battery = self._battery
+        return bool(battery and battery.pose and near_dock(self._dock, battery.pose))

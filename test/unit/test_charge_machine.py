@@ -1,0 +1,352 @@
+"""charge_control's state machine on a fake clock: the full cycle, mode waits, retries, alarms, commands."""
+import json
+
+import pytest
+
+from inspection_robot.charge import machine as m
+from inspection_robot.charge.dock import parse_dock
+from inspection_robot.interface import MODE_SERVER, MODE_TASK
+from inspection_robot.voice.phrases import BUILTIN_PHRASES
+
+DOCK = parse_dock({"pose": [2.2, 5.0, 3.1416], "approach_pose": [3.7, 5.0, 3.1416]})
+AWAY = (10.0, 5.0, 0.0)
+CONFIG = m.ChargeConfig(low_level=20, full_level=80, retries=1, pause_timeout=30.0, relay_timeout=3.0,
+                        current_timeout=5.0, current_lost_timeout=5.0, status_timeout=3.0)
+
+
+class FakeClock(object):
+    def __init__(self):
+        self.now = 100.0
+
+    def __call__(self):
+        return self.now
+
+
+class Ports(m.ChargePorts):
+    """Records every request; the test answers them."""
+
+    def __init__(self):
+        self.calls = []
+        self.statuses = []
+        self.alarms = []
+        self.spoken = []
+        self.warnings = []
+
+    def task(self, token, cmd):
+        self.calls.append(("task", token, cmd))
+
+    def goal(self, token, pose, precision, backward):
+        self.calls.append(("goal", token, pose, precision, backward))
+
+    def cancel_goal(self):
+        self.calls.append(("cancel",))
+
+    def relay(self, closed):
+        self.calls.append(("relay", closed))
+
+    def alarm(self, reason, clips):
+        self.alarms.append((reason, clips))
+
+    def speak(self, clips):
+        self.spoken.append(clips)
+
+    def warn(self, text):
+        self.warnings.append(text)
+
+    def status(self, status):
+        self.statuses.append(status)
+
+    def last(self, kind):
+        return [c for c in self.calls if c[0] == kind][-1]
+
+
+class Rig(object):
+    def __init__(self, config=CONFIG):
+        self.clock = FakeClock()
+        self.ports = Ports()
+        self.machine = m.ChargeMachine(config, DOCK, self.ports, self.clock)
+        self.quantity, self.charging, self.relay, self.mode, self.pose = 50, False, False, MODE_TASK, AWAY
+
+    def battery(self, **changes):
+        for key, value in changes.items():
+            setattr(self, key, value)
+        self.machine.on_battery(m.Battery(self.quantity, self.charging, self.relay, self.mode, self.pose))
+
+    def advance(self, seconds, silent=False):
+        """Let time pass; robot_status keeps coming (10 Hz on the robot) unless ``silent``."""
+        self.clock.now += seconds
+        if silent:
+            self.machine.tick()
+        else:
+            self.battery()
+
+    def reply_task(self, ok=True, data="", cmd=None):
+        call = self.ports.last("task")
+        if cmd is not None:
+            assert call[2] == cmd
+        self.machine.on_task_reply(call[1], ok, data)
+
+    def finish_goal(self, ok=True, reason="", arrive=True):
+        call = self.ports.last("goal")
+        if ok and arrive:
+            self.pose = call[2]
+        self.machine.on_move_result(call[1], ok, reason)
+        return call
+
+    @property
+    def state(self):
+        return self.machine.state
+
+    def dock_and_charge(self):
+        """Low battery -> paused -> approach -> dock -> relay on -> charging."""
+        self.battery(quantity=19)
+        assert self.state == m.PAUSING and self.ports.last("task")[2] == "pause"
+        self.machine.on_task_status("running")
+        self.reply_task(True)
+        assert self.state == m.PAUSING, "waits until the patrol has finished its preset"
+        self.machine.on_task_status("paused")
+        assert self.state == m.TO_APPROACH
+        goal = self.finish_goal()
+        assert goal[2:] == (DOCK.approach, False, False)
+        assert self.state == m.DOCKING
+        goal = self.finish_goal()
+        assert goal[2:] == (DOCK.pose, True, False)
+        assert self.state == m.RELAY_ON and self.ports.last("relay") == ("relay", True)
+        self.battery(relay=True)
+        assert self.state == m.WAIT_CURRENT
+        self.battery(charging=True)
+        assert self.state == m.CHARGING
+
+
+def test_full_cycle_low_battery_to_resume():
+    rig = Rig()
+    rig.battery()
+    assert rig.state == m.IDLE and not rig.ports.calls
+    rig.dock_and_charge()
+    assert rig.ports.spoken[0] == [m.VOICE_LOW_BATTERY, m.VOICE_GOING_TO_DOCK]
+    assert rig.machine.status()["docked"] and rig.machine.status()["task_paused"]
+    rig.battery(quantity=79)
+    assert rig.state == m.CHARGING
+    rig.battery(quantity=80)
+    assert rig.state == m.RELAY_OFF and rig.ports.last("relay") == ("relay", False)
+    rig.battery(relay=False, charging=False)
+    assert rig.state == m.BACKING_OFF
+    goal = rig.finish_goal()
+    assert goal[2:] == (DOCK.approach, False, True), "backs off backward to the approach pose"
+    assert rig.state == m.RESUMING and rig.ports.last("task")[2] == "resume"
+    rig.reply_task(True)
+    assert rig.state == m.IDLE and not rig.machine.status()["task_paused"]
+    assert not rig.ports.alarms
+    assert [s["state"] for s in rig.ports.statuses if s["state"] != rig.ports.statuses[0]["state"]][:1] == [m.PAUSING]
+
+
+def test_without_task_manager_it_still_charges_and_warns():
+    rig = Rig()
+    rig.battery(quantity=10)
+    rig.reply_task(None, "no task_control service")
+    assert rig.state == m.TO_APPROACH and "not reachable" in rig.ports.warnings[0]
+    rig.finish_goal()
+    rig.finish_goal()
+    rig.battery(relay=True)
+    rig.battery(charging=True, quantity=80)
+    rig.battery(relay=False)
+    rig.finish_goal()
+    rig.reply_task(None, "no task_control service", cmd="resume")
+    assert rig.state == m.IDLE and not rig.ports.alarms
+
+
+def test_waits_for_task_mode_before_driving_and_after_move_base_gives_up():
+    rig = Rig()
+    rig.battery(quantity=15, mode=MODE_SERVER)
+    rig.reply_task(True)
+    rig.machine.on_task_status("idle")
+    assert rig.state == m.TO_APPROACH and not [c for c in rig.ports.calls if c[0] == "goal"]
+    assert "server mode" in rig.machine.status()["waiting"]
+    rig.battery(mode=MODE_TASK)
+    rig.finish_goal()
+    assert rig.state == m.DOCKING
+    rig.battery(mode=MODE_SERVER)
+    rig.finish_goal(False, "robot_control in server mode (1) for 60.0 s: goal given up")
+    assert rig.state == m.DOCKING and not rig.machine.status()["attempts"], "a take-over is not a dock fault"
+    goals = len([c for c in rig.ports.calls if c[0] == "goal"])
+    rig.battery(mode=MODE_TASK)
+    assert len([c for c in rig.ports.calls if c[0] == "goal"]) == goals + 1
+
+
+def test_dock_unreachable_retried_then_alarm_and_voice():
+    rig = Rig()
+    rig.battery(quantity=15)
+    rig.reply_task(True)
+    rig.machine.on_task_status("paused")
+    rig.finish_goal(False, "no path to the goal")
+    assert rig.state == m.TO_APPROACH and "retry 1 of 1" in rig.ports.warnings[-1]
+    rig.finish_goal(False, "no path to the goal")
+    assert rig.state == m.FAILED
+    reason, clips = rig.ports.alarms[-1]
+    assert reason == "dock unreachable: approach goal failed: no path to the goal"
+    assert clips == [m.VOICE_ALARM, "charge_dock_unreachable"]
+    status = rig.machine.status()
+    assert status["alarm"] == reason and status["task_paused"], "the patrol stays paused"
+    rig.advance(1000.0)
+    rig.battery(quantity=5)
+    assert rig.state == m.FAILED and len(rig.ports.alarms) == 1, "no new cycle, no alarm flood"
+
+
+def test_relay_not_confirmed_retried_then_alarm_and_relay_opened():
+    rig = Rig()
+    rig.battery(quantity=15)
+    rig.reply_task(True)
+    rig.machine.on_task_status("idle")
+    rig.finish_goal()
+    rig.finish_goal()
+    rig.advance(3.5)
+    assert rig.state == m.RELAY_ON and rig.ports.last("relay") == ("relay", True)
+    rig.advance(3.5)
+    assert rig.state == m.FAILED and rig.ports.last("relay") == ("relay", False)
+    assert rig.ports.alarms[-1][0].startswith("relay not confirmed: light_status b0 not set")
+    assert rig.ports.alarms[-1][1][1] == "charge_relay_not_confirmed"
+
+
+def test_no_charging_current_redocks_then_alarms():
+    rig = Rig()
+    rig.battery(quantity=15)
+    rig.reply_task(True)
+    rig.machine.on_task_status("idle")
+    rig.finish_goal()
+    rig.finish_goal()
+    rig.battery(relay=True)
+    rig.advance(5.5)
+    assert rig.state == m.RELAY_OFF and rig.ports.last("relay") == ("relay", False)
+    rig.battery(relay=False)
+    assert rig.state == m.BACKING_OFF
+    rig.finish_goal()
+    assert rig.state == m.DOCKING, "after the back-off it docks again"
+    rig.finish_goal()
+    rig.battery(relay=True)
+    rig.advance(5.5)
+    assert rig.state == m.FAILED
+    assert rig.ports.alarms[-1][0].startswith("no charging current: battery_status b4 not set")
+
+
+def test_charging_lost_while_charging():
+    rig = Rig()
+    rig.dock_and_charge()
+    rig.battery(charging=False)
+    rig.advance(5.5)
+    assert rig.state == m.RELAY_OFF, "first loss: retried by docking again"
+
+
+def test_pause_timeout_and_refusal():
+    rig = Rig()
+    rig.battery(quantity=15)
+    rig.reply_task(False, "unknown command 'pause'")
+    assert rig.state == m.PAUSING and len([c for c in rig.ports.calls if c[0] == "task"]) == 2
+    rig.machine.on_task_status("running")
+    rig.reply_task(True)
+    rig.advance(31.0)
+    assert rig.state == m.FAILED
+    assert rig.ports.alarms[-1][0] == "task_manager did not pause: task_status still 'running' 31 s after pause"
+
+
+def test_late_replies_are_ignored():
+    rig = Rig()
+    rig.battery(quantity=15)
+    stale = rig.ports.last("task")
+    rig.reply_task(False, "refused")
+    rig.machine.on_task_reply(stale[1], True, "")
+    assert rig.state == m.PAUSING and not rig.machine._pause_acked
+
+
+def test_manual_dock_and_undock_commands():
+    rig = Rig()
+    rig.battery(quantity=60)
+    table = rig.machine.command_table()
+    assert table.dispatch("dock", "now") == ("failed", "this command takes no data, got 'now'")
+    assert table.dispatch("undock", "") == ("failed", "not at the dock")
+    assert table.dispatch("dock", "") == ("success", "docking started")
+    assert rig.machine.trigger == m.TRIGGER_MANUAL and rig.ports.spoken[-1] == [m.VOICE_GOING_TO_DOCK]
+    assert table.dispatch("dock", "").data == "busy: charge cycle already running (pausing_task)"
+    rig.reply_task(True)
+    rig.machine.on_task_status("idle")
+    rig.finish_goal()
+    rig.finish_goal()
+    rig.battery(relay=True, charging=True)
+    assert rig.state == m.CHARGING
+    assert table.dispatch("undock", "") == ("success", "undocking")
+    assert rig.state == m.RELAY_OFF and rig.ports.last("relay") == ("relay", False)
+    rig.battery(relay=False, charging=False)
+    assert rig.finish_goal()[4] is True
+    rig.reply_task(True, cmd="resume")
+    assert rig.state == m.IDLE
+    status = json.loads(table.dispatch("status", "").data)
+    assert status["state"] == "idle" and status["battery"] == 60 and status["auto"]
+    assert table.dispatch("charge", "").data == "unknown command 'charge'"
+
+
+def test_undock_below_low_level_turns_automatic_docking_off():
+    rig = Rig()
+    rig.dock_and_charge()
+    rig.machine.command_table().dispatch("undock", "")
+    rig.battery(relay=False, charging=False)
+    rig.finish_goal()
+    rig.reply_task(True)
+    rig.battery(quantity=18)
+    assert rig.state == m.IDLE and "automatic docking off" in rig.machine.status()["waiting"]
+    rig.battery(quantity=25)
+    rig.battery(quantity=19)
+    assert rig.state == m.PAUSING, "back on once the battery was above low_level"
+
+
+def test_undock_while_driving_cancels_and_resumes():
+    rig = Rig()
+    rig.battery(quantity=15)
+    rig.reply_task(True)
+    rig.machine.on_task_status("paused")
+    assert rig.state == m.TO_APPROACH
+    rig.machine.command_table().dispatch("undock", "")
+    assert ("cancel",) in rig.ports.calls
+    rig.finish_goal(False, "cancelled")  # the cancelled goal's late result
+    assert rig.state == m.RESUMING
+    rig.reply_task(True)
+    assert rig.state == m.IDLE
+
+
+def test_dock_after_failure_starts_over_from_the_dock():
+    rig = Rig()
+    rig.battery(quantity=15)
+    rig.reply_task(True)
+    rig.machine.on_task_status("idle")
+    rig.finish_goal()
+    rig.finish_goal()
+    rig.advance(3.5)
+    rig.advance(3.5)
+    assert rig.state == m.FAILED
+    rig.machine.command_table().dispatch("dock", "")
+    assert rig.machine.status()["alarm"] == "" and rig.machine.status()["attempts"] == {}
+    rig.reply_task(True)
+    assert rig.state == m.BACKING_OFF, "standing on the dock: back off before lining up"
+
+
+def test_silent_robot_status_is_reported_while_at_the_dock():
+    rig = Rig()
+    rig.battery(quantity=15)
+    rig.reply_task(True)
+    rig.machine.on_task_status("idle")
+    rig.finish_goal()
+    rig.finish_goal()
+    rig.advance(3.5, silent=True)  # no robot_status since docking: the relay cannot be confirmed
+    assert rig.state == m.RELAY_ON
+    assert rig.machine.status()["waiting"] == "no robot_status for 3 s"
+
+
+def test_config_validation():
+    with pytest.raises(ValueError, match="low_level < full_level"):
+        m.validate_config(CONFIG._replace(low_level=90))
+    with pytest.raises(ValueError, match="retries"):
+        m.validate_config(CONFIG._replace(retries=-1))
+    with pytest.raises(ValueError, match="relay_timeout"):
+        m.validate_config(CONFIG._replace(relay_timeout=0))
+
+
+def test_every_voice_clip_has_a_builtin_phrase():
+    assert set(m.VOICE_CLIPS) <= set(BUILTIN_PHRASES)
