@@ -137,7 +137,10 @@ def test_full_cycle_low_battery_to_resume():
     rig.reply_task(True)
     assert rig.state == m.IDLE and not rig.machine.status()["task_paused"]
     assert not rig.ports.alarms
-    assert [s["state"] for s in rig.ports.statuses if s["state"] != rig.ports.statuses[0]["state"]][:1] == [m.PAUSING]
+    states = [s["state"] for s in rig.ports.statuses]
+    assert [st for i, st in enumerate(states) if i == 0 or states[i - 1] != st] == [
+        m.IDLE, m.PAUSING, m.TO_APPROACH, m.DOCKING, m.RELAY_ON, m.WAIT_CURRENT, m.CHARGING, m.RELAY_OFF,
+        m.BACKING_OFF, m.RESUMING, m.IDLE]
 
 
 def test_without_task_manager_it_still_charges_and_warns():

@@ -417,6 +417,8 @@ class ChargeMachine(object):
         self._charging_seen = self._entered
         self._awaiting = None
         self._token += 1  # late replies to anything sent before are ignored
+        self.waiting = ""
+        self._publish_status()  # every state shows, even one the next input leaves at once
         self._step()
 
     def _drive(self, state):

@@ -1,0 +1,240 @@
+"""charge_control: docks and charges the robot when its battery runs low (docs/interface.md, "Charging").
+
+The docking sequence, thresholds and retries are charge.machine.ChargeMachine; this node only
+wires it. Every input (robot_status, task_status, move_action results, task_control replies,
+a timer tick) becomes an event handled in order on one worker thread; commands take the same lock.
+
+Subscribes:  robot_status (RobotStatus): battery_quantity, battery_status b4 (charging),
+                 light_status b0 (relay), mode, position/orientation
+             task_status (GeneralTopic, JSON {"state": ...}): task_manager's latched status
+Publishes:   charge_status (GeneralTopic, latched): JSON status, on every change
+             charge_ack (GeneralAck): replies to charge_cmd, and an unprompted `failed` ack per alarm
+             control_cmd (GeneralCmd): enable_charge / disable_charge (sender charge_control)
+             voice_cmd (VoiceCmd): prompts and alarms (clips with built-in phrases)
+Services:    charge_control (ControlService): twin of charge_cmd/charge_ack: dock, undock, status
+Clients:     move_action (GeneralAction) to the dock; task_control (ControlService) pause/resume "charge"
+Parameters:  ~low_level (%, 25), ~full_level (%, 90), ~retries (2), ~pause_timeout (s, 300),
+             ~relay_timeout (s, 5), ~current_timeout (s, 10), ~current_lost_timeout (s, 10),
+             ~status_timeout (s, 3): robot_status older than this is not trusted
+             ~dock ({pose, approach_pose, tolerance_m, tolerance_yaw}); in simulation the launch
+                 loads config/sim_world.yaml into ~sim_world and world.dock is used instead
+             ~approach_velocity_x (m/s, 0.5), ~dock_velocity_x (m/s, 0.2), ~velocity_yaw (rad/s, 0.5)
+             ~task_service ("task_control"), ~task_service_timeout (s, 2.0), ~rate (Hz, 5.0)
+             ~voice_language ("chinese")
+"""
+import itertools
+import json
+import threading
+
+import actionlib
+import rospy
+from actionlib_msgs.msg import GoalStatus
+
+from inspection_robot.charge.dock import parse_dock
+from inspection_robot.charge.machine import Battery, ChargeConfig, ChargeMachine, ChargePorts
+from inspection_robot.command import failed
+from inspection_robot.interface import (ACK_SUCCESS, BATTERY_CHARGING, LIGHT_CHARGE_RELAY, MOVE_GOAL_TYPE,
+                                        MOVE_RESULT_SUCCESS, VOICE_LANGUAGES)
+from inspection_robot.msg import GeneralAction, GeneralCmd, GeneralGoal, GeneralTopic, RobotStatus, VoiceCmd
+from inspection_robot.nav.goal import move_goal_data
+from inspection_robot.ros.twin import CommandTwin
+from inspection_robot.ros.worker import RequestWorker
+from inspection_robot.srv import ControlService
+
+NODE_NAME = "charge_control"
+EVENT_QUEUE = 1000
+
+
+class _LockedTable(object):
+    """The machine's command table, dispatched under the node's lock (commands arrive on other threads)."""
+
+    def __init__(self, table, lock):
+        self._table = table
+        self._lock = lock
+
+    def dispatch(self, cmd, data):
+        with self._lock:
+            return self._table.dispatch(cmd, data)
+
+
+class RosPorts(ChargePorts):
+    """ChargePorts over ROS. Replies come back as events; nothing here calls the machine."""
+
+    def __init__(self, events, task_service, task_timeout, speeds, language):
+        self._events = events
+        self._speeds = speeds  # (approach velocity_x, dock velocity_x, velocity_yaw)
+        self._language = language
+        self._task_timeout = task_timeout
+        self._trans_ids = itertools.count(1)
+        self._task_proxy = rospy.ServiceProxy(task_service, ControlService)
+        self._task_service = task_service
+        self._task_worker = RequestWorker(NODE_NAME + ": task_control", self._call_task, self._refuse_task, 10)
+        self._move = actionlib.SimpleActionClient("move_action", GeneralAction)
+        self._control = rospy.Publisher("control_cmd", GeneralCmd, queue_size=10)
+        self._voice = rospy.Publisher("voice_cmd", VoiceCmd, queue_size=10)
+        self._status = rospy.Publisher("charge_status", GeneralTopic, queue_size=10, latch=True)
+        self.twin = None  # set once the command twin exists (alarms go out on its ack topic)
+        self._last_state = None
+
+    # task_control -------------------------------------------------------------------------------
+    def task(self, token, cmd):
+        self._task_worker.submit((token, cmd))
+
+    def _call_task(self, request):
+        token, cmd = request
+        try:
+            self._task_proxy.wait_for_service(self._task_timeout)
+            reply = self._task_proxy(sender=NODE_NAME, cmd=cmd, data="charge", trans_id=next(self._trans_ids))
+        except (rospy.ROSException, rospy.ServiceException) as err:
+            self._events.submit(("task", token, None, "%s: %s" % (self._task_service, err)))
+            return
+        self._events.submit(("task", token, reply.ack == ACK_SUCCESS, reply.data))
+
+    def _refuse_task(self, request):
+        self._events.submit(("task", request[0], None, "task_control queue full"))
+
+    # move_action --------------------------------------------------------------------------------
+    def goal(self, token, pose, precision, backward):
+        if not self._move.wait_for_server(rospy.Duration(0.05)):
+            self._events.submit(("move", token, False, "move_action server not available"))
+            return
+        approach_speed, dock_speed, yaw_speed = self._speeds
+        data = move_goal_data(pose[0], pose[1], pose[2], precision=precision, backward=backward,
+                              velocity_x=dock_speed if precision or backward else approach_speed,
+                              velocity_yaw=yaw_speed)
+        goal = GeneralGoal(sender=NODE_NAME, type=MOVE_GOAL_TYPE, data=data, trans_id=next(self._trans_ids))
+        self._move.send_goal(goal, done_cb=lambda state, result: self._on_move_done(token, state, result))
+
+    def _on_move_done(self, token, state, result):
+        if result is None:
+            self._events.submit(("move", token, False, "no result (%s)" % (GoalStatus.to_string(state),)))
+            return
+        ok = result.ret_code == MOVE_RESULT_SUCCESS and state == GoalStatus.SUCCEEDED
+        try:
+            reason = json.loads(result.data).get("reason", "")
+        except (ValueError, AttributeError):
+            reason = result.data
+        self._events.submit(("move", token, ok, "ret_code %s: %s" % (result.ret_code, reason)))
+
+    def cancel_goal(self):
+        self._move.cancel_all_goals()
+
+    # relay, voice, alarm, status ----------------------------------------------------------------
+    def relay(self, closed):
+        cmd = "enable_charge" if closed else "disable_charge"
+        rospy.loginfo("%s: control_cmd %s" % (NODE_NAME, cmd))
+        self._control.publish(GeneralCmd(sender=NODE_NAME, cmd=cmd, trans_id=next(self._trans_ids)))
+
+    def speak(self, clips):
+        msg = VoiceCmd(sender=NODE_NAME, language=self._language, data=list(clips), trans_id=next(self._trans_ids))
+        msg.header.stamp = rospy.Time.now()
+        self._voice.publish(msg)
+
+    def alarm(self, reason, clips):
+        rospy.logerr("%s: charge alarm: %s" % (NODE_NAME, reason))
+        if self.twin is not None:
+            self.twin.publish_ack(failed("charge alarm: " + reason))
+        self.speak(clips)
+
+    def warn(self, text):
+        rospy.logwarn_throttle_identical(10.0, "%s: %s" % (NODE_NAME, text))
+
+    def status(self, status):
+        if status["state"] != self._last_state:
+            rospy.loginfo("%s: %s -> %s (battery %s %%)" % (NODE_NAME, self._last_state, status["state"],
+                                                             status["battery"]))
+            self._last_state = status["state"]
+        msg = GeneralTopic(sender=NODE_NAME, data=json.dumps(status, sort_keys=True))
+        msg.header.stamp = rospy.Time.now()
+        self._status.publish(msg)
+
+
+class ChargeControl(object):
+    def __init__(self, config, dock, task_service, task_timeout, speeds, language, rate_hz):
+        self._lock = threading.Lock()
+        self._events = RequestWorker(NODE_NAME + ": events", self._handle, self._refuse, EVENT_QUEUE)
+        self._ports = RosPorts(self._events, task_service, task_timeout, speeds, language)
+        with self._lock:
+            self.machine = ChargeMachine(config, dock, self._ports, rospy.get_time)
+        self._twin = CommandTwin(_LockedTable(self.machine.command_table(), self._lock), NODE_NAME,
+                                 "charge_cmd", "charge_ack", NODE_NAME, busy_when_joystick=False)
+        self._ports.twin = self._twin
+        rospy.Subscriber("robot_status", RobotStatus, lambda msg: self._events.submit(("battery", msg)),
+                         queue_size=5)
+        rospy.Subscriber("task_status", GeneralTopic, lambda msg: self._events.submit(("task_status", msg)),
+                         queue_size=5)
+        self._timer = rospy.Timer(rospy.Duration(1.0 / rate_hz), lambda _event: self._events.submit(("tick",)))
+
+    def _handle(self, event):
+        kind = event[0]
+        with self._lock:
+            if kind == "battery":
+                self.machine.on_battery(_battery(event[1]))
+            elif kind == "task_status":
+                state = _task_state(event[1].data)
+                if state is not None:
+                    self.machine.on_task_status(state)
+            elif kind == "task":
+                self.machine.on_task_reply(*event[1:])
+            elif kind == "move":
+                self.machine.on_move_result(*event[1:])
+            else:
+                self.machine.tick()
+
+    def _refuse(self, event):
+        rospy.logerr_throttle(1.0, "%s: event queue full, dropped a %s event" % (NODE_NAME, event[0]))
+
+    def shutdown(self):
+        self._timer.shutdown()
+
+
+def _battery(msg):
+    pose = None
+    if len(msg.position) >= 2:
+        pose = (msg.position[0], msg.position[1], msg.orientation)
+    return Battery(msg.battery_quantity, bool(msg.battery_status & BATTERY_CHARGING),
+                   bool(msg.light_status & LIGHT_CHARGE_RELAY), msg.mode, pose)
+
+
+def _task_state(data):
+    try:
+        state = json.loads(data).get("state")
+    except (ValueError, AttributeError):
+        state = None
+    if not isinstance(state, str):
+        rospy.logwarn_throttle(10.0, "%s: task_status without a \"state\" string: %r" % (NODE_NAME, data[:80]))
+        return None
+    return state
+
+
+def main():
+    rospy.init_node(NODE_NAME)
+    config = ChargeConfig(
+        low_level=float(rospy.get_param("~low_level", 25.0)),
+        full_level=float(rospy.get_param("~full_level", 90.0)),
+        retries=int(rospy.get_param("~retries", 2)),
+        pause_timeout=float(rospy.get_param("~pause_timeout", 300.0)),
+        relay_timeout=float(rospy.get_param("~relay_timeout", 5.0)),
+        current_timeout=float(rospy.get_param("~current_timeout", 10.0)),
+        current_lost_timeout=float(rospy.get_param("~current_lost_timeout", 10.0)),
+        status_timeout=float(rospy.get_param("~status_timeout", 3.0)))
+    dock_spec = rospy.get_param("~sim_world/world/dock", None)
+    if dock_spec is None:
+        dock_spec = rospy.get_param("~dock", None)
+    dock = parse_dock(dock_spec)
+    speeds = (float(rospy.get_param("~approach_velocity_x", 0.5)), float(rospy.get_param("~dock_velocity_x", 0.2)),
+              float(rospy.get_param("~velocity_yaw", 0.5)))
+    if min(speeds) <= 0:
+        raise ValueError("~approach_velocity_x, ~dock_velocity_x and ~velocity_yaw must be positive")
+    language = str(rospy.get_param("~voice_language", "chinese"))
+    if language not in VOICE_LANGUAGES:
+        raise ValueError("~voice_language must be one of %s" % (VOICE_LANGUAGES,))
+    rate_hz = float(rospy.get_param("~rate", 5.0))
+    if rate_hz <= 0:
+        raise ValueError("~rate must be positive")
+    node = ChargeControl(config, dock, str(rospy.get_param("~task_service", "task_control")),
+                         float(rospy.get_param("~task_service_timeout", 2.0)), speeds, language, rate_hz)
+    rospy.on_shutdown(node.shutdown)
+    rospy.loginfo("%s: dock %s, charge below %.0f %% up to %.0f %%"
+                  % (NODE_NAME, dock.pose, config.low_level, config.full_level))
+    rospy.spin()
