@@ -91,6 +91,11 @@ class ChargeControlTest(unittest.TestCase):
         cls.status.wait(lambda m: json.loads(m.data)["state"] == "idle", 30.0, "charge_control idle")
         # the contract's late joiner: charge_control must have heard the latched task_status
         wait_for(lambda: cls.task_manager.pub.get_num_connections() > 0, 30.0, "task_status subscriber")
+        # start-up at 90 %: robot_status before robot_control's first control_status (zeros, flagged stale)
+        # must not start a charge cycle
+        cls.robot.wait(lambda m: m.battery_quantity >= 80, 30.0, "robot_status with the battery")
+        cls.startup_status = json.loads(cls.charge.call("status").data)
+        cls.startup_calls = list(cls.task_manager.calls)
 
     def setUp(self):
         self.sim_cmd("set_soc", "90")
@@ -130,12 +135,17 @@ class ChargeControlTest(unittest.TestCase):
         pos = self.robot.last.position
         return abs(pos[0] - point[0]) < tol and abs(pos[1] - point[1]) < tol
 
+    def test_0_no_cycle_at_start_up(self):
+        self.assertEqual((self.startup_status["trigger"], self.startup_status["state"]), ("", "idle"))
+        self.assertEqual(self.startup_calls, [])
+
     def test_1_low_battery_cycle_pauses_docks_charges_and_resumes(self):
         self.sim_cmd("set_soc", "38")  # below low_level 40
         self.wait_state("charging")
         self.assertIn(("pause", "charge"), self.task_manager.calls)
-        charging = self.robot.wait(lambda m: m.battery_status & BATTERY_CHARGING and m.light_status & LIGHT_CHARGE_RELAY,
-                                   10.0, "robot_status charging with the relay on")
+        charging = self.robot.wait(
+            lambda m: m.battery_status & BATTERY_CHARGING and m.light_status & LIGHT_CHARGE_RELAY, 10.0,
+            "robot_status charging with the relay on")
         self.assertTrue(self.pose_near(DOCK, 0.05), "charging on the dock: %s" % (charging.position,))
         self.wait_state("idle")
         self.assertEqual(self.task_manager.calls, [("pause", "charge"), ("resume", "charge")])
@@ -191,8 +201,8 @@ class ChargeControlTest(unittest.TestCase):
         try:
             self.assertEqual(self.charge.call("dock").ack, "success")
             failed = json.loads(self.wait_state("failed", 60.0).data)
-            self.assertTrue(failed["alarm"].startswith("dock unreachable: docking goal failed: ret_code 1: planning failed"),
-                            failed)
+            expected = "dock unreachable: docking goal failed: ret_code 1: planning failed"
+            self.assertTrue(failed["alarm"].startswith(expected), failed)
             self.assertEqual(failed["attempts"], {"dock": 2})
             self.voice.wait(lambda m: list(m.data) == ["charge_alarm", "charge_dock_unreachable"], 5.0, "voice alarm")
             self.assertNotIn("enable_charge", self.relay_commands())

@@ -1,11 +1,13 @@
 """charge_control's state machine on a fake clock: the full cycle, mode waits, retries, alarms, commands."""
 import json
+from collections import namedtuple
 
 import pytest
 
 from inspection_robot.charge import machine as m
 from inspection_robot.charge.dock import parse_dock
-from inspection_robot.interface import MODE_SERVER, MODE_TASK
+from inspection_robot.interface import BATTERY_CHARGING, LIGHT_CHARGE_RELAY, MODE_SERVER, MODE_TASK
+from inspection_robot.status.merge import STALE_CONTROL_STATUS, STALE_NAV_STATUS
 from inspection_robot.voice.phrases import BUILTIN_PHRASES
 
 DOCK = parse_dock({"pose": [2.2, 5.0, 3.1416], "approach_pose": [3.7, 5.0, 3.1416]})
@@ -353,3 +355,15 @@ def test_config_validation():
 
 def test_every_voice_clip_has_a_builtin_phrase():
     assert set(m.VOICE_CLIPS) <= set(BUILTIN_PHRASES)
+
+
+Status = namedtuple("Status", "other_status position orientation battery_quantity battery_status light_status mode")
+
+
+def test_battery_from_robot_status_ignores_stale_inputs():
+    fresh = Status([0], [3.0, 4.0], 1.0, 37, BATTERY_CHARGING, LIGHT_CHARGE_RELAY, MODE_SERVER)
+    assert m.battery_from_robot_status(fresh) == m.Battery(37, True, True, MODE_SERVER, (3.0, 4.0, 1.0))
+    # status_control before robot_control's first control_status: zeros, flagged stale
+    assert m.battery_from_robot_status(fresh._replace(other_status=[STALE_CONTROL_STATUS], battery_quantity=0)) is None
+    assert m.battery_from_robot_status(fresh._replace(other_status=[STALE_NAV_STATUS])).pose is None
+    assert m.battery_from_robot_status(fresh._replace(position=[])).pose is None

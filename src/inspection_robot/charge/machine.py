@@ -24,7 +24,8 @@ from collections import namedtuple
 
 from inspection_robot.charge.dock import is_docked, near_dock
 from inspection_robot.command import CommandError, CommandTable, no_data
-from inspection_robot.interface import MODE_NAMES, MODE_TASK
+from inspection_robot.interface import BATTERY_CHARGING, LIGHT_CHARGE_RELAY, MODE_NAMES, MODE_TASK
+from inspection_robot.status.merge import STALE_CONTROL_STATUS, STALE_NAV_STATUS
 
 IDLE = "idle"
 PAUSING = "pausing_task"
@@ -69,6 +70,20 @@ VOICE_CLIPS = (VOICE_ALARM, VOICE_LOW_BATTERY, VOICE_GOING_TO_DOCK, VOICE_CHARGE
 Battery = namedtuple("Battery", "quantity charging relay mode pose")
 ChargeConfig = namedtuple("ChargeConfig", "low_level full_level retries pause_timeout relay_timeout "
                                           "current_timeout current_lost_timeout status_timeout")
+
+
+def battery_from_robot_status(msg):
+    """The Battery a robot_status message reports, or None while its control_status input is stale
+    (status_control then repeats old values, or zeros before robot_control's first message).
+    The pose is None while nav_status is stale or has no position."""
+    other = msg.other_status[0] if len(msg.other_status) else 0
+    if other & STALE_CONTROL_STATUS:
+        return None
+    pose = None
+    if len(msg.position) >= 2 and not other & STALE_NAV_STATUS:
+        pose = (msg.position[0], msg.position[1], msg.orientation)
+    return Battery(msg.battery_quantity, bool(msg.battery_status & BATTERY_CHARGING),
+                   bool(msg.light_status & LIGHT_CHARGE_RELAY), msg.mode, pose)
 
 
 def validate_config(config):

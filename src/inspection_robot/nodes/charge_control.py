@@ -31,10 +31,9 @@ import rospy
 from actionlib_msgs.msg import GoalStatus
 
 from inspection_robot.charge.dock import parse_dock
-from inspection_robot.charge.machine import Battery, ChargeConfig, ChargeMachine, ChargePorts
+from inspection_robot.charge.machine import ChargeConfig, ChargeMachine, ChargePorts, battery_from_robot_status
 from inspection_robot.command import failed
-from inspection_robot.interface import (ACK_SUCCESS, BATTERY_CHARGING, LIGHT_CHARGE_RELAY, MOVE_GOAL_TYPE,
-                                        MOVE_RESULT_SUCCESS, VOICE_LANGUAGES)
+from inspection_robot.interface import ACK_SUCCESS, MOVE_GOAL_TYPE, MOVE_RESULT_SUCCESS, VOICE_LANGUAGES
 from inspection_robot.msg import GeneralAction, GeneralCmd, GeneralGoal, GeneralTopic, RobotStatus, VoiceCmd
 from inspection_robot.nav.goal import move_goal_data
 from inspection_robot.ros.twin import CommandTwin
@@ -141,8 +140,8 @@ class RosPorts(ChargePorts):
 
     def status(self, status):
         if status["state"] != self._last_state:
-            rospy.loginfo("%s: %s -> %s (battery %s %%)" % (NODE_NAME, self._last_state, status["state"],
-                                                             status["battery"]))
+            rospy.loginfo("%s: %s -> %s (battery %s %%)"
+                          % (NODE_NAME, self._last_state, status["state"], status["battery"]))
             self._last_state = status["state"]
         msg = GeneralTopic(sender=NODE_NAME, data=json.dumps(status, sort_keys=True))
         msg.header.stamp = rospy.Time.now()
@@ -169,7 +168,12 @@ class ChargeControl(object):
         kind = event[0]
         with self._lock:
             if kind == "battery":
-                self.machine.on_battery(_battery(event[1]))
+                battery = battery_from_robot_status(event[1])
+                if battery is None:
+                    rospy.logwarn_throttle(10.0, "%s: robot_status has stale control_status: battery unknown"
+                                           % (NODE_NAME,))
+                else:
+                    self.machine.on_battery(battery)
             elif kind == "task_status":
                 state = _task_state(event[1].data)
                 if state is not None:
@@ -186,14 +190,6 @@ class ChargeControl(object):
 
     def shutdown(self):
         self._timer.shutdown()
-
-
-def _battery(msg):
-    pose = None
-    if len(msg.position) >= 2:
-        pose = (msg.position[0], msg.position[1], msg.orientation)
-    return Battery(msg.battery_quantity, bool(msg.battery_status & BATTERY_CHARGING),
-                   bool(msg.light_status & LIGHT_CHARGE_RELAY), msg.mode, pose)
 
 
 def _task_state(data):
