@@ -367,3 +367,21 @@ def test_battery_from_robot_status_ignores_stale_inputs():
     assert m.battery_from_robot_status(fresh._replace(other_status=[STALE_CONTROL_STATUS], battery_quantity=0)) is None
     assert m.battery_from_robot_status(fresh._replace(other_status=[STALE_NAV_STATUS])).pose is None
     assert m.battery_from_robot_status(fresh._replace(position=[])).pose is None
+
+
+def test_restart_on_the_dock_with_the_relay_closed_finishes_the_cycle():
+    rig = Rig()
+    rig.battery(quantity=50, relay=True, charging=True, pose=DOCK.pose)
+    assert rig.state == m.CHARGING and rig.machine.trigger == m.TRIGGER_RECOVERED
+    rig.battery(quantity=80)
+    assert rig.state == m.RELAY_OFF
+    rig.battery(relay=False, charging=False)
+    rig.finish_goal()
+    rig.reply_task(True, cmd="resume")
+    assert rig.state == m.IDLE
+
+
+def test_relay_closed_away_from_the_dock_is_left_alone():
+    rig = Rig()
+    rig.battery(quantity=50, relay=True)
+    assert rig.state == m.IDLE and not rig.ports.calls

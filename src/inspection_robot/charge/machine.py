@@ -44,6 +44,7 @@ DRIVE_STATES = (TO_APPROACH, DOCKING, BACKING_OFF)
 
 TRIGGER_LOW_BATTERY = "low_battery"
 TRIGGER_MANUAL = "manual"
+TRIGGER_RECOVERED = "recovered"  # found on the dock with the relay closed (e.g. after a restart)
 
 # task_manager's task_status states in which the patrol sends no goal (charge_control may drive)
 TASK_QUIET_STATES = ("paused", "idle", "done", "cancelled", "failed")
@@ -317,6 +318,13 @@ class ChargeMachine(object):
         if battery and battery.quantity > self._config.low_level:
             self._auto = True
         if state == IDLE:
+            if battery and battery.relay and self._near_dock():
+                # charge_control restarted mid-charge: finish that cycle instead of leaving the relay closed
+                self.trigger = TRIGGER_RECOVERED
+                self._task_paused = True  # a resume with no hold in place is harmless
+                self._after_backoff = RESUMING
+                self._enter(WAIT_CURRENT)
+                return
             if battery and battery.quantity <= self._config.low_level and not battery.charging:
                 if self._auto:
                     self._start(TRIGGER_LOW_BATTERY)
