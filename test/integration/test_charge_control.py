@@ -246,6 +246,31 @@ class ChargeControlTest(unittest.TestCase):
         self.assertEqual(json.loads(self.charge.call("status").data)["state"], "idle")
         self.assertEqual(self.relay_commands(), [])
 
+    def test_6_waits_while_the_backend_holds_control(self):
+        self.sim_cmd("set_pose", "8.0,5.0,0.0")  # away from the dock: the approach takes a while
+        heartbeat = rospy.Publisher("server_status", GeneralTopic, queue_size=10)
+        mode_cmd = rospy.Publisher("mode_cmd", GeneralCmd, queue_size=10)
+        beat = rospy.Timer(rospy.Duration(0.2), lambda _e: heartbeat.publish(GeneralTopic(sender="server")))
+        try:
+            wait_subscribed(mode_cmd, 10.0)
+            self.robot.wait(lambda m: m.offline_warn == 0, 10.0, "backend online")
+            self.sim_cmd("set_soc", "38")
+            self.wait_state("to_approach", 30.0)
+            self.robot.handshake(lambda: mode_cmd.publish(GeneralCmd(sender="server", cmd="acquire", data="server")),
+                                 lambda m: m.mode == 1, 10.0)
+            waiting = self.status.wait(
+                lambda m: json.loads(m.data)["waiting"].startswith("robot_control in server mode"), 10.0,
+                "charge_status saying it waits for task mode")
+            self.assertEqual(json.loads(waiting.data)["state"], "to_approach")
+            self.robot.handshake(lambda: mode_cmd.publish(GeneralCmd(sender="server", cmd="release")),
+                                 lambda m: m.mode == 0, 10.0)
+        finally:
+            beat.shutdown()
+        self.wait_state("charging")
+        done = json.loads(self.wait_state("idle").data)
+        self.assertEqual((done["alarm"], done["attempts"]), ("", {}))
+        self.assertEqual(self.task_manager.calls, [("pause", "charge"), ("resume", "charge")])
+
 
 if __name__ == "__main__":
     rostest.rosrun("inspection_robot", "test_charge_control", ChargeControlTest)

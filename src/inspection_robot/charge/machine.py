@@ -17,7 +17,8 @@ A failure is retried ``retries`` times (each kind counted separately within a cy
 cycle stops in ``failed``: the relay is opened, ``ports.alarm`` raises the reason (topic + voice)
 and the patrol stays paused until an operator sends ``dock`` (try again) or ``undock`` (relay
 off, back off if on the dock, resume the patrol). The robot drives only in task mode; in another
-mode the machine waits and says why in its status.
+mode the machine waits and says why in its status. Found idle on the dock with the relay closed
+(charge_control restarted mid-charge) it adopts that charge and finishes the cycle.
 """
 import json
 from collections import namedtuple
