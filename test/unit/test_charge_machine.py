@@ -99,6 +99,20 @@ class Rig(object):
     def state(self):
         return self.machine.state
 
+    def low_battery_to_approach(self):
+        """Low battery, no patrol running: the machine drives to the approach pose."""
+        self.battery(quantity=15)
+        self.reply_task(True)
+        self.machine.on_task_status("idle")
+        assert self.state == m.TO_APPROACH
+
+    def low_battery_to_relay_on(self):
+        """... then reaches the approach pose and the dock, and closes the relay."""
+        self.low_battery_to_approach()
+        self.finish_goal()
+        self.finish_goal()
+        assert self.state == m.RELAY_ON
+
     def dock_and_charge(self):
         """Low battery -> paused -> approach -> dock -> relay on -> charging."""
         self.battery(quantity=19)
@@ -180,9 +194,7 @@ def test_waits_for_task_mode_before_driving_and_after_move_base_gives_up():
 
 def test_dock_unreachable_retried_then_alarm_and_voice():
     rig = Rig()
-    rig.battery(quantity=15)
-    rig.reply_task(True)
-    rig.machine.on_task_status("paused")
+    rig.low_battery_to_approach()
     rig.finish_goal(False, "no path to the goal")
     assert rig.state == m.TO_APPROACH and "retry 1 of 1" in rig.ports.warnings[-1]
     rig.finish_goal(False, "no path to the goal")
@@ -199,11 +211,7 @@ def test_dock_unreachable_retried_then_alarm_and_voice():
 
 def test_relay_not_confirmed_retried_then_alarm_and_relay_opened():
     rig = Rig()
-    rig.battery(quantity=15)
-    rig.reply_task(True)
-    rig.machine.on_task_status("idle")
-    rig.finish_goal()
-    rig.finish_goal()
+    rig.low_battery_to_relay_on()
     rig.advance(3.5)
     assert rig.state == m.RELAY_ON and rig.ports.last("relay") == ("relay", True)
     rig.advance(3.5)
@@ -214,11 +222,7 @@ def test_relay_not_confirmed_retried_then_alarm_and_relay_opened():
 
 def test_no_charging_current_redocks_then_alarms():
     rig = Rig()
-    rig.battery(quantity=15)
-    rig.reply_task(True)
-    rig.machine.on_task_status("idle")
-    rig.finish_goal()
-    rig.finish_goal()
+    rig.low_battery_to_relay_on()
     rig.battery(relay=True)
     rig.advance(5.5)
     assert rig.state == m.RELAY_OFF and rig.ports.last("relay") == ("relay", False)
@@ -304,9 +308,7 @@ def test_undock_below_low_level_turns_automatic_docking_off():
 
 def test_undock_while_driving_cancels_and_resumes():
     rig = Rig()
-    rig.battery(quantity=15)
-    rig.reply_task(True)
-    rig.machine.on_task_status("paused")
+    rig.low_battery_to_approach()
     assert rig.state == m.TO_APPROACH
     rig.machine.command_table().dispatch("undock", "")
     assert ("cancel",) in rig.ports.calls
@@ -318,11 +320,7 @@ def test_undock_while_driving_cancels_and_resumes():
 
 def test_dock_after_failure_starts_over_from_the_dock():
     rig = Rig()
-    rig.battery(quantity=15)
-    rig.reply_task(True)
-    rig.machine.on_task_status("idle")
-    rig.finish_goal()
-    rig.finish_goal()
+    rig.low_battery_to_relay_on()
     rig.advance(3.5)
     rig.advance(3.5)
     assert rig.state == m.FAILED
@@ -334,11 +332,7 @@ def test_dock_after_failure_starts_over_from_the_dock():
 
 def test_silent_robot_status_is_reported_while_at_the_dock():
     rig = Rig()
-    rig.battery(quantity=15)
-    rig.reply_task(True)
-    rig.machine.on_task_status("idle")
-    rig.finish_goal()
-    rig.finish_goal()
+    rig.low_battery_to_relay_on()
     rig.advance(3.5, silent=True)  # no robot_status since docking: the relay cannot be confirmed
     assert rig.state == m.RELAY_ON
     assert rig.machine.status()["waiting"] == "no robot_status for 3 s"
