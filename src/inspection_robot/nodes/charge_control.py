@@ -68,7 +68,10 @@ class RosPorts(ChargePorts):
         self._task_proxy = rospy.ServiceProxy(task_service, ControlService)
         self._task_service = task_service
         self._task_worker = RequestWorker(NODE_NAME + ": task_control", self._call_task, self._refuse_task, 10)
-        self._move = actionlib.SimpleActionClient("move_action", GeneralAction)
+        # the plain ActionClient: SimpleActionClient logs an error for the finished goal's late status
+        # whenever a new goal follows at once (approach -> dock -> relay -> back off does exactly that)
+        self._move = actionlib.ActionClient("move_action", GeneralAction)
+        self._goal_handle = None  # keeps the current goal's transitions coming
         self._control = rospy.Publisher("control_cmd", GeneralCmd, queue_size=10)
         self._voice = rospy.Publisher("voice_cmd", VoiceCmd, queue_size=10)
         self._status = rospy.Publisher("charge_status", GeneralTopic, queue_size=10, latch=True)
@@ -102,7 +105,13 @@ class RosPorts(ChargePorts):
                               velocity_x=dock_speed if precision or backward else approach_speed,
                               velocity_yaw=yaw_speed)
         goal = GeneralGoal(sender=NODE_NAME, type=MOVE_GOAL_TYPE, data=data, trans_id=next(self._trans_ids))
-        self._move.send_goal(goal, done_cb=lambda state, result: self._on_move_done(token, state, result))
+        finished = []
+
+        def transition(handle):
+            if handle.get_comm_state() == actionlib.CommState.DONE and not finished:
+                finished.append(True)
+                self._on_move_done(token, handle.get_terminal_state(), handle.get_result())
+        self._goal_handle = self._move.send_goal(goal, transition_cb=transition)
 
     def _on_move_done(self, token, state, result):
         if result is None:
@@ -116,7 +125,8 @@ class RosPorts(ChargePorts):
         self._events.submit(("move", token, ok, "ret_code %s: %s" % (result.ret_code, reason)))
 
     def cancel_goal(self):
-        self._move.cancel_all_goals()
+        if self._goal_handle is not None:
+            self._goal_handle.cancel()
 
     # relay, voice, alarm, status ----------------------------------------------------------------
     def relay(self, closed):
