@@ -115,7 +115,8 @@ class RosPorts(ChargePorts):
 
     def _on_move_done(self, token, state, result):
         if result is None:
-            self._events.submit(("move", token, False, "no result (%s)" % (GoalStatus.to_string(state),)))
+            name = actionlib.get_name_of_constant(GoalStatus, state)
+            self._events.submit(("move", token, False, "no result (%s)" % (name,)))
             return
         ok = result.ret_code == MOVE_RESULT_SUCCESS and state == GoalStatus.SUCCEEDED
         try:
