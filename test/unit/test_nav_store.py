@@ -11,7 +11,7 @@ from inspection_robot.command import CommandError
 from inspection_robot import atomic_file
 from inspection_robot.nav.gridmap import GridMap, MapError, load_map, save_map
 from inspection_robot.angles import quaternion_from_yaw
-from inspection_robot.nav.goal import parse_move_goal
+from inspection_robot.nav.goal import move_goal_data, parse_move_goal
 from inspection_robot.nav.localization import LocalizationMonitor
 from inspection_robot.nav.virtual_obstacles import VirtualObstacles
 from inspection_robot.sim.nav_yard import occupancy_map
@@ -170,3 +170,15 @@ def test_map_round_trip_and_sample_map_matches_world(tmp_path):
     assert shipped.occupancy[row, col] == 100
     row, col = shipped.world_to_cell(*world["robot"]["start_pose"][:2])
     assert shipped.occupancy[row, col] == 0
+
+
+def test_move_goal_data_is_what_parse_move_goal_reads():
+    goal = parse_move_goal("move", move_goal_data(2.2, 5.0, math.pi, precision=True, velocity_x=0.2,
+                                                  velocity_yaw=0.4), 0.5, 0.5, 1.0, 1.0)
+    assert (goal.x, goal.y, abs(goal.yaw)) == pytest.approx((2.2, 5.0, math.pi))
+    assert (goal.with_direction, goal.precision, goal.backward, goal.velocity_x, goal.velocity_yaw) == (
+        True, True, False, 0.2, 0.4)
+    goal = parse_move_goal("move", move_goal_data(3.7, 5.0, 0.5, backward=True, with_direction=False),
+                           0.5, 0.5, 1.0, 1.0)
+    assert (goal.with_direction, goal.precision, goal.backward, goal.velocity_x) == (False, False, True, 0.5)
+    assert goal.yaw == pytest.approx(0.5)
