@@ -146,7 +146,7 @@ def main():
         if missing:
             rospy.logerr("bridge: console not served, missing %s (run scripts/setup)", ", ".join(missing))
         else:
-            http_routes = console_routes(params["console_dir"], params["console_vendor_dir"])
+            http_routes = console_routes(params["console_dir"], params["console_vendor_dir"], bool(authenticator))
     ssl_context = make_ssl_context(params["certfile"], params["keyfile"]) if params["certfile"] else None
     server = BridgeServer(make_session, params["address"], params["port"], ssl_context,
                           params["ping_interval"], params["ping_timeout"], params["max_message_size"],
