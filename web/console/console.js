@@ -110,7 +110,9 @@
     topic('thermal/hottest', 'inspection_robot/GeneralTopic', { queue_length: 1 }).subscribe(onHottest);
     topic('map', 'nav_msgs/OccupancyGrid', { compression: 'cbor', queue_length: 1 }).subscribe(onMap);
     topic('plan', 'nav_msgs/Path', { queue_length: 1 }).subscribe(onPlan);
-    queryObstacles();
+    // move_base republishes the virtual layer on every change (whoever made it): then ask for the list.
+    topic('virtual_obstacle_map', 'nav_msgs/OccupancyGrid', { compression: 'cbor', queue_length: 1 })
+      .subscribe(queryObstacles);
   }
 
   // ------------------------------------------------------------------ status
@@ -146,27 +148,25 @@
 
   function onAck(name, msg) {
     log(name + ' #' + msg.trans_id + ' ' + msg.ack + (msg.data ? ': ' + msg.data : ''), msg.ack !== 'success');
-    if (name === 'virtual_obstacle_ack' && msg.ack === 'success') {
-      if (msg.trans_id === state.obstacleQuery) {
-        try {
-          state.obstacles = JSON.parse(msg.data);
-        } catch (err) {
-          log('virtual obstacle list unreadable: ' + err, true);
-        }
-        drawMap();
-      } else {
-        queryObstacles();
+    if (name === 'virtual_obstacle_ack' && state.obstacleQueries.delete(msg.trans_id) && msg.ack === 'success') {
+      try {
+        state.obstacles = JSON.parse(msg.data);
+      } catch (err) {
+        log('virtual obstacle list unreadable: ' + err, true);
       }
+      drawMap();
     }
   }
 
   // ------------------------------------------------------------------ heartbeat and e-stop
-  setInterval(() => {
+  function heartbeat() {
     if (state.connected && $('heartbeat').checked) {
       topic('server_status', 'inspection_robot/GeneralTopic').publish(
         new ROSLIB.Message(Object.assign(header(), { data: 'console' })));
     }
-  }, HEARTBEAT_PERIOD_MS);
+  }
+  setInterval(heartbeat, HEARTBEAT_PERIOD_MS);
+  $('heartbeat').addEventListener('change', heartbeat);
 
   $('estop').addEventListener('click', () => {
     stopDriving();
@@ -176,10 +176,12 @@
 
   // ------------------------------------------------------------------ teleop
   $('acquire').addEventListener('click', () => {
-    $('heartbeat').checked = true;   // robot_control refuses `acquire server` while the backend is offline
+    // robot_control refuses `acquire server` while the backend is offline: heartbeat first, then ask.
+    $('heartbeat').checked = true;
+    heartbeat();
     const started = Date.now();
     const tryAcquire = () => {
-      if (state.status && state.status.offline_warn && Date.now() - started < 5000) {
+      if ((!state.status || state.status.offline_warn) && Date.now() - started < 10000) {
         setTimeout(tryAcquire, 200);
         return;
       }
@@ -360,6 +362,7 @@
       }
     }
     ctx.putImageData(image, 0, 0);
+    window.consoleFrames[canvas.id] += 1;
     if (marker) {
       ctx.strokeStyle = '#00e5ff';
       ctx.lineWidth = 2;
@@ -404,6 +407,12 @@
   let panning = null;
   let goal = null;
   state.obstacles = [];
+  state.obstacleQueries = new Set();   // trans_ids of the page's own pending `query` commands
+
+  // For the browser tests: the map transform, and how many live pictures were drawn.
+  window.consoleMap = { toScreen: (p) => toScreen(p), ready: () => mapInfo !== null,
+    obstacleCount: () => state.obstacles.length };
+  window.consoleFrames = { picture: 0, thermal: 0 };
 
   function onMap(msg) {
     const info = msg.info;
@@ -641,7 +650,7 @@
     command('virtual_obstacle_cmd', cmd, JSON.stringify(body));
   }
   function queryObstacles() {
-    state.obstacleQuery = state.transId;
+    state.obstacleQueries.add(state.transId);
     command('virtual_obstacle_cmd', 'query', '');
   }
   $('obstacle-finish').addEventListener('click', () => {
