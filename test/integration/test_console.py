@@ -115,8 +115,8 @@ class ConsoleTest(unittest.TestCase):
         self.page.locator("#map").scroll_into_view_if_needed()
         box = self.page.locator("#map").bounding_box()
         sx, sy, width, height = self.page.evaluate(
-            "([x, y]) => { const c = document.getElementById('map'); const [sx, sy] = window.consoleMap.toScreen([x, y]);"
-            " return [sx, sy, c.width, c.height]; }", [x, y])
+            "([x, y]) => { const c = document.getElementById('map');"
+            " const [sx, sy] = window.consoleMap.toScreen([x, y]); return [sx, sy, c.width, c.height]; }", [x, y])
         self.page.mouse.click(box["x"] + sx * box["width"] / width, box["y"] + sy * box["height"] / height)
 
     # ------------------------------------------------------------------ status
@@ -211,7 +211,8 @@ class ConsoleTest(unittest.TestCase):
         self.map_click(22.0, 21.5)
         self.wait_page("!document.getElementById('obstacle-delete').disabled", "the obstacle selected")
         box = self.page.locator("#map").bounding_box()
-        width, height = self.page.evaluate("[document.getElementById('map').width, document.getElementById('map').height]")
+        width, height = self.page.evaluate("[document.getElementById('map').width,"
+                                           " document.getElementById('map').height]")
 
         def screen(x, y):
             sx, sy = self.page.evaluate("([x, y]) => window.consoleMap.toScreen([x, y])", [x, y])

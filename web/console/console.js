@@ -117,8 +117,10 @@
 
   // ------------------------------------------------------------------ status
   const statusRows = {};
+  window.consoleStats = { status: 0 };   // statuses rendered, for the benchmark
   function onStatus(msg) {
     state.status = msg;
+    window.consoleStats.status += 1;
     const decoded = RobotDecode.decodeStatus(msg);
     $('mode').textContent = 'mode: ' + RobotDecode.MODES[msg.mode];
     const alarms = $('alarms');
