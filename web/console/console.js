@@ -118,8 +118,16 @@
   // ------------------------------------------------------------------ status
   const statusRows = {};
   window.consoleStats = { status: 0 };   // statuses rendered, for the benchmark
+  let statusFrame = 0;
   function onStatus(msg) {
     state.status = msg;
+    if (!statusFrame) statusFrame = requestAnimationFrame(renderStatus);
+  }
+
+  /** At most once per animation frame, whatever the rate: the newest status only. */
+  function renderStatus() {
+    statusFrame = 0;
+    const msg = state.status;
     window.consoleStats.status += 1;
     const decoded = RobotDecode.decodeStatus(msg);
     $('mode').textContent = 'mode: ' + RobotDecode.MODES[msg.mode];
@@ -465,7 +473,13 @@
     if (closed) ctx.closePath();
   }
 
+  let mapFrame = 0;
   function drawMap() {
+    if (!mapFrame) mapFrame = requestAnimationFrame(renderMap);
+  }
+
+  function renderMap() {
+    mapFrame = 0;
     const canvas = $('map');
     const ctx = canvas.getContext('2d');
     ctx.setTransform(1, 0, 0, 1, 0, 0);
