@@ -248,6 +248,8 @@ class _Timer(object):
 class BridgeServer(object):
     """Listens on ``address:port`` (0 = any free port) and runs one Session per client.
 
+    ``http_routes`` (tornado rules) are matched before the websocket, which takes every other path.
+
     ``make_session(client_id, send, call_later, close)`` returns a protocol Session.
     ``on_client_count(n)`` is called on every connect/disconnect. Must be started on the thread
     that runs the tornado IOLoop.
@@ -255,8 +257,9 @@ class BridgeServer(object):
 
     def __init__(self, make_session, address="127.0.0.1", port=9090, ssl_context=None, ping_interval=10.0,
                  ping_timeout=30.0, max_message_size=10000000, send_queue_size=1000, on_client_count=None,
-                 log=None):
+                 log=None, http_routes=()):
         self._make_session = make_session
+        self._http_routes = list(http_routes)
         self._address = address
         self._port = int(port)
         self._ssl = ssl_context
@@ -281,7 +284,8 @@ class BridgeServer(object):
             tick = min(self._ping_interval, KEEPALIVE_TICK)
             self._pinger = tornado.ioloop.PeriodicCallback(self._keep_alive, tick * 1000.0)
             self._pinger.start()
-        app = tornado.web.Application([(r"/.*", BridgeHandler, {"server": self})], **settings)
+        # Plain HTTP routes (the console's static files) first; every other path is the websocket.
+        app = tornado.web.Application(self._http_routes + [(r"/.*", BridgeHandler, {"server": self})], **settings)
         sockets = tornado.netutil.bind_sockets(self._port, self._address or None)
         self._http = tornado.httpserver.HTTPServer(app, ssl_options=self._ssl, max_buffer_size=self._max_message_size
                                                    + 65536)

@@ -28,17 +28,11 @@ from inspection_robot.camera.commands import CameraCommands, format_zoom
 from inspection_robot.camera.driver import CameraError, DeviceHealth
 from inspection_robot.camera.optics import ZoomOptics
 from inspection_robot.ros.diagnostics import DeviceDiagnostics, probe_device
+from inspection_robot.ros.images import bgr_image_msg
 from inspection_robot.ros.twin import CommandTwin
 
 NODE = "camera_node"
 HARDWARE_ID = "camera"
-
-
-def bgr_image_msg(img, stamp, frame_id):
-    msg = Image(height=img.shape[0], width=img.shape[1], encoding="bgr8", is_bigendian=0,
-                step=img.shape[1] * 3, data=img.tobytes())
-    msg.header.stamp, msg.header.frame_id = stamp, frame_id
-    return msg
 
 
 def camera_info_msg(width, height, focal, stamp, frame_id):

@@ -5,18 +5,26 @@ Subscribes:  infrared_cmd (GeneralCmd) -> answers on infrared_ack (GeneralAck), 
              control_status (ControlStatus): joystick-busy rule (mode 2)
              sim only: sim/true_pose, terrace_state, sim/world_state (nodes.sim_view)
 Publishes:   diagnostics (diagnostic_msgs/DiagnosticArray, hardware_id "thermal_imager", ~status_rate Hz)
+             thermal/image_raw (sensor_msgs/Image, bgr8 false colour, ~image_rate Hz, only with subscribers)
+             thermal/hottest (GeneralTopic, JSON {"x", "y", "temperature"} of the same frame)
 Parameters:  ~driver ("sim", a vendor plug-in "package.module:Class", or "" = none configured:
              every command fails and diagnostics report ERROR; default ""),
              ~driver_params (dict of keyword arguments for a plug-in, {}),
              ~width, ~height (px, 384, 288), ~roots (["/tmp/inspection_robot"]),
-             ~measure_box_px (px, 16), ~status_rate (Hz, 1.0), ~jpeg_quality (90),
+             ~measure_box_px (px, 16), ~status_rate (Hz, 1.0), ~image_rate (Hz, 1.0), ~jpeg_quality (90),
              ~sim/{world_file (required for sim), seed (0), noise_sigma (degC, 0.05), hfov_deg (25.0),
              unsupported (list of commands to refuse, [])}
 """
+import json
+
 import rospy
+from sensor_msgs.msg import Image
 
 from inspection_robot.camera.driver import DeviceHealth
+from inspection_robot.command import CommandError
+from inspection_robot.msg import GeneralTopic
 from inspection_robot.ros.diagnostics import DeviceDiagnostics, probe_device
+from inspection_robot.ros.images import bgr_image_msg
 from inspection_robot.ros.twin import CommandTwin
 from inspection_robot.thermal.commands import ThermalCommands
 from inspection_robot.plugin import load_class
@@ -27,13 +35,30 @@ HARDWARE_ID = "thermal_imager"
 
 
 class InfraredNode(object):
-    def __init__(self, driver, commands, health, status_rate):
+    def __init__(self, driver, commands, health, status_rate, image_rate):
         self._driver = driver
         self._health = health
         self.commands = commands
         self._diagnostics = DeviceDiagnostics("thermal imager", HARDWARE_ID)
         self._twin = CommandTwin(commands.table, "infrared_control", "infrared_cmd", "infrared_ack", NODE)
         self._timer = rospy.Timer(rospy.Duration(1.0 / status_rate), self._on_status)
+        self._image_pub = rospy.Publisher("thermal/image_raw", Image, queue_size=1)
+        self._hottest_pub = rospy.Publisher("thermal/hottest", GeneralTopic, queue_size=1)
+        self._image_timer = rospy.Timer(rospy.Duration(1.0 / image_rate), self._on_image)
+
+    def _on_image(self, _event):
+        if self._image_pub.get_num_connections() == 0 and self._hottest_pub.get_num_connections() == 0:
+            return   # nobody watches: no frame grabbed
+        try:
+            picture, hottest = self.commands.live_view()
+        except CommandError as err:
+            rospy.logwarn_throttle(10.0, "%s: no live thermal view: %s" % (NODE, err))
+            return
+        stamp = rospy.Time.now()
+        self._image_pub.publish(bgr_image_msg(picture, stamp, "thermal_imager"))
+        msg = GeneralTopic(sender=NODE, data=json.dumps(hottest, sort_keys=True))
+        msg.header.stamp = stamp
+        self._hottest_pub.publish(msg)
 
     def _on_status(self, _event):
         probe_device(NODE, self._health, self._driver.probe, ThermalError)
@@ -64,11 +89,12 @@ def main():
     width = int(rospy.get_param("~width", 384))
     height = int(rospy.get_param("~height", 288))
     status_rate = float(rospy.get_param("~status_rate", 1.0))
-    if width < 8 or height < 8 or status_rate <= 0:
-        raise ValueError("~width/~height must be >= 8 px and ~status_rate > 0")
+    image_rate = float(rospy.get_param("~image_rate", 1.0))
+    if width < 8 or height < 8 or status_rate <= 0 or image_rate <= 0:
+        raise ValueError("~width/~height must be >= 8 px, ~status_rate and ~image_rate > 0")
     driver = make_driver(rospy.get_param("~driver", ""), width, height)
     health = DeviceHealth()
     commands = ThermalCommands(driver, rospy.get_param("~roots", ["/tmp/inspection_robot"]), health, width, height,
                                int(rospy.get_param("~measure_box_px", 16)), int(rospy.get_param("~jpeg_quality", 90)))
-    InfraredNode(driver, commands, health, status_rate)
+    InfraredNode(driver, commands, health, status_rate, image_rate)
     rospy.spin()

@@ -16,7 +16,9 @@ Parameters:  ~port (int, 9090; 0 = any free port), ~address (str, "127.0.0.1"; "
              ~send_queue_size (messages per client, 1000), ~fragment_timeout (s, 600.0),
              ~service_timeout (s, 10.0: wait for a client's service_response),
              ~subscriber_queue_size (ROS messages per subscribed topic, 100),
-             ~service_threads (int, 8: concurrent service calls / rosapi requests)
+             ~service_threads (int, 8: concurrent service calls / rosapi requests),
+             ~console (bool, true: serve the operator console at /console/),
+             ~console_dir (str: web/console of the package), ~console_vendor_dir (str: roslib's build/)
 """
 import asyncio
 import concurrent.futures
@@ -28,6 +30,7 @@ import tornado.ioloop
 from std_msgs.msg import Int32
 
 from inspection_robot.bridge.codec import Codec
+from inspection_robot.bridge.console import CONSOLE_PATH, console_routes, missing_files
 from inspection_robot.bridge.protocol import Authenticator, Session, SessionConfig
 from inspection_robot.ros.bridge_backend import RosBackend, RosGraph
 from inspection_robot.ros.message_types import GenpyTypes
@@ -60,6 +63,9 @@ def read_params():
         "service_timeout": float(rospy.get_param("~service_timeout", 10.0)),
         "subscriber_queue_size": int(rospy.get_param("~subscriber_queue_size", 100)),
         "service_threads": int(rospy.get_param("~service_threads", 8)),
+        "console": bool(rospy.get_param("~console", True)),
+        "console_dir": str(rospy.get_param("~console_dir", "")),
+        "console_vendor_dir": str(rospy.get_param("~console_vendor_dir", "")),
     }
     if not 0 <= params["port"] <= 65535:
         raise ValueError("~port must be 0..65535, not %d" % params["port"])
@@ -134,14 +140,24 @@ def main():
     def make_session(client_id, send, call_later, close):
         return Session(client_id, backend, send, time.monotonic, call_later, close, config, rosapi, log)
 
+    http_routes = []
+    if params["console"]:
+        missing = missing_files(params["console_dir"], params["console_vendor_dir"])
+        if missing:
+            rospy.logerr("bridge: console not served, missing %s (run scripts/setup)", ", ".join(missing))
+        else:
+            http_routes = console_routes(params["console_dir"], params["console_vendor_dir"], bool(authenticator))
     ssl_context = make_ssl_context(params["certfile"], params["keyfile"]) if params["certfile"] else None
     server = BridgeServer(make_session, params["address"], params["port"], ssl_context,
                           params["ping_interval"], params["ping_timeout"], params["max_message_size"],
-                          params["send_queue_size"], lambda n: count_pub.publish(Int32(n)), log)
+                          params["send_queue_size"], lambda n: count_pub.publish(Int32(n)), log, http_routes)
     port = io_thread.run_sync(server.start)
     rospy.set_param("~actual_port", port)
     rospy.loginfo("bridge: rosbridge v2 websocket on %s://%s:%d%s", "wss" if ssl_context else "ws",
                   params["address"] or "0.0.0.0", port, " (auth required)" if authenticator else "")
+    if http_routes:
+        rospy.loginfo("bridge: operator console on %s://%s:%d%s", "https" if ssl_context else "http",
+                      params["address"] or "0.0.0.0", port, CONSOLE_PATH)
     rospy.spin()
     io_thread.stop(server.stop)
     executor.shutdown(wait=False)

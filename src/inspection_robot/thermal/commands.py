@@ -34,6 +34,12 @@ def false_colour(frame, low=None, high=None):
     return cv2.applyColorMap(scaled, cv2.COLORMAP_INFERNO)
 
 
+def hottest_point(frame):
+    """The hottest pixel of a frame: {"x", "y" (px, x right, y down), "temperature" (degC)}."""
+    y, x = np.unravel_index(int(np.argmax(frame)), frame.shape)
+    return {"x": int(x), "y": int(y), "temperature": round(float(frame[y, x]), 2)}
+
+
 def save_radiometric(path, frame):
     """Write a radiometric frame. ``.png``: 16-bit single-channel PNG, pixel = temperature in
     centikelvin (degC = p / 100 - 273.15; 0..655.35 K). ``.npy``: float32 array in degC."""
@@ -138,6 +144,11 @@ class ThermalCommands(object):
         except OSError as err:
             raise CommandError("cannot write '%s': %s" % (data, err.strerror))
         return path
+
+    def live_view(self):
+        """(false-colour BGR picture, hottest point) of one fresh frame, for the live thermal view."""
+        frame = self._frame()
+        return false_colour(frame), hottest_point(frame)
 
     def set_measure_spot(self, data):
         self.measure_spot = self._pixel(data)

@@ -1,0 +1,292 @@
+#!/usr/bin/env python3
+"""rostest: the operator console in a real browser (Debian's chromium, headless, driven by Playwright)
+against sim.launch. Every step asserts what the robot did, not only what the page shows:
+status in words, hold-to-move driving that stops on key-up, a polygon drawn on the map becoming a
+virtual obstacle (then edited and deleted), a click on the picture turning the head, a recorded
+preset directory, a goal sent and cancelled; and a second, authenticated bridge where the page asks
+for the token, refuses a wrong one and shows a dropped link. Any JavaScript error fails the test.
+Screenshots go to <package>/test_logs/console/.
+"""
+import json
+import math
+import os
+import subprocess
+import time
+import unittest
+
+import rospkg
+import rospy
+import rostest
+from geometry_msgs.msg import PoseWithCovarianceStamped, TwistStamped
+from nav_msgs.msg import OccupancyGrid
+from playwright.sync_api import sync_playwright
+from sensor_msgs.msg import JointState
+
+from inspection_robot.msg import GeneralAck, GeneralCmd, MoveCmd, RobotStatus
+from rostest_helpers import Latest, wait_for, wait_subscribed
+
+CHROMIUM = "/usr/bin/chromium"
+CHROMIUM_ARGS = ["--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+                 "--disable-background-networking", "--disable-component-update", "--disable-sync"]
+CMD_TIMEOUT = 0.5      # s, robot_control's move_cmd watchdog
+SHOTS = os.path.join(rospkg.RosPack().get_path("inspection_robot"), "test_logs", "console")
+
+
+def bridge_port(node):
+    return int(wait_for(lambda: rospy.get_param("/%s/actual_port" % node, None), 60.0, node + " port"))
+
+
+class ConsoleTest(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        rospy.init_node("test_console")
+        os.makedirs(SHOTS, exist_ok=True)
+        cls.port = bridge_port("rosbridge_websocket")
+        cls.status = Latest("/robot_status", RobotStatus)
+        cls.true_pose = Latest("/sim/true_pose", PoseWithCovarianceStamped)
+        cls.chassis = Latest("/sim/chassis_cmd", TwistStamped, queue_size=1000)
+        cls.head = Latest("/terrace_state", JointState)
+        cls.obstacle_acks = Latest("/virtual_obstacle_ack", GeneralAck)
+        cls.obstacle_map = Latest("/virtual_obstacle_map", OccupancyGrid)
+        cls.obstacle_cmd = rospy.Publisher("/virtual_obstacle_cmd", GeneralCmd, queue_size=10)
+        cls.mode_cmd = rospy.Publisher("/mode_cmd", GeneralCmd, queue_size=10)
+        cls.move_cmds = Latest("/move_cmd", MoveCmd, queue_size=1000)
+        cls.playwright = sync_playwright().start()
+        cls.browser = cls.playwright.chromium.launch(executable_path=CHROMIUM, args=CHROMIUM_ARGS)
+
+    @classmethod
+    def tearDownClass(cls):
+        cls.browser.close()
+        cls.playwright.stop()
+
+    def setUp(self):
+        self.link_errors_expected = False
+        self.errors = []
+        self.page = self.browser.new_page(viewport={"width": 1400, "height": 1200})
+        self.page.on("pageerror", lambda err: self.errors.append("page error: %s" % err))
+        self.page.on("console", lambda msg: self.errors.append("console %s: %s" % (msg.type, msg.text))
+                     if msg.type == "error" else None)
+
+    def tearDown(self):
+        self.page.screenshot(path=os.path.join(SHOTS, self.id().split(".")[-1] + ".png"), full_page=True)
+        self.page.close()
+        if self.link_errors_expected:   # chromium reports every refused reconnection attempt
+            self.errors = [e for e in self.errors if "WebSocket connection to" not in e]
+        self.assertEqual(self.errors, [], "JavaScript errors on the console page")
+
+    def open_console(self, port=None):
+        self.page.goto("http://127.0.0.1:%d/console/" % (port or self.port))
+
+    def wait_connected(self):
+        self.page.wait_for_function("document.getElementById('link').textContent === 'connected'",
+                                    timeout=20000)
+
+    def wait_page(self, expression, what, timeout=20.0):
+        try:
+            self.page.wait_for_function(expression, timeout=timeout * 1000)
+        except Exception as err:  # playwright's TimeoutError: say what was awaited
+            raise AssertionError("page: timed out waiting for %s (%s)" % (what, err))
+
+    def obstacle_command(self, cmd):
+        """Send a virtual_obstacle_cmd over ROS (not through the page) and return move_base's ack."""
+        self.obstacle_acks.clear()
+        wait_subscribed(self.obstacle_cmd)
+        trans_id = int(time.monotonic() * 1000) % 100000000
+
+        def ask():
+            self.obstacle_cmd.publish(GeneralCmd(sender="test_console", trans_id=trans_id, cmd=cmd, data=""))
+        ack = self.obstacle_acks.handshake(ask, lambda m: m.trans_id == trans_id)
+        self.assertEqual(ack.ack, "success", ack.data)
+        return ack
+
+    def obstacles(self):
+        """The virtual obstacles move_base holds."""
+        return {item["id"]: item for item in json.loads(self.obstacle_command("query").data)}
+
+    def ensure_task_mode(self):
+        """Undo a backend take-over a failed earlier test may have left."""
+        if self.status.wait(lambda m: True, 10.0, "robot_status").mode == 1:
+            wait_subscribed(self.mode_cmd)
+            self.mode_cmd.publish(GeneralCmd(sender="server", cmd="release", data="server"))
+        self.status.wait(lambda m: m.mode == 0, 10.0, "task mode")
+
+    def map_click(self, x, y):
+        """Click the map canvas at world (x, y) m, using the page's own map-to-screen transform."""
+        self.page.locator("#map").scroll_into_view_if_needed()
+        box = self.page.locator("#map").bounding_box()
+        sx, sy, width, height = self.page.evaluate(
+            "([x, y]) => { const c = document.getElementById('map');"
+            " const [sx, sy] = window.consoleMap.toScreen([x, y]); return [sx, sy, c.width, c.height]; }", [x, y])
+        self.page.mouse.click(box["x"] + sx * box["width"] / width, box["y"] + sy * box["height"] / height)
+
+    # ------------------------------------------------------------------ status
+    def test_1_status_in_words(self):
+        self.open_console()
+        self.wait_connected()
+        self.wait_page("document.querySelector('#status tbody') && "
+                       "document.querySelector('#status tbody').textContent.includes('battery')", "status rows")
+        last = self.status.wait(lambda m: m.mode == 0, 10.0, "robot_status in task mode")
+        text = self.page.inner_text("#status")
+        self.assertIn("task", text)
+        self.assertIn("%d %%" % last.battery_quantity, text)
+        self.assertIn("x %.2f m" % last.position[0], text)
+        self.assertIn("lamp green", text)           # light_status b2 decoded
+        self.assertIn("OFFLINE", self.page.inner_text("#alarms"))   # nobody sends a heartbeat yet
+
+    # ------------------------------------------------------------------ teleop
+    def test_2_hold_to_move_and_stop_on_key_up(self):
+        self.open_console()
+        self.wait_connected()
+        self.page.click("#acquire")
+        self.status.wait(lambda m: m.mode == 1 and not m.offline_warn, 15.0, "backend mode granted to the console")
+        start = self.true_pose.wait(lambda m: True, 5.0, "true pose").pose.pose.position
+        self.page.locator("body").focus()
+        self.page.keyboard.down("ArrowUp")
+        self.true_pose.wait(lambda m: math.hypot(m.pose.pose.position.x - start.x,
+                                                 m.pose.pose.position.y - start.y) > 0.2, 10.0,
+                            "the robot moving forward while the key is held")
+        self.chassis.clear()
+        self.move_cmds.clear()
+        key_up = rospy.get_time()
+        self.page.keyboard.up("ArrowUp")
+        stop = wait_for(lambda: next((m for _, m in self.chassis.messages
+                                      if m.twist.linear.x == 0.0 and m.header.stamp.to_sec() >= key_up), None),
+                        5.0, "a zero velocity at the driver after key-up")
+        # The stop is the page's own explicit zero move_cmd, sent on key-up, not the robot's watchdog:
+        # it reached the driver before cmd_timeout had passed since the last non-zero move_cmd.
+        zero = wait_for(lambda: next((m for _, m in self.move_cmds.messages if m.velocity_x == 0), None), 5.0,
+                        "the page's zero move_cmd")
+        self.assertEqual((zero.sender, zero.velocity_yaw), ("server", 0))
+        last_drive = max([t for t, m in self.move_cmds.messages if m.velocity_x != 0] or [key_up])
+        self.assertLess(stop.header.stamp.to_sec(), last_drive + CMD_TIMEOUT)
+        rospy.loginfo("key-up -> zero velocity at the driver: %.1f ms (make bench measures it quietly)",
+                      (stop.header.stamp.to_sec() - key_up) * 1000.0)
+        # ... and the robot really comes to rest and stays there.
+        wait_for(lambda: self.status.last.velocity_x == 0.0, 5.0, "robot at rest")
+        rest = self.true_pose.last.pose.pose.position
+        count = len(self.status.messages)
+        wait_for(lambda: len(self.status.messages) >= count + 5, 5.0, "half a second more of robot_status")
+        moved = self.true_pose.last.pose.pose.position
+        self.assertLess(math.hypot(moved.x - rest.x, moved.y - rest.y), 0.01)
+        # Holding a key and losing focus stops too.
+        self.page.keyboard.down("KeyW")
+        self.true_pose.wait(lambda m: math.hypot(m.pose.pose.position.x - rest.x,
+                                                 m.pose.pose.position.y - rest.y) > 0.05, 10.0, "moving again")
+        self.chassis.clear()
+        blur = rospy.get_time()
+        self.page.evaluate("window.dispatchEvent(new Event('blur'))")
+        wait_for(lambda: any(m.twist.linear.x == 0.0 and m.header.stamp.to_sec() >= blur
+                             for _, m in self.chassis.messages), 5.0, "zero velocity after the page lost focus")
+        self.page.keyboard.up("KeyW")
+        self.page.click("#release")
+        self.status.wait(lambda m: m.mode == 0, 10.0, "control released")
+
+    # ------------------------------------------------------------------ map
+    def test_3_draw_edit_delete_virtual_obstacle(self):
+        self.open_console()
+        self.wait_connected()
+        self.wait_page("window.consoleMap && window.consoleMap.ready()", "the map drawn")
+        self.obstacle_command("clear")   # the page selects the first obstacle under the mouse
+        self.wait_page("window.consoleMap.obstacleCount() === 0", "the page's obstacle list cleared")
+        before = self.obstacles()
+        self.page.click("#tool-draw")
+        corners = [(20.0, 20.0), (24.0, 20.0), (24.0, 23.0), (20.0, 23.0)]
+        for x, y in corners:
+            self.map_click(x, y)
+        self.page.click("#obstacle-finish")
+        added = wait_for(lambda: {k: v for k, v in self.obstacles().items() if k not in before}, 10.0,
+                         "the drawn polygon as a virtual obstacle")
+        (ident, obstacle), = added.items()
+        self.assertTrue(ident.startswith("console_"))
+        self.assertTrue(obstacle["closed"])
+        self.assertEqual(len(obstacle["points"]), 4)
+        for (x, y), (px, py) in zip(corners, obstacle["points"]):
+            self.assertAlmostEqual(px, x, delta=0.3)
+            self.assertAlmostEqual(py, y, delta=0.3)
+        grid = self.obstacle_map.wait(lambda m: any(m.data), 10.0, "virtual_obstacle_map with the wall")
+        self.assertTrue(any(grid.data))
+        # Edit: select it, drag one corner 2 m right, save.
+        self.wait_page("window.consoleMap.obstacleCount() === 1", "the new obstacle in the page's list")
+        self.page.click("#tool-edit")
+        self.map_click(22.0, 21.5)
+        self.wait_page("!document.getElementById('obstacle-delete').disabled", "the obstacle selected")
+        box = self.page.locator("#map").bounding_box()
+        width, height = self.page.evaluate("[document.getElementById('map').width,"
+                                           " document.getElementById('map').height]")
+
+        def screen(x, y):
+            sx, sy = self.page.evaluate("([x, y]) => window.consoleMap.toScreen([x, y])", [x, y])
+            return box["x"] + sx * box["width"] / width, box["y"] + sy * box["height"] / height
+        self.page.mouse.move(*screen(24.0, 20.0))
+        self.page.mouse.down()
+        self.page.mouse.move(*screen(26.0, 20.0), steps=5)
+        self.page.mouse.up()
+        self.wait_page("!document.getElementById('obstacle-save').disabled", "the corner dragged")
+        self.page.click("#obstacle-save")
+        wait_for(lambda: abs(self.obstacles()[ident]["points"][1][0] - 26.0) < 0.3, 10.0, "the moved corner saved")
+        self.page.click("#obstacle-delete")
+        wait_for(lambda: ident not in self.obstacles(), 10.0, "the obstacle deleted")
+
+    def test_4_goal_sent_and_cancelled(self):
+        self.ensure_task_mode()
+        self.open_console()
+        self.wait_connected()
+        self.wait_page("window.consoleMap && window.consoleMap.ready()", "the map drawn")
+        start = self.true_pose.wait(lambda m: True, 5.0).pose.pose.position
+        self.page.click("#tool-goal")
+        self.map_click(start.x + 8.0, start.y)
+        self.true_pose.wait(lambda m: math.hypot(m.pose.pose.position.x - start.x,
+                                                 m.pose.pose.position.y - start.y) > 0.3, 30.0,
+                            "the robot driving to the clicked goal")
+        self.page.click("#goal-cancel")
+        self.wait_page("document.getElementById('log').textContent.includes('move_action result 4')",
+                       "the cancelled goal's result in the page")
+
+    # ------------------------------------------------------------------ head, camera, presets
+    def test_5_click_on_picture_turns_head(self):
+        self.open_console()
+        self.wait_connected()
+        self.wait_page("window.consoleFrames && window.consoleFrames.picture > 0", "a live picture")
+        self.wait_page("window.consoleFrames.thermal > 0", "a live thermal picture")
+        self.assertIn("hottest", self.page.inner_text("#thermal-caption"))
+        pan0 = self.head.wait(lambda m: True, 10.0, "terrace_state").position[0]
+        box = self.page.locator("#picture").bounding_box()
+        self.page.mouse.click(box["x"] + box["width"] * 0.85, box["y"] + box["height"] * 0.5)
+        # A point right of the centre: the head pans clockwise (standard pan decreases).
+        self.head.wait(lambda m: m.position[0] < pan0 - math.radians(5.0), 15.0, "the head turning right")
+        self.wait_page("document.getElementById('log').textContent.includes('terrace_ack')", "preset_rotate's ack")
+
+    def test_6_record_preset(self):
+        self.open_console()
+        self.wait_connected()
+        self.page.fill("#preset-id", "console_test")
+        self.page.click("#preset-form button[type=submit]")
+        self.wait_page("document.getElementById('preset-result').textContent.startsWith('recorded: ')",
+                       "the preset recorded", timeout=60.0)
+        directory = self.page.inner_text("#preset-result")[len("recorded: "):].strip()
+        self.assertTrue(os.path.isdir(directory), directory)
+        self.assertTrue(os.path.isfile(os.path.join(directory, "preset.ini")), os.listdir(directory))
+
+    # ------------------------------------------------------------------ authentication and a dropped link
+    def test_7_token_asked_refused_accepted_and_link_loss_shown(self):
+        port = bridge_port("rosbridge_auth")
+        self.link_errors_expected = True
+        self.open_console(port)
+        self.wait_page("document.getElementById('auth').open", "the token dialog")
+        self.page.fill("#auth-token", "wrong-token")
+        self.page.click("#auth-form button[type=submit]")
+        self.wait_page("document.getElementById('auth').open && "
+                       "document.getElementById('auth-error').textContent.includes('refused')",
+                       "the refusal shown and the token asked again")
+        self.page.fill("#auth-token", "console-secret")
+        self.page.click("#auth-form button[type=submit]")
+        self.wait_connected()
+        self.wait_page("document.querySelector('#status tbody').textContent.includes('battery')",
+                       "status through the authenticated link")
+        subprocess.check_call(["rosnode", "kill", "/rosbridge_auth"], stdout=subprocess.DEVNULL)
+        self.wait_page("document.getElementById('link').textContent.startsWith('disconnected')",
+                       "the dropped link shown")
+
+
+if __name__ == "__main__":
+    rostest.rosrun("inspection_robot", "test_console", ConsoleTest)

@@ -1,0 +1,45 @@
+// node --test: robot_status decoded into words (web/console/decode.js) without a browser.
+'use strict';
+const test = require('node:test');
+const assert = require('node:assert');
+const { decodeStatus, bits, byteArray } = require('../../web/console/decode.js');
+
+const quiet = {
+  offline_warn: 0, mode: 0, velocity_x: 0, velocity_yaw: 0, position: [1.5, -2.25], orientation: Math.PI / 2,
+  nav_status: 0, sensor_status: 0, wheel_status: 1, light_status: 4, stop_status: 0, circuit_status: 0,
+  battery_voltage: 532, battery_current: -15, battery_quantity: 90, battery_status: 32,
+  motor_status: Buffer.alloc(8).toString('base64'), temperature: [251].concat(Array(12).fill(-1000)),
+};
+
+test('a quiet robot: words for every field, no alarm', () => {
+  const d = decodeStatus(quiet);
+  assert.deepStrictEqual(d.alarms, []);
+  const text = Object.fromEntries(d.rows.map((r) => [r.name, r.text]));
+  assert.strictEqual(text.mode, 'task');
+  assert.strictEqual(text.pose, 'x 1.50 m, y -2.25 m, yaw 90.0°');
+  assert.strictEqual(text.battery, '90 %, 53.2 V, -1.5 A');
+  assert.strictEqual(text.battery_status, 'discharging');
+  assert.strictEqual(text.light_status, 'lamp green');
+  assert.strictEqual(text.temperatures, 'battery 25.1 °C');
+});
+
+test('alarms: offline, e-stops, falls, faults, low battery, motors (uint8[] as base64 or bytes)', () => {
+  const d = decodeStatus(Object.assign({}, quiet, {
+    offline_warn: 1, mode: 1, light_status: (1 << 4) | (1 << 5), stop_status: 1 << 6, circuit_status: 1 << 7,
+    battery_quantity: 8, battery_status: 1, nav_status: 4, sensor_status: 2,
+    motor_status: Buffer.from([1, 0, 0, 16, 1, 0, 0, 0]).toString('base64'),
+  }));
+  for (const words of ['OFFLINE', 'soft e-stop engaged', 'hard e-stop pressed', 'left fall alarm',
+    'battery critically low', 'under-voltage', '3D obstacle', 'thermal imager alarm', 'LF servo disconnected',
+    'LR servo fault', 'LF stepper error', '8 %']) {
+    assert.ok(d.alarms.some((a) => a.includes(words)), words + ' in ' + d.alarms.join(' | '));
+  }
+  assert.strictEqual(d.rows[0].text, 'backend remote control');
+  assert.deepStrictEqual(byteArray(new Uint8Array([3, 4])), [3, 4]);
+});
+
+test('every bit of the spec tables has words', () => {
+  assert.deepStrictEqual(bits('wheel_status', 0xff).length, 8);
+  assert.deepStrictEqual(bits('circuit_status', 0xff).length, 8);
+  assert.deepStrictEqual(bits('battery_status', 0xff).map((b) => b.words).includes('charging'), true);
+});

@@ -1,0 +1,746 @@
+/* The operator console: everything goes through the robot's rosbridge websocket (roslib.js), with
+   the names, types and strings of docs/interface.md. Commands are sent as the backend ("server"). */
+(function () {
+  'use strict';
+
+  const SENDER = 'server';
+  const DRIVE_PERIOD_MS = 100;        // move_cmd repeat while a drive key is held (robot cmd_timeout 0.5 s)
+  const HEARTBEAT_PERIOD_MS = 1000;   // server_status while the page acts as the backend
+  const RECONNECT_MS = 2000;
+  const YAW_RATE = 0.5;               // rad/s when turning
+
+  const $ = (id) => document.getElementById(id);
+  const state = { ros: null, topics: {}, transId: 1, status: null, authRequired: false, connected: false };
+
+  // ------------------------------------------------------------------ log of the robot's replies
+  function log(text, failed) {
+    const item = document.createElement('li');
+    item.textContent = new Date().toLocaleTimeString() + '  ' + text;
+    if (failed) item.className = 'failed';
+    const list = $('log');
+    list.insertBefore(item, list.firstChild);
+    while (list.children.length > 200) list.removeChild(list.lastChild);
+  }
+
+  // ------------------------------------------------------------------ connection
+  function topic(name, type, options) {
+    const key = name + '|' + (options && options.compression || '');
+    if (!state.topics[key]) {
+      state.topics[key] = new ROSLIB.Topic(Object.assign({ ros: state.ros, name, messageType: type }, options || {}));
+    }
+    return state.topics[key];
+  }
+
+  function header() {
+    return { sender: SENDER, receiver: '', trans_id: state.transId++ };
+  }
+
+  function command(name, cmd, data) {
+    topic(name, 'inspection_robot/GeneralCmd').publish(new ROSLIB.Message(
+      Object.assign(header(), { cmd, data: data === undefined ? '' : String(data) })));
+  }
+
+  function setLink(text, up) {
+    const link = $('link');
+    link.textContent = text;
+    link.className = 'link ' + (up ? 'up' : 'down');
+  }
+
+  function connect() {
+    const url = (location.protocol === 'https:' ? 'wss://' : 'ws://') + location.host + '/';
+    const ros = new ROSLIB.Ros();
+    state.ros = ros;
+    state.topics = {};
+    let opened = false;
+    ros.on('connection', () => {
+      opened = true;
+      state.connected = true;
+      setLink('connected', true);
+      log('connected to ' + url);
+    });
+    ros.on('status', (msg) => {
+      log('robot: ' + msg.level + ': ' + msg.msg, msg.level === 'error');
+      if (/auth/.test(msg.msg)) askToken('The robot refused the token (' + msg.msg + ').');
+    });
+    ros.on('error', () => setLink('link error', false));
+    ros.on('close', () => {
+      state.connected = false;
+      stopDriving();
+      stopHead();
+      setLink(opened ? 'disconnected: reconnecting…' : 'no link: retrying…', false);
+      if (opened) log('link to the robot lost; reconnecting', true);
+      setTimeout(connect, RECONNECT_MS);
+    });
+    ros.connect(url);
+    const token = sessionStorage.getItem('robot-token');
+    if (state.authRequired) {
+      if (!token) {
+        askToken('');
+        return;
+      }
+      ros.authenticate(token, '', '', '', 0, '', 0);   // the robot accepts its token as the mac
+    }
+    subscribeAll();
+  }
+
+  function askToken(reason) {
+    $('auth-error').textContent = reason;
+    sessionStorage.removeItem('robot-token');
+    if (!$('auth').open) $('auth').showModal();
+  }
+
+  $('auth-form').addEventListener('submit', () => {
+    sessionStorage.setItem('robot-token', $('auth-token').value);
+    if (state.ros) state.ros.close();   // 'close' reconnects with the token
+  });
+
+  // ------------------------------------------------------------------ subscriptions
+  function subscribeAll() {
+    topic('robot_status', 'inspection_robot/RobotStatus', { throttle_rate: 0, queue_length: 1 }).subscribe(onStatus);
+    for (const ack of ['control_ack', 'terrace_ack', 'camera_ack', 'infrared_ack', 'virtual_obstacle_ack',
+      'voice_ack', 'mode_ack']) {
+      topic(ack, 'inspection_robot/GeneralAck').subscribe((msg) => onAck(ack, msg));
+    }
+    topic('preset_scale_ack', 'inspection_robot/PresetScaleAck').subscribe(onPresetAck);
+    topic('terrace_state', 'sensor_msgs/JointState', { throttle_rate: 200, queue_length: 1 }).subscribe(onHead);
+    topic('camera/image_raw', 'sensor_msgs/Image', { compression: 'cbor', queue_length: 1 })
+      .subscribe((msg) => drawImage($('picture'), msg));
+    topic('thermal/image_raw', 'sensor_msgs/Image', { compression: 'cbor', queue_length: 1 })
+      .subscribe((msg) => drawImage($('thermal'), msg, state.hottest));
+    topic('thermal/hottest', 'inspection_robot/GeneralTopic', { queue_length: 1 }).subscribe(onHottest);
+    topic('map', 'nav_msgs/OccupancyGrid', { compression: 'cbor', queue_length: 1 }).subscribe(onMap);
+    topic('plan', 'nav_msgs/Path', { queue_length: 1 }).subscribe(onPlan);
+    // move_base republishes the virtual layer on every change (whoever made it): then ask for the list.
+    topic('virtual_obstacle_map', 'nav_msgs/OccupancyGrid', { compression: 'cbor', queue_length: 1 })
+      .subscribe(queryObstacles);
+  }
+
+  // ------------------------------------------------------------------ status
+  const statusRows = {};
+  window.consoleStats = { status: 0 };   // statuses rendered, for the benchmark
+  let statusFrame = 0;
+  function onStatus(msg) {
+    state.status = msg;
+    if (!statusFrame) statusFrame = requestAnimationFrame(renderStatus);
+  }
+
+  /** At most once per animation frame, whatever the rate: the newest status only. */
+  function renderStatus() {
+    statusFrame = 0;
+    const msg = state.status;
+    window.consoleStats.status += 1;
+    const decoded = RobotDecode.decodeStatus(msg);
+    $('mode').textContent = 'mode: ' + RobotDecode.MODES[msg.mode];
+    const alarms = $('alarms');
+    alarms.textContent = decoded.alarms.length ? decoded.alarms.join(' · ') : 'no alarm';
+    alarms.className = 'alarms' + (decoded.alarms.length ? ' active' : '');
+    // One table row per (name, index) kept across updates: a 10 Hz refresh must not grow the DOM.
+    const body = $('status').tBodies[0];
+    const seen = {};
+    decoded.rows.forEach((row) => {
+      const key = row.name + '#' + (seen[row.name] = (seen[row.name] || 0) + 1);
+      let tr = statusRows[key];
+      if (!tr) {
+        tr = statusRows[key] = body.insertRow();
+        tr.insertCell().textContent = row.name;
+        tr.insertCell();
+      }
+      tr.cells[1].textContent = row.text;
+      tr.className = row.alarm ? 'alarm' : '';
+      tr.hidden = false;
+    });
+    Object.keys(statusRows).forEach((key) => {
+      const [name, n] = key.split('#');
+      if (Number(n) > (seen[name] || 0)) statusRows[key].hidden = true;
+    });
+    drawMap();
+  }
+
+  function onAck(name, msg) {
+    log(name + ' #' + msg.trans_id + ' ' + msg.ack + (msg.data ? ': ' + msg.data : ''), msg.ack !== 'success');
+    if (name === 'virtual_obstacle_ack' && state.obstacleQueries.delete(msg.trans_id) && msg.ack === 'success') {
+      try {
+        state.obstacles = JSON.parse(msg.data);
+      } catch (err) {
+        log('virtual obstacle list unreadable: ' + err, true);
+      }
+      drawMap();
+    }
+  }
+
+  // ------------------------------------------------------------------ heartbeat and e-stop
+  function heartbeat() {
+    if (state.connected && $('heartbeat').checked) {
+      topic('server_status', 'inspection_robot/GeneralTopic').publish(
+        new ROSLIB.Message(Object.assign(header(), { data: 'console' })));
+    }
+  }
+  setInterval(heartbeat, HEARTBEAT_PERIOD_MS);
+  $('heartbeat').addEventListener('change', heartbeat);
+
+  $('estop').addEventListener('click', () => {
+    stopDriving();
+    command('control_cmd', 'enable_stop');
+  });
+  $('estop-release').addEventListener('click', () => command('control_cmd', 'disable_stop'));
+
+  // ------------------------------------------------------------------ teleop
+  $('acquire').addEventListener('click', () => {
+    // robot_control refuses `acquire server` while the backend is offline: heartbeat first, then ask.
+    $('heartbeat').checked = true;
+    heartbeat();
+    const started = Date.now();
+    const tryAcquire = () => {
+      if ((!state.status || state.status.offline_warn) && Date.now() - started < 10000) {
+        setTimeout(tryAcquire, 200);
+        return;
+      }
+      command('mode_cmd', 'acquire', 'server');
+      setTimeout(() => {
+        if (!state.status || state.status.mode !== 1) log('acquire: control not granted yet (mode '
+          + (state.status ? RobotDecode.MODES[state.status.mode] : '?') + ')', true);
+      }, 1500);
+    };
+    tryAcquire();
+  });
+  $('release').addEventListener('click', () => {
+    stopDriving();
+    command('mode_cmd', 'release', 'server');
+  });
+  $('speed').addEventListener('input', () => { $('speed-out').textContent = $('speed').value; });
+
+  const held = new Set();
+  let driveTimer = null;
+  let wheelControl = 0;
+
+  function driveCommand() {
+    const speed = Number($('speed').value);
+    let vx = 0;
+    let yaw = 0;
+    if (held.has('forward')) vx += speed;
+    if (held.has('backward')) vx -= speed;
+    if (held.has('left')) yaw += YAW_RATE;
+    if (held.has('right')) yaw -= YAW_RATE;
+    // Turning alone spins in place (steer mode); with a forward/backward key it steers while driving.
+    wheelControl = vx === 0 && yaw !== 0 ? 1 : 0;
+    return { vx, yaw };
+  }
+
+  function publishMove(vx, yaw) {
+    topic('move_cmd', 'inspection_robot/MoveCmd').publish(new ROSLIB.Message(Object.assign(header(), {
+      velocity_x: Math.round(vx * 1000), velocity_yaw: Math.round(yaw * 1000), wheel_control: wheelControl })));
+  }
+
+  function sendDrive() {
+    const { vx, yaw } = driveCommand();
+    publishMove(vx, yaw);
+  }
+
+  function startDriving(direction) {
+    if (direction === 'stop') {
+      stopDriving();
+      return;
+    }
+    held.add(direction);
+    markHeld();
+    sendDrive();
+    if (!driveTimer) driveTimer = setInterval(sendDrive, DRIVE_PERIOD_MS);
+  }
+
+  function releaseDriving(direction) {
+    if (!held.delete(direction)) return;
+    markHeld();
+    if (held.size) {
+      sendDrive();
+    } else {
+      stopDriving();
+    }
+  }
+
+  /** One explicit zero move_cmd, then silence (the robot's watchdog covers a lost stop). */
+  function stopDriving() {
+    const wasDriving = driveTimer !== null || held.size > 0;
+    held.clear();
+    markHeld();
+    if (driveTimer) clearInterval(driveTimer);
+    driveTimer = null;
+    if (wasDriving && state.connected) publishMove(0, 0);
+  }
+
+  function markHeld() {
+    document.querySelectorAll('[data-drive]').forEach((b) => b.classList.toggle('held', held.has(b.dataset.drive)));
+  }
+
+  const KEYS = { ArrowUp: 'forward', KeyW: 'forward', ArrowDown: 'backward', KeyS: 'backward', ArrowLeft: 'left',
+    KeyA: 'left', ArrowRight: 'right', KeyD: 'right', Space: 'stop' };
+  function typing(event) {
+    return /^(INPUT|TEXTAREA|SELECT)$/.test(event.target.tagName) && event.target.type !== 'range';
+  }
+  window.addEventListener('keydown', (event) => {
+    const direction = KEYS[event.code];
+    if (!direction || typing(event)) return;
+    event.preventDefault();
+    if (!event.repeat) startDriving(direction);
+  });
+  window.addEventListener('keyup', (event) => {
+    const direction = KEYS[event.code];
+    if (direction && !typing(event)) releaseDriving(direction);
+  });
+  // Losing focus loses the key-up: stop rather than drive on.
+  window.addEventListener('blur', stopDriving);
+  document.addEventListener('visibilitychange', () => { if (document.hidden) stopDriving(); });
+
+  function holdButton(button, press, release) {
+    button.addEventListener('pointerdown', (event) => {
+      button.setPointerCapture(event.pointerId);
+      press();
+    });
+    for (const type of ['pointerup', 'pointercancel', 'lostpointercapture']) button.addEventListener(type, release);
+  }
+  document.querySelectorAll('[data-drive]').forEach((b) => {
+    holdButton(b, () => startDriving(b.dataset.drive), () => releaseDriving(b.dataset.drive));
+  });
+
+  // ------------------------------------------------------------------ head and camera
+  let headMoving = false;
+  let lensMoving = false;
+  function stopHead() {
+    if (headMoving && state.connected) command('terrace_cmd', 'terrace_stop');
+    if (lensMoving && state.connected) command('camera_cmd', 'camera_stop');
+    headMoving = lensMoving = false;
+  }
+  document.querySelectorAll('[data-head]').forEach((b) => {
+    const cmd = b.dataset.head;
+    if (cmd === 'terrace_stop') {
+      b.addEventListener('click', () => { headMoving = true; stopHead(); });
+      return;
+    }
+    holdButton(b, () => { headMoving = true; command('terrace_cmd', cmd, 'mid_speed'); }, stopHead);
+  });
+  document.querySelectorAll('[data-lens]').forEach((b) => {
+    holdButton(b, () => { lensMoving = true; command('camera_cmd', b.dataset.lens, '0'); }, stopHead);
+  });
+  document.querySelectorAll('[data-aux]').forEach((b) => {
+    b.addEventListener('click', () => command('terrace_cmd', b.dataset.aux));
+  });
+  $('angle-form').addEventListener('submit', (event) => {
+    event.preventDefault();
+    const centi = (input) => Math.round(Number(input.value) * 100);
+    command('terrace_cmd', 'set_angle', centi($('pan')) + ',' + centi($('tilt')));
+  });
+
+  function onHead(msg) {
+    const deg = (rad) => (rad * 180 / Math.PI).toFixed(2);
+    $('head-angle').textContent = 'now pan ' + deg(msg.position[0]) + '°, tilt ' + deg(msg.position[1]) + '°';
+  }
+
+  function bytesOf(data) {
+    if (data instanceof Uint8Array) return data;
+    if (typeof data === 'string') {   // JSON encoding: base64
+      const text = atob(data);
+      const out = new Uint8Array(text.length);
+      for (let i = 0; i < text.length; i++) out[i] = text.charCodeAt(i);
+      return out;
+    }
+    return Uint8Array.from(data);
+  }
+
+  /** A bgr8/rgb8/mono8 sensor_msgs/Image onto a canvas (resized to the picture). */
+  function drawImage(canvas, msg, marker) {
+    const src = bytesOf(msg.data);
+    const ctx = canvas.getContext('2d');
+    if (canvas.width !== msg.width || canvas.height !== msg.height) {
+      canvas.width = msg.width;
+      canvas.height = msg.height;
+    }
+    const image = ctx.createImageData(msg.width, msg.height);
+    const out = image.data;
+    const channels = msg.encoding === 'mono8' ? 1 : 3;
+    const bgr = msg.encoding === 'bgr8';
+    for (let y = 0; y < msg.height; y++) {
+      let s = y * msg.step;
+      let d = y * msg.width * 4;
+      for (let x = 0; x < msg.width; x++, s += channels, d += 4) {
+        if (channels === 1) {
+          out[d] = out[d + 1] = out[d + 2] = src[s];
+        } else {
+          out[d] = src[bgr ? s + 2 : s];
+          out[d + 1] = src[s + 1];
+          out[d + 2] = src[bgr ? s : s + 2];
+        }
+        out[d + 3] = 255;
+      }
+    }
+    ctx.putImageData(image, 0, 0);
+    window.consoleFrames[canvas.id] += 1;
+    if (marker) {
+      ctx.strokeStyle = '#00e5ff';
+      ctx.lineWidth = 2;
+      ctx.beginPath();
+      ctx.arc(marker.x, marker.y, 8, 0, 2 * Math.PI);
+      ctx.moveTo(marker.x - 14, marker.y);
+      ctx.lineTo(marker.x + 14, marker.y);
+      ctx.moveTo(marker.x, marker.y - 14);
+      ctx.lineTo(marker.x, marker.y + 14);
+      ctx.stroke();
+    }
+  }
+
+  function onHottest(msg) {
+    try {
+      state.hottest = JSON.parse(msg.data);
+      $('thermal-caption').textContent = 'thermal: hottest ' + state.hottest.temperature.toFixed(1) + ' °C at ('
+        + state.hottest.x + ', ' + state.hottest.y + ')';
+    } catch (err) {
+      log('thermal/hottest unreadable: ' + err, true);
+    }
+  }
+
+  $('picture').addEventListener('click', (event) => {
+    const canvas = $('picture');
+    const rect = canvas.getBoundingClientRect();
+    const x = (event.clientX - rect.left) * canvas.width / rect.width;
+    const y = (event.clientY - rect.top) * canvas.height / rect.height;
+    topic('preset_rotate', 'inspection_robot/PresetRotate').publish(new ROSLIB.Message(Object.assign(header(), {
+      width: canvas.width, height: canvas.height,
+      delta_x: Math.round(x - canvas.width / 2), delta_y: Math.round(canvas.height / 2 - y) })));
+  });
+
+  // ------------------------------------------------------------------ map, goals, virtual obstacles
+  const view = { scale: 0, ox: 0, oy: 0 };   // screen = (world - origin) * scale, y up
+  let mapImage = null;
+  let mapInfo = null;
+  let tool = null;
+  let draft = [];
+  let selected = null;
+  let dragging = null;
+  let panning = null;
+  let goal = null;
+  state.obstacles = [];
+  state.obstacleQueries = new Set();   // trans_ids of the page's own pending `query` commands
+
+  // For the browser tests: the map transform, and how many live pictures were drawn.
+  window.consoleMap = { toScreen: (p) => toScreen(p), ready: () => mapInfo !== null,
+    obstacleCount: () => state.obstacles.length };
+  window.consoleFrames = { picture: 0, thermal: 0 };
+
+  function onMap(msg) {
+    const info = msg.info;
+    const cells = msg.data;
+    const image = new ImageData(info.width, info.height);
+    for (let row = 0; row < info.height; row++) {
+      const flipped = (info.height - 1 - row) * info.width;   // row 0 of the grid is the bottom of the map
+      for (let col = 0; col < info.width; col++) {
+        const v = cells[row * info.width + col];
+        const grey = v < 0 ? 160 : 255 - Math.round(v * 2.55);
+        const d = (flipped + col) * 4;
+        image.data[d] = image.data[d + 1] = image.data[d + 2] = grey;
+        image.data[d + 3] = 255;
+      }
+    }
+    mapImage = document.createElement('canvas');
+    mapImage.width = info.width;
+    mapImage.height = info.height;
+    mapImage.getContext('2d').putImageData(image, 0, 0);
+    mapInfo = info;
+    fitMap();
+    drawMap();
+  }
+
+  function onPlan(msg) {
+    state.plan = msg.poses.map((p) => [p.pose.position.x, p.pose.position.y]);
+    drawMap();
+  }
+
+  function fitMap() {
+    const canvas = $('map');
+    const w = mapInfo.width * mapInfo.resolution;
+    const h = mapInfo.height * mapInfo.resolution;
+    view.scale = Math.min(canvas.width / w, canvas.height / h);
+    view.ox = mapInfo.origin.position.x;
+    view.oy = mapInfo.origin.position.y + canvas.height / view.scale;
+  }
+
+  const toScreen = ([x, y]) => [(x - view.ox) * view.scale, (view.oy - y) * view.scale];
+  const toWorld = (sx, sy) => [sx / view.scale + view.ox, view.oy - sy / view.scale];
+
+  function polyline(ctx, points, closed) {
+    ctx.beginPath();
+    points.forEach((p, i) => {
+      const [sx, sy] = toScreen(p);
+      if (i) ctx.lineTo(sx, sy); else ctx.moveTo(sx, sy);
+    });
+    if (closed) ctx.closePath();
+  }
+
+  let mapFrame = 0;
+  function drawMap() {
+    if (!mapFrame) mapFrame = requestAnimationFrame(renderMap);
+  }
+
+  function renderMap() {
+    mapFrame = 0;
+    const canvas = $('map');
+    const ctx = canvas.getContext('2d');
+    ctx.setTransform(1, 0, 0, 1, 0, 0);
+    ctx.fillStyle = '#9e9e9e';
+    ctx.fillRect(0, 0, canvas.width, canvas.height);
+    if (!mapInfo) return;
+    const [mx, my] = toScreen([mapInfo.origin.position.x, mapInfo.origin.position.y]);
+    const mw = mapInfo.width * mapInfo.resolution * view.scale;
+    const mh = mapInfo.height * mapInfo.resolution * view.scale;
+    ctx.imageSmoothingEnabled = false;
+    ctx.drawImage(mapImage, mx, my - mh, mw, mh);
+    for (const obstacle of state.obstacles) {
+      const points = selected && selected.id === obstacle.id ? selected.points : obstacle.points;
+      ctx.strokeStyle = selected && selected.id === obstacle.id ? '#ff6d00' : '#d50000';
+      ctx.lineWidth = 3;
+      polyline(ctx, points, obstacle.closed);
+      ctx.stroke();
+      if (selected && selected.id === obstacle.id) {
+        ctx.fillStyle = '#ff6d00';
+        for (const p of points) {
+          const [sx, sy] = toScreen(p);
+          ctx.fillRect(sx - 4, sy - 4, 8, 8);
+        }
+      }
+    }
+    if (draft.length) {
+      ctx.strokeStyle = '#d50000';
+      ctx.setLineDash([6, 4]);
+      polyline(ctx, draft, draft.length > 2);
+      ctx.stroke();
+      ctx.setLineDash([]);
+    }
+    if (state.plan && state.plan.length) {
+      ctx.strokeStyle = '#1565c0';
+      ctx.lineWidth = 2;
+      polyline(ctx, state.plan, false);
+      ctx.stroke();
+    }
+    if (goal) {
+      const [gx, gy] = toScreen(goal);
+      ctx.strokeStyle = '#2e7d32';
+      ctx.beginPath();
+      ctx.arc(gx, gy, 7, 0, 2 * Math.PI);
+      ctx.stroke();
+    }
+    const s = state.status;
+    if (s && s.position && s.position.length >= 2) {
+      const [rx, ry] = toScreen(s.position);
+      ctx.save();
+      ctx.translate(rx, ry);
+      ctx.rotate(-s.orientation);
+      ctx.fillStyle = '#ffab00';
+      ctx.strokeStyle = '#000';
+      ctx.lineWidth = 1;
+      ctx.beginPath();
+      ctx.moveTo(12, 0);
+      ctx.lineTo(-8, 7);
+      ctx.lineTo(-8, -7);
+      ctx.closePath();
+      ctx.fill();
+      ctx.stroke();
+      ctx.restore();
+    }
+  }
+
+  function setTool(name) {
+    tool = tool === name ? null : name;
+    draft = [];
+    if (tool !== 'edit') selected = null;
+    document.querySelectorAll('.tool').forEach((b) => b.classList.toggle('active', b.id === 'tool-' + tool));
+    updateObstacleButtons();
+    drawMap();
+  }
+  $('tool-goal').addEventListener('click', () => setTool('goal'));
+  $('tool-draw').addEventListener('click', () => setTool('draw'));
+  $('tool-edit').addEventListener('click', () => setTool('edit'));
+
+  function updateObstacleButtons() {
+    $('obstacle-finish').disabled = !(tool === 'draw' && draft.length >= 3);
+    $('obstacle-save').disabled = !(selected && selected.changed);
+    $('obstacle-delete').disabled = !selected;
+  }
+
+  function mapPoint(event) {
+    const canvas = $('map');
+    const rect = canvas.getBoundingClientRect();
+    const sx = (event.clientX - rect.left) * canvas.width / rect.width;
+    const sy = (event.clientY - rect.top) * canvas.height / rect.height;
+    return { sx, sy, world: toWorld(sx, sy) };
+  }
+
+  function nearestVertex(sx, sy) {
+    if (!selected) return -1;
+    let best = -1;
+    let bestDistance = 10;   // px
+    selected.points.forEach((p, i) => {
+      const [px, py] = toScreen(p);
+      const d = Math.hypot(px - sx, py - sy);
+      if (d < bestDistance) {
+        best = i;
+        bestDistance = d;
+      }
+    });
+    return best;
+  }
+
+  function obstacleAt(world) {
+    const [x, y] = world;
+    const tolerance = 8 / view.scale;   // m
+    for (const obstacle of state.obstacles) {
+      const pts = obstacle.points;
+      let inside = false;
+      for (let i = 0, j = pts.length - 1; i < pts.length; j = i++) {
+        const [xi, yi] = pts[i];
+        const [xj, yj] = pts[j];
+        if ((yi > y) !== (yj > y) && x < (xj - xi) * (y - yi) / (yj - yi) + xi) inside = !inside;
+        if (i > 0 || obstacle.closed) {
+          const dx = xj - xi;
+          const dy = yj - yi;
+          const t = Math.max(0, Math.min(1, ((x - xi) * dx + (y - yi) * dy) / (dx * dx + dy * dy || 1)));
+          if (Math.hypot(x - xi - t * dx, y - yi - t * dy) < tolerance) return obstacle;
+        }
+      }
+      if (inside && obstacle.closed) return obstacle;
+    }
+    return null;
+  }
+
+  const canvasMap = $('map');
+  canvasMap.addEventListener('contextmenu', (event) => event.preventDefault());
+  canvasMap.addEventListener('pointerdown', (event) => {
+    if (!mapInfo) return;
+    const p = mapPoint(event);
+    if (event.button === 2) {
+      panning = { sx: p.sx, sy: p.sy, ox: view.ox, oy: view.oy };
+      return;
+    }
+    if (tool === 'goal') {
+      goal = p.world;
+      sendGoal(p.world, Number($('goal-yaw').value) * Math.PI / 180);
+    } else if (tool === 'draw') {
+      draft.push(p.world.map((v) => Math.round(v * 100) / 100));
+    } else if (tool === 'edit') {
+      const vertex = nearestVertex(p.sx, p.sy);
+      if (vertex >= 0) {
+        dragging = vertex;
+        canvasMap.setPointerCapture(event.pointerId);
+      } else {
+        const hit = obstacleAt(p.world);
+        selected = hit ? { id: hit.id, closed: hit.closed, points: hit.points.map((q) => q.slice()), changed: false }
+          : null;
+      }
+    }
+    $('map-info').textContent = 'x ' + p.world[0].toFixed(2) + ' m, y ' + p.world[1].toFixed(2) + ' m';
+    updateObstacleButtons();
+    drawMap();
+  });
+  canvasMap.addEventListener('pointermove', (event) => {
+    const p = mapPoint(event);
+    if (panning) {
+      view.ox = panning.ox - (p.sx - panning.sx) / view.scale;
+      view.oy = panning.oy + (p.sy - panning.sy) / view.scale;
+      drawMap();
+    } else if (dragging !== null && selected) {
+      selected.points[dragging] = p.world.map((v) => Math.round(v * 100) / 100);
+      selected.changed = true;
+      updateObstacleButtons();
+      drawMap();
+    }
+  });
+  canvasMap.addEventListener('pointerup', () => { dragging = null; panning = null; });
+  canvasMap.addEventListener('wheel', (event) => {
+    if (!mapInfo) return;
+    event.preventDefault();
+    const p = mapPoint(event);
+    const factor = event.deltaY < 0 ? 1.25 : 0.8;
+    view.scale *= factor;
+    view.ox = p.world[0] - p.sx / view.scale;
+    view.oy = p.world[1] + p.sy / view.scale;
+    drawMap();
+  }, { passive: false });
+
+  function obstacleCommand(cmd, body) {
+    command('virtual_obstacle_cmd', cmd, JSON.stringify(body));
+  }
+  function queryObstacles() {
+    state.obstacleQueries.add(state.transId);
+    command('virtual_obstacle_cmd', 'query', '');
+  }
+  $('obstacle-finish').addEventListener('click', () => {
+    obstacleCommand('add', { id: 'console_' + Date.now().toString(36), points: draft, closed: true });
+    draft = [];
+    updateObstacleButtons();
+    drawMap();
+  });
+  $('obstacle-save').addEventListener('click', () => {
+    obstacleCommand('modify', { id: selected.id, points: selected.points, closed: selected.closed });
+    selected.changed = false;
+    updateObstacleButtons();
+  });
+  $('obstacle-delete').addEventListener('click', () => {
+    obstacleCommand('delete', { id: selected.id });
+    selected = null;
+    updateObstacleButtons();
+  });
+  window.addEventListener('keydown', (event) => {   // Enter finishes a polygon
+    if (event.key === 'Enter' && tool === 'draw' && draft.length >= 3) $('obstacle-finish').click();
+  });
+
+  let moveClient = null;
+  let goalHandle = null;
+  function sendGoal(world, yaw) {
+    if (!moveClient || moveClient.ros !== state.ros) {
+      moveClient = new ROSLIB.ActionClient({ ros: state.ros, serverName: 'move_action',
+        actionName: 'inspection_robot/GeneralAction' });
+    }
+    if (goalHandle) goalHandle.cancel();
+    const data = { with_direction: 1, precision: 0, move_style: 0,
+      goal_pose: { position: { x: world[0], y: world[1], z: 0 },
+        orientation: { x: 0, y: 0, z: Math.sin(yaw / 2), w: Math.cos(yaw / 2) } } };
+    const handle = new ROSLIB.Goal({ actionClient: moveClient,
+      goalMessage: Object.assign(header(), { type: 'move', data: JSON.stringify(data) }) });
+    handle.on('feedback', (fb) => {
+      if (fb.event_code !== '2') log('move_action feedback ' + fb.event_code + ': ' + fb.data);
+    });
+    handle.on('result', (result) => {
+      log('move_action result ' + result.ret_code + ': ' + result.data, result.ret_code !== '0');
+      if (goalHandle === handle) goalHandle = null;
+    });
+    handle.send();
+    goalHandle = handle;
+    log('goal sent: x ' + world[0].toFixed(2) + ', y ' + world[1].toFixed(2) + ', heading '
+      + (yaw * 180 / Math.PI).toFixed(0) + '°');
+  }
+  $('goal-cancel').addEventListener('click', () => {
+    if (goalHandle) {
+      goalHandle.cancel();
+      log('goal cancel requested');
+    }
+    goal = null;
+    drawMap();
+  });
+
+  // ------------------------------------------------------------------ presets
+  $('preset-form').addEventListener('submit', (event) => {
+    event.preventDefault();
+    topic('preset_scale_cmd', 'inspection_robot/PresetScaleCmd').publish(new ROSLIB.Message(Object.assign(header(), {
+      preset_id: $('preset-id').value, infrared: $('preset-infrared').checked, type: '', extra_data: '' })));
+    $('preset-result').textContent = 'recording…';
+  });
+  function onPresetAck(msg) {
+    const ok = msg.result === 'success';
+    $('preset-result').textContent = ok ? 'recorded: ' + msg.directory : 'failed: ' + msg.directory;
+    $('preset-result').className = ok ? '' : 'error';
+    log('preset_scale_ack #' + msg.trans_id + ' ' + msg.result + ': ' + msg.directory, !ok);
+  }
+
+  // ------------------------------------------------------------------ start
+  fetch('config.json', { cache: 'no-store' })
+    .then((response) => response.json())
+    .then((config) => { state.authRequired = !!config.auth_required; })
+    .catch(() => log('config.json unreadable: assuming no authentication', true))
+    .then(connect);
+}());

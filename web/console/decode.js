@@ -1,0 +1,95 @@
+/* robot_status decoded into words: the spec's bit tables (docs/interface.md, "Heartbeat and status",
+   "Motion and safety"), kept apart from the page so node's test runner checks them without a browser. */
+(function (exports) {
+  'use strict';
+
+  const MODES = ['task', 'backend remote control', 'joystick'];
+
+  // [bit, words, is an alarm when set]
+  const BITS = {
+    wheel_status: [[0, 'straight mode', false], [1, 'steer mode', false], [2, 'switching direction', false],
+      [3, 'stepper fault clear', false], [4, 'servo fault clear', false], [5, 'obstacle detection OFF', true],
+      [6, 'anti-collision OFF', true], [7, 'anti-fall OFF', true]],
+    light_status: [[0, 'charge relay on', false], [1, 'lamp red', false], [2, 'lamp green', false],
+      [3, 'lamp blue', false], [4, 'soft e-stop engaged', true], [5, 'hard e-stop pressed', true],
+      [6, 'bumper strip pressed', true]],
+    stop_status: [[0, 'front collision alarm', true], [5, 'obstacle alarm', true], [6, 'left fall alarm', true],
+      [7, 'right fall alarm', true]],
+    circuit_status: [[0, 'stepper board comm alarm', true], [1, 'joystick comm lost', true],
+      [2, 'joystick line fault', true], [3, 'sensor board line fault', true], [4, 'collision line fault', true],
+      [5, 'left TOF line fault', true], [6, 'right TOF line fault', true], [7, 'battery critically low', true]],
+    battery_status: [[0, 'under-voltage', true], [1, 'over-voltage', true], [2, 'low temperature', true],
+      [3, 'high temperature', true], [4, 'charging', false], [5, 'discharging', false],
+      [7, 'battery line fault', true]],
+    nav_status: [[0, 'off-track', true], [1, 'localization lost', true], [2, '3D obstacle', true]],
+    sensor_status: [[0, 'visible camera alarm', true], [1, 'thermal imager alarm', true]],
+  };
+
+  const MOTORS = ['LF servo', 'RF servo', 'RR servo', 'LR servo', 'LF stepper', 'RF stepper', 'RR stepper',
+    'LR stepper'];
+  const TEMPERATURES = ['battery', 'servo LF', 'servo RF', 'servo RR', 'servo LR', 'stepper LF', 'stepper RF',
+    'stepper RR', 'stepper LR', 'IPC', 'motion control card', 'pod inside', 'pod outside'];
+
+  /** The set bits of ``value`` in ``field`` as [{words, alarm}]. */
+  function bits(field, value) {
+    return BITS[field].filter(([bit]) => (value >> bit) & 1).map(([, words, alarm]) => ({ words, alarm }));
+  }
+
+  /** A uint8[] field as numbers: rosbridge's JSON carries uint8[] as base64, CBOR as bytes. */
+  function byteArray(value) {
+    if (typeof value !== 'string') return Array.from(value || []);
+    const text = typeof atob === 'function' ? atob(value) : Buffer.from(value, 'base64').toString('binary');
+    return Array.from(text, (c) => c.charCodeAt(0));
+  }
+
+  /** Motor faults as words: servo b0 disconnected / b4 fault, stepper b0 error (motor_status). */
+  function motorFaults(motorStatus) {
+    const faults = [];
+    byteArray(motorStatus).forEach((value, i) => {
+      const servo = i < 4;
+      if (value & 1) faults.push(MOTORS[i] + (servo ? ' disconnected' : ' error'));
+      if (servo && (value >> 4) & 1) faults.push(MOTORS[i] + ' fault');
+    });
+    return faults;
+  }
+
+  /** Everything the status panel shows, in words: {mode, offline, rows: [{name, text, alarm}], alarms}. */
+  function decodeStatus(msg) {
+    const rows = [];
+    const alarms = [];
+    const add = (name, text, alarm) => {
+      rows.push({ name, text, alarm: !!alarm });
+      if (alarm) alarms.push(name + ': ' + text);
+    };
+    add('mode', MODES[msg.mode] !== undefined ? MODES[msg.mode] : 'unknown (' + msg.mode + ')', false);
+    add('backend link', msg.offline_warn ? 'OFFLINE (no server heartbeat)' : 'online', msg.offline_warn);
+    const pos = msg.position || [];
+    add('pose', pos.length >= 2
+      ? 'x ' + pos[0].toFixed(2) + ' m, y ' + pos[1].toFixed(2) + ' m, yaw '
+        + (msg.orientation * 180 / Math.PI).toFixed(1) + '°'
+      : 'unknown', false);
+    add('speed', (msg.velocity_x).toFixed(2) + ' m/s, ' + (msg.velocity_yaw).toFixed(2) + ' rad/s', false);
+    add('battery', msg.battery_quantity + ' %, ' + (msg.battery_voltage / 10).toFixed(1) + ' V, '
+      + (msg.battery_current / 10).toFixed(1) + ' A', msg.battery_quantity <= 10);
+    for (const field of ['battery_status', 'wheel_status', 'light_status', 'stop_status', 'circuit_status',
+      'nav_status', 'sensor_status']) {
+      const set = bits(field, msg[field] || 0);
+      if (!set.length) {
+        add(field, 'none', false);
+      }
+      for (const bit of set) add(field, bit.words, bit.alarm);
+    }
+    const motors = motorFaults(msg.motor_status);
+    add('motors', motors.length ? motors.join(', ') : 'ok', motors.length > 0);
+    const temps = (msg.temperature || []).map((t, i) => (t === -1000 ? null : TEMPERATURES[i] + ' '
+      + (t / 10).toFixed(1) + ' °C')).filter((t) => t);
+    add('temperatures', temps.length ? temps.join(', ') : 'not sampled', false);
+    return { mode: msg.mode, offline: !!msg.offline_warn, rows, alarms };
+  }
+
+  exports.MODES = MODES;
+  exports.BITS = BITS;
+  exports.bits = bits;
+  exports.byteArray = byteArray;
+  exports.decodeStatus = decodeStatus;
+}(typeof module !== 'undefined' ? module.exports : (window.RobotDecode = {})));
