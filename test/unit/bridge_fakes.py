@@ -22,6 +22,7 @@ class FakeBackend(object):
         self.services = {}
         self.calls = []
         self.pending = []
+        self.full_topics = set()  # topics whose (pretend) rospy publisher queue is full
 
     def topic_type(self, topic):
         return self.topic_types.get(topic)
@@ -46,6 +47,9 @@ class FakeBackend(object):
     def publish(self, topic, values):
         cls = self.types.message_class(self.topic_types[topic])
         self.published.append((topic, self.codec.from_json(cls, values)))
+
+    def publisher_full(self, topic):
+        return topic in self.full_topics
 
     def subscribe(self, session, topic, type_name):
         self.check_type(topic, type_name)

@@ -24,13 +24,32 @@ def type_conflict(topic, wanted, established):
 
 
 class _Topic(object):
-    __slots__ = ("handle", "type_name", "sessions", "early")
+    __slots__ = ("handle", "type_name", "sessions", "early", "high_water")
 
-    def __init__(self, handle, type_name, early=None):
+    def __init__(self, handle, type_name, early=None, high_water=None):
         self.handle = handle
         self.type_name = type_name
         self.sessions = set()
         self.early = early
+        self.high_water = high_water
+
+
+def publisher_queue_depth(publisher):
+    """The longest outgoing queue of a rospy.Publisher's subscriber connections (0 when none).
+
+    rospy keeps one queue per connection (QueuedConnection._queue) and, when one is full, drops
+    its oldest message without telling anyone; the bridge reads this depth to stop reading a
+    client before that happens. rospy has no public accessor, hence the private attribute.
+    """
+    impl = publisher.impl
+    if impl is None:
+        return 0
+    depth = 0
+    for connection in list(impl.connections):
+        queued = getattr(connection, "_queue", None)
+        if queued is not None and len(queued) > depth:
+            depth = len(queued)
+    return depth
 
 
 class EarlyMessageReplay(rospy.SubscribeListener):
@@ -116,7 +135,7 @@ class RosBackend(object):
             cls = self._types.message_class(type_name)
             early = EarlyMessageReplay()
             entry = _Topic(rospy.Publisher(topic, cls, latch=latch, queue_size=queue_size,
-                                           subscriber_listener=early), type_name, early)
+                                           subscriber_listener=early), type_name, early, max(1, queue_size // 2))
             self._publishers[topic] = entry
         elif entry.type_name != type_name:
             raise type_conflict(topic, type_name, entry.type_name)
@@ -137,6 +156,11 @@ class RosBackend(object):
         entry.early.record(msg)
         entry.handle.publish(msg)
 
+    def publisher_full(self, topic):
+        """True while a connection queue of the topic's rospy publisher is at half its queue_size or more."""
+        entry = self._publishers.get(topic)
+        return entry is not None and publisher_queue_depth(entry.handle) >= entry.high_water
+
     # ---------------------------------------------------------------- subscribing
     def subscribe(self, session, topic, type_name):
         entry = self._subscribers.get(topic)
@@ -156,8 +180,10 @@ class RosBackend(object):
         entry = _Topic(None, type_name)
         entry.sessions.add(session)
         self._subscribers[topic] = entry
+        # queue_size None (the default, as rosbridge): rospy drops nothing; its reader thread runs
+        # the callback, so a slow bridge slows the TCPROS connection instead
         entry.handle = rospy.Subscriber(topic, cls, self._on_message, callback_args=topic,
-                                        queue_size=self._sub_queue)
+                                        queue_size=self._sub_queue or None)
 
     def _replay_latched(self, entry, session):
         # rospy calls a newly added callback at once with the latched messages it holds.
