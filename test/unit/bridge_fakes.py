@@ -104,12 +104,13 @@ class Harness(object):
 
     def __init__(self, backend=None, config=None, rosapi=None):
         self.backend = backend or FakeBackend()
+        self.logged = []
         self.now = 0.0
         self.timers = []
         self.sent = []
         self.closed = False
         self.session = Session(1, self.backend, self._send, lambda: self.now, self._call_later, self._close,
-                               config or SessionConfig(), rosapi)
+                               config or SessionConfig(), rosapi, lambda level, text: self.logged.append(text))
 
     def _send(self, frames, key=None, limit=None, droppable=True):
         self.sent.append(frames)

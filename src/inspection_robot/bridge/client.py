@@ -24,6 +24,7 @@ class RawClient(object):
         self.url = url
         self.frames = queue.Queue()
         self.close_code = None
+        self.close_reason = None
         self._error = None
         self._conn = None
         self._loop = None
@@ -57,6 +58,7 @@ class RawClient(object):
     def _on_message(self, message):
         if message is None:
             self.close_code = self._conn.close_code if self._conn is not None else None
+            self.close_reason = self._conn.close_reason if self._conn is not None else None
             self.frames.put(CLOSED)
         else:
             self.frames.put(message)
