@@ -1,12 +1,9 @@
 """server: bounded send queue; a live tornado server with the fake backend (TLS, size limit, keep-alive)."""
 import asyncio
-import base64
 import concurrent.futures
 import json
-import os
 import queue
 import shutil
-import socket
 import struct
 import subprocess
 import ssl
@@ -17,7 +14,7 @@ import pytest
 import tornado.ioloop
 
 from bridge_fakes import FakeBackend
-from inspection_robot.bridge.client import CLOSED, RawClient
+from inspection_robot.bridge.client import CLOSED, RawClient, SocketClient
 from inspection_robot.bridge.protocol import Outgoing, Session, SessionConfig
 from inspection_robot.bridge.server import BridgeServer, LoopPoster, SendQueue, make_ssl_context, ws_frame
 
@@ -128,56 +125,8 @@ def test_round_trip_size_limit_and_other_clients_unaffected(live):
     live.wait_count(0)
 
 
-class FakeSocketClient(object):
-    """A websocket client on a plain socket: it reads only when told to (or never)."""
-
-    def __init__(self, port, rcvbuf=None):
-        self.sock = socket.socket()
-        if rcvbuf:
-            self.sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, rcvbuf)
-        self.sock.settimeout(5.0)
-        self.sock.connect(("127.0.0.1", port))
-        key = base64.b64encode(os.urandom(16)).decode()
-        self.sock.sendall(("GET / HTTP/1.1\r\nHost: 127.0.0.1\r\nUpgrade: websocket\r\nConnection: Upgrade\r\n"
-                           "Sec-WebSocket-Key: %s\r\nSec-WebSocket-Version: 13\r\n\r\n" % key).encode())
-        self.buffer = b""
-        while b"\r\n\r\n" not in self.buffer:
-            self.buffer += self.sock.recv(1024)
-        head, self.buffer = self.buffer.split(b"\r\n\r\n", 1)
-        assert b"101" in head.split(b"\r\n")[0]
-
-    def send(self, message):
-        payload = json.dumps(message).encode()
-        mask = os.urandom(4)
-        assert len(payload) < 126
-        self.sock.sendall(struct.pack("!BB", 0x81, 0x80 | len(payload)) + mask
-                          + bytes(b ^ mask[i % 4] for i, b in enumerate(payload)))
-
-    def _take(self, n):
-        while len(self.buffer) < n:
-            chunk = self.sock.recv(65536)
-            if not chunk:
-                raise EOFError()
-            self.buffer += chunk
-        data, self.buffer = self.buffer[:n], self.buffer[n:]
-        return data
-
-    def frames(self):
-        """(opcode, payload) of each server frame, up to and including a close frame."""
-        while True:
-            first, length = struct.unpack("!BB", self._take(2))
-            if length == 126:
-                length = struct.unpack("!H", self._take(2))[0]
-            elif length == 127:
-                length = struct.unpack("!Q", self._take(8))[0]
-            opcode = first & 0x0F
-            yield opcode, self._take(length)
-            if opcode == 0x8:
-                return
-
-
 def test_silent_client_is_dropped_by_keepalive(live):
-    sock = FakeSocketClient(live.port).sock
+    sock = SocketClient(live.port).sock
     live.wait_count(1)
     start = time.monotonic()
     # never answers pings: its socket is closed once ping_timeout (0.5 s) passed, without waiting
@@ -207,7 +156,7 @@ def test_a_client_that_never_reads_is_bounded_told_and_disconnected():
     budget, n, size = 200000, 3000, 10000
     server = LiveServer(ping_interval=0, budget=budget, budget_grace=0.5)
     try:
-        client = FakeSocketClient(server.port, rcvbuf=4096)
+        client = SocketClient(server.port, rcvbuf=4096)
         client.send({"op": "subscribe", "topic": "/known"})
         wait_until(lambda: server.backend.subscribers.get("/known"))
         handler = next(iter(server.server._clients))

@@ -518,7 +518,8 @@ class BridgeServer(object):
             why = "closed by the bridge (%d %s)" % handler.close_reason_sent
             self.log("warning", "client %s %s (%d clients)" % (handler.client_id, why, len(self._clients)))
         else:
-            why = "disconnected (%s %s)" % (handler.close_code, handler.close_reason or "")
+            why = "disconnected" if handler.close_code is None else "disconnected (%s %s)" % (
+                handler.close_code, handler.close_reason or "")
             self.log("info", "client %s %s (%d clients)" % (handler.client_id, why.rstrip(), len(self._clients)))
         self._on_count(len(self._clients))
 
