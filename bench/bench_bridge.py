@@ -380,9 +380,11 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--only", default="classic,burst,image", help="comma-separated: classic, burst, image")
     parser.add_argument("--bursts", default="10000,100000", help="comma-separated burst sizes")
+    parser.add_argument("--bridge-log", help="file for the bridge's output (default: discarded)")
     args = parser.parse_args()
     only = set(args.only.split(","))
     failed = False
+    bridge_log = open(args.bridge_log, "w") if args.bridge_log else subprocess.DEVNULL
     master_port = free_port()
     os.environ["ROS_MASTER_URI"] = "http://127.0.0.1:%d" % master_port
     env = dict(os.environ)
@@ -403,7 +405,7 @@ def main():
         procs.append(subprocess.Popen(
             [sys.executable, "-c", "from inspection_robot.nodes.rosbridge_websocket import main; main()",
              "__name:=bench_bridge", "_port:=0", "_address:=127.0.0.1"],
-            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=env))
+            stdout=bridge_log, stderr=subprocess.STDOUT, env=env))
         rospy.init_node("bench_bridge_client", disable_signals=True)
         rospy.Service("/bench_control", ControlService,
                       lambda req: ControlServiceResponse(trans_id=req.trans_id, ack="success", data=req.data))
