@@ -74,6 +74,17 @@ class RawClient(object):
             data = json.dumps(data)
         self._loop.add_callback(self._write, data)
 
+    def send_many(self, frames, slice_size=64):
+        """Send a burst of frames in order; the client keeps reading between slices of the burst."""
+        frames = list(frames)
+
+        async def write_all():
+            for start in range(0, len(frames), slice_size):
+                for data in frames[start:start + slice_size]:
+                    self._write(data)
+                await asyncio.sleep(0)
+        self._loop.add_callback(write_all)
+
     def _write(self, data):
         try:
             self._conn.write_message(data, binary=isinstance(data, bytes))

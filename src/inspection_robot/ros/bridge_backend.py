@@ -8,6 +8,7 @@ whose handler forwards the request to that client and waits (bounded) for its se
 With message_types.py, the bridge's ROS side; both live in the ROS wing.
 """
 import concurrent.futures
+import io
 import threading
 import time
 
@@ -18,13 +19,16 @@ import rosservice
 from inspection_robot.bridge.protocol import BridgeError, Outgoing
 
 
+MAX_BATCH = 256  # messages converted for one topic before the client's socket waits for a flush
+
+
 def type_conflict(topic, wanted, established):
     return BridgeError("Tried to register topic %s with type %s but it is already established with type %s"
                        % (topic, wanted, established))
 
 
 class _Topic(object):
-    __slots__ = ("handle", "type_name", "sessions", "early", "high_water")
+    __slots__ = ("handle", "type_name", "sessions", "early", "high_water", "pending")
 
     def __init__(self, handle, type_name, early=None, high_water=None):
         self.handle = handle
@@ -32,6 +36,43 @@ class _Topic(object):
         self.sessions = set()
         self.early = early
         self.high_water = high_water
+        self.pending = []  # messages converted, not yet handed to rospy (flushed once per loop pass)
+
+
+def publish_batch(publisher, messages):
+    """Publish ``messages`` in order on a rospy.Publisher with one write per subscriber connection.
+
+    TCPROS frames every message with its length, so several serialized messages in one write
+    reach the subscriber as several messages. Publisher.publish would hand each message to the
+    connection's thread separately (a lock, a notify and a forced thread switch each), which is
+    what limits a burst. Otherwise as _PublisherImpl.publish: the latched message, header seq,
+    and a connection that fails is closed and removed.
+    """
+    impl = publisher.impl
+    if impl is None or impl.closed:
+        raise rospy.ROSException("publish() to a closed topic %s" % publisher.name)
+    impl.acquire()
+    try:
+        if impl.is_latch:
+            impl.latch = messages[-1]
+        if not impl.has_connections():
+            return
+        buff = io.BytesIO()
+        for msg in messages:
+            impl.seq += 1
+            rospy.msg.serialize_message(buff, impl.seq, msg)
+        data = buff.getvalue()
+        for connection in list(impl.connections):
+            try:
+                connection.write_data(data)
+            except Exception:  # boundary, as rospy: a broken subscriber connection is dropped
+                try:
+                    connection.close()
+                finally:
+                    impl.remove_connection(connection)
+        impl.message_data_sent += len(data)
+    finally:
+        impl.release()
 
 
 def publisher_queue_depth(publisher):
@@ -148,18 +189,29 @@ class RosBackend(object):
         entry.sessions.discard(session)
         if not entry.sessions:
             del self._publishers[topic]
+            if entry.pending:  # what the client published before unadvertising still goes out
+                self._flush(topic, entry)
             entry.handle.unregister()
 
     def publish(self, topic, values):
+        """Convert now (errors go to the client), hand to rospy with the others of this loop pass."""
         entry = self._publishers[topic]
         msg = self._codec.from_json(entry.handle.data_class, values)
         entry.early.record(msg)
-        entry.handle.publish(msg)
+        if not entry.pending:
+            self._post(self._flush, topic, entry)
+        entry.pending.append(msg)
+
+    def _flush(self, topic, entry):
+        messages, entry.pending = entry.pending, []
+        if messages and self._publishers.get(topic) is entry:
+            publish_batch(entry.handle, messages)
 
     def publisher_full(self, topic):
         """True while a connection queue of the topic's rospy publisher is at half its queue_size or more."""
         entry = self._publishers.get(topic)
-        return entry is not None and publisher_queue_depth(entry.handle) >= entry.high_water
+        return entry is not None and (publisher_queue_depth(entry.handle) >= entry.high_water
+                                      or len(entry.pending) >= MAX_BATCH)
 
     # ---------------------------------------------------------------- subscribing
     def subscribe(self, session, topic, type_name):
