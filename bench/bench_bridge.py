@@ -245,6 +245,7 @@ def image_line(url, seconds=5.0, rate_hz=10.0):
     for kind, client in clients.items():
         client.send({"op": "subscribe", "topic": topic, "type": "sensor_msgs/Image", "compression": kind})
     results = {kind: [] for kind in kinds}
+    errors = {}
 
     def stamp_of(kind, frame):
         if kind == "cbor":
@@ -263,8 +264,10 @@ def image_line(url, seconds=5.0, rate_hz=10.0):
             if frame is CLOSED:
                 return
             arrived = time.time()
-            if "publish" in (frame[:40] if isinstance(frame, str) else "publish") or kind == "png":
+            try:
                 results[kind].append((arrived, stamp_of(kind, frame)))
+            except (ValueError, KeyError, AttributeError, TypeError) as exc:  # a status message, or a bug
+                errors[kind] = errors.get(kind) or repr(exc)[:200] + " in " + repr(frame[:100])
 
     stop = threading.Event()
     threads = [threading.Thread(target=reader, args=(kind, client, stop)) for kind, client in clients.items()]
@@ -293,7 +296,7 @@ def image_line(url, seconds=5.0, rate_hz=10.0):
         report(bench="bridge_image", compression=kind, sent=sent, received=len(samples),
                frames_s=round(len(samples) / seconds, 1), rate_hz=rate_hz,
                p50_ms=round(percentile(samples, 0.5), 1) if samples else None,
-               p99_ms=round(percentile(samples, 0.99), 1) if samples else None,
+               p99_ms=round(percentile(samples, 0.99), 1) if samples else None, error=errors.get(kind),
                path="ROS publisher->bridge->3 clients, 1920x1080 rgb8 sensor_msgs/Image")
 
 

@@ -153,7 +153,7 @@ class Outgoing(object):
                 if len(_PUBLISH_PREFIX) > 10000:
                     _PUBLISH_PREFIX.clear()
                 prefix = _PUBLISH_PREFIX[self.topic] = '{"op":"publish","topic":%s,"msg":' % compact_json(self.topic)
-            self._json = prefix + compact_json(self._codec.to_json(self.msg)) + "}"
+            self._json = prefix + self._codec.to_json_text(self.msg) + "}"
         return self._json
 
     def cbor_frame(self):

@@ -160,6 +160,13 @@ class LinkDiagnostics(diagnostic_updater.DiagnosticTask):
         return stat
 
 
+def update_diagnostics(updater):
+    try:
+        updater.update()
+    except Exception as exc:  # boundary: a timer tick must not die (e.g. the master went away)
+        rospy.logwarn_throttle(10.0, "bridge: diagnostics update failed: %r" % exc)
+
+
 def main():
     rospy.init_node("rosbridge_websocket")
     params = read_params()
@@ -192,7 +199,7 @@ def main():
     updater = diagnostic_updater.Updater()
     updater.setHardwareID("backend_link")
     updater.add(LinkDiagnostics(lambda: io_thread.run_sync(server.stats, timeout=0.5)))
-    rospy.Timer(rospy.Duration(1.0), lambda event: updater.update())
+    rospy.Timer(rospy.Duration(1.0), lambda event: update_diagnostics(updater))
     rospy.set_param("~actual_port", port)
     rospy.loginfo("bridge: rosbridge v2 websocket on %s://%s:%d%s", "wss" if ssl_context else "ws",
                   params["address"] or "0.0.0.0", port, " (auth required)" if authenticator else "")
