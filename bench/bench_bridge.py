@@ -286,7 +286,13 @@ def image_line(url, seconds=5.0, rate_hz=10.0):
         pub.publish(image)
         sent += 1
         time.sleep(max(0.0, t0 + sent / rate_hz - time.time()))
-    time.sleep(2.0)
+    quiet_since = time.time()  # wait until every client had 3 s without a frame (at most 20 s)
+    counts = None
+    while time.time() - quiet_since < 3.0 and time.time() - t0 < seconds + 20.0:
+        now_counts = [len(r) for r in results.values()]
+        if now_counts != counts:
+            counts, quiet_since = now_counts, time.time()
+        time.sleep(0.1)
     stop.set()
     for thread in threads:
         thread.join(5)
@@ -297,6 +303,7 @@ def image_line(url, seconds=5.0, rate_hz=10.0):
                frames_s=round(len(samples) / seconds, 1), rate_hz=rate_hz,
                p50_ms=round(percentile(samples, 0.5), 1) if samples else None,
                p99_ms=round(percentile(samples, 0.99), 1) if samples else None, error=errors.get(kind),
+               load_avg_1min=round(os.getloadavg()[0], 1),
                path="ROS publisher->bridge->3 clients, 1920x1080 rgb8 sensor_msgs/Image")
 
 
