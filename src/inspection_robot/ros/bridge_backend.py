@@ -19,6 +19,7 @@ import rosservice
 from inspection_robot.bridge.protocol import BridgeError, Outgoing
 
 
+ALONE_GAP = 0.001  # s: a message this long after the last one published alone goes out at once
 MAX_BATCH = 256  # messages converted for one topic before the client's socket waits for a flush
 
 
@@ -28,7 +29,7 @@ def type_conflict(topic, wanted, established):
 
 
 class _Topic(object):
-    __slots__ = ("handle", "type_name", "sessions", "early", "high_water", "pending")
+    __slots__ = ("handle", "type_name", "sessions", "early", "high_water", "pending", "last_alone")
 
     def __init__(self, handle, type_name, early=None, high_water=None):
         self.handle = handle
@@ -37,6 +38,7 @@ class _Topic(object):
         self.early = early
         self.high_water = high_water
         self.pending = []  # messages converted, not yet handed to rospy (flushed once per loop pass)
+        self.last_alone = 0.0  # monotonic time of the last message published at once, alone
 
 
 def publish_batch(publisher, messages):
@@ -194,10 +196,16 @@ class RosBackend(object):
             entry.handle.unregister()
 
     def publish(self, topic, values):
-        """Convert now (errors go to the client), hand to rospy with the others of this loop pass."""
+        """Convert now (errors go to the client); hand to rospy at once, or in a burst with the others
+        of this loop pass."""
         entry = self._publishers[topic]
         msg = self._codec.from_json(entry.handle.data_class, values)
         entry.early.record(msg)
+        now = time.monotonic()
+        if not entry.pending and now - entry.last_alone >= ALONE_GAP:  # not in a burst: no wait
+            entry.last_alone = now
+            publish_batch(entry.handle, [msg])
+            return
         if not entry.pending:
             self._post(self._flush, topic, entry)
         entry.pending.append(msg)
