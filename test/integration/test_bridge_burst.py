@@ -125,6 +125,22 @@ class BridgeBurstTest(unittest.TestCase):
         wait_for(lambda: len([d for d in via_roslibpy if d != "warmup"]) >= n, 30.0, "roslibpy's messages")
         self.assertEqual([int(d[:8]) for d in via_roslibpy if d != "warmup"], list(range(n)))
 
+    def test_publisher_leaving_mid_burst_leaves_an_in_order_prefix_and_the_bridge_serving(self):
+        n, topic = 10000, "/burst/cut"
+        publisher = RawClient(self.url)
+        connect_loopback(publisher, topic, [])
+        listener = self.raw()
+        listener.send({"op": "subscribe", "topic": topic, "type": "std_msgs/String"})
+        publisher.send({"op": "publish", "topic": topic, "msg": {"data": "warmup"}})
+        listener.recv_message(lambda m: m.get("op") == "publish", timeout=10.0)
+        drain(listener, [])
+        publish_burst(publisher, topic, n)
+        publisher.close()  # gone while the burst is still being read
+        got = collect(listener, {topic: n}, timeout=60.0)[topic]
+        self.assertEqual(got, list(range(len(got))))  # whatever arrived: from 0, in order, no gap
+        listener.send({"op": "call_service", "id": "alive", "service": "/rosapi/get_time"})
+        self.assertTrue(listener.recv_message(lambda m: m.get("id") == "alive", timeout=10.0)["result"])
+
     def test_100k_burst_while_a_client_never_reads(self):
         n, topic = 100000, "/burst/big"
         stuck = SocketClient(self.port, rcvbuf=4096)
