@@ -6,13 +6,24 @@ that answers each publish / call_service frame with the same frame / an empty se
 The same clients (a raw tornado websocket client and roslibpy) measure, against both:
 publish->subscribe round trip (p50/p99), one-way throughput client->ROS and ROS->client (msgs/s),
 call_service latency to a ROS ControlService and to /rosapi/get_time. One JSON line per figure;
-``ratio`` = bridge / echo (latency) or bridge / echo (throughput). Runs in well under 90 s.
+``ratio`` = bridge / echo (latency) or bridge / echo (throughput).
+
+Burst mode (``bridge_burst``): one client subscribes to a topic and publishes N sequence-numbered
+32-byte strings on it through the same connection as fast as it can (no window), then counts what
+comes back: delivered, lost, out of order, and the delivered rate (messages / time from the first
+send to the last arrival). Any loss or reordering makes the bench exit non-zero.
+Image line (``bridge_image``): a 1080p rgb8 sensor_msgs/Image published by ROS at 10 Hz to three
+clients (JSON, CBOR, PNG compression): frames per second each client received and the latency
+from the ROS publish to the client having decoded the frame.
+``--only burst,image,classic`` runs a subset; ``--bursts 10000,100000`` sets the burst sizes.
 """
+import argparse
 import asyncio
 import concurrent.futures
 import json
 import os
 import queue
+import re
 import socket
 import subprocess
 import sys
@@ -163,13 +174,240 @@ def roslibpy_rtt(port, topic, n):
     return samples
 
 
+def cpu_seconds(pid):
+    """User + system CPU time of a process so far (Linux /proc), in seconds."""
+    with open("/proc/%d/stat" % pid) as stat:
+        fields = stat.read().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / float(os.sysconf("SC_CLK_TCK"))
+
+
+def burst(url, topic, n, bridge_pid=None, timeout=120.0):
+    """Unpaced publish of n sequence numbers and subscribe on one connection.
+
+    Returns (delivered/s, lost, out of order, delivered, status texts, bridge CPU µs per message).
+    The CPU figure does not depend on how loaded the machine is, the rate does.
+    """
+    from inspection_robot.bridge.client import RawClient
+    client = RawClient(url)
+    client.send({"op": "subscribe", "topic": topic, "type": "std_msgs/String"})
+    client.send({"op": "advertise", "topic": topic, "type": "std_msgs/String"})
+    deadline = time.monotonic() + 10
+    while True:  # until the ROS loopback connection is up
+        client.send({"op": "publish", "topic": topic, "msg": {"data": "warmup"}})
+        try:
+            client.recv_message(lambda m: m.get("op") == "publish", timeout=0.2)
+            break
+        except queue.Empty:
+            if time.monotonic() > deadline:
+                raise
+    drain(client)
+    pad = "x" * 24
+    cpu0 = cpu_seconds(bridge_pid) if bridge_pid else None
+    t0 = time.perf_counter()
+    # 32-byte payloads: 8 digits of sequence number + padding
+    client.send_many('{"op":"publish","topic":"%s","msg":{"data":"%08d%s"}}' % (topic, i, pad) for i in range(n))
+    seqs, statuses, t_last = [], [], t0
+    end = time.monotonic() + timeout
+    while len(seqs) < n and time.monotonic() < end:
+        try:
+            frame = client.recv(10.0)
+        except queue.Empty:
+            break  # nothing for 10 s: the rest is lost
+        if not isinstance(frame, str):
+            break
+        if frame.startswith('{"op":"publish"'):
+            seqs.append(int(json.loads(frame)["msg"]["data"][:8]))
+            t_last = time.perf_counter()
+        elif '"op":"status"' in frame.replace(" ", ""):
+            statuses.append(json.loads(frame)["msg"])
+    cpu_us = (cpu_seconds(bridge_pid) - cpu0) * 1e6 / max(1, len(seqs)) if bridge_pid else None
+    client.close()
+    disordered = sum(1 for a, b in zip(seqs, seqs[1:]) if b <= a)
+    lost = n - len(set(seqs))
+    return len(seqs) / max(t_last - t0, 1e-9), lost, disordered, len(seqs), statuses, cpu_us
+
+
+STAMP = re.compile(r'"stamp":\{"secs":(\d+),"nsecs":(\d+)\}')
+
+
+def image_line(url, seconds=5.0, rate_hz=10.0):
+    """A 1080p rgb8 image at rate_hz from ROS to three clients (JSON, CBOR, PNG): frames/s and latency."""
+    import rospy
+    from sensor_msgs.msg import Image
+
+    from inspection_robot.bridge import cbor
+    from inspection_robot.bridge.client import CLOSED, RawClient
+    from inspection_robot.bridge.compression import png_decode
+    topic = "/bench/image"
+    pub = rospy.Publisher(topic, Image, queue_size=2)
+    kinds = ("none", "cbor", "png")
+    clients = {kind: RawClient(url) for kind in kinds}
+    for kind, client in clients.items():
+        client.send({"op": "subscribe", "topic": topic, "type": "sensor_msgs/Image", "compression": kind})
+    results = {kind: [] for kind in kinds}
+    errors = {}
+
+    def stamp_of(kind, frame):
+        if kind == "cbor":
+            stamp = cbor.loads(frame)["msg"]["header"]["stamp"]
+            return stamp["secs"] + stamp["nsecs"] * 1e-9
+        text = frame if kind == "none" else png_decode(json.loads(frame)["data"])
+        secs, nsecs = STAMP.search(text[:300]).groups()
+        return int(secs) + int(nsecs) * 1e-9
+
+    def reader(kind, client, stop):
+        while not stop.is_set():
+            try:
+                frame = client.recv(0.5)
+            except queue.Empty:
+                continue
+            if frame is CLOSED:
+                return
+            arrived = time.time()
+            try:
+                results[kind].append((arrived, stamp_of(kind, frame)))
+            except (ValueError, KeyError, AttributeError, TypeError) as exc:  # a status message, or a bug
+                errors[kind] = errors.get(kind) or repr(exc)[:200] + " in " + repr(frame[:100])
+
+    stop = threading.Event()
+    threads = [threading.Thread(target=reader, args=(kind, client, stop)) for kind, client in clients.items()]
+    for thread in threads:
+        thread.start()
+    deadline = time.monotonic() + 10
+    while pub.get_num_connections() < 1 and time.monotonic() < deadline:
+        time.sleep(0.05)
+    pixels = bytes(bytearray(i % 251 for i in range(1920 * 3))) * 1080
+    image = Image(height=1080, width=1920, encoding="rgb8", step=1920 * 3, data=pixels)
+    sent = 0
+    t0 = time.time()
+    while time.time() - t0 < seconds:
+        image.header.stamp = rospy.Time.from_sec(time.time())
+        image.header.seq = sent
+        pub.publish(image)
+        sent += 1
+        time.sleep(max(0.0, t0 + sent / rate_hz - time.time()))
+    quiet_since = time.time()  # wait until every client had 3 s without a frame (at most 20 s)
+    counts = None
+    while time.time() - quiet_since < 3.0 and time.time() - t0 < seconds + 20.0:
+        now_counts = [len(r) for r in results.values()]
+        if now_counts != counts:
+            counts, quiet_since = now_counts, time.time()
+        time.sleep(0.1)
+    stop.set()
+    for thread in threads:
+        thread.join(5)
+    for kind, client in clients.items():
+        client.close()
+        samples = [(arrived - stamp) * 1000.0 for arrived, stamp in results[kind] if stamp >= t0]
+        report(bench="bridge_image", compression=kind, sent=sent, received=len(samples),
+               frames_s=round(len(samples) / seconds, 1), rate_hz=rate_hz,
+               p50_ms=round(percentile(samples, 0.5), 1) if samples else None,
+               p99_ms=round(percentile(samples, 0.99), 1) if samples else None, error=errors.get(kind),
+               load_avg_1min=round(os.getloadavg()[0], 1),
+               path="ROS publisher->bridge->3 clients, 1920x1080 rgb8 sensor_msgs/Image")
+
+
 def latency_line(name, bridge, echo, **extra):
     report(bench=name, p50_ms=round(percentile(bridge, 0.5), 3), p99_ms=round(percentile(bridge, 0.99), 3),
            n=len(bridge), echo_p50_ms=round(percentile(echo, 0.5), 3), echo_p99_ms=round(percentile(echo, 0.99), 3),
            ratio_p50=round(percentile(bridge, 0.5) / percentile(echo, 0.5), 2), **extra)
 
 
+def classic(bridge_url, counter):
+    import rospy
+    from std_msgs.msg import String
+
+    from inspection_robot.bridge.client import RawClient
+    echo_port = start_echo_server()
+    echo_url = "ws://127.0.0.1:%d" % echo_port
+
+    bridge, echo = RawClient(bridge_url), RawClient(echo_url)
+    latency_line("bridge_rtt", raw_rtt(bridge, "/bench/echo", N_RTT), raw_rtt(echo, "/bench/echo", N_RTT),
+                 client="raw_tornado", path="client->bridge->ROS->bridge->client")
+    drain(bridge)
+    bridge_loop = raw_throughput_loopback(bridge, "/bench/echo", N_THROUGHPUT)
+    echo_loop = raw_throughput_loopback(echo, "/bench/echo", N_THROUGHPUT)
+    report(bench="bridge_throughput_loopback", msgs_s=round(bridge_loop), n=N_THROUGHPUT,
+           echo_msgs_s=round(echo_loop), ratio=round(bridge_loop / echo_loop, 2), window=WINDOW,
+           path="client->bridge->ROS->bridge->client")
+    bridge.send({"op": "unsubscribe", "topic": "/bench/echo"})
+    drain(bridge)
+
+    # one way, client -> ROS (counted by a ROS subscriber)
+    bridge.send({"op": "advertise", "topic": "/bench/to_ros", "type": "std_msgs/String"})
+    deadline = time.monotonic() + 10
+    while counter["n"] == 0 and time.monotonic() < deadline:
+        bridge.send({"op": "publish", "topic": "/bench/to_ros", "msg": {"data": "warmup"}})
+        time.sleep(0.05)
+    start_count = counter["n"]
+    t0 = time.perf_counter()
+    for i in range(N_THROUGHPUT):
+        bridge.send('{"op":"publish","topic":"/bench/to_ros","msg":{"data":"%d"}}' % i)
+        if i % WINDOW == WINDOW - 1:
+            while counter["n"] - start_count < i - WINDOW and time.perf_counter() - t0 < 30:
+                time.sleep(0.0005)
+    while counter["n"] - start_count < N_THROUGHPUT and time.perf_counter() - t0 < 30:
+        time.sleep(0.0005)
+    to_ros = (counter["n"] - start_count) / (time.perf_counter() - t0)
+    report(bench="bridge_throughput_to_ros", msgs_s=round(to_ros), n=N_THROUGHPUT,
+           received=counter["n"] - start_count, echo_msgs_s=round(echo_loop), ratio=round(to_ros / echo_loop, 2),
+           path="client->bridge->ROS subscriber")
+
+    # one way, ROS -> client
+    pub = rospy.Publisher("/bench/from_ros", String, queue_size=10000)
+    bridge.send({"op": "subscribe", "topic": "/bench/from_ros", "type": "std_msgs/String"})
+    deadline = time.monotonic() + 10
+    while True:  # until a warm-up message made it through
+        pub.publish(String(data="warmup"))
+        try:
+            bridge.recv(0.1)
+            break
+        except queue.Empty:
+            if time.monotonic() > deadline:
+                raise
+    drain(bridge)
+    received = 0
+    t0 = time.perf_counter()
+    for i in range(N_THROUGHPUT):
+        pub.publish(String(data=str(i)))
+        if i % 50 == 49:  # rospy's publisher must not outrun the bridge's ROS queue
+            while received < i - WINDOW:
+                bridge.recv(5)
+                received += 1
+    try:
+        while received < N_THROUGHPUT:
+            bridge.recv(1.0)
+            received += 1
+    except queue.Empty:
+        pass
+    from_ros = received / (time.perf_counter() - t0)
+    report(bench="bridge_throughput_from_ros", msgs_s=round(from_ros), n=N_THROUGHPUT, received=received,
+           echo_msgs_s=round(echo_loop), ratio=round(from_ros / echo_loop, 2), path="ROS publisher->bridge->client")
+    bridge.send({"op": "unsubscribe", "topic": "/bench/from_ros"})
+    drain(bridge)
+
+    args = {"sender": "bench", "trans_id": 1, "cmd": "noop", "data": "x"}
+    echo_calls = raw_calls(echo, "/bench_control", args, N_CALLS)
+    latency_line("bridge_call_service", raw_calls(bridge, "/bench_control", args, N_CALLS), echo_calls,
+                 service="/bench_control (inspection_robot/ControlService, rospy server)")
+    latency_line("bridge_call_service", raw_calls(bridge, "/rosapi/get_time", {}, N_CALLS), echo_calls,
+                 service="/rosapi/get_time (in-process)")
+    bridge.close()
+    echo.close()
+
+    latency_line("bridge_rtt", roslibpy_rtt(int(bridge_url.rsplit(":", 1)[1]), "/bench/roslibpy", 300),
+                 roslibpy_rtt(echo_port, "/bench/roslibpy", 300), client="roslibpy")
+
+
 def main():
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--only", default="classic,burst,image", help="comma-separated: classic, burst, image")
+    parser.add_argument("--bursts", default="10000,100000", help="comma-separated burst sizes")
+    parser.add_argument("--bridge-log", help="file for the bridge's output (default: discarded)")
+    args = parser.parse_args()
+    only = set(args.only.split(","))
+    failed = False
+    bridge_log = open(args.bridge_log, "w") if args.bridge_log else subprocess.DEVNULL
     master_port = free_port()
     os.environ["ROS_MASTER_URI"] = "http://127.0.0.1:%d" % master_port
     env = dict(os.environ)
@@ -179,7 +417,6 @@ def main():
         import rospy
         from std_msgs.msg import String
 
-        from inspection_robot.bridge.client import RawClient
         from inspection_robot.srv import ControlService, ControlServiceResponse
 
         import rosgraph
@@ -190,8 +427,8 @@ def main():
             time.sleep(0.1)
         procs.append(subprocess.Popen(
             [sys.executable, "-c", "from inspection_robot.nodes.rosbridge_websocket import main; main()",
-             "__name:=bench_bridge", "_port:=0", "_address:=127.0.0.1", "_send_queue_size:=10000"],
-            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=env))
+             "__name:=bench_bridge", "_port:=0", "_address:=127.0.0.1"],
+            stdout=bridge_log, stderr=subprocess.STDOUT, env=env))
         rospy.init_node("bench_bridge_client", disable_signals=True)
         rospy.Service("/bench_control", ControlService,
                       lambda req: ControlServiceResponse(trans_id=req.trans_id, ack="success", data=req.data))
@@ -204,85 +441,20 @@ def main():
                 raise RuntimeError("bridge did not start")
             time.sleep(0.1)
         bridge_url = "ws://127.0.0.1:%d" % rospy.get_param("/bench_bridge/actual_port")
-        echo_port = start_echo_server()
-        echo_url = "ws://127.0.0.1:%d" % echo_port
-
-        bridge, echo = RawClient(bridge_url), RawClient(echo_url)
-        latency_line("bridge_rtt", raw_rtt(bridge, "/bench/echo", N_RTT), raw_rtt(echo, "/bench/echo", N_RTT),
-                     client="raw_tornado", path="client->bridge->ROS->bridge->client")
-        drain(bridge)
-        bridge_loop = raw_throughput_loopback(bridge, "/bench/echo", N_THROUGHPUT)
-        echo_loop = raw_throughput_loopback(echo, "/bench/echo", N_THROUGHPUT)
-        report(bench="bridge_throughput_loopback", msgs_s=round(bridge_loop), n=N_THROUGHPUT,
-               echo_msgs_s=round(echo_loop), ratio=round(bridge_loop / echo_loop, 2), window=WINDOW,
-               path="client->bridge->ROS->bridge->client")
-        bridge.send({"op": "unsubscribe", "topic": "/bench/echo"})
-        drain(bridge)
-
-        # one way, client -> ROS (counted by a ROS subscriber)
-        bridge.send({"op": "advertise", "topic": "/bench/to_ros", "type": "std_msgs/String"})
-        deadline = time.monotonic() + 10
-        while counter["n"] == 0 and time.monotonic() < deadline:
-            bridge.send({"op": "publish", "topic": "/bench/to_ros", "msg": {"data": "warmup"}})
-            time.sleep(0.05)
-        start_count = counter["n"]
-        t0 = time.perf_counter()
-        for i in range(N_THROUGHPUT):
-            bridge.send('{"op":"publish","topic":"/bench/to_ros","msg":{"data":"%d"}}' % i)
-            if i % WINDOW == WINDOW - 1:
-                while counter["n"] - start_count < i - WINDOW and time.perf_counter() - t0 < 30:
-                    time.sleep(0.0005)
-        while counter["n"] - start_count < N_THROUGHPUT and time.perf_counter() - t0 < 30:
-            time.sleep(0.0005)
-        to_ros = (counter["n"] - start_count) / (time.perf_counter() - t0)
-        report(bench="bridge_throughput_to_ros", msgs_s=round(to_ros), n=N_THROUGHPUT,
-               received=counter["n"] - start_count, echo_msgs_s=round(echo_loop), ratio=round(to_ros / echo_loop, 2),
-               path="client->bridge->ROS subscriber")
-
-        # one way, ROS -> client
-        pub = rospy.Publisher("/bench/from_ros", String, queue_size=10000)
-        bridge.send({"op": "subscribe", "topic": "/bench/from_ros", "type": "std_msgs/String"})
-        deadline = time.monotonic() + 10
-        while True:  # until a warm-up message made it through
-            pub.publish(String(data="warmup"))
-            try:
-                bridge.recv(0.1)
-                break
-            except queue.Empty:
-                if time.monotonic() > deadline:
-                    raise
-        drain(bridge)
-        received = 0
-        t0 = time.perf_counter()
-        for i in range(N_THROUGHPUT):
-            pub.publish(String(data=str(i)))
-            if i % 50 == 49:  # rospy's publisher must not outrun the bridge's ROS queue
-                while received < i - WINDOW:
-                    bridge.recv(5)
-                    received += 1
-        try:
-            while received < N_THROUGHPUT:
-                bridge.recv(1.0)
-                received += 1
-        except queue.Empty:
-            pass
-        from_ros = received / (time.perf_counter() - t0)
-        report(bench="bridge_throughput_from_ros", msgs_s=round(from_ros), n=N_THROUGHPUT, received=received,
-               echo_msgs_s=round(echo_loop), ratio=round(from_ros / echo_loop, 2), path="ROS publisher->bridge->client")
-        bridge.send({"op": "unsubscribe", "topic": "/bench/from_ros"})
-        drain(bridge)
-
-        args = {"sender": "bench", "trans_id": 1, "cmd": "noop", "data": "x"}
-        echo_calls = raw_calls(echo, "/bench_control", args, N_CALLS)
-        latency_line("bridge_call_service", raw_calls(bridge, "/bench_control", args, N_CALLS), echo_calls,
-                     service="/bench_control (inspection_robot/ControlService, rospy server)")
-        latency_line("bridge_call_service", raw_calls(bridge, "/rosapi/get_time", {}, N_CALLS), echo_calls,
-                     service="/rosapi/get_time (in-process)")
-        bridge.close()
-        echo.close()
-
-        latency_line("bridge_rtt", roslibpy_rtt(int(bridge_url.rsplit(":", 1)[1]), "/bench/roslibpy", 300),
-                     roslibpy_rtt(echo_port, "/bench/roslibpy", 300), client="roslibpy")
+        if "classic" in only:
+            classic(bridge_url, counter)
+        if "burst" in only:
+            for n in [int(x) for x in args.bursts.split(",") if x]:
+                rate, lost, disordered, delivered, statuses, cpu_us = burst(bridge_url, "/bench/burst%d" % n, n,
+                                                                            procs[-1].pid)
+                report(bench="bridge_burst", n=n, delivered=delivered, lost=lost, out_of_order=disordered,
+                       delivered_msgs_s=round(rate), bridge_cpu_us_per_msg=round(cpu_us, 1),
+                       cpu_bound_msgs_s=round(1e6 / cpu_us), status=statuses[:3], client="raw_tornado",
+                       path="client->bridge->ROS->bridge->client, unpaced",
+                       load_avg_1min=round(os.getloadavg()[0], 1))
+                failed = failed or lost > 0 or disordered > 0
+        if "image" in only:
+            image_line(bridge_url)
     finally:
         for proc in reversed(procs):
             proc.terminate()
@@ -291,7 +463,7 @@ def main():
                 proc.wait(10)
             except subprocess.TimeoutExpired:
                 proc.kill()
-    os._exit(0)  # roslibpy's twisted reactor thread cannot be restarted or joined cleanly
+    os._exit(1 if failed else 0)  # roslibpy's twisted reactor thread cannot be restarted or joined cleanly
 
 
 if __name__ == "__main__":

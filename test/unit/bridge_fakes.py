@@ -22,6 +22,7 @@ class FakeBackend(object):
         self.services = {}
         self.calls = []
         self.pending = []
+        self.full_topics = set()  # topics whose (pretend) rospy publisher queue is full
 
     def topic_type(self, topic):
         return self.topic_types.get(topic)
@@ -46,6 +47,9 @@ class FakeBackend(object):
     def publish(self, topic, values):
         cls = self.types.message_class(self.topic_types[topic])
         self.published.append((topic, self.codec.from_json(cls, values)))
+
+    def publisher_full(self, topic):
+        return topic in self.full_topics
 
     def subscribe(self, session, topic, type_name):
         self.check_type(topic, type_name)
@@ -100,12 +104,13 @@ class Harness(object):
 
     def __init__(self, backend=None, config=None, rosapi=None):
         self.backend = backend or FakeBackend()
+        self.logged = []
         self.now = 0.0
         self.timers = []
         self.sent = []
         self.closed = False
         self.session = Session(1, self.backend, self._send, lambda: self.now, self._call_later, self._close,
-                               config or SessionConfig(), rosapi)
+                               config or SessionConfig(), rosapi, lambda level, text: self.logged.append(text))
 
     def _send(self, frames, key=None, limit=None, droppable=True):
         self.sent.append(frames)

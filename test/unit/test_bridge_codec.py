@@ -106,3 +106,22 @@ def test_service_request_and_response_classes():
     assert request.cmd == "zoom"
     assert CODEC.to_json(srv._response_class(trans_id=1, ack="success")) == {"trans_id": 1, "ack": "success",
                                                                              "data": ""}
+
+
+def test_json_text_splices_large_byte_arrays_and_equals_the_plain_encoding():
+    import json
+    from inspection_robot.bridge.codec import BLOB_MIN
+    types = GenpyTypes()
+    codec = Codec(types)
+    compact = json.JSONEncoder(separators=(",", ":")).encode
+    image_cls = types.message_class("sensor_msgs/Image")
+    big = image_cls(height=1, width=BLOB_MIN, encoding="mono8", step=BLOB_MIN,
+                    data=bytes(range(256)) * (BLOB_MIN // 256))
+    small = image_cls(encoding="\x00\x01blob\x02", data=b"\x01\x02")  # a string that looks like the marker
+    for msg in (big, small, types.message_class("std_msgs/String")(data='quote " and \\ and \u00e9')):
+        assert codec.to_json_text(msg) == compact(codec.to_json(msg))
+    jpeg = types.message_class("sensor_msgs/CompressedImage")(format="jpeg", data=b"\xff" * BLOB_MIN)
+    text = codec.to_json_text(jpeg)
+    assert text == compact(codec.to_json(jpeg)) and json.loads(text)["format"] == "jpeg"
+    tricky = image_cls(encoding="\x00\x01blob\x02", data=b"\x07" * BLOB_MIN)  # marker string and a blob
+    assert codec.to_json_text(tricky) == compact(codec.to_json(tricky))

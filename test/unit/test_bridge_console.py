@@ -20,7 +20,7 @@ def site(tmp_path):
     vendor.mkdir()
     (vendor / "roslib.min.js").write_text("var ROSLIB = {};")
     (vendor / "secret.txt").write_text("not for the browser")
-    server = LiveServer(http_routes=console_routes(CONSOLE_DIR, str(vendor), auth_required=True))
+    server = LiveServer(extra_routes=console_routes(CONSOLE_DIR, str(vendor), auth_required=True))
     yield "http://127.0.0.1:%d" % server.port, server
     server.stop()
 

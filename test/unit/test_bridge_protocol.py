@@ -7,7 +7,7 @@ import genpy
 from bridge_fakes import FakeBackend, Harness
 from inspection_robot.bridge import cbor
 from inspection_robot.bridge.compression import fragments, png_decode
-from inspection_robot.bridge.protocol import Authenticator, Outgoing, SessionConfig
+from inspection_robot.bridge.protocol import LOG_PERIOD, OPS, Authenticator, Outgoing, SessionConfig
 
 
 def outgoing(backend, topic, text):
@@ -271,3 +271,46 @@ def test_incoming_png_is_an_unknown_op_as_in_rosbridge():
     h.send({"op": "png", "id": "p", "data": "aGk="})
     status, = h.messages()
     assert status["level"] == "error" and status["id"] == "p" and status["msg"].startswith("Unknown operation: png")
+
+
+def test_every_op_has_a_handler_in_the_table():
+    h = Harness()
+    assert sorted(h.session.handlers) == sorted(OPS)
+    assert all(callable(handler) for handler in h.session.handlers.values())
+
+
+def test_ros_backlogged_follows_the_publisher_of_the_latest_publish():
+    h = Harness()
+    assert not h.session.ros_backlogged()
+    h.send({"op": "advertise", "topic": "/t", "type": "std_msgs/String"})
+    h.backend.full_topics.add("/t")
+    h.send({"op": "publish", "topic": "/t", "msg": {"data": "x"}})
+    assert h.session.ros_backlogged()
+    assert h.session.ros_backlogged()  # stays until the queue drained
+    h.backend.full_topics.clear()
+    assert not h.session.ros_backlogged()
+    h.backend.full_topics.add("/t")
+    assert not h.session.ros_backlogged()  # only a new publish pauses reading again
+
+
+def test_drop_warning_passes_the_default_level_and_set_level_none_silences_it():
+    h = Harness()
+    h.session.drops("/cam", 12, 40, 1000)
+    (warning,) = h.messages()
+    assert warning == {"op": "status", "level": "warning",
+                       "msg": "subscribe: dropped 12 messages on /cam (40 in all): the client reads slower than the "
+                              "topic and its send queue is over its budget of 1000 bytes"}
+    h.send({"op": "set_level", "level": "none"})
+    h.session.drops("/cam", 1, 41, 1000)
+    assert h.messages() == []
+
+
+def test_protocol_errors_are_logged_at_most_once_per_period_per_client():
+    h = Harness()
+    for i in range(50):
+        h.send("not json %d" % i)
+    assert len(errors(h.messages())) == 50  # the client hears of every one
+    assert len(h.logged) == 1 and "client 1: Unable to parse" in h.logged[0]
+    h.now += LOG_PERIOD
+    h.send({"op": "nope"})
+    assert len(h.logged) == 2 and h.logged[1].endswith("(+49 more since the last line)")

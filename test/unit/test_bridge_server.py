@@ -1,10 +1,10 @@
 """server: bounded send queue; a live tornado server with the fake backend (TLS, size limit, keep-alive)."""
 import asyncio
-import base64
 import concurrent.futures
-import os
+import json
+import queue
 import shutil
-import socket
+import struct
 import subprocess
 import ssl
 import threading
@@ -14,39 +14,62 @@ import pytest
 import tornado.ioloop
 
 from bridge_fakes import FakeBackend
-from inspection_robot.bridge.client import CLOSED, RawClient
-from inspection_robot.bridge.protocol import Session, SessionConfig
+from inspection_robot.bridge.client import CLOSED, RawClient, SocketClient
+from inspection_robot.bridge.protocol import Outgoing, Session, SessionConfig
 from inspection_robot.bridge.server import BridgeServer, LoopPoster, SendQueue, make_ssl_context, ws_frame
 
 
-def test_send_queue_drops_oldest_topic_messages_and_honours_per_topic_limits():
-    q = SendQueue(3)
+def test_queue_length_keeps_the_newest_of_its_topic_only():
+    q = SendQueue(1 << 20)
     for i in range(5):
-        assert q.put([str(i)], "/a")
-    assert len(q) == 3 and q.dropped == 2
-    q.put(["reply"], droppable=False)
-    assert q.pop() == ["reply"]
-    assert [q.pop(), q.pop(), q.pop(), q.pop()] == [["2"], ["3"], ["4"], None]
-    q = SendQueue(100)
-    for i in range(5):
-        q.put(["a%d" % i], "/a", limit=2)
-        q.put(["b%d" % i], "/b")
+        assert q.put(["a%d" % i], "/a", limit=2)
+        assert q.put(["b%d" % i], "/b")
     got = []
     while len(q):
         got.append(q.pop()[0])
     assert got == ["b0", "b1", "b2", "a3", "b3", "a4", "b4"]
+    assert q.limit_dropped == 3 and not q.dropped
 
 
-def test_send_queue_reports_undroppable_overflow():
-    q = SendQueue(2)
-    assert q.put(["r1"], droppable=False) and q.put(["r2"], droppable=False)
-    assert not q.put(["r3"], droppable=False)
+def test_nothing_dropped_below_the_budget_then_newest_refused_and_counted_per_topic():
+    now = [10.0]
+    q = SendQueue(1000, clock=lambda: now[0])
+    for i in range(10):  # 10 x 100 bytes: exactly the budget
+        assert q.put(["%03d" % i + "x" * 97], "/a")
+    assert q.held_bytes == 1000 and q.over_since is None and not q.dropped
+    assert not q.put(["late" + "x" * 96], "/a") and not q.put(["b"], "/b")
+    assert q.dropped == {"/a": 1, "/b": 1} and q.over_since == 10.0
+    assert q.put(["reply"], droppable=False)  # replies are never refused, and go first
+    assert q.pop() == ["reply"]
+    assert [q.pop()[0][:3] for _ in range(10)] == ["%03d" % i for i in range(10)]  # in order, no gap
+    assert q.pop() is None
+    assert q.in_flight == 1005 and q.over_since == 10.0  # popped bytes count until written
+    q.written(1005)
+    assert q.held_bytes == 0 and q.over_since is None
+
+
+def test_a_message_larger_than_the_budget_still_goes_when_nothing_else_is_held():
+    q = SendQueue(100)
+    assert q.put(["x" * 500], "/img")
+    assert not q.put(["y" * 10], "/img")
+    q.written(len(q.pop()[0]))
+    assert q.put(["y" * 10], "/img")
+
+
+def test_replies_over_the_budget_mark_the_client_over_budget():
+    q = SendQueue(10, clock=lambda: 5.0)
+    q.put(["r" * 8], droppable=False)
+    assert q.over_since is None
+    q.put(["r" * 8], droppable=False)
+    assert q.over_since == 5.0 and len(q) == 2
+    assert q.take_replies() == ["r" * 8, "r" * 8] and q.held_bytes == 0
 
 
 class LiveServer(object):
     def __init__(self, **kwargs):
         self.backend = FakeBackend()
         self.counts = []
+        self.logged = []
         ready = concurrent.futures.Future()
         self.thread = threading.Thread(target=self._run, args=(ready, kwargs))
         self.thread.daemon = True
@@ -59,7 +82,8 @@ class LiveServer(object):
 
         def make_session(client_id, send, call_later, close):
             return Session(client_id, self.backend, send, time.monotonic, call_later, close, SessionConfig())
-        self.server = BridgeServer(make_session, "127.0.0.1", 0, on_client_count=self.counts.append, **kwargs)
+        self.server = BridgeServer(make_session, "127.0.0.1", 0, on_client_count=self.counts.append,
+                                   log=lambda level, text: self.logged.append(text), **kwargs)
         ready.set_result(self.server.start())
         self.loop.start()
 
@@ -92,7 +116,9 @@ def test_round_trip_size_limit_and_other_clients_unaffected(live):
     assert a.recv_message()["values"] == {"echo": {"x": 1}}
     b.send("x" * 5000)  # larger than max_message_size
     assert b.recv(3) is CLOSED and b.close_code == 1009
+    assert b.close_reason == "message too big: a frame over max_message_size (2000 bytes)"
     live.wait_count(1)
+    assert any("client 2 closed by the bridge (1009 message too big" in line for line in live.logged)
     a.send({"op": "call_service", "id": 2, "service": "/echo", "args": {}})
     assert a.recv_message()["id"] == 2
     a.close()
@@ -100,11 +126,7 @@ def test_round_trip_size_limit_and_other_clients_unaffected(live):
 
 
 def test_silent_client_is_dropped_by_keepalive(live):
-    sock = socket.create_connection(("127.0.0.1", live.port), 2)
-    key = base64.b64encode(os.urandom(16)).decode()
-    sock.sendall(("GET / HTTP/1.1\r\nHost: 127.0.0.1\r\nUpgrade: websocket\r\nConnection: Upgrade\r\n"
-                  "Sec-WebSocket-Key: %s\r\nSec-WebSocket-Version: 13\r\n\r\n" % key).encode())
-    assert b"101" in sock.recv(1024).split(b"\r\n")[0]
+    sock = SocketClient(live.port).sock
     live.wait_count(1)
     start = time.monotonic()
     # never answers pings: its socket is closed once ping_timeout (0.5 s) passed, without waiting
@@ -115,6 +137,75 @@ def test_silent_client_is_dropped_by_keepalive(live):
     while sock.recv(4096):  # the server closed its end: recv drains the pings, then sees EOF
         pass
     sock.close()
+
+
+def run_on_loop(server, fn):
+    done = concurrent.futures.Future()
+    server.loop.add_callback(lambda: done.set_result(fn()))
+    return done.result(5)
+
+
+def wait_until(condition, timeout=5.0):
+    deadline = time.monotonic() + timeout
+    while not condition():
+        assert time.monotonic() < deadline, "condition not met in %.1f s" % timeout
+        time.sleep(0.01)
+
+
+def test_a_client_that_never_reads_is_bounded_told_and_disconnected():
+    budget, n, size = 200000, 3000, 10000
+    server = LiveServer(ping_interval=0, budget=budget, budget_grace=0.5)
+    try:
+        client = SocketClient(server.port, rcvbuf=4096)
+        client.send({"op": "subscribe", "topic": "/known"})
+        wait_until(lambda: server.backend.subscribers.get("/known"))
+        handler = next(iter(server.server._clients))
+        cls = server.backend.types.message_class("std_msgs/String")
+        held = []
+
+        def flood(first):
+            for i in range(first, first + 100):
+                handler.session.deliver(Outgoing("/known", cls(data="%06d" % i + "x" * size), server.backend.codec))
+            held.append(handler.queue.held_bytes)
+        for first in range(0, n, 100):  # 30 MB in 30 slices; the socket takes what it can between them
+            run_on_loop(server, lambda: flood(first))
+        assert max(held) <= budget  # bounded
+        wait_until(lambda: server.server.closed_over_budget == 1, 5.0)
+        seqs, warnings, close = [], [], None
+        for opcode, payload in client.frames():
+            if opcode == 0x8:
+                close = (struct.unpack("!H", payload[:2])[0], payload[2:].decode())
+                break
+            message = json.loads(payload.decode())
+            if message["op"] == "publish":
+                seqs.append(int(message["msg"]["data"][:6]))
+            else:
+                warnings.append(message)
+        assert seqs == sorted(seqs) and len(set(seqs)) == len(seqs) and seqs[0] == 0  # in order
+        dropped = n - len(seqs)
+        assert dropped > n // 2
+        assert close[0] == 1008 and close[1] == ("send queue over budget (%d bytes) for 0.5 s: client reads too "
+                                                 "slowly; %d messages dropped" % (budget, dropped))
+        assert warnings and all(w["op"] == "status" and w["level"] == "warning" for w in warnings)
+        assert "subscribe: dropped " in warnings[0]["msg"] and " messages on /known (" in warnings[0]["msg"]
+        server.wait_count(0, timeout=8.0)
+        assert any("closed by the bridge (1008 send queue over budget" in line for line in server.logged)
+        client.sock.close()
+    finally:
+        server.stop()
+
+
+def test_reading_pauses_while_the_ros_publisher_queue_is_full(live):
+    client = RawClient("ws://127.0.0.1:%d" % live.port)
+    live.backend.full_topics.add("/known")
+    client.send({"op": "publish", "topic": "/known", "msg": {"data": "a"}})
+    client.send({"op": "call_service", "id": "after", "service": "/echo"})
+    with pytest.raises(queue.Empty):
+        client.recv(0.3)  # the call behind the publish is not even read while rospy's queue is full
+    assert len(live.backend.published) == 1 and live.backend.calls == []
+    live.backend.full_topics.clear()
+    assert client.recv_message()["id"] == "after"
+    client.close()
 
 
 def test_answering_client_is_kept_alive(live):

@@ -2,10 +2,15 @@
 
 Not used by the robot: it lets rostests and bench/bench_bridge.py send raw frames (JSON, CBOR,
 fragments, malformed input) that roslibpy cannot produce, and read every frame the server sends.
+:class:`SocketClient` is a client that does not read until asked (a stuck backend).
 """
 import asyncio
+import base64
 import json
+import os
 import queue
+import socket
+import struct
 import threading
 
 import tornado.httpclient
@@ -24,6 +29,7 @@ class RawClient(object):
         self.url = url
         self.frames = queue.Queue()
         self.close_code = None
+        self.close_reason = None
         self._error = None
         self._conn = None
         self._loop = None
@@ -57,6 +63,7 @@ class RawClient(object):
     def _on_message(self, message):
         if message is None:
             self.close_code = self._conn.close_code if self._conn is not None else None
+            self.close_reason = self._conn.close_reason if self._conn is not None else None
             self.frames.put(CLOSED)
         else:
             self.frames.put(message)
@@ -66,6 +73,17 @@ class RawClient(object):
         if isinstance(data, dict):
             data = json.dumps(data)
         self._loop.add_callback(self._write, data)
+
+    def send_many(self, frames, slice_size=64):
+        """Send a burst of frames in order; the client keeps reading between slices of the burst."""
+        frames = list(frames)
+
+        async def write_all():
+            for start in range(0, len(frames), slice_size):
+                for data in frames[start:start + slice_size]:
+                    self._write(data)
+                await asyncio.sleep(0)
+        self._loop.add_callback(write_all)
 
     def _write(self, data):
         try:
@@ -99,3 +117,56 @@ class RawClient(object):
         if self._loop is not None and self._conn is not None:
             self._loop.add_callback(shut)
         self._thread.join(2.0)
+
+
+class SocketClient(object):
+    """A websocket client on a plain blocking socket that reads only when asked (or never).
+
+    Models a slow or stuck backend: ``rcvbuf`` shrinks the kernel's receive buffer so the
+    server's writes back up quickly. ``send(dict)`` sends one masked text frame (< 126 bytes);
+    ``frames()`` yields the server's frames as (opcode, payload) up to its close frame.
+    """
+
+    def __init__(self, port, rcvbuf=None):
+        self.sock = socket.socket()
+        if rcvbuf:
+            self.sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, rcvbuf)
+        self.sock.settimeout(5.0)
+        self.sock.connect(("127.0.0.1", port))
+        key = base64.b64encode(os.urandom(16)).decode()
+        self.sock.sendall(("GET / HTTP/1.1\r\nHost: 127.0.0.1\r\nUpgrade: websocket\r\nConnection: Upgrade\r\n"
+                           "Sec-WebSocket-Key: %s\r\nSec-WebSocket-Version: 13\r\n\r\n" % key).encode())
+        self.buffer = b""
+        while b"\r\n\r\n" not in self.buffer:
+            self.buffer += self.sock.recv(1024)
+        head, self.buffer = self.buffer.split(b"\r\n\r\n", 1)
+        assert b"101" in head.split(b"\r\n")[0]
+
+    def send(self, message):
+        payload = json.dumps(message).encode()
+        mask = os.urandom(4)
+        assert len(payload) < 126
+        self.sock.sendall(struct.pack("!BB", 0x81, 0x80 | len(payload)) + mask
+                          + bytes(b ^ mask[i % 4] for i, b in enumerate(payload)))
+
+    def _take(self, n):
+        while len(self.buffer) < n:
+            chunk = self.sock.recv(65536)
+            if not chunk:
+                raise EOFError()
+            self.buffer += chunk
+        data, self.buffer = self.buffer[:n], self.buffer[n:]
+        return data
+
+    def frames(self):
+        """(opcode, payload) of each server frame, up to and including a close frame."""
+        while True:
+            first, length = struct.unpack("!BB", self._take(2))
+            if length == 126:
+                length = struct.unpack("!H", self._take(2))[0]
+            elif length == 127:
+                length = struct.unpack("!Q", self._take(8))[0]
+            opcode = first & 0x0F
+            yield opcode, self._take(length)
+            if opcode == 0x8:
+                return

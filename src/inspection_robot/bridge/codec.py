@@ -19,6 +19,7 @@ Converters are compiled once per message class.
 """
 import base64
 import binascii
+import json
 import re
 
 from inspection_robot.bridge.cbor import ROS_ARRAY_TAGS, typed_array
@@ -92,6 +93,25 @@ def _b64(value):
     return base64.standard_b64encode(value).decode("ascii")
 
 
+BLOB_MIN = 1 << 16  # bytes: uint8[] at least this long are spliced into JSON text unescaped
+_BLOB_MARK = "\x00\x01blob\x02"  # stands for one blob in the skeleton text, where it reads as below
+_BLOB_MARK_JSON = '"\\u0000\\u0001blob\\u0002"'
+
+
+class Blob(object):
+    """The base64 text of a large uint8[] field, kept out of the JSON encoder (see Codec.to_json_text)."""
+
+    __slots__ = ("text",)
+
+    def __init__(self, text):
+        self.text = text
+
+
+def _b64_or_blob(value):
+    text = _b64(value)
+    return Blob(text) if len(text) >= BLOB_MIN else text
+
+
 def _raw_bytes(value):
     return bytes(value) if isinstance(value, (bytes, bytearray)) else bytes(bytearray(value))
 
@@ -102,6 +122,7 @@ class Codec(object):
     def __init__(self, types):
         self._types = types
         self._to_json = {}
+        self._to_json_text = {}
         self._to_cbor = {}
         self._from_json = {}
 
@@ -109,6 +130,48 @@ class Codec(object):
     def to_json(self, msg):
         """The JSON-ready dict of a message instance."""
         return self._json_converter(type(msg))(msg)
+
+    def to_json_text(self, msg):
+        """The compact JSON text of a message instance (the same text as encoding to_json's dict).
+
+        Base64 text needs no JSON escaping, so large uint8[] fields (images, point clouds) are not
+        fed through the JSON encoder, which would scan every character: the message is encoded
+        with a marker in their place and their text spliced in afterwards.
+        """
+        blobs = []
+
+        def blob_mark(obj):
+            if not isinstance(obj, Blob):
+                raise TypeError("Object of type %s is not JSON serializable" % type(obj).__name__)
+            blobs.append(obj.text)
+            return _BLOB_MARK
+        skeleton = json.JSONEncoder(separators=(",", ":"), default=blob_mark).encode(
+            self._json_text_converter(type(msg))(msg))
+        if not blobs:
+            return skeleton
+        parts = skeleton.split(_BLOB_MARK_JSON)
+        if len(parts) != len(blobs) + 1:  # a string of the message looks like the marker: encode it all
+            return json.JSONEncoder(separators=(",", ":"), default=lambda b: b.text).encode(
+                self._json_text_converter(type(msg))(msg))
+        out = [parts[0]]
+        for text, part in zip(blobs, parts[1:]):
+            out.extend(('"', text, '"', part))
+        return "".join(out)
+
+    def _json_text_converter(self, cls):
+        return _message_converter(self._to_json_text, self._json_text_field, cls)
+
+    def _json_text_field(self, field_type):
+        # as _json_field, with Blobs for large uint8[] at any depth
+        base, length = split_array(field_type)
+        if length is not None and base in BINARY_TYPES:
+            return _b64_or_blob
+        if base in PRIMITIVE_TYPES or base in TIME_TYPES:
+            return self._json_field(field_type)
+        element = self._json_text_converter(self._types.message_class(base))
+        if length is None:
+            return element
+        return lambda values: [element(v) for v in values]
 
     def to_cbor(self, msg):
         """The CBOR-ready dict (bytes raw, typed arrays, NaN kept) of a message instance."""

@@ -1,8 +1,10 @@
 """rosbridge v2 protocol, one :class:`Session` per websocket client; no rospy, no sockets.
 
 An op table (:data:`OPS`) declares every op's fields and their JSON types; a frame is parsed,
-checked against it and dispatched to ``Session._op_<name>``. Any problem becomes a ``status``
-message at level ``error`` naming the op and echoing the ``id``; the session keeps serving.
+checked against it and dispatched through the session's handler table (``Session.handlers``,
+op name -> method). Any problem becomes a ``status`` message at level ``error`` naming the op
+and echoing the ``id``; the session keeps serving. The log gets at most one line per client
+every ``LOG_PERIOD`` s for such problems, with the count of those left out.
 ROS effects go through a backend (ros.bridge_backend.RosBackend, or a fake in the unit tests), frames
 out through ``send(frames, key, limit)`` of the transport's bounded queue. All methods run on
 the transport's event-loop thread; the backend hands ROS callbacks over to that thread.
@@ -21,6 +23,7 @@ COMPRESSIONS = ("none", "png", "cbor", "cbor-raw")
 NUMBER = (int, float)
 ANY_ID = (str, int, float)
 ORIGINAL_MAX = 200  # characters of an offending frame quoted back in a status message
+LOG_PERIOD = 5.0  # s: at most one logged protocol error per client and period
 # one shared compact encoder: json.dumps(..., separators=...) would build a new encoder per call
 compact_json = json.JSONEncoder(separators=(",", ":")).encode
 _PUBLISH_PREFIX = {}  # topic -> '{"op":"publish","topic":"<topic>","msg":'
@@ -150,7 +153,7 @@ class Outgoing(object):
                 if len(_PUBLISH_PREFIX) > 10000:
                     _PUBLISH_PREFIX.clear()
                 prefix = _PUBLISH_PREFIX[self.topic] = '{"op":"publish","topic":%s,"msg":' % compact_json(self.topic)
-            self._json = prefix + compact_json(self._codec.to_json(self.msg)) + "}"
+            self._json = prefix + self._codec.to_json_text(self.msg) + "}"
         return self._json
 
     def cbor_frame(self):
@@ -236,6 +239,24 @@ class Session(object):
         self._pending_requests = {}  # request id -> callback(result, values)
         self._request_counter = 0
         self._closed = False
+        self._last_published = None  # topic of the latest publish (for ros_backlogged)
+        self._log_after = None  # clock time before which protocol errors are counted, not logged
+        self._unlogged = 0
+        # op name -> handler; every entry of OPS has one (checked by the unit tests)
+        self.handlers = {
+            "advertise": self._op_advertise,
+            "unadvertise": self._op_unadvertise,
+            "publish": self._op_publish,
+            "subscribe": self._op_subscribe,
+            "unsubscribe": self._op_unsubscribe,
+            "call_service": self._op_call_service,
+            "advertise_service": self._op_advertise_service,
+            "unadvertise_service": self._op_unadvertise_service,
+            "service_response": self._op_service_response,
+            "set_level": self._op_set_level,
+            "fragment": self._op_fragment,
+            "auth": self._op_auth,
+        }
 
     # ------------------------------------------------------------------ incoming frames
     def on_frame(self, frame):
@@ -278,7 +299,7 @@ class Session(object):
             return
         try:
             args = check_fields(op, msg)
-            getattr(self, "_op_" + op)(args, mid)
+            self.handlers[op](args, mid)
         except BridgeError as exc:
             self.status(exc.level, "%s: %s" % (op, exc), mid, op)
         except ValueError as exc:  # bad message contents or type names (codec, type loading)
@@ -288,16 +309,46 @@ class Session(object):
             self.status("error", "%s: %s" % (op, exc), mid, op)
 
     # ------------------------------------------------------------------ outgoing
-    def status(self, level, text, mid=None, op=None):
-        """Send a status message if ``level`` passes the client's set_level."""
+    def status(self, level, text, mid=None, op=None, always=False):
+        """Send a status message if ``level`` passes the client's set_level (``always``: unless it is none)."""
         if level in ("error", "warning"):
-            self._log("warning" if level == "warning" else "error", "client %s: %s" % (self.client_id, text))
-        if LEVELS[level] < self._level:
+            self._log_throttled("warning" if level == "warning" else "error", text)
+        if LEVELS[level] < self._level and not (always and self._level < LEVELS["none"]):
             return
         message = {"op": "status", "level": level, "msg": text}
         if mid is not None:
             message["id"] = mid
         self._send([json.dumps(message, default=repr)], None, None, False)
+
+    def _log_throttled(self, level, text):
+        now = self._clock()
+        if self._log_after is not None and now < self._log_after:
+            self._unlogged += 1
+            return
+        more = " (+%d more since the last line)" % self._unlogged if self._unlogged else ""
+        self._log(level, "client %s: %s%s" % (self.client_id, text, more))
+        self._unlogged = 0
+        self._log_after = now + LOG_PERIOD
+
+    def drops(self, topic, count, total, budget):
+        """Tell the client that ``count`` messages on ``topic`` were dropped (its send queue is over budget).
+
+        Sent at level warning even under the default level error (a loss must not be silent);
+        ``set_level none`` silences it.
+        """
+        self.status("warning", "subscribe: dropped %d messages on %s (%d in all): the client reads slower than "
+                    "the topic and its send queue is over its budget of %d bytes" % (count, topic, total, budget),
+                    always=True)
+
+    def ros_backlogged(self):
+        """True while the ROS publisher of this client's latest publish has a full queue (stop reading)."""
+        topic = self._last_published
+        if topic is None:
+            return False
+        if self._backend.publisher_full(topic):
+            return True
+        self._last_published = None
+        return False
 
     def _send_json(self, message, fragment_size=None, compression="none", droppable=False):
         if compression in ("cbor", "cbor-raw"):
@@ -388,6 +439,7 @@ class Session(object):
             self._backend.advertise(self, topic, topic_type, args["latch"], 100)
             self._advertised[topic] = {None}
         self._backend.publish(topic, args["msg"] or {})
+        self._last_published = topic
 
     def _op_subscribe(self, args, mid):
         topic = args["topic"]

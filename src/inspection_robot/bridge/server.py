@@ -1,18 +1,31 @@
-"""Websocket transport of the bridge (tornado >= 6.0): connections, keep-alive, bounded send queues.
+"""Websocket transport of the bridge (tornado >= 6.0): connections, fair scheduling, budgets, keep-alive.
 
 Each connection gets a protocol Session (made by ``make_session``) and a :class:`SendQueue`.
-Topic messages are droppable: past ``send_queue_size`` waiting messages the oldest is dropped,
-and a subscription's ``queue_length`` bounds its own waiting messages, so a slow client loses
-old data instead of stalling others or growing memory. Replies (service responses, status,
-requests) are never dropped; a client that lets more than ``send_queue_size`` of them pile up is
-disconnected. Frames leave in batches: everything queued when the writer runs is framed and
-handed to the socket in one write, and the writer waits for the socket only once per batch.
+
+Fair scheduling: a burst read from one client never starves writing. Incoming frames are
+handled ``READ_SLICE`` at a time, then the handler yields to the IOLoop once, so queued outgoing
+frames (to this and every other client) and ROS callbacks run between slices. When a frame
+published to ROS leaves that topic's rospy publisher queue at its high-water mark
+(``Session.ros_backlogged``), the client's socket is not read until the queue drained: TCP
+back-pressure slows the publisher instead of rospy dropping its oldest messages.
+
+Send queues (see :class:`SendQueue`): without a subscription ``queue_length`` no topic message is
+dropped until the client's queued bytes reach its ``budget`` (bytes). Past that, new topic
+messages for the client are dropped and counted per topic; the client gets a rate-limited
+``status`` warning naming topic and count (at most one per ``DROP_WARNING_PERIOD`` s), and a
+client still over budget ``budget_grace`` s after it first went over is disconnected (1008).
+Replies (service responses, status, requests) are never dropped but count against the budget.
+Frames leave in batches of at most ``BATCH_BYTES``; the next batch waits until the socket took
+the previous one, so the budget covers everything the bridge holds for the client.
+
 Keep-alive: every ``ping_interval`` s each client is pinged; one that sent nothing (no frame, no
 pong) for ``ping_timeout`` s has its socket closed within the next second (checks run every
 KEEPALIVE_TICK s), at once: no close handshake is awaited from a peer that is not answering.
-Frames over ``max_message_size`` bytes close the connection (1009). TLS when an ssl context is
-given. :class:`LoopPoster` hands work from other threads to the event loop.
+A frame over ``max_message_size`` bytes closes the connection with 1009 and a readable reason.
+Every close the bridge decides is logged with its reason. TLS when an ssl context is given.
+:class:`LoopPoster` hands work from other threads to the event loop.
 """
+import asyncio
 import collections
 import ssl
 import struct
@@ -25,7 +38,14 @@ import tornado.web
 import tornado.websocket
 from tornado.iostream import StreamClosedError
 
-KEEPALIVE_TICK = 1.0  # s between checks for silent clients (pings go out every ping_interval)
+KEEPALIVE_TICK = 1.0  # s between checks for silent or over-budget clients (pings go every ping_interval)
+READ_SLICE = 32  # incoming frames handled before the reader yields to the IOLoop once
+BATCH_BYTES = 1 << 20  # outgoing bytes handed to the socket per write (at least one message)
+DROP_WARNING_PERIOD = 1.0  # s: at most one drop warning per client and period
+BACKLOG_POLL = 0.001  # s between checks of a full rospy publisher queue while a client's reading is paused
+CLOSE_POLICY = 1008  # websocket close codes (RFC 6455 7.4.1)
+CLOSE_TOO_BIG = 1009
+CLOSE_GOING_AWAY = 1001
 
 
 class LoopPoster(object):
@@ -77,28 +97,60 @@ def ws_frame(payload):
     return header + payload
 
 
-class SendQueue(object):
-    """Outgoing messages (each a list of frames) of one client; see the module docstring."""
+def _size(frames):
+    return sum(len(frame) for frame in frames)
 
-    def __init__(self, max_messages):
-        self.max_messages = max(1, int(max_messages))
-        self._replies = collections.deque()
-        self._topics = collections.deque()   # entries: [frames, key, alive]
-        self._by_key = {}                    # key -> deque of entries
+
+class SendQueue(object):
+    """Outgoing messages (each a list of frames) of one client, bounded by a byte budget.
+
+    ``put(frames, key, limit, droppable)``: replies (``droppable=False``) are always queued and sent
+    first. A topic message (``key`` = topic) with a ``limit`` (the subscription's queue_length)
+    keeps only the newest ``limit`` messages of that key waiting, as rosbridge's queue_length does
+    (``limit_dropped`` counts those). Otherwise a topic message is refused only when the bytes
+    held for the client (queued plus handed to the socket and not yet written) would pass
+    ``budget``: it is then counted in ``dropped[key]`` and put() returns False. A message larger
+    than the whole budget still goes when nothing else is held. ``over_since`` is the clock time
+    the client went over budget (None while under it).
+    """
+
+    def __init__(self, budget, clock=time.monotonic):
+        self.budget = max(1, int(budget))
+        self._clock = clock
+        self._replies = collections.deque()  # (frames, size)
+        self._topics = collections.deque()   # entries: [frames, key, alive, size]
+        self._by_key = {}                    # key -> deque of entries (keys with a limit only)
         self._alive = 0
-        self.dropped = 0
+        self.queued_bytes = 0
+        self.in_flight = 0
+        self.dropped = collections.Counter()  # key -> topic messages refused over budget
+        self.limit_dropped = 0                # topic messages replaced under their queue_length
+        self.over_since = None
 
     def __len__(self):
         return len(self._replies) + self._alive
 
+    @property
+    def held_bytes(self):
+        return self.queued_bytes + self.in_flight
+
     def put(self, frames, key=None, limit=None, droppable=True):
-        """Queue one message; False when undroppable replies overflow (the client must go)."""
+        """Queue one message; False when a topic message was refused (over budget)."""
+        size = _size(frames)
         if not droppable:
-            self._replies.append(frames)
-            return len(self._replies) <= self.max_messages
-        entry = [frames, key, True]
+            self._replies.append((frames, size))
+            self.queued_bytes += size
+            self._check_budget()
+            return True
+        if self.held_bytes + size > self.budget and self.held_bytes > 0 and not limit:
+            self.dropped[key] += 1
+            if self.over_since is None:
+                self.over_since = self._clock()
+            return False
+        entry = [frames, key, True, size]
         self._topics.append(entry)
         self._alive += 1
+        self.queued_bytes += size
         if key is not None and limit:
             per_key = self._by_key.get(key)
             if per_key is None:
@@ -107,18 +159,25 @@ class SendQueue(object):
             self._trim(key, per_key)
             while len(per_key) > limit:
                 self._kill(per_key.popleft())
-        if self._alive > self.max_messages:
-            while self._alive > self.max_messages:
-                self._prune()
-                self._kill(self._topics[0])
+                self.limit_dropped += 1
             self._prune()
+        self._check_budget()
         return True
+
+    def _check_budget(self):
+        if self.held_bytes > self.budget:
+            if self.over_since is None:
+                self.over_since = self._clock()
+        elif not self.dropped or self.held_bytes < self.budget // 2:
+            # under budget again: after drops only once half of it is free, so a client hovering
+            # at the edge is not told "recovered" for each message
+            self.over_since = None
 
     def _kill(self, entry):
         if entry[2]:
             entry[2] = False
             self._alive -= 1
-            self.dropped += 1
+            self.queued_bytes -= entry[3]
 
     def _trim(self, key, per_key):
         # dead entries of a key are always its oldest ones: drop that prefix
@@ -132,18 +191,36 @@ class SendQueue(object):
             self._topics.popleft()
 
     def pop(self):
-        """The next message's frames (replies first), or None when empty."""
+        """The next message's frames (replies first), or None when empty; its bytes go in flight."""
         if self._replies:
-            return self._replies.popleft()
-        self._prune()
-        if not self._topics:
-            return None
-        entry = self._topics.popleft()
-        entry[2] = False
-        self._alive -= 1
-        if self._by_key and entry[1] in self._by_key:
-            self._trim(entry[1], self._by_key[entry[1]])
-        return entry[0]
+            frames, size = self._replies.popleft()
+        else:
+            self._prune()
+            if not self._topics:
+                return None
+            entry = self._topics.popleft()
+            frames, size = entry[0], entry[3]
+            entry[2] = False
+            self._alive -= 1
+            if self._by_key and entry[1] in self._by_key:
+                self._trim(entry[1], self._by_key[entry[1]])
+        self.queued_bytes -= size
+        self.in_flight += size
+        return frames
+
+    def take_replies(self):
+        """Every queued reply's frames, removed from the queue (sent ahead of a close)."""
+        frames = []
+        while self._replies:
+            reply, size = self._replies.popleft()
+            frames.extend(reply)
+            self.queued_bytes -= size
+        return frames
+
+    def written(self, size):
+        """``size`` bytes handed out by pop() have been written to the socket."""
+        self.in_flight -= size
+        self._check_budget()
 
 
 class BridgeHandler(tornado.websocket.WebSocketHandler):
@@ -151,9 +228,13 @@ class BridgeHandler(tornado.websocket.WebSocketHandler):
 
     def initialize(self, server):
         self._server = server
-        self._queue = SendQueue(server.send_queue_size)
+        self.queue = SendQueue(server.budget)
         self._writing = False
         self._closing = False
+        self._unread = 0
+        self._drops_untold = collections.Counter()
+        self._warning_timer = None
+        self.close_reason_sent = None
         self.session = None
         self.last_heard = time.monotonic()
 
@@ -163,14 +244,49 @@ class BridgeHandler(tornado.websocket.WebSocketHandler):
     def get_compression_options(self):
         return None  # permessage-deflate costs more CPU than it saves on a local link
 
+    def get_websocket_protocol(self):
+        # tornado closes an oversized frame's connection itself, with the terse "message too big":
+        # give the client a reason naming the limit, and remember it so the bridge can log it
+        protocol = super(BridgeHandler, self).get_websocket_protocol()
+        if protocol is not None:
+            close = protocol.close
+
+            def close_with_reason(code=None, reason=None):
+                if code == CLOSE_TOO_BIG and self.close_reason_sent is None:
+                    reason = "message too big: a frame over max_message_size (%d bytes)" % self._server.max_message_size
+                    self.close_reason_sent = (code, reason)
+                close(code, reason)
+            protocol.close = close_with_reason
+        return protocol
+
+    @property
+    def client_id(self):
+        return self.session.client_id if self.session is not None else "?"
+
     def open(self):
         self.set_nodelay(True)
         self.session = self._server.opened(self)
 
     def on_message(self, message):
         self.last_heard = time.monotonic()
-        if self.session is not None:
-            self.session.on_frame(message)
+        if self.session is None:
+            return None
+        self.session.on_frame(message)
+        if self.session.ros_backlogged():
+            self._unread = 0
+            return self._wait_for_ros()
+        self._unread += 1
+        if self._unread >= READ_SLICE:
+            # tornado reads the next buffered frame without returning to the IOLoop; awaiting
+            # here lets queued writes and ROS callbacks run between slices of a burst
+            self._unread = 0
+            return asyncio.sleep(0)
+        return None
+
+    async def _wait_for_ros(self):
+        # not reading the socket while rospy's queue is full: TCP slows the client down
+        while self.session.ros_backlogged() and self.ws_connection is not None:
+            await asyncio.sleep(BACKLOG_POLL)
 
     def on_pong(self, data):
         self.last_heard = time.monotonic()
@@ -183,24 +299,55 @@ class BridgeHandler(tornado.websocket.WebSocketHandler):
         else:
             self.close()
 
+    def close_with(self, code, reason):
+        """Close with a reason the client can read; replies still queued (status) go out first."""
+        if self.close_reason_sent is not None:
+            return
+        self.close_reason_sent = (code, reason)
+        self._closing = True
+        replies = self.queue.take_replies()
+        if replies:
+            try:
+                self._write_raw(b"".join(ws_frame(frame) for frame in replies))
+            except (tornado.websocket.WebSocketClosedError, StreamClosedError):
+                pass
+        self.close(code, reason)
+
     def on_close(self):
+        if self._warning_timer is not None:
+            tornado.ioloop.IOLoop.current().remove_timeout(self._warning_timer)
+            self._warning_timer = None
         self._server.closed(self)
 
     def send(self, frames, key=None, limit=None, droppable=True):
         if self._closing or self.ws_connection is None:
             return
-        before = self._queue.dropped
-        if not self._queue.put(frames, key, limit, droppable):
-            self._server.log("warning", "client %s: %d replies waiting; disconnecting"
-                             % (self.session.client_id, len(self._queue)))
-            self._closing = True
-            self.close(1008, "send queue overflow")
+        if not self.queue.put(frames, key, limit, droppable):
+            self._dropped(key)
             return
-        if self._queue.dropped != before:
-            self._server.dropped(self)
+        if not droppable and self.queue.held_bytes > 2 * self.queue.budget:
+            # replies are never dropped; a client that lets twice its budget of them pile up goes now
+            self._server.over_budget(self)
+            return
         if not self._writing:
             self._writing = True
             tornado.ioloop.IOLoop.current().add_callback(self._drain)
+
+    def _dropped(self, topic):
+        self._server.dropped(self, topic)
+        self._drops_untold[topic] += 1
+        if self._warning_timer is None:
+            self._tell_drops()
+
+    def _tell_drops(self):
+        # one warning now, then at most one per period while drops continue
+        self._warning_timer = None
+        if not self._drops_untold or self.session is None or self._closing:
+            return
+        for topic, count in sorted(self._drops_untold.items()):
+            self.session.drops(topic, count, self.queue.dropped[topic], self.queue.budget)
+        self._drops_untold.clear()
+        self._warning_timer = tornado.ioloop.IOLoop.current().call_later(DROP_WARNING_PERIOD, self._tell_drops)
 
     def close_after_flush(self):
         self._closing = True
@@ -208,25 +355,31 @@ class BridgeHandler(tornado.websocket.WebSocketHandler):
             self.close()
 
     async def _drain(self):
-        # Everything queued now goes out in one stream write; the next batch waits until the socket
-        # took this one, so at most one queue's worth sits in tornado's buffer.
+        # Queued frames go out in writes of up to BATCH_BYTES; the next write waits until the
+        # socket took this one, so the bytes held in tornado's buffer stay within the budget.
         try:
             while True:
-                chunks = []
-                frames = self._queue.pop()
+                chunks, size = [], 0
+                frames = self.queue.pop()
                 while frames is not None:
                     chunks.extend(ws_frame(frame) for frame in frames)
-                    frames = self._queue.pop()
+                    size += _size(frames)
+                    if size >= BATCH_BYTES:
+                        break
+                    frames = self.queue.pop()
                 if not chunks:
                     break
-                future = self._write_raw(b"".join(chunks) if len(chunks) > 1 else chunks[0])
-                if not future.done():
-                    await future
+                try:
+                    future = self._write_raw(b"".join(chunks) if len(chunks) > 1 else chunks[0])
+                    if not future.done():
+                        await future
+                finally:
+                    self.queue.written(size)
         except (tornado.websocket.WebSocketClosedError, StreamClosedError):
             pass
         finally:
             self._writing = False
-        if self._closing:
+        if self._closing and self.close_reason_sent is None:
             self.close()
 
     def _write_raw(self, data):
@@ -248,26 +401,27 @@ class _Timer(object):
 class BridgeServer(object):
     """Listens on ``address:port`` (0 = any free port) and runs one Session per client.
 
-    ``http_routes`` (tornado rules) are matched before the websocket, which takes every other path.
-
     ``make_session(client_id, send, call_later, close)`` returns a protocol Session.
-    ``on_client_count(n)`` is called on every connect/disconnect. Must be started on the thread
-    that runs the tornado IOLoop.
+    ``on_client_count(n)`` is called on every connect/disconnect. ``budget`` (bytes) and
+    ``budget_grace`` (s) bound each client's send queue (module docstring). Must be started on the
+    thread that runs the tornado IOLoop. :meth:`stats` feeds the node's diagnostics.
+    ``extra_routes``: further tornado routes (pattern, handler, kwargs) matched before the websocket.
     """
 
     def __init__(self, make_session, address="127.0.0.1", port=9090, ssl_context=None, ping_interval=10.0,
-                 ping_timeout=30.0, max_message_size=10000000, send_queue_size=1000, on_client_count=None,
-                 log=None, http_routes=()):
+                 ping_timeout=30.0, max_message_size=10000000, budget=64 << 20, budget_grace=5.0,
+                 on_client_count=None, log=None, extra_routes=()):
         self._make_session = make_session
-        self._http_routes = list(http_routes)
         self._address = address
         self._port = int(port)
         self._ssl = ssl_context
         self._ping_interval = float(ping_interval)
         self._ping_timeout = float(ping_timeout)
-        self._max_message_size = int(max_message_size)
-        self.send_queue_size = int(send_queue_size)
+        self.max_message_size = int(max_message_size)
+        self.budget = int(budget)
+        self.budget_grace = float(budget_grace)
         self._on_count = on_client_count or (lambda n: None)
+        self._extra_routes = list(extra_routes)
         self.log = log or (lambda level, text: None)
         self._clients = set()
         self._next_id = 0
@@ -275,20 +429,22 @@ class BridgeServer(object):
         self._pinger = None
         self._last_ping = 0.0
         self.port = None
-        self.dropped_messages = 0
+        self.dropped_by_topic = collections.Counter()  # topic -> messages dropped over budget, all clients
+        self.closed_over_budget = 0
+
+    def routes(self):
+        """The HTTP application's routes: any extra ones first, the websocket on every other path."""
+        return self._extra_routes + [(r"/.*", BridgeHandler, {"server": self})]
 
     def start(self):
         """Bind and listen; returns the actual port."""
-        settings = {"websocket_max_message_size": self._max_message_size}
-        if self._ping_interval > 0:
-            tick = min(self._ping_interval, KEEPALIVE_TICK)
-            self._pinger = tornado.ioloop.PeriodicCallback(self._keep_alive, tick * 1000.0)
-            self._pinger.start()
-        # Plain HTTP routes (the console's static files) first; every other path is the websocket.
-        app = tornado.web.Application(self._http_routes + [(r"/.*", BridgeHandler, {"server": self})], **settings)
+        tick = min(self._ping_interval, KEEPALIVE_TICK) if self._ping_interval > 0 else KEEPALIVE_TICK
+        self._pinger = tornado.ioloop.PeriodicCallback(self._keep_alive, tick * 1000.0)
+        self._pinger.start()
+        app = tornado.web.Application(self.routes(), websocket_max_message_size=self.max_message_size)
         sockets = tornado.netutil.bind_sockets(self._port, self._address or None)
-        self._http = tornado.httpserver.HTTPServer(app, ssl_options=self._ssl, max_buffer_size=self._max_message_size
-                                                   + 65536)
+        self._http = tornado.httpserver.HTTPServer(app, ssl_options=self._ssl,
+                                                   max_buffer_size=self.max_message_size + 65536)
         self._http.add_sockets(sockets)
         self.port = sockets[0].getsockname()[1]
         self._on_count(0)
@@ -300,17 +456,23 @@ class BridgeServer(object):
         if self._http is not None:
             self._http.stop()
         for handler in list(self._clients):
-            handler.close(1001, "bridge shutting down")
+            handler.close_with(CLOSE_GOING_AWAY, "bridge shutting down")
 
     def _keep_alive(self):
         now = time.monotonic()
-        ping = now - self._last_ping >= self._ping_interval - 1e-3
+        ping = self._ping_interval > 0 and now - self._last_ping >= self._ping_interval - 1e-3
         if ping:
             self._last_ping = now
         for handler in list(self._clients):
+            since = handler.queue.over_since
+            if since is not None and now - since >= self.budget_grace:
+                self.over_budget(handler)
+                continue
+            if self._ping_interval <= 0:
+                continue
             if now - handler.last_heard > self._ping_timeout:
-                self.log("warning", "client %s silent for %.1f s; dropping it"
-                         % (handler.session.client_id if handler.session else "?", now - handler.last_heard))
+                self.log("warning", "client %s silent for %.1f s; dropping it" % (handler.client_id,
+                                                                                  now - handler.last_heard))
                 handler.abort()
                 continue
             if not ping:
@@ -319,6 +481,15 @@ class BridgeServer(object):
                 handler.ping(b"")
             except (tornado.websocket.WebSocketClosedError, StreamClosedError):
                 pass
+
+    def over_budget(self, handler):
+        """Disconnect a client whose send queue stayed over its budget (or replies overflowed it)."""
+        if handler.close_reason_sent is not None:
+            return
+        self.closed_over_budget += 1
+        dropped = sum(handler.queue.dropped.values())
+        handler.close_with(CLOSE_POLICY, "send queue over budget (%d bytes) for %g s: client reads too slowly; "
+                           "%d messages dropped" % (self.budget, self.budget_grace, dropped))
 
     @property
     def client_count(self):
@@ -343,11 +514,28 @@ class BridgeServer(object):
         self._clients.discard(handler)
         if handler.session is not None:
             handler.session.close()
-            self.log("info", "client %s disconnected (%d clients)" % (handler.session.client_id, len(self._clients)))
+        if handler.close_reason_sent is not None:
+            why = "closed by the bridge (%d %s)" % handler.close_reason_sent
+            self.log("warning", "client %s %s (%d clients)" % (handler.client_id, why, len(self._clients)))
+        else:
+            why = "disconnected" if handler.close_code is None else "disconnected (%s %s)" % (
+                handler.close_code, handler.close_reason or "")
+            self.log("info", "client %s %s (%d clients)" % (handler.client_id, why.rstrip(), len(self._clients)))
         self._on_count(len(self._clients))
 
-    def dropped(self, handler):
-        self.dropped_messages += 1
+    def dropped(self, handler, topic):
+        self.dropped_by_topic[topic] += 1
+
+    def stats(self):
+        """Per-client send queue figures and drop counters for diagnostics (event-loop thread)."""
+        clients = []
+        for handler in sorted(self._clients, key=lambda h: str(h.client_id)):
+            queue = handler.queue
+            clients.append({"client": handler.client_id, "held_bytes": queue.held_bytes, "messages": len(queue),
+                            "dropped": sum(queue.dropped.values()), "queue_length_dropped": queue.limit_dropped,
+                            "over_budget": queue.over_since is not None})
+        return {"clients": clients, "dropped_by_topic": dict(self.dropped_by_topic),
+                "closed_over_budget": self.closed_over_budget, "budget": self.budget}
 
 
 def make_ssl_context(certfile, keyfile):

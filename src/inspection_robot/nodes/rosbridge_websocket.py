@@ -5,6 +5,8 @@ roslibjs/roslibpy clients and answers /rosapi/* calls in-process (see docs/inter
 "Backend link").
 
 Publishes:   client_count (std_msgs/Int32, latched): connected websocket clients
+             diagnostics (diagnostic_msgs/DiagnosticArray, diagnostic_updater, 1 Hz): hardware_id
+             backend_link, status "rosbridge_websocket: clients": send queues, drop counters
              plus every topic a client advertises (any type)
 Subscribes:  every topic a client subscribes to (one ROS subscriber per topic, shared)
 Services:    every service a client advertises; calls any ROS service for clients
@@ -13,9 +15,10 @@ Parameters:  ~port (int, 9090; 0 = any free port), ~address (str, "127.0.0.1"; "
              ~certfile / ~keyfile (str, ""; both set = TLS), ~auth_token (str, ""; empty = no auth),
              ~auth_window (s, 60.0), ~max_message_size (bytes, 10000000),
              ~ping_interval (s, 10.0; 0 = off), ~ping_timeout (s, 30.0),
-             ~send_queue_size (messages per client, 1000), ~fragment_timeout (s, 600.0),
+             ~client_budget (bytes per client send queue, 67108864), ~budget_grace (s, 5.0: over budget
+             that long = disconnected), ~fragment_timeout (s, 600.0),
              ~service_timeout (s, 10.0: wait for a client's service_response),
-             ~subscriber_queue_size (ROS messages per subscribed topic, 100),
+             ~subscriber_queue_size (ROS messages per subscribed topic, 0 = unbounded as rosbridge),
              ~service_threads (int, 8: concurrent service calls / rosapi requests),
              ~console (bool, true: serve the operator console at /console/),
              ~console_dir (str: web/console of the package), ~console_vendor_dir (str: roslib's build/)
@@ -25,8 +28,10 @@ import concurrent.futures
 import threading
 import time
 
+import diagnostic_updater
 import rospy
 import tornado.ioloop
+from diagnostic_msgs.msg import DiagnosticStatus
 from std_msgs.msg import Int32
 
 from inspection_robot.bridge.codec import Codec
@@ -58,10 +63,11 @@ def read_params():
         "max_message_size": int(rospy.get_param("~max_message_size", 10000000)),
         "ping_interval": float(rospy.get_param("~ping_interval", 10.0)),
         "ping_timeout": float(rospy.get_param("~ping_timeout", 30.0)),
-        "send_queue_size": int(rospy.get_param("~send_queue_size", 1000)),
+        "client_budget": int(rospy.get_param("~client_budget", 64 << 20)),
+        "budget_grace": float(rospy.get_param("~budget_grace", 5.0)),
         "fragment_timeout": float(rospy.get_param("~fragment_timeout", 600.0)),
         "service_timeout": float(rospy.get_param("~service_timeout", 10.0)),
-        "subscriber_queue_size": int(rospy.get_param("~subscriber_queue_size", 100)),
+        "subscriber_queue_size": int(rospy.get_param("~subscriber_queue_size", 0)),
         "service_threads": int(rospy.get_param("~service_threads", 8)),
         "console": bool(rospy.get_param("~console", True)),
         "console_dir": str(rospy.get_param("~console_dir", "")),
@@ -69,9 +75,12 @@ def read_params():
     }
     if not 0 <= params["port"] <= 65535:
         raise ValueError("~port must be 0..65535, not %d" % params["port"])
-    for name in ("max_message_size", "send_queue_size", "subscriber_queue_size", "service_threads"):
+    for name in ("max_message_size", "client_budget", "service_threads"):
         if params[name] < 1:
             raise ValueError("~%s must be positive" % name)
+    for name in ("subscriber_queue_size", "budget_grace"):
+        if params[name] < 0:
+            raise ValueError("~%s must not be negative" % name)
     if bool(params["certfile"]) != bool(params["keyfile"]) and not params["certfile"]:
         raise ValueError("~keyfile given without ~certfile")
     return params
@@ -117,6 +126,53 @@ class EventLoopThread(object):
         self._thread.join(timeout)
 
 
+class LinkDiagnostics(diagnostic_updater.DiagnosticTask):
+    """Send queues and drop counters of the bridge's clients; WARN while any client drops or is over budget.
+
+    ``stats()`` returns BridgeServer.stats() (read on the event-loop thread by the caller).
+    """
+
+    def __init__(self, stats):
+        diagnostic_updater.DiagnosticTask.__init__(self, "rosbridge_websocket: clients")
+        self._stats = stats
+        self._last_dropped = 0
+
+    def run(self, stat):
+        try:
+            stats = self._stats()
+        except Exception as exc:  # boundary: a diagnostics tick must not die (loop busy or stopping)
+            stat.summary(DiagnosticStatus.WARN, "no figures from the event loop: %r" % exc)
+            return stat
+        dropped = sum(stats["dropped_by_topic"].values())
+        over = [c["client"] for c in stats["clients"] if c["over_budget"]]
+        if over or dropped > self._last_dropped:
+            stat.summary(DiagnosticStatus.WARN, "%d messages dropped in all, clients over budget: %s"
+                         % (dropped, ", ".join(str(c) for c in over) or "none"))
+        else:
+            stat.summary(DiagnosticStatus.OK, "%d clients, nothing dropped since the last report"
+                         % len(stats["clients"]))
+        self._last_dropped = dropped
+        stat.add("clients", str(len(stats["clients"])))
+        stat.add("budget_bytes", str(stats["budget"]))
+        stat.add("dropped", str(dropped))
+        stat.add("closed_over_budget", str(stats["closed_over_budget"]))
+        for topic, count in sorted(stats["dropped_by_topic"].items()):
+            stat.add("dropped %s" % topic, str(count))
+        for client in stats["clients"]:
+            stat.add("client %s" % client["client"],
+                     "%d bytes held, %d messages, %d dropped, %d replaced (queue_length)%s"
+                     % (client["held_bytes"], client["messages"], client["dropped"], client["queue_length_dropped"],
+                        ", over budget" if client["over_budget"] else ""))
+        return stat
+
+
+def update_diagnostics(updater):
+    try:
+        updater.update()
+    except Exception as exc:  # boundary: a timer tick must not die (e.g. the master went away)
+        rospy.logwarn_throttle(10.0, "bridge: diagnostics update failed: %r" % exc)
+
+
 def main():
     rospy.init_node("rosbridge_websocket")
     params = read_params()
@@ -150,8 +206,13 @@ def main():
     ssl_context = make_ssl_context(params["certfile"], params["keyfile"]) if params["certfile"] else None
     server = BridgeServer(make_session, params["address"], params["port"], ssl_context,
                           params["ping_interval"], params["ping_timeout"], params["max_message_size"],
-                          params["send_queue_size"], lambda n: count_pub.publish(Int32(n)), log, http_routes)
+                          params["client_budget"], params["budget_grace"], lambda n: count_pub.publish(Int32(n)),
+                          log, extra_routes=http_routes)
     port = io_thread.run_sync(server.start)
+    updater = diagnostic_updater.Updater()
+    updater.setHardwareID("backend_link")
+    updater.add(LinkDiagnostics(lambda: io_thread.run_sync(server.stats, timeout=0.5)))
+    rospy.Timer(rospy.Duration(1.0), lambda event: update_diagnostics(updater))
     rospy.set_param("~actual_port", port)
     rospy.loginfo("bridge: rosbridge v2 websocket on %s://%s:%d%s", "wss" if ssl_context else "ws",
                   params["address"] or "0.0.0.0", port, " (auth required)" if authenticator else "")

@@ -8,6 +8,7 @@ whose handler forwards the request to that client and waits (bounded) for its se
 With message_types.py, the bridge's ROS side; both live in the ROS wing.
 """
 import concurrent.futures
+import io
 import threading
 import time
 
@@ -18,19 +19,80 @@ import rosservice
 from inspection_robot.bridge.protocol import BridgeError, Outgoing
 
 
+ALONE_GAP = 0.001  # s: a message this long after the last one published alone goes out at once
+MAX_BATCH = 256  # messages converted for one topic before the client's socket waits for a flush
+
+
 def type_conflict(topic, wanted, established):
     return BridgeError("Tried to register topic %s with type %s but it is already established with type %s"
                        % (topic, wanted, established))
 
 
 class _Topic(object):
-    __slots__ = ("handle", "type_name", "sessions", "early")
+    __slots__ = ("handle", "type_name", "sessions", "early", "high_water", "pending", "last_alone")
 
-    def __init__(self, handle, type_name, early=None):
+    def __init__(self, handle, type_name, early=None, high_water=None):
         self.handle = handle
         self.type_name = type_name
         self.sessions = set()
         self.early = early
+        self.high_water = high_water
+        self.pending = []  # messages converted, not yet handed to rospy (flushed once per loop pass)
+        self.last_alone = 0.0  # monotonic time of the last message published at once, alone
+
+
+def publish_batch(publisher, messages):
+    """Publish ``messages`` in order on a rospy.Publisher with one write per subscriber connection.
+
+    TCPROS frames every message with its length, so several serialized messages in one write
+    reach the subscriber as several messages. Publisher.publish would hand each message to the
+    connection's thread separately (a lock, a notify and a forced thread switch each), which is
+    what limits a burst. Otherwise as _PublisherImpl.publish: the latched message, header seq,
+    and a connection that fails is closed and removed.
+    """
+    impl = publisher.impl
+    if impl is None or impl.closed:
+        raise rospy.ROSException("publish() to a closed topic %s" % publisher.name)
+    impl.acquire()
+    try:
+        if impl.is_latch:
+            impl.latch = messages[-1]
+        if not impl.has_connections():
+            return
+        buff = io.BytesIO()
+        for msg in messages:
+            impl.seq += 1
+            rospy.msg.serialize_message(buff, impl.seq, msg)
+        data = buff.getvalue()
+        for connection in list(impl.connections):
+            try:
+                connection.write_data(data)
+            except Exception:  # boundary, as rospy: a broken subscriber connection is dropped
+                try:
+                    connection.close()
+                finally:
+                    impl.remove_connection(connection)
+        impl.message_data_sent += len(data)
+    finally:
+        impl.release()
+
+
+def publisher_queue_depth(publisher):
+    """The longest outgoing queue of a rospy.Publisher's subscriber connections (0 when none).
+
+    rospy keeps one queue per connection (QueuedConnection._queue) and, when one is full, drops
+    its oldest message without telling anyone; the bridge reads this depth to stop reading a
+    client before that happens. rospy has no public accessor, hence the private attribute.
+    """
+    impl = publisher.impl
+    if impl is None:
+        return 0
+    depth = 0
+    for connection in list(impl.connections):
+        queued = getattr(connection, "_queue", None)
+        if queued is not None and len(queued) > depth:
+            depth = len(queued)
+    return depth
 
 
 class EarlyMessageReplay(rospy.SubscribeListener):
@@ -116,7 +178,7 @@ class RosBackend(object):
             cls = self._types.message_class(type_name)
             early = EarlyMessageReplay()
             entry = _Topic(rospy.Publisher(topic, cls, latch=latch, queue_size=queue_size,
-                                           subscriber_listener=early), type_name, early)
+                                           subscriber_listener=early), type_name, early, max(1, queue_size // 2))
             self._publishers[topic] = entry
         elif entry.type_name != type_name:
             raise type_conflict(topic, type_name, entry.type_name)
@@ -129,13 +191,35 @@ class RosBackend(object):
         entry.sessions.discard(session)
         if not entry.sessions:
             del self._publishers[topic]
+            if entry.pending:  # what the client published before unadvertising still goes out
+                self._flush(topic, entry)
             entry.handle.unregister()
 
     def publish(self, topic, values):
+        """Convert now (errors go to the client); hand to rospy at once, or in a burst with the others
+        of this loop pass."""
         entry = self._publishers[topic]
         msg = self._codec.from_json(entry.handle.data_class, values)
         entry.early.record(msg)
-        entry.handle.publish(msg)
+        now = time.monotonic()
+        if not entry.pending and now - entry.last_alone >= ALONE_GAP:  # not in a burst: no wait
+            entry.last_alone = now
+            publish_batch(entry.handle, [msg])
+            return
+        if not entry.pending:
+            self._post(self._flush, topic, entry)
+        entry.pending.append(msg)
+
+    def _flush(self, topic, entry):
+        messages, entry.pending = entry.pending, []
+        if messages and self._publishers.get(topic) is entry:
+            publish_batch(entry.handle, messages)
+
+    def publisher_full(self, topic):
+        """True while a connection queue of the topic's rospy publisher is at half its queue_size or more."""
+        entry = self._publishers.get(topic)
+        return entry is not None and (publisher_queue_depth(entry.handle) >= entry.high_water
+                                      or len(entry.pending) >= MAX_BATCH)
 
     # ---------------------------------------------------------------- subscribing
     def subscribe(self, session, topic, type_name):
@@ -156,8 +240,10 @@ class RosBackend(object):
         entry = _Topic(None, type_name)
         entry.sessions.add(session)
         self._subscribers[topic] = entry
+        # queue_size None (the default, as rosbridge): rospy drops nothing; its reader thread runs
+        # the callback, so a slow bridge slows the TCPROS connection instead
         entry.handle = rospy.Subscriber(topic, cls, self._on_message, callback_args=topic,
-                                        queue_size=self._sub_queue)
+                                        queue_size=self._sub_queue or None)
 
     def _replay_latched(self, entry, session):
         # rospy calls a newly added callback at once with the latched messages it holds.
