@@ -29,7 +29,8 @@ import cv2
 import rospy
 
 from inspection_robot.camera.optics import ZoomOptics, focal_for_hfov
-from inspection_robot.command import CommandError, confine_path, parse_json
+from inspection_robot.command import CommandError, parse_json
+from inspection_robot.files import confine_path
 from inspection_robot.inspection.finder import Cancelled, Finder, FindError, ThermalGeometry
 from inspection_robot.inspection.locate import Locator
 from inspection_robot.inspection.preset import PresetError, load_preset

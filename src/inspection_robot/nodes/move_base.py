@@ -55,7 +55,7 @@ from inspection_robot.nav.follower import DONE, FollowerParams, PathFollower
 from inspection_robot.nav.goal import parse_move_goal
 from inspection_robot.nav.gridmap import load_map
 from inspection_robot.nav.localization import LocalizationMonitor, location_target
-from inspection_robot.nav.persist import read_json, write_json_atomic
+from inspection_robot.files import FileError, read_json, write_json_atomic
 from inspection_robot.nav.planner import Planner, PlanningError
 from inspection_robot.nav.virtual_obstacles import VirtualObstacles
 from inspection_robot.ros.twin import CommandTwin
@@ -219,7 +219,7 @@ class MoveBase(object):
         try:
             write_json_atomic(self.cfg["last_pose_file"], pose_json(pose))
             self._last_saved_pose = pose
-        except OSError as err:
+        except FileError as err:
             rospy.logwarn_throttle(30.0, "move_base: cannot save last pose to %s: %s"
                                    % (self.cfg["last_pose_file"], err))
 
@@ -387,7 +387,7 @@ def main():
     obstacles = VirtualObstacles(cfg["virtual_obstacles_file"])
     try:
         obstacles.load()
-    except ValueError as err:
+    except (FileError, ValueError) as err:
         aside = cfg["virtual_obstacles_file"] + ".corrupt"
         os.replace(cfg["virtual_obstacles_file"], aside)
         rospy.logerr("move_base: virtual obstacles not loaded (file moved to %s), starting without them: %s",

@@ -22,7 +22,8 @@ import traceback
 import rospy
 
 from inspection_robot.camera.optics import ZoomOptics
-from inspection_robot.command import CommandError, confine_path
+from inspection_robot.command import CommandError
+from inspection_robot.files import confine_path
 from inspection_robot.inspection.finder import FindError
 from inspection_robot.inspection.preset import PresetError
 from inspection_robot.inspection.recorder import record_preset
