@@ -102,3 +102,32 @@ def read_json(path):
         raise FileError("cannot read '%s': %s" % (path, err.strerror or err))
     except ValueError as err:
         raise FileError("'%s' is not valid JSON: %s" % (path, err))
+
+
+# --- one robot, one state directory -----------------------------------------------------------
+# Every file the robot writes lives under its data root (the namespace parameter ``data_root``),
+# in these sub-directories; a node's path parameters are relative to the root unless absolute.
+DATA_SUBDIRS = {
+    "nav": "virtual obstacles and the last good pose (move_base)",
+    "arm": "arm trajectories (robot_arm, preset_scale)",
+    "presets": "recorded presets and their calibration (preset_scale, find_scale, read_scale)",
+    "pictures": "find_scale's pictures and read_scale's annotated results",
+    "captures": "camera_node's capture_picture pictures given a relative path",
+    "thermal": "infrared_imager's pictures and radiometric frames given a relative path",
+    "voice_out": "robot_voice's output files in simulation",
+    "tasks": "task_manager's tasks and results",
+}
+
+
+def under(root, path):
+    """``path`` (``~`` expanded) taken relative to ``root``; an absolute path is kept as it is."""
+    path = os.path.expanduser(str(path))
+    return path if os.path.isabs(path) else os.path.normpath(os.path.join(root, path))
+
+
+def standalone_data_root(environ, namespace):
+    """The data root of a node started without the ``data_root`` parameter (outside core.launch):
+    ``$ROS_HOME/inspection_robot/<namespace>`` (ROS_HOME defaults to ~/.ros), one per namespace."""
+    ros_home = environ.get("ROS_HOME") or os.path.join(os.path.expanduser("~"), ".ros")
+    name = namespace.strip("/").replace("/", "_") or "robot"
+    return os.path.join(ros_home, "inspection_robot", name)

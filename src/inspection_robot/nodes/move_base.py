@@ -14,8 +14,8 @@ Publishes:   map (nav_msgs/OccupancyGrid, latched) the static map, never holding
              initialpose (geometry_msgs/PoseWithCovarianceStamped) on set_location, for the localizer
 Actions:     move_action (GeneralAction) goal type "move"
 Parameters:  ~map_file (map_server YAML, required), ~pose_topic ("sim/true_pose"),
-             ~virtual_obstacles_file (~/.ros/inspection_robot/virtual_obstacles.json),
-             ~last_pose_file (~/.ros/inspection_robot/last_pose.json), ~last_pose_period (s, 5.0),
+             data_root (namespace), ~virtual_obstacles_file (nav/virtual_obstacles.json),
+             ~last_pose_file (nav/last_pose.json; both under data_root unless absolute), ~last_pose_period (s, 5.0),
              ~init_pose ([x, y, yaw], [0, 0, 0]),
              ~robot_radius (m, 0.45), ~safety_margin (m, 0.3), ~margin_cost (4.0), ~coarse_factor (8),
              ~control_rate (Hz, 20), ~status_rate (Hz, 10), ~feedback_period (s, 0.5),
@@ -59,6 +59,7 @@ from inspection_robot.files import FileError, read_json, write_json_atomic
 from inspection_robot.nav.planner import Planner, PlanningError
 from inspection_robot.nav.virtual_obstacles import VirtualObstacles
 from inspection_robot.ros.twin import CommandTwin
+from inspection_robot.ros.data_root import data_root, path_param
 
 OBSTACLE_CONTROL = {"enable_obstacle": True, "disable_obstacle": False, "switch_obstacle": None}
 
@@ -351,13 +352,12 @@ class MoveBase(object):
 
 
 def _params():
-    home = os.path.join(os.path.expanduser("~"), ".ros", "inspection_robot")
+    root = data_root()
     cfg = {
         "map_file": rospy.get_param("~map_file"),
         "pose_topic": rospy.get_param("~pose_topic", "sim/true_pose"),
-        "virtual_obstacles_file": os.path.expanduser(rospy.get_param(
-            "~virtual_obstacles_file", os.path.join(home, "virtual_obstacles.json"))),
-        "last_pose_file": os.path.expanduser(rospy.get_param("~last_pose_file", os.path.join(home, "last_pose.json"))),
+        "virtual_obstacles_file": path_param("~virtual_obstacles_file", "nav/virtual_obstacles.json", root),
+        "last_pose_file": path_param("~last_pose_file", "nav/last_pose.json", root),
         "init_pose": [float(v) for v in rospy.get_param("~init_pose", [0.0, 0.0, 0.0])],
         "enable_bits": int(rospy.get_param("~enable_bits", 7)),
     }
