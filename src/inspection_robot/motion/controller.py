@@ -73,7 +73,8 @@ class MotionController(object):
     def on_mode_cmd(self, sender, cmd, data):
         with self._lock:
             if self._offline and cmd == MODE_CMD_ACQUIRE and data == "server":
-                decision = refused(REFUSAL_OFFLINE, "acquire server refused: backend offline (robot_status.offline_warn)")
+                decision = refused(REFUSAL_OFFLINE,
+                                   "acquire server refused: backend offline (robot_status.offline_warn)")
             else:
                 decision = self.arbiter.request(sender, cmd, data)
             self._log("info" if decision.accepted else "warn", "mode_cmd %s(%r) from %r: %s"
