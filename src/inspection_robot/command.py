@@ -7,7 +7,6 @@ input into a clear reason instead of an exception deep inside a driver.
 """
 import json
 import math
-import os
 from collections import namedtuple
 
 from inspection_robot.interface import ACK_FAILED, ACK_SUCCESS
@@ -141,25 +140,3 @@ def parse_json(data, name="data"):
 def _check_range(value, name, low, high):
     if (low is not None and value < low) or (high is not None and value > high):
         raise CommandError("%s out of range [%s, %s]: %s" % (name, low, high, value))
-
-
-def confine_path(path, roots):
-    """Resolve ``path`` and require it to lie inside one of ``roots`` (after symlinks and ``..``).
-
-    Returns the absolute real path. Relative paths are taken relative to the first root.
-    """
-    if not path:
-        raise CommandError("empty path")
-    if "\x00" in path:
-        raise CommandError("path contains a NUL byte")
-    if not roots:
-        raise CommandError("no allowed roots configured")
-    real_roots = [os.path.realpath(os.path.expanduser(r)) for r in roots]
-    candidate = os.path.expanduser(path)
-    if not os.path.isabs(candidate):
-        candidate = os.path.join(real_roots[0], candidate)
-    resolved = os.path.realpath(candidate)
-    for root in real_roots:
-        if resolved == root or resolved.startswith(root + os.sep):
-            return resolved
-    raise CommandError("path '%s' is outside the allowed roots (%s)" % (path, ", ".join(real_roots)))

@@ -54,6 +54,10 @@ class SystemSimTest(unittest.TestCase):
         port = int(wait_for(lambda: rospy.get_param("/rosbridge_websocket/actual_port", None), 60.0, "bridge port"))
         cls.ros = roslibpy.Ros("127.0.0.1", port)
         cls.ros.run(timeout=20)
+        # every node starts at once on a shared machine: the backend waits until the services it
+        # calls are offered (a camera node rendering its world can take many seconds to start)
+        for name in ("/terrace_control", "/camera_control", "/infrared_control"):
+            wait_for(lambda: name in cls.ros.get_services(), 120.0, "service " + name)
         cls.true_pose = Latest("/sim/true_pose", PoseWithCovarianceStamped)
         cls.status = []
         cls.robot_status = roslibpy.Topic(cls.ros, "/robot_status", "inspection_robot/RobotStatus")

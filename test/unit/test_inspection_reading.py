@@ -108,7 +108,7 @@ def test_bad_requests_fail_with_a_reason(setup, change, reason):
 
 def test_thermal_target(tmp_path):
     from inspection_robot.inspection.calibration import calibrate
-    from inspection_robot.atomic_file import write_atomic
+    from inspection_robot.files import write_atomic
     from inspection_robot.inspection.preset import PresetDirWriter, PresetInfo
     with PresetDirWriter(str(tmp_path), "hot", "20260101_000000") as writer:
         cv2.imwrite(writer.file("zoom0.jpg"), np.zeros((90, 160, 3), np.uint8))

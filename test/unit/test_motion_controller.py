@@ -247,3 +247,22 @@ def test_server_cannot_acquire_while_backend_offline(rig):
     ctl.on_offline(False)
     ctl.on_mode_cmd("joy_control", "release", "")
     assert ctl.on_mode_cmd("server", "acquire", "server").changed
+
+
+def test_mode_reply_says_what_was_granted_and_why_not(rig):
+    ctl, chassis, _clock, _rec, run, _logs, _ = rig
+    granted = ctl.mode_reply(ctl.on_mode_cmd("server", "acquire", "server"))
+    assert granted == ("success", "server")
+    ctl.on_mode_cmd("joy_control", "acquire", "joy")
+    assert ctl.mode_reply(ctl.on_mode_cmd("server", "acquire", "server")) == (
+        "failed", "busy: acquire server refused: joy mode has priority")
+    assert ctl.mode_reply(ctl.on_mode_cmd("server", "release", "")).data.startswith("not_allowed: ")
+    assert ctl.mode_reply(ctl.on_mode_cmd("joy_control", "release", "")) == ("success", "task")
+    ctl.on_offline(True)
+    assert ctl.mode_reply(ctl.on_mode_cmd("server", "acquire", "server")).data.startswith("offline: ")
+    ctl.on_offline(False)
+    chassis.inject("hard_estop", True)
+    run(0.1)
+    assert ctl.mode_reply(ctl.on_mode_cmd("server", "acquire", "server")) == (
+        "success", "server; motion blocked: soft_estop,hard_estop")  # the hard e-stop latches the soft one
+    assert ctl.mode_reply(None).ack == "failed"

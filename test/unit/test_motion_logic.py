@@ -8,7 +8,7 @@ from inspection_robot.interface import (
     LIGHT_BUMPER, LIGHT_HARD_ESTOP, LIGHT_SOFT_ESTOP, MODE_JOY, MODE_SERVER, MODE_TASK, STOP_FRONT_COLLISION,
     STOP_LEFT_FALL, STOP_OBSTACLE, STOP_RIGHT_FALL, WHEEL_COLLISION_OFF, WHEEL_FALL_OFF, WHEEL_OBSTACLE_OFF,
     WHEEL_STEER, WHEEL_STEER_MODE, WHEEL_STRAIGHT, WHEEL_STRAIGHT_MODE, WHEEL_SWITCHING)
-from inspection_robot.motion.arbitration import ModeArbiter
+from inspection_robot.motion.arbitration import REFUSALS, ModeArbiter
 from inspection_robot.motion.chassis import ChassisState
 from inspection_robot.motion.odometry import Odometry
 from inspection_robot.motion.safety import SafetyLatch
@@ -245,3 +245,19 @@ def test_status_sentence():
     words = status_sentence(fields, latch.reasons())
     assert words[-3:] == ["alarm_soft_estop", "alarm_battery_critical", "alarm_joystick_lost"]
     assert "battery_temperature" not in words
+
+
+@pytest.mark.parametrize("mode,sender,cmd,data,code", [
+    (MODE_JOY, "server", "acquire", "server", "busy"),
+    (MODE_TASK, "server", "acquire", "joy", "not_allowed"),
+    (MODE_SERVER, "move_base", "release", "", "not_allowed"),
+    (MODE_TASK, "server", "release", "", "not_held"),
+    (MODE_JOY, "joy_control", "release", "server", "not_held"),
+    (MODE_TASK, "server", "acquire", "task", "bad_request"),
+    (MODE_TASK, "server", "grab", "server", "bad_request"),
+    (MODE_TASK, "server", "release", "x", "bad_request"),
+])
+def test_every_refusal_starts_with_its_code(mode, sender, cmd, data, code):
+    decision = arbiter_in(mode).request(sender, cmd, data)
+    assert not decision.accepted and decision.reason.split(": ", 1)[0] == code
+    assert code in REFUSALS

@@ -8,7 +8,7 @@ import pytest
 import yaml
 
 from inspection_robot.command import CommandError
-from inspection_robot import atomic_file
+from inspection_robot import files
 from inspection_robot.nav.gridmap import GridMap, MapError, load_map, save_map
 from inspection_robot.angles import quaternion_from_yaw
 from inspection_robot.nav.goal import move_goal_data, parse_move_goal
@@ -81,7 +81,7 @@ def test_failed_write_keeps_old_file_and_state(tmp_path, monkeypatch):
 
     def crash(*_args, **_kwargs):
         raise OSError("disk full")
-    monkeypatch.setattr(atomic_file.os, "fsync", crash)
+    monkeypatch.setattr(files.os, "fsync", crash)
     reply = store.table.dispatch("clear", "")
     assert reply.ack == "failed" and "disk full" in reply.data
     assert open(path).read() == before

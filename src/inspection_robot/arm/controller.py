@@ -21,8 +21,9 @@ import time
 
 from inspection_robot.arm import trajectory
 from inspection_robot.arm.driver import ArmError, within
-from inspection_robot.command import (CommandError, CommandTable, confine_path, failed, parse_choice,
+from inspection_robot.command import (CommandError, CommandTable, failed, parse_choice,
                                       parse_float, split_fields, success)
+from inspection_robot.files import confine_path
 
 AXIS_NAMES = (("x", "y", "z"), ("roll", "pitch", "yaw"))
 JOG_DIRECTIONS = {"0": 0, "+": 1, "-": -1}

@@ -15,7 +15,7 @@ import math
 import os
 from collections import namedtuple
 
-from inspection_robot.atomic_file import write_atomic
+from inspection_robot.files import FileError, write_atomic
 
 MAGIC = "# inspection_robot arm trajectory v1"
 COLUMNS = "t_s,x_mm,y_mm,z_mm,roll_deg,pitch_deg,yaw_deg"
@@ -40,7 +40,7 @@ def save(path, samples, rate_hz):
     """Write atomically (temporary file + rename): a reader never sees half a trajectory."""
     try:
         write_atomic(path, dumps(samples, rate_hz))
-    except OSError as err:
+    except FileError as err:
         raise TrajectoryError("cannot write %s: %s" % (path, err))
 
 

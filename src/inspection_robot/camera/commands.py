@@ -8,9 +8,9 @@ the command answers at once, and a timer stops it; a newer move or camera_stop s
 import os
 import threading
 
-from inspection_robot.atomic_file import write_atomic
+from inspection_robot.files import confine_path, write_atomic
 from inspection_robot.camera.driver import CameraError
-from inspection_robot.command import (CommandError, CommandTable, confine_path, no_data, parse_choice,
+from inspection_robot.command import (CommandError, CommandTable, no_data, parse_choice,
                                       parse_float, parse_int)
 from inspection_robot.interface import (EXPOSURE_MODES, FOCUS_MODES, FOCUS_POSITION_MAX,
                                         FOCUS_POSITION_MIN, IRIS_VALUES, MIN_FOCUS_DISTANCES_CM,
@@ -110,16 +110,8 @@ class CameraCommands(object):
         path = confine_path(data, self._roots)
         if os.path.isdir(path):
             raise CommandError("path '%s' is a directory" % data)
-        folder = os.path.dirname(path)
-        try:
-            os.makedirs(folder, exist_ok=True)
-        except OSError as err:
-            raise CommandError("cannot create folder for '%s': %s" % (data, err.strerror))
         jpeg = self._call(self._driver.capture_jpeg)
-        try:
-            write_atomic(path, jpeg)
-        except OSError as err:
-            raise CommandError("cannot write '%s': %s" % (data, err.strerror))
+        write_atomic(path, jpeg)
         return path
 
     def _start_move(self, kind, direction, data):

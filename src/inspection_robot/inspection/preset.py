@@ -23,7 +23,7 @@ import xml.etree.ElementTree as ET
 
 import numpy as np
 
-from inspection_robot.atomic_file import write_atomic
+from inspection_robot.files import write_atomic
 from inspection_robot.inspection.gauge import GaugeScale
 from inspection_robot.inspection.readers import LAMP_COLOURS
 

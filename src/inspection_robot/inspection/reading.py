@@ -14,8 +14,8 @@ from collections import namedtuple
 import cv2
 import numpy as np
 
-from inspection_robot.atomic_file import write_atomic
-from inspection_robot.command import CommandError, confine_path
+from inspection_robot.files import FileError, confine_path, write_atomic
+from inspection_robot.command import CommandError
 from inspection_robot.inspection.foreign import detect_foreign
 from inspection_robot.inspection.geometry import quad_inside, quad_is_convex, quads_from_flat, transform_quad
 from inspection_robot.inspection.locate import LocateError, Locator
@@ -254,7 +254,6 @@ def _annotate(image, quad, text, colour=(0, 255, 0)):
 def _save(image, folder, name):
     """Write a JPEG atomically under a name no earlier result uses (two reads of one preset in the
     same second get ``<stamp>_read_00.jpg`` and ``<stamp>_read_00_2.jpg``: no result is overwritten)."""
-    os.makedirs(folder, exist_ok=True)
     path = os.path.join(folder, name)
     stem, ext = os.path.splitext(path)
     copy = 1
@@ -264,5 +263,8 @@ def _save(image, folder, name):
     ok, data = cv2.imencode(".jpg", image, [cv2.IMWRITE_JPEG_QUALITY, 90])
     if not ok:
         raise ReadError("cannot encode %s" % path)
-    write_atomic(path, data.tobytes())
+    try:
+        write_atomic(path, data.tobytes())
+    except FileError as err:
+        raise ReadError(str(err))
     return path

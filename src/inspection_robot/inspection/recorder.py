@@ -7,7 +7,7 @@ everything into a temporary directory and renames it to ``<root>/<preset_id>/<st
 import os
 import shutil
 
-from inspection_robot.atomic_file import write_atomic
+from inspection_robot.files import write_atomic
 from inspection_robot.inspection.preset import PresetDirWriter, PresetInfo, zoom_picture_name
 
 MAX_WIDE_PICTURES = 6

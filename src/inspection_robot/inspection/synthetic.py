@@ -235,7 +235,7 @@ def record_synthetic_preset(root, preset_id, stamp, scene, view_centre, zoom_lev
     """Write a calibrated preset of ``scene`` seen at ``view_centre``: zoom<k>.jpg, preset.ini,
     preset_calib_info.ini, zoom<k>.xml, switch references. Returns the preset directory."""
     from inspection_robot.inspection.calibration import calibrate
-    from inspection_robot.atomic_file import write_atomic
+    from inspection_robot.files import write_atomic
     from inspection_robot.inspection.preset import PresetDirWriter, PresetInfo, zoom_picture_name
     with PresetDirWriter(root, preset_id, stamp) as writer:
         for k, level in enumerate(zoom_levels):

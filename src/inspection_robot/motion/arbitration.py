@@ -9,6 +9,12 @@ Priority joystick (mode 2) > backend (mode 1) > task (mode 0); the robot boots i
   (a pre-empted backend does not get the robot back: it must acquire again).
 - Only the holder's sender moves the robot: ``move_base`` in mode 0, ``server`` in 1,
   ``joy_control`` in 2 (interface.MOVE_SENDER_BY_MODE).
+
+Every refusal's reason starts with one of REFUSALS and a colon, so a backend reading mode_ack can
+tell why without parsing prose: ``busy`` (a mode of higher priority holds the robot: the joystick),
+``offline`` (the backend is offline), ``not_allowed`` (this sender may not take or give back that
+mode), ``not_held`` (nothing to release, or the named mode is not the current one), ``bad_request``
+(unknown cmd or data).
 """
 from collections import namedtuple
 
@@ -16,6 +22,18 @@ from inspection_robot.interface import (MODE_BY_ACQUIRE_DATA, MODE_CMD_ACQUIRE, 
                                         MODE_TASK, MOVE_SENDER_BY_MODE)
 
 Decision = namedtuple("Decision", "accepted changed reason")
+
+REFUSAL_BUSY = "busy"
+REFUSAL_OFFLINE = "offline"
+REFUSAL_NOT_ALLOWED = "not_allowed"
+REFUSAL_NOT_HELD = "not_held"
+REFUSAL_BAD_REQUEST = "bad_request"
+REFUSALS = (REFUSAL_BUSY, REFUSAL_OFFLINE, REFUSAL_NOT_ALLOWED, REFUSAL_NOT_HELD, REFUSAL_BAD_REQUEST)
+
+
+def refused(code, text):
+    """A refusal Decision whose reason is ``"<code>: <text>"`` (code one of REFUSALS)."""
+    return Decision(False, False, "%s: %s" % (code, text))
 
 
 class ModeArbiter(object):
@@ -35,7 +53,7 @@ class ModeArbiter(object):
             return self._acquire(sender, data)
         if cmd == MODE_CMD_RELEASE:
             return self._release(sender, data)
-        return Decision(False, False, "unknown mode_cmd '%s' (acquire|release)" % (cmd,))
+        return refused(REFUSAL_BAD_REQUEST, "unknown mode_cmd '%s' (acquire|release)" % (cmd,))
 
     def force_task(self):
         """Return to task mode whatever the holder (backend offline, joystick link lost)."""
@@ -46,27 +64,27 @@ class ModeArbiter(object):
     def _acquire(self, sender, data):
         wanted = MODE_BY_ACQUIRE_DATA.get(data)
         if wanted is None:
-            return Decision(False, False, "acquire data must be joy|server, got '%s'" % (data,))
+            return refused(REFUSAL_BAD_REQUEST, "acquire data must be joy|server, got '%s'" % (data,))
         if sender != MOVE_SENDER_BY_MODE[wanted]:
-            return Decision(False, False, "sender '%s' may not acquire %s (only %s)"
-                            % (sender, data, MOVE_SENDER_BY_MODE[wanted]))
+            return refused(REFUSAL_NOT_ALLOWED, "sender '%s' may not acquire %s (only %s)"
+                           % (sender, data, MOVE_SENDER_BY_MODE[wanted]))
         if wanted == self.mode:
             return Decision(True, False, "already in %s mode" % data)
         if wanted < self.mode:  # mode numbers are the priorities
-            return Decision(False, False, "acquire %s refused: %s mode has priority"
-                            % (data, MODE_NAMES[self.mode]))
+            return refused(REFUSAL_BUSY, "acquire %s refused: %s mode has priority"
+                           % (data, MODE_NAMES[self.mode]))
         self.mode = wanted
         return Decision(True, True, "%s acquired %s mode" % (sender, data))
 
     def _release(self, sender, data):
         if data not in ("", "joy", "server"):
-            return Decision(False, False, "release data must be empty, joy or server, got '%s'" % (data,))
+            return refused(REFUSAL_BAD_REQUEST, "release data must be empty, joy or server, got '%s'" % (data,))
         if self.mode == MODE_TASK:
-            return Decision(False, False, "release refused: already in task mode")
+            return refused(REFUSAL_NOT_HELD, "release refused: already in task mode")
         if data and MODE_BY_ACQUIRE_DATA[data] != self.mode:
-            return Decision(False, False, "release %s refused: mode is %s" % (data, MODE_NAMES[self.mode]))
+            return refused(REFUSAL_NOT_HELD, "release %s refused: mode is %s" % (data, MODE_NAMES[self.mode]))
         if sender != self.holder():
-            return Decision(False, False, "release refused: '%s' does not hold %s mode"
-                            % (sender, MODE_NAMES[self.mode]))
+            return refused(REFUSAL_NOT_ALLOWED, "release refused: '%s' does not hold %s mode"
+                           % (sender, MODE_NAMES[self.mode]))
         self.mode = MODE_TASK
         return Decision(True, True, "%s released; task mode" % sender)

@@ -19,8 +19,8 @@ import threading
 
 from inspection_robot.command import CommandError, CommandTable, failed, success
 from inspection_robot.interface import (ACK_SUCCESS, BATTERY_CHARGING, CIRCUIT_JOY_COMM_LOST, IMU_COMMANDS,
-                                        MODE_CMD_ACQUIRE, MODE_JOY, MODE_SERVER, WHEEL_STRAIGHT)
-from inspection_robot.motion.arbitration import Decision, ModeArbiter
+                                        MODE_CMD_ACQUIRE, MODE_JOY, MODE_NAMES, MODE_SERVER, WHEEL_STRAIGHT)
+from inspection_robot.motion.arbitration import REFUSAL_OFFLINE, ModeArbiter, refused
 from inspection_robot.motion.chassis import ChassisError
 from inspection_robot.motion.odometry import Odometry
 from inspection_robot.motion.safety import SWITCHES, SafetyLatch
@@ -73,7 +73,8 @@ class MotionController(object):
     def on_mode_cmd(self, sender, cmd, data):
         with self._lock:
             if self._offline and cmd == MODE_CMD_ACQUIRE and data == "server":
-                decision = Decision(False, False, "acquire server refused: backend offline (robot_status.offline_warn)")
+                decision = refused(REFUSAL_OFFLINE,
+                                   "acquire server refused: backend offline (robot_status.offline_warn)")
             else:
                 decision = self.arbiter.request(sender, cmd, data)
             self._log("info" if decision.accepted else "warn", "mode_cmd %s(%r) from %r: %s"
@@ -81,6 +82,21 @@ class MotionController(object):
             if decision.changed:
                 self._stop("mode change")
             return decision
+
+    def mode_reply(self, decision):
+        """The mode_ack answer to a Decision: success with the mode now in force (and, when a stop
+        reason is active, ``; motion blocked: <reasons>``: granted, but the robot will not move yet),
+        or failed with the refusal ``"<code>: <text>"``. None (the request raised) is an internal error."""
+        if decision is None:
+            return failed("internal error: request not applied, robot stopped")
+        if not decision.accepted:
+            return failed(decision.reason)
+        with self._lock:
+            data = MODE_NAMES[self.mode]
+            blocking = self.safety.reasons()
+        if blocking:
+            data += "; motion blocked: %s" % ",".join(blocking)
+        return success(data)
 
     def on_move_cmd(self, sender, velocity_x, velocity_yaw, wheel_control):
         """Returns a Reply for the log: success, or failed with the reason the command was not obeyed."""

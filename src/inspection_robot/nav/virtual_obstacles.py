@@ -14,7 +14,7 @@ import json
 import math
 
 from inspection_robot.command import CommandError, CommandTable, parse_json
-from inspection_robot.nav.persist import read_json, write_json_atomic
+from inspection_robot.files import FileError, read_json, write_json_atomic
 
 MAX_POINTS = 10000
 MAX_ID_LENGTH = 128
@@ -91,7 +91,7 @@ class VirtualObstacles(object):
         if self.path:
             try:
                 write_json_atomic(self.path, [items[k] for k in sorted(items)])
-            except OSError as err:
+            except FileError as err:
                 raise CommandError("cannot save virtual obstacles to %s: %s" % (self.path, err))
         self._items = items
         if self.on_change is not None:

@@ -9,7 +9,7 @@ Publishes:   camera_zoom (std_msgs/Float64, latched, on change)
              camera/camera_info (sensor_msgs/CameraInfo, with each image)
              diagnostics (diagnostic_msgs/DiagnosticArray, hardware_id "camera", ~status_rate Hz)
 Parameters:  ~driver (sim|isapi, "sim"), ~camera_optics ({width, height, zoom_hfov_deg}, required),
-             ~roots (list of folders capture paths must lie in, ["/tmp/inspection_robot"]),
+             ~roots (folders capture paths must lie in, under data_root unless absolute; [captures, presets, pictures]),
              ~image_rate (Hz, 1.0; 0 = no image topic), ~image_width (px, 640), ~status_rate (Hz, 2.0),
              ~jpeg_quality (0..100, 90), ~frame_id ("camera_optical_frame"),
              ~isapi/{url ("http://192.168.1.64"), user ("admin"), password (""), channel (1), timeout (s, 2.0),
@@ -30,6 +30,7 @@ from inspection_robot.camera.optics import ZoomOptics
 from inspection_robot.ros.diagnostics import DeviceDiagnostics, probe_device
 from inspection_robot.ros.images import bgr_image_msg
 from inspection_robot.ros.twin import CommandTwin
+from inspection_robot.ros.data_root import data_root, path_list_param
 
 NODE = "camera_node"
 HARDWARE_ID = "camera"
@@ -129,7 +130,7 @@ def main():
     rospy.init_node(NODE)
     optics_params = rospy.get_param("~camera_optics")
     optics = ZoomOptics(optics_params["zoom_hfov_deg"], optics_params["width"], optics_params["height"])
-    roots = rospy.get_param("~roots", ["/tmp/inspection_robot"])
+    roots = path_list_param("~roots", ["captures", "presets", "pictures"], data_root())
     image_rate = float(rospy.get_param("~image_rate", 1.0))
     image_width = int(rospy.get_param("~image_width", 640))
     status_rate = float(rospy.get_param("~status_rate", 2.0))

@@ -9,8 +9,9 @@ Subscribes:  nav_status (NavStatus): current heading for the pan correction
              terrace_state (sensor_msgs/JointState): after each set_angle, waits (<= 2 s) until the head
              reports the new angle, so the next picture is taken from the new view
 Services:    terrace_control, camera_control, infrared_control (ControlService), client
-Parameters:  ~preset_root (str, /var/lib/inspection_robot/presets), ~picture_root (str,
-             /var/lib/inspection_robot/pictures): pictures go to <picture_root>/<preset_id>/
+Parameters:  data_root (namespace, the robot's state directory), ~preset_root (str, presets),
+             ~picture_root (str, pictures; both under data_root unless absolute): pictures go to
+             <picture_root>/<preset_id>/
              ~camera_optics (dict, config/camera_optics.yaml): zoom -> field of view
              ~detector (str, orb), ~max_moves (int, 3): PTZ re-centring moves,
              ~centre_tolerance (fraction of the picture, 0.05), ~service_timeout (s, 10.0)
@@ -29,7 +30,8 @@ import cv2
 import rospy
 
 from inspection_robot.camera.optics import ZoomOptics, focal_for_hfov
-from inspection_robot.command import CommandError, confine_path, parse_json
+from inspection_robot.command import CommandError, parse_json
+from inspection_robot.files import confine_path
 from inspection_robot.inspection.finder import Cancelled, Finder, FindError, ThermalGeometry
 from inspection_robot.inspection.locate import Locator
 from inspection_robot.inspection.preset import PresetError, load_preset
@@ -37,6 +39,7 @@ from inspection_robot.interface import (FIND_FEEDBACK_PRESET_SET, FIND_GOAL_TYPE
                                         FIND_RESULT_FAILED, FIND_RESULT_SUCCESS)
 from inspection_robot.msg import GeneralAction, GeneralFeedback, GeneralResult
 from inspection_robot.ros.inspection_head import HeadingWatcher, RosHead
+from inspection_robot.ros.data_root import data_root, path_param
 
 NODE_NAME = "find_scale"
 
@@ -119,8 +122,9 @@ class FindScaleNode(object):
 
 def main():
     rospy.init_node(NODE_NAME)
-    preset_root = os.path.expanduser(rospy.get_param("~preset_root", "/var/lib/inspection_robot/presets"))
-    picture_root = os.path.expanduser(rospy.get_param("~picture_root", "/var/lib/inspection_robot/pictures"))
+    root = data_root()
+    preset_root = path_param("~preset_root", "presets", root)
+    picture_root = path_param("~picture_root", "pictures", root)
     optics_cfg = rospy.get_param("~camera_optics")
     optics = ZoomOptics(optics_cfg["zoom_hfov_deg"], optics_cfg["width"], optics_cfg["height"])
     hfov = float(rospy.get_param("~thermal_hfov_deg", 25.0))

@@ -10,7 +10,7 @@ Publishes:   diagnostics (diagnostic_msgs/DiagnosticArray, hardware_id "thermal_
 Parameters:  ~driver ("sim", a vendor plug-in "package.module:Class", or "" = none configured:
              every command fails and diagnostics report ERROR; default ""),
              ~driver_params (dict of keyword arguments for a plug-in, {}),
-             ~width, ~height (px, 384, 288), ~roots (["/tmp/inspection_robot"]),
+             ~width, ~height (px, 384, 288), ~roots (under data_root unless absolute, [thermal, presets, pictures]),
              ~measure_box_px (px, 16), ~status_rate (Hz, 1.0), ~image_rate (Hz, 1.0), ~jpeg_quality (90),
              ~sim/{world_file (required for sim), seed (0), noise_sigma (degC, 0.05), hfov_deg (25.0),
              unsupported (list of commands to refuse, [])}
@@ -29,6 +29,7 @@ from inspection_robot.ros.twin import CommandTwin
 from inspection_robot.thermal.commands import ThermalCommands
 from inspection_robot.plugin import load_class
 from inspection_robot.thermal.driver import NoImager, ThermalError
+from inspection_robot.ros.data_root import data_root, path_list_param
 
 NODE = "infrared_imager"
 HARDWARE_ID = "thermal_imager"
@@ -94,7 +95,8 @@ def main():
         raise ValueError("~width/~height must be >= 8 px, ~status_rate and ~image_rate > 0")
     driver = make_driver(rospy.get_param("~driver", ""), width, height)
     health = DeviceHealth()
-    commands = ThermalCommands(driver, rospy.get_param("~roots", ["/tmp/inspection_robot"]), health, width, height,
+    roots = path_list_param("~roots", ["thermal", "presets", "pictures"], data_root())
+    commands = ThermalCommands(driver, roots, health, width, height,
                                int(rospy.get_param("~measure_box_px", 16)), int(rospy.get_param("~jpeg_quality", 90)))
     InfraredNode(driver, commands, health, status_rate, image_rate)
     rospy.spin()

@@ -14,8 +14,8 @@ Publishes:   map (nav_msgs/OccupancyGrid, latched) the static map, never holding
              initialpose (geometry_msgs/PoseWithCovarianceStamped) on set_location, for the localizer
 Actions:     move_action (GeneralAction) goal type "move"
 Parameters:  ~map_file (map_server YAML, required), ~pose_topic ("sim/true_pose"),
-             ~virtual_obstacles_file (~/.ros/inspection_robot/virtual_obstacles.json),
-             ~last_pose_file (~/.ros/inspection_robot/last_pose.json), ~last_pose_period (s, 5.0),
+             data_root (namespace), ~virtual_obstacles_file (nav/virtual_obstacles.json),
+             ~last_pose_file (nav/last_pose.json; both under data_root unless absolute), ~last_pose_period (s, 5.0),
              ~init_pose ([x, y, yaw], [0, 0, 0]),
              ~robot_radius (m, 0.45), ~safety_margin (m, 0.3), ~margin_cost (4.0), ~coarse_factor (8),
              ~control_rate (Hz, 20), ~status_rate (Hz, 10), ~feedback_period (s, 0.5),
@@ -55,10 +55,11 @@ from inspection_robot.nav.follower import DONE, FollowerParams, PathFollower
 from inspection_robot.nav.goal import parse_move_goal
 from inspection_robot.nav.gridmap import load_map
 from inspection_robot.nav.localization import LocalizationMonitor, location_target
-from inspection_robot.nav.persist import read_json, write_json_atomic
+from inspection_robot.files import FileError, read_json, write_json_atomic
 from inspection_robot.nav.planner import Planner, PlanningError
 from inspection_robot.nav.virtual_obstacles import VirtualObstacles
 from inspection_robot.ros.twin import CommandTwin
+from inspection_robot.ros.data_root import data_root, path_param
 
 OBSTACLE_CONTROL = {"enable_obstacle": True, "disable_obstacle": False, "switch_obstacle": None}
 
@@ -219,7 +220,7 @@ class MoveBase(object):
         try:
             write_json_atomic(self.cfg["last_pose_file"], pose_json(pose))
             self._last_saved_pose = pose
-        except OSError as err:
+        except FileError as err:
             rospy.logwarn_throttle(30.0, "move_base: cannot save last pose to %s: %s"
                                    % (self.cfg["last_pose_file"], err))
 
@@ -351,13 +352,12 @@ class MoveBase(object):
 
 
 def _params():
-    home = os.path.join(os.path.expanduser("~"), ".ros", "inspection_robot")
+    root = data_root()
     cfg = {
         "map_file": rospy.get_param("~map_file"),
         "pose_topic": rospy.get_param("~pose_topic", "sim/true_pose"),
-        "virtual_obstacles_file": os.path.expanduser(rospy.get_param(
-            "~virtual_obstacles_file", os.path.join(home, "virtual_obstacles.json"))),
-        "last_pose_file": os.path.expanduser(rospy.get_param("~last_pose_file", os.path.join(home, "last_pose.json"))),
+        "virtual_obstacles_file": path_param("~virtual_obstacles_file", "nav/virtual_obstacles.json", root),
+        "last_pose_file": path_param("~last_pose_file", "nav/last_pose.json", root),
         "init_pose": [float(v) for v in rospy.get_param("~init_pose", [0.0, 0.0, 0.0])],
         "enable_bits": int(rospy.get_param("~enable_bits", 7)),
     }
@@ -387,7 +387,7 @@ def main():
     obstacles = VirtualObstacles(cfg["virtual_obstacles_file"])
     try:
         obstacles.load()
-    except ValueError as err:
+    except (FileError, ValueError) as err:
         aside = cfg["virtual_obstacles_file"] + ".corrupt"
         os.replace(cfg["virtual_obstacles_file"], aside)
         rospy.logerr("move_base: virtual obstacles not loaded (file moved to %s), starting without them: %s",

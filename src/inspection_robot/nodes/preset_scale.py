@@ -8,10 +8,11 @@ Services:    camera_control (get_zoom_level, get_focus_position, set_osd_mode, s
              capture_picture), infrared_control (capture_picture, save_temperature),
              terrace_control (get_angle: asked every time, so a preferred move that is still
              under way finishes first, cloud_terrace serving one command at a time): clients
-Parameters:  ~preset_root (str, /var/lib/inspection_robot/presets): <preset_root>/<preset_id>/<YYYYMMDD_HHMMSS>/
+Parameters:  data_root (namespace), ~preset_root (str, presets, under data_root):
+             <preset_root>/<preset_id>/<YYYYMMDD_HHMMSS>/
              ~camera_optics (dict, config/camera_optics.yaml): the widest zoom of the ladder
-             ~arm_default_trajectory (str, ~/.ros/inspection_robot/arm/default_orbit.csv),
-             ~arm_trajectory_roots (list, [~/.ros/inspection_robot/arm]): extra_data "1[,file]"
+             ~arm_default_trajectory (str, arm/default_orbit.csv),
+             ~arm_trajectory_roots (list, [arm]): extra_data "1[,file]"
              ~service_timeout (s, 10.0)
 Requests are served one at a time by a worker thread; the zoom is restored after the pictures.
 """
@@ -22,7 +23,8 @@ import traceback
 import rospy
 
 from inspection_robot.camera.optics import ZoomOptics
-from inspection_robot.command import CommandError, confine_path
+from inspection_robot.command import CommandError
+from inspection_robot.files import confine_path
 from inspection_robot.inspection.finder import FindError
 from inspection_robot.inspection.preset import PresetError
 from inspection_robot.inspection.recorder import record_preset
@@ -30,6 +32,7 @@ from inspection_robot.interface import ACK_FAILED, ACK_SUCCESS
 from inspection_robot.ros.worker import RequestWorker
 from inspection_robot.msg import PresetScaleAck, PresetScaleCmd
 from inspection_robot.ros.inspection_head import HeadingWatcher, RosHead
+from inspection_robot.ros.data_root import data_root, path_list_param, path_param
 
 NODE_NAME = "preset_scale"
 
@@ -91,13 +94,12 @@ class PresetScaleNode(object):
 
 def main():
     rospy.init_node(NODE_NAME)
-    preset_root = os.path.expanduser(rospy.get_param("~preset_root", "/var/lib/inspection_robot/presets"))
+    root = data_root()
+    preset_root = path_param("~preset_root", "presets", root)
     optics_cfg = rospy.get_param("~camera_optics")
     optics = ZoomOptics(optics_cfg["zoom_hfov_deg"], optics_cfg["width"], optics_cfg["height"])
-    arm_default = os.path.expanduser(rospy.get_param("~arm_default_trajectory",
-                                                     "~/.ros/inspection_robot/arm/default_orbit.csv"))
-    arm_roots = [os.path.expanduser(p) for p in rospy.get_param("~arm_trajectory_roots",
-                                                                ["~/.ros/inspection_robot/arm"])]
+    arm_default = path_param("~arm_default_trajectory", "arm/default_orbit.csv", root)
+    arm_roots = path_list_param("~arm_trajectory_roots", ["arm"], root)
     service_timeout = float(rospy.get_param("~service_timeout", 10.0))
     if service_timeout <= 0:
         raise ValueError("~service_timeout must be positive")

@@ -4,9 +4,9 @@ Subscribes:  read_scale_cmd (ReadScaleCmd)
 Publishes:   read_scale_ack (ReadScaleAck): result success|failed; on failure foreign_result holds
              the reason. scale/possibility/picture_path aligned with the calibrated targets,
              foreign_* aligned with foreign_filename.
-Parameters:  ~preset_root (str, /var/lib/inspection_robot/presets): holds <preset_id>/<stamp>/
-             ~picture_root (str, /var/lib/inspection_robot/pictures): results in <preset_id>/
-             ~extra_picture_roots (list of str, []): further roots input pictures may come from
+Parameters:  data_root (namespace); under it unless absolute: ~preset_root (str, presets): holds <preset_id>/<stamp>/
+             ~picture_root (str, pictures): results in <preset_id>/
+             ~extra_picture_roots (list of str, [captures, thermal]): further roots input pictures may come from
              ~detector (str, orb): orb | akaze | sift, for aligning foreign pictures with the reference
              ~queue_size (int >= 1, 10): pending requests before new ones are refused
 Requests are served one at a time in arrival order by a worker thread.
@@ -22,6 +22,7 @@ from inspection_robot.inspection.reading import ReadError, ScaleReader
 from inspection_robot.interface import ACK_FAILED, ACK_SUCCESS
 from inspection_robot.msg import ReadScaleAck, ReadScaleCmd
 from inspection_robot.ros.worker import RequestWorker
+from inspection_robot.ros.data_root import data_root, path_list_param, path_param
 
 NODE_NAME = "read_scale"
 
@@ -76,9 +77,10 @@ class ReadScaleNode(object):
 
 def main():
     rospy.init_node(NODE_NAME)
-    preset_root = os.path.expanduser(rospy.get_param("~preset_root", "/var/lib/inspection_robot/presets"))
-    picture_root = os.path.expanduser(rospy.get_param("~picture_root", "/var/lib/inspection_robot/pictures"))
-    extra = [os.path.expanduser(p) for p in rospy.get_param("~extra_picture_roots", [])]
+    root = data_root()
+    preset_root = path_param("~preset_root", "presets", root)
+    picture_root = path_param("~picture_root", "pictures", root)
+    extra = path_list_param("~extra_picture_roots", [], root)
     detector = rospy.get_param("~detector", "orb")
     queue_size = int(rospy.get_param("~queue_size", 10))
     if queue_size < 1:

@@ -7,8 +7,8 @@ Subscribes:  arm_cmd (GeneralCmd), control_status (ControlStatus): joystick-busy
 Publishes:   arm_ack (GeneralAck): replies to arm_cmd, and unprompted reports (trans_id 0,
                receiver "") when a recording or playback ends or fails
 Parameters:  ~driver ("sim"; "none" answers every command failed/unsupported),
-             ~trajectory_roots (["~/.ros/inspection_robot/arm"]): where trajectory files may live,
-             ~default_trajectory ("~/.ros/inspection_robot/arm/default_orbit.csv"),
+             data_root (namespace), ~trajectory_roots ([arm], under data_root unless absolute): where
+             trajectory files may live, ~default_trajectory ("arm/default_orbit.csv"),
              ~record_rate (Hz, 20.0), ~move_timeout (s, 20.0), ~tolerance_mm (0.5),
              ~tolerance_deg (0.5), ~max_record_s (s, 600.0),
              ~limits/position_mm ({x: [-600, 600], y: [-600, 600], z: [-200, 800]}),
@@ -25,6 +25,7 @@ from inspection_robot.command import CommandTable, failed
 from inspection_robot.interface import ARM_COMMANDS, UNSUPPORTED
 from inspection_robot.ros.twin import CommandTwin, serve_table
 from inspection_robot.sim.arm import SimArm
+from inspection_robot.ros.data_root import data_root, path_list_param, path_param
 
 NODE_NAME = "robot_arm"
 DEFAULT_LIMITS = {"position_mm": {"x": [-600, 600], "y": [-600, 600], "z": [-200, 800]},
@@ -46,9 +47,9 @@ def _serve_sim_faults(arm):
 def main():
     rospy.init_node(NODE_NAME)
     driver_name = rospy.get_param("~driver", "sim")
-    roots = [os.path.expanduser(r) for r in rospy.get_param("~trajectory_roots", ["~/.ros/inspection_robot/arm"])]
-    default_file = os.path.expanduser(rospy.get_param("~default_trajectory",
-                                                      "~/.ros/inspection_robot/arm/default_orbit.csv"))
+    root = data_root()
+    roots = path_list_param("~trajectory_roots", ["arm"], root)
+    default_file = path_param("~default_trajectory", "arm/default_orbit.csv", root)
     limits = _limits(rospy.get_param("~limits", {}))
     sim = rospy.get_param("~sim", {})
     for root in roots:

@@ -13,6 +13,8 @@ Subscribes:  mode_cmd (GeneralCmd): acquire joy|server, release
              imu_cmd (GeneralCmd): calibrate|reset|query
 Publishes:   control_status (ControlStatus) at ~status_rate and at once when a discrete field changes
              control_ack (GeneralAck) the result of each control_cmd (project extension)
+             mode_ack (GeneralAck) the result of each mode_cmd, trans_id echoed (project extension):
+                 success + mode now in force, or failed + "busy|offline|not_allowed|not_held|bad_request: ..."
              robot_odom (nav_msgs/Odometry, odom -> base_link) and TF odom -> base_link at ~rate
                  (on /tf; motion.launch remaps it to the relative tf so a robot namespace holds it)
              imu_ack (GeneralAck), voice_cmd (VoiceCmd) for query_status
@@ -88,6 +90,7 @@ class RobotControl(object):
         self._status_pub = rospy.Publisher("control_status", ControlStatus, queue_size=50)
         self._odom_pub = rospy.Publisher("robot_odom", Odometry, queue_size=10)
         self._control_ack_pub = rospy.Publisher("control_ack", GeneralAck, queue_size=20)
+        self._mode_ack_pub = rospy.Publisher("mode_ack", GeneralAck, queue_size=50)
         self._voice_pub = rospy.Publisher("voice_cmd", VoiceCmd, queue_size=10)
         self._tf = tf2_ros.TransformBroadcaster() if publish_tf else None
         if sim is not None:
@@ -109,7 +112,11 @@ class RobotControl(object):
 
     # --- inputs: each applies its stop in this callback, before returning ----------------------
     def _on_mode_cmd(self, msg):
-        self._guard("mode_cmd", self._ctl.on_mode_cmd, msg.sender, msg.cmd, msg.data)
+        decision = self._guard("mode_cmd", self._ctl.on_mode_cmd, msg.sender, msg.cmd, msg.data)
+        reply = self._ctl.mode_reply(decision)
+        ack = GeneralAck(sender=NODE_NAME, receiver=msg.sender, trans_id=msg.trans_id, ack=reply.ack, data=reply.data)
+        ack.header.stamp = rospy.Time.now()
+        self._mode_ack_pub.publish(ack)
         self._publish_status_if_changed()
 
     def _on_move_cmd(self, msg):

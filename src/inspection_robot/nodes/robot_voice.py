@@ -5,8 +5,7 @@ Publishes:   voice_ack (GeneralAck): success with the spoken text, or failed wit
              trans_id echoed (a project addition: the spec defines no reply)
 Parameters:  ~output (speaker|file, "file"; the launch file picks file in simulation, speaker otherwise),
              ~clip_dir (dir of <name>.wav clips, "~/.ros/voice_clips"; the launch file passes config/voice_clips),
-             ~out_dir (file output: where utterances are written, "$ROS_HOME/voice_out", i.e.
-             "~/.ros/voice_out" without ROS_HOME and ".ws/ros_home/voice_out" through scripts/rosenv),
+             ~out_dir (file output: where utterances are written, "voice_out" under the namespace's data_root),
              ~queue_size (requests waiting, >= 1, 10)
 Requests are played one after another by a worker thread; a full queue drops the new request
 with a failed ack rather than delaying every later prompt.
@@ -20,6 +19,7 @@ from inspection_robot.msg import GeneralAck, VoiceCmd
 from inspection_robot.ros.worker import RequestWorker
 from inspection_robot.voice.phrases import Speech, VoiceError, parse_command
 from inspection_robot.voice.player import FileOutput, SpeakerOutput
+from inspection_robot.ros.data_root import data_root, path_param
 
 
 class RobotVoice(object):
@@ -58,8 +58,7 @@ def main():
     if queue_size < 1:  # 0 would make the worker's queue unbounded: nothing ever refused
         raise ValueError("~queue_size must be >= 1, got %d" % queue_size)
     if kind == "file":
-        default_dir = os.path.join(os.environ.get("ROS_HOME") or "~/.ros", "voice_out")
-        out_dir = os.path.expanduser(rospy.get_param("~out_dir", default_dir))
+        out_dir = path_param("~out_dir", "voice_out", data_root())
         output = FileOutput(clip_dir, out_dir)
     elif kind == "speaker":
         output = SpeakerOutput(clip_dir)

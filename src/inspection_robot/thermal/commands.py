@@ -11,8 +11,8 @@ import os
 import cv2
 import numpy as np
 
-from inspection_robot.atomic_file import write_atomic
-from inspection_robot.command import CommandError, CommandTable, confine_path, no_data, parse_int, split_fields
+from inspection_robot.files import confine_path, write_atomic
+from inspection_robot.command import CommandError, CommandTable, no_data, parse_int, split_fields
 from inspection_robot.command import failed
 from inspection_robot.interface import INFRARED_COMMANDS, UNSUPPORTED
 from inspection_robot.thermal.driver import ThermalError
@@ -119,19 +119,12 @@ class ThermalCommands(object):
         path = confine_path(data, self._roots)
         if os.path.isdir(path):
             raise CommandError("path '%s' is a directory" % data)
-        try:
-            os.makedirs(os.path.dirname(path), exist_ok=True)
-        except OSError as err:
-            raise CommandError("cannot create folder for '%s': %s" % (data, err.strerror))
         return path
 
     def save_temperature(self, data):
         path = self._target(data)
         frame = self._frame()
-        try:
-            save_radiometric(path, frame)
-        except OSError as err:
-            raise CommandError("cannot write '%s': %s" % (data, err.strerror))
+        save_radiometric(path, frame)
         return path
 
     def capture_picture(self, data):
@@ -139,10 +132,7 @@ class ThermalCommands(object):
         ok, buf = cv2.imencode(".jpg", false_colour(self._frame()), [cv2.IMWRITE_JPEG_QUALITY, self._jpeg_quality])
         if not ok:
             raise CommandError("JPEG encoding failed")
-        try:
-            write_atomic(path, buf.tobytes())
-        except OSError as err:
-            raise CommandError("cannot write '%s': %s" % (data, err.strerror))
+        write_atomic(path, buf.tobytes())
         return path
 
     def live_view(self):

@@ -5,6 +5,7 @@ calibrate_preset ...`` in an ordinary catkin workspace).
     calibrate_preset PRESET_DIR TARGETS_YAML [--optics FILE]
     calibrate_preset PRESET_DIR --from-world [WORLD_YAML] [--only ID[,ID...]] [--optics FILE]
                      [--thermal-hfov DEG] [--thermal-size WxH]
+    calibrate_preset PRESET_DIR --command CMD JSON [--optics FILE]
 
 TARGETS_YAML holds ``targets: [{kind: pointer, box: [8 numbers], start_angle: ..}, ..]`` (see
 inspection.calibration). ``--from-world`` calibrates from the simulated world's ground truth
@@ -13,15 +14,23 @@ infrared presets, every hot spot in both pictures) becomes a target (sim.inspect
 .calibrate_from_world). The optics file is config/camera_optics.yaml. Writes
 preset_calib_info.ini and zoomX.xml into PRESET_DIR and prints one line per target; exits 1 with
 the reason on bad input, writing nothing.
+
+``--command`` runs one of the calibration_control commands (mark_box, set_meter_type, set_zero,
+set_full_scale, set_values, remove_target, clear_draft, get, apply, upload; docs/interface.md) on
+PRESET_DIR through the same code the robot serves over the link (inspection.calibration_commands);
+JSON is the command's data without "preset". Prints the answer.
 """
 import argparse
+import json
 import os
 import sys
 
 import yaml
 
 from inspection_robot.camera.optics import ZoomOptics
+from inspection_robot.command import CommandError
 from inspection_robot.inspection.calibration import calibrate
+from inspection_robot.inspection.calibration_commands import CalibrationCommands
 from inspection_robot.inspection.preset import PresetError
 from inspection_robot.sim.inspection_sim import calibrate_from_world
 from inspection_robot.sim.world import World, WorldError
@@ -63,15 +72,19 @@ def run(argv=None):
     parser.add_argument("--optics", default=default_optics_file(), help="camera_optics.yaml")
     parser.add_argument("--thermal-hfov", type=float, default=25.0, help="thermal lens hfov, deg (--from-world)")
     parser.add_argument("--thermal-size", type=_size, default=(384, 288), help="thermal picture WxH (--from-world)")
+    parser.add_argument("--command", nargs=2, metavar=("CMD", "JSON"),
+                        help="one calibration_control command on PRESET_DIR (JSON without \"preset\")")
     args = parser.parse_args(argv)
-    if (args.from_world is None) == (args.targets_yaml is None):
-        parser.error("give either TARGETS_YAML or --from-world")
+    if sum(x is not None for x in (args.from_world, args.targets_yaml, args.command)) != 1:
+        parser.error("give one of TARGETS_YAML, --from-world or --command")
     try:
         if not args.optics:
             raise PresetError("no optics file found; pass --optics")
         with open(args.optics) as f:
             optics_cfg = yaml.safe_load(f)["camera_optics"]
         optics = ZoomOptics(optics_cfg["zoom_hfov_deg"], optics_cfg["width"], optics_cfg["height"])
+        if args.command is not None:
+            return _run_command(args.preset_dir, optics, *args.command)
         if args.from_world is not None:
             world_file = args.from_world or _config_file("sim_world.yaml")
             if not world_file:
@@ -84,12 +97,30 @@ def run(argv=None):
             with open(args.targets_yaml) as f:
                 specs = (yaml.safe_load(f) or {}).get("targets", [])
             targets = calibrate(args.preset_dir, specs, optics)
-    except (OSError, yaml.YAMLError, KeyError, ValueError, PresetError, WorldError) as err:
+    except (OSError, yaml.YAMLError, KeyError, ValueError, PresetError, WorldError, CommandError) as err:
         sys.stderr.write("calibrate_preset: %s\n" % (err,))
         return 1
     for i, target in enumerate(targets):
         sys.stdout.write("target_%d %s %s\n" % (i, target.kind, target.name))
     sys.stdout.write("calibrated %d target(s) in %s\n" % (len(targets), args.preset_dir))
+    return 0
+
+
+def _run_command(preset_dir, optics, cmd, data):
+    """One calibration_control command on ``preset_dir``; pictures may come from anywhere the
+    operator can read (the robot's service confines them to its data roots)."""
+    preset_dir = os.path.abspath(preset_dir)
+    try:
+        fields = json.loads(data)
+    except ValueError as err:
+        raise PresetError("JSON is not valid: %s" % err)
+    if not isinstance(fields, dict):
+        raise PresetError("JSON must be an object")
+    fields["preset"] = preset_dir
+    reply = CalibrationCommands(preset_dir, [preset_dir], [os.sep], optics).table.dispatch(cmd, json.dumps(fields))
+    if reply.ack != "success":
+        raise CommandError(reply.data)
+    sys.stdout.write(reply.data + "\n")
     return 0
 
 

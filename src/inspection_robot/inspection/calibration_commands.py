@@ -1,0 +1,175 @@
+"""calibration_control: the calibration tool's operations as commands, so a backend or the console
+can calibrate a recorded preset without a shell on the robot.
+
+Every command takes a JSON object whose ``preset`` names a preset directory (relative to the data
+root, e.g. ``presets/p1/20260101_120000``, or absolute) inside the preset roots. The operations
+edit a draft (``calibration_draft.json`` in the preset directory) one target at a time, exactly
+as the command-line tool does (inspection.calibration); ``apply`` validates the whole draft and
+writes ``preset_calib_info.ini`` + ``zoom<k>.xml``; ``upload`` does the same with a complete target
+list in one request. A bad draft or upload fails with the reason and writes nothing; pictures a
+target names (switch/lamp references) must lie inside the readable roots.
+"""
+import json
+import os
+
+import numpy as np
+
+from inspection_robot.command import CommandError, CommandTable, parse_json
+from inspection_robot.files import FileError, confine_path, read_json, under, write_json_atomic
+from inspection_robot.inspection import calibration
+from inspection_robot.inspection.preset import PresetError, load_info, load_preset
+
+
+def _plain(value):
+    """JSON-safe copy of target parameters (numpy arrays, tuples)."""
+    if isinstance(value, np.ndarray):
+        return [float(v) for v in value.reshape(-1)]
+    if isinstance(value, (list, tuple)):
+        return [_plain(v) for v in value]
+    if isinstance(value, dict):
+        return dict((k, _plain(v)) for k, v in value.items())
+    if isinstance(value, (np.floating, np.integer)):
+        return value.item()
+    return value
+
+
+class CalibrationCommands(object):
+    """``data_root``: the robot's data root; ``preset_roots``: where presets may be calibrated;
+    ``picture_roots``: where reference pictures may be read; ``optics``: camera.optics.ZoomOptics."""
+
+    def __init__(self, data_root, preset_roots, picture_roots, optics):
+        self.data_root = os.path.realpath(os.path.expanduser(data_root))
+        self.preset_roots = [under(self.data_root, r) for r in preset_roots]
+        self.picture_roots = [under(self.data_root, r) for r in picture_roots]
+        self.optics = optics
+        self.table = CommandTable({
+            "get": self.get,
+            "mark_box": self._edit(("box",), lambda d, i, f: calibration.mark_box(d, i, f["box"])),
+            "set_meter_type": self._edit(("kind",), lambda d, i, f: calibration.set_meter_type(d, i, f["kind"])),
+            "set_zero": self._edit(("angle", "value"),
+                                   lambda d, i, f: calibration.set_zero(d, i, f["angle"], f["value"])),
+            "set_full_scale": self._edit(("angle", "value"),
+                                         lambda d, i, f: calibration.set_full_scale(d, i, f["angle"], f["value"])),
+            "set_values": self._edit(("values",), lambda d, i, f: calibration.set_values(d, i, f["values"])),
+            "remove_target": self._edit((), calibration.remove_target),
+            "clear_draft": self.clear_draft,
+            "apply": self.apply,
+            "upload": self.upload,
+        })
+
+    # --- helpers ---------------------------------------------------------------------------------
+    def _fields(self, data, allowed):
+        fields = parse_json(data)
+        if not isinstance(fields, dict):
+            raise CommandError('data must be a JSON object, e.g. {"preset": "presets/p1/20260101_120000"}')
+        unknown = sorted(set(fields) - set(allowed) - {"preset"})
+        if unknown:
+            raise CommandError("unknown field(s) %s (allowed: %s)"
+                               % (", ".join(unknown), ", ".join(sorted(set(allowed) | {"preset"}))))
+        missing = [name for name in ("preset",) + tuple(allowed) if name not in fields]
+        if missing:
+            raise CommandError("missing field(s) %s" % ", ".join(missing))
+        preset = fields["preset"]
+        if not isinstance(preset, str) or not preset:
+            raise CommandError("preset must be the preset directory, e.g. presets/p1/20260101_120000")
+        path = confine_path(under(self.data_root, preset), self.preset_roots)
+        try:
+            load_info(path)
+        except PresetError as err:
+            raise CommandError(str(err))
+        return path, fields
+
+    def _draft(self, path):
+        draft = read_json(os.path.join(path, calibration.DRAFT_FILE))
+        if draft is None:
+            return []
+        if not isinstance(draft, list) or not all(isinstance(t, dict) for t in draft):
+            raise FileError("corrupt %s in %s: expected a list of targets" % (calibration.DRAFT_FILE, path))
+        return draft
+
+    def _save_draft(self, path, draft):
+        write_json_atomic(os.path.join(path, calibration.DRAFT_FILE), draft)
+
+    def _edit(self, names, operation):
+        """A command applying ``operation(draft, target, fields)`` to the stored draft."""
+        def handler(data):
+            path, fields = self._fields(data, ("target",) + tuple(names))
+            draft = self._draft(path)
+            try:
+                if names:
+                    operation(draft, fields["target"], fields)
+                else:
+                    operation(draft, fields["target"])
+            except PresetError as err:
+                raise CommandError(str(err))
+            self._save_draft(path, draft)
+            return json.dumps({"preset": self._name(path), "draft": draft}, sort_keys=True)
+        return handler
+
+    def _name(self, path):
+        rel = os.path.relpath(path, self.data_root)
+        return path if rel.startswith("..") else rel
+
+    def _confined_specs(self, specs):
+        if not isinstance(specs, list):
+            raise CommandError("targets must be a list of target objects")
+        out = []
+        for i, spec in enumerate(specs):
+            if not isinstance(spec, dict):
+                raise CommandError("target %d: expected an object with kind, box and parameters" % i)
+            spec = dict(spec)
+            for name in calibration.PICTURE_FIELDS:
+                if spec.get(name):
+                    if not isinstance(spec[name], str):
+                        raise CommandError("target %d: %s must be a path" % (i, name))
+                    spec[name] = confine_path(under(self.data_root, spec[name]), self.picture_roots)
+            out.append(spec)
+        return out
+
+    def _calibrate(self, path, specs):
+        try:
+            targets = calibration.calibrate(path, self._confined_specs(specs), self.optics)
+        except PresetError as err:
+            raise CommandError("calibration refused, nothing written: %s" % err)
+        return json.dumps({"preset": self._name(path), "targets": len(targets),
+                           "kinds": [t.kind for t in targets]}, sort_keys=True)
+
+    # --- commands --------------------------------------------------------------------------------
+    def get(self, data):
+        """{"preset"} -> {"preset", "info", "calibrated", "targets", "draft"}."""
+        path, _fields = self._fields(data, ())
+        try:
+            preset = load_preset(path, need_calibration=False)
+        except PresetError as err:
+            raise CommandError(str(err))
+        info = preset.info
+        targets = [dict(_plain(t.params), kind=t.kind, name=t.name, box=_plain(t.boxes[0]))
+                   for t in preset.targets]
+        for target in targets:
+            target.pop("scale", None)
+        return json.dumps({
+            "preset": self._name(path), "calibrated": bool(targets), "targets": targets,
+            "draft": self._draft(path),
+            "info": {"preset_id": info.preset_id, "type": info.preset_type, "infrared": info.infrared,
+                     "created": info.created, "pan_deg": info.pan_deg, "tilt_deg": info.tilt_deg,
+                     "zoom": info.zoom, "focus_position": info.focus_position, "pose": list(info.pose),
+                     "zoom_levels": info.zoom_levels, "width": info.width, "height": info.height,
+                     "extra_data": info.extra_data}}, sort_keys=True)
+
+    def clear_draft(self, data):
+        path, _fields = self._fields(data, ())
+        self._save_draft(path, [])
+        return json.dumps({"preset": self._name(path), "draft": []})
+
+    def apply(self, data):
+        """{"preset"}: calibrate the preset from its draft."""
+        path, _fields = self._fields(data, ())
+        return self._calibrate(path, self._draft(path))
+
+    def upload(self, data):
+        """{"preset", "targets": [spec, ...]}: calibrate from a complete target list (the tool's
+        YAML as JSON); on success the list also becomes the draft."""
+        path, fields = self._fields(data, ("targets",))
+        reply = self._calibrate(path, fields["targets"])
+        self._save_draft(path, fields["targets"])
+        return reply

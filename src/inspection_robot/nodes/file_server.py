@@ -1,0 +1,44 @@
+"""file_server: the robot's stored files and preset calibration over the link (project extension).
+
+Services:    file_control (ControlService): list | stat | read (storage.commands): captures, find
+                 and result pictures, thermal frames, presets with their calibration, task results,
+                 read in base64 chunks of at most ~max_chunk_bytes
+             calibration_control (ControlService): get | mark_box | set_meter_type | set_zero |
+                 set_full_scale | set_values | remove_target | clear_draft | apply | upload
+                 (inspection.calibration_commands)
+Subscribes:  file_cmd, calibration_cmd (GeneralCmd): topic twins of the services
+Publishes:   file_ack, calibration_ack (GeneralAck)
+Parameters:  data_root (namespace, the robot's state directory)
+             ~roots (readable folders, under data_root unless absolute;
+                 [presets, pictures, captures, thermal, tasks])
+             ~preset_roots (where presets may be calibrated, [presets])
+             ~max_chunk_bytes (bytes per read, 262144), ~max_list_entries (entries per list, 1000)
+             ~camera_optics (dict, config/camera_optics.yaml): zoom boxes of a calibration
+Neither service is refused while the joystick holds the robot: nothing here moves it.
+"""
+import rospy
+
+from inspection_robot.camera.optics import ZoomOptics
+from inspection_robot.inspection.calibration_commands import CalibrationCommands
+from inspection_robot.ros.data_root import data_root
+from inspection_robot.ros.twin import CommandTwin
+from inspection_robot.storage.commands import FileCommands
+
+NODE_NAME = "file_server"
+
+
+def main():
+    rospy.init_node(NODE_NAME)
+    root = data_root()
+    roots = list(rospy.get_param("~roots", ["presets", "pictures", "captures", "thermal", "tasks"]))
+    preset_roots = list(rospy.get_param("~preset_roots", ["presets"]))
+    optics_cfg = rospy.get_param("~camera_optics")
+    optics = ZoomOptics(optics_cfg["zoom_hfov_deg"], optics_cfg["width"], optics_cfg["height"])
+    files = FileCommands(root, roots, int(rospy.get_param("~max_chunk_bytes", 262144)),
+                         int(rospy.get_param("~max_list_entries", 1000)))
+    calibration = CalibrationCommands(root, preset_roots, roots, optics)
+    CommandTwin(files.table, "file_control", "file_cmd", "file_ack", NODE_NAME, busy_when_joystick=False)
+    CommandTwin(calibration.table, "calibration_control", "calibration_cmd", "calibration_ack", NODE_NAME,
+                busy_when_joystick=False)
+    rospy.loginfo("%s: data root %s, readable %s" % (NODE_NAME, root, ", ".join(files.roots)))
+    rospy.spin()
