@@ -181,6 +181,7 @@ def plot_run(summary, grid, virtual, out_path, title):
         ax.plot(xs[finite][0], ys[finite][0], "o", color="green", ms=10, label="start")
         ax.plot(xs[finite][-1], ys[finite][-1], "s", color="black", ms=9, label="end")
     markers = (("goals", summary.goals, "*", "tab:green", 16), ("stops", summary.stops, "o", "orange", 10),
+               ("readings", summary.readings, "D", "tab:cyan", 8),
                ("alarms", summary.alarms, "^", "red", 12), ("3-D obstacles", summary.obstacles, "x", "magenta", 11))
     for label, events, marker, color, size in markers:
         if events:
