@@ -10,7 +10,7 @@ goal and result, one read_scale_ack and one failed control_ack, with a script a 
 (FIXTURE_* below, which the tests import):
 - 0-10 s task mode at rest; 5-15 s drive along x from (0, 0) to (8, 0) at 0.8 m/s (a goal);
 - 10-20 s backend (server) mode; 22-25 s soft e-stop engaged; 25-32 s drive along y to (8, 5.6);
-- server_status stops at 28 s and resumes at 34 s: offline_warn rises at 31 s (3 s timeout);
+- server_status stops after 27.8 s and resumes at 34 s: offline_warn rises at 30.8 s (3 s timeout);
 - a 3-D obstacle from 26 to 27 s; a reading 0.42 at 17 s; a failed control_ack at 21 s.
 Deterministic: the same file every time (fixed start time, no randomness). About 250 kB (lz4).
 """
@@ -34,7 +34,7 @@ DEFAULT_OUT = os.path.join(ROOT, "test", "fixtures", "replay_run.bag")
 FIXTURE_START = 1700000000.0       # bag time of the first message
 FIXTURE_DURATION = 40.0
 FIXTURE_HEARTBEAT_GAP = (28.0, 34.0)
-FIXTURE_OFFLINE_AT = 31.0          # gap start + status_control's 3 s heartbeat_timeout
+FIXTURE_OFFLINE_AT = 30.8          # last beat (27.8 s, 5 Hz) + status_control's 3 s heartbeat_timeout
 FIXTURE_SERVER_MODE = (10.0, 20.0)
 FIXTURE_ESTOP = (22.0, 25.0)
 FIXTURE_GOAL = (8.0, 0.0)

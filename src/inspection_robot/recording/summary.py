@@ -6,8 +6,8 @@ goals, readings, alarms, faults, obstacles) and ``format_summary`` the text. No 
 unit tests drive it with made-up runs.
 
 Definitions (docs/operations.md "bag_report"):
-- distance: path length of robot_status positions (steps under 1 mm ignored as jitter, steps
-  over ``max_jump_m`` as relocalisations);
+- distance: path length of robot_status positions (pose jitter under 1 mm is measured only once
+  it adds up; a step over ``max_jump_m`` is a relocalisation, not distance);
 - stop: the robot stood still (|velocity_x| and |velocity_yaw| under the thresholds) for at least
   ``min_stop_s``;
 - alarm: the rising edge of an alarm bit of robot_status (ALARM_BITS) or of offline_warn;
@@ -90,13 +90,18 @@ class RunAnalyzer(object):
         rel = t - s.start
         x, y = (list(status["position"]) + [float("nan")] * 2)[:2]
         if self._last is not None:
-            lx, ly = self._last["position"][:2] if len(self._last["position"]) >= 2 else (x, y)
-            step = math.hypot(x - lx, y - ly)
-            if 1e-3 <= step <= self._max_jump:
+            ax, ay = self._anchor
+            step = math.hypot(x - ax, y - ay)
+            if step > self._max_jump:       # relocalised: no distance, measure from here on
+                self._anchor = (x, y)
+            elif step >= 1e-3:              # below: pose jitter, measured once it adds up
                 s.distance += step
+                self._anchor = (x, y)
             self._edges(rel, x, y, self._last, status)
-        elif status.get("offline_warn"):
-            s.alarms.append(Event(rel, x, y, OFFLINE_ALARM))
+        else:
+            self._anchor = (x, y)
+            if status.get("offline_warn"):
+                s.alarms.append(Event(rel, x, y, OFFLINE_ALARM))
         speed = float(status["velocity_x"])
         s.max_speed = max(s.max_speed, abs(speed))
         s.status_count += 1
