@@ -216,3 +216,14 @@ def test_a_wrong_bit_or_position_is_a_mismatch():
 def test_rising_edges():
     assert [round(t - 100.0, 1) for t in rising_edges(made_up_run(), "offline_warn")] == [11.0]
     assert [round(t - 100.0, 1) for t in rising_edges(made_up_run(), "light_status")] == [9.0]
+
+
+def test_a_mix_of_two_neighbouring_live_statuses_matches_field_by_field():
+    before = status(velocity_x=0.0, light_status=LIGHT_SOFT_ESTOP)
+    after = status(velocity_x=0.8, light_status=0)
+    live = [(10.0 + i * 0.1, before) for i in range(20)] + [(12.0 + i * 0.1, after) for i in range(20)]
+    mixed = status(velocity_x=0.8, light_status=LIGHT_SOFT_ESTOP)   # new odometry, old control_status
+    replay = [(t, f) for t, f in live if t < 11.95] + [(11.99, mixed)] + [(t, f) for t, f in live if t >= 11.95]
+    assert compare_runs(live, replay, time_tol=0.15)[1] == []
+    far = [(t, f) for t, f in live if t < 11.5] + [(11.5, mixed)] + [(t, f) for t, f in live if t > 11.5]
+    assert compare_runs(live, far, time_tol=0.15)[1][0][1].startswith("velocity_x")
