@@ -167,7 +167,8 @@ def test_run_summary_of_a_made_up_run():
                                                            (11.0, OFFLINE_ALARM)]
     assert [(g.t, g.x, g.y) for g in s.goals] == [(-1.0, 5.0, 0.0)]   # sent 1 s before the first status
     assert [r.text for r in s.readings] == ["read_scale: 0.5, 1.25"] and s.readings[0].x == pytest.approx(2.0)
-    assert [f.text for f in s.faults] == ["control_ack failed: unknown command 'x'", "move_action ended with 3: obstacle"]
+    assert [f.text for f in s.faults] == ["control_ack failed: unknown command 'x'",
+                                          "move_action ended with 3: obstacle"]
     assert len(s.obstacles) == 1
     spent = mode_time(s)
     assert spent["task"] == pytest.approx(13.9) and spent["server"] == pytest.approx(2.0)

@@ -6,7 +6,8 @@ fields. A replayed status matches when each of its fields agrees with that field
 status within ``time_tol`` seconds of it: modes and bits (DISCRETE_FIELDS) exactly, pose and
 speeds within tolerance. Field by field, because live and replayed statuses are published at
 slightly different instants and status_control merges several topics: a replayed status may hold
-the new odometry and the old control_status for a millisecond, a mix no live status had. Used by the replay regression rostests; pure, unit tested.
+the new odometry and the old control_status for a millisecond, a mix no live status had.
+Used by the replay regression rostests; pure, unit tested.
 """
 import math
 
