@@ -122,8 +122,9 @@ class BagRecorder(object):
             free = 0
             self._problem = "cannot read free space of %s: %s" % (self._dir, exc)
         reason = disk_verdict(free, self._min_free)
-        if reason and self._child is not None:
-            rospy.logerr("bag_recorder: %s on %s; recording stopped", reason, self._dir)
+        if reason:
+            if self._disk_full is None:
+                rospy.logerr("bag_recorder: %s on %s; recording stopped", reason, self._dir)
             self.stop()
             self._disk_full = reason
         elif self._disk_full and free >= 2 * self._min_free:
