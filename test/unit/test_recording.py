@@ -228,3 +228,14 @@ def test_a_mix_of_two_neighbouring_live_statuses_matches_field_by_field():
     assert compare_runs(live, replay, time_tol=0.15)[1] == []
     far = [(t, f) for t, f in live if t < 11.5] + [(11.5, mixed)] + [(t, f) for t, f in live if t > 11.5]
     assert compare_runs(live, far, time_tol=0.15)[1][0][1].startswith("velocity_x")
+
+
+def test_positions_before_the_first_nav_status_are_not_a_pose():
+    from inspection_robot.status.merge import STALE_NAV_STATUS
+    analyzer = RunAnalyzer()
+    for i in range(30):
+        fields = status(position=[0.0, 0.0], other_status=[STALE_NAV_STATUS]) if i < 10 else status(position=[4.0, 5.0])
+        analyzer.add_status(i * 0.1, fields)
+    s = analyzer.finish()
+    assert s.distance == 0.0 and math.isnan(s.x[0]) and s.x[-1] == 4.0
+    assert [(st.x, st.y) for st in s.stops] == [(4.0, 5.0)]

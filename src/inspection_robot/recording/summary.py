@@ -6,6 +6,7 @@ goals, readings, alarms, faults, obstacles) and ``format_summary`` the text. No 
 unit tests drive it with made-up runs.
 
 Definitions (docs/operations.md "bag_report"):
+- position: robot_status's, except while its nav_status stale bit is set (no pose yet: not drawn);
 - distance: path length of robot_status positions (pose jitter under 1 mm is measured only once
   it adds up; a step over ``max_jump_m`` is a relocalisation, not distance);
 - stop: the robot stood still (|velocity_x| and |velocity_yaw| under the thresholds) for at least
@@ -25,6 +26,7 @@ from inspection_robot.interface import (BATTERY_HIGH_TEMP, BATTERY_LINE_FAULT, B
                                         MOTOR_NAMES, NAV_LOCALIZATION_LOST, NAV_OBSTACLE_3D, NAV_OFF_TRACK,
                                         SENSOR_CAMERA_ALARM, SENSOR_THERMAL_ALARM, STOP_FRONT_COLLISION,
                                         STOP_LEFT_FALL, STOP_OBSTACLE, STOP_RIGHT_FALL)
+from inspection_robot.status.merge import STALE_NAV_STATUS
 
 # (robot_status field, bit, alarm name): each rising edge is one alarm.
 ALARM_BITS = (
@@ -89,10 +91,16 @@ class RunAnalyzer(object):
             s.start = t
         rel = t - s.start
         x, y = (list(status["position"]) + [float("nan")] * 2)[:2]
+        other = list(status.get("other_status") or [0])
+        if other[0] & STALE_NAV_STATUS:     # no nav_status (yet): the position is not a pose
+            x = y = float("nan")
         if self._last is not None:
             ax, ay = self._anchor
             step = math.hypot(x - ax, y - ay)
-            if step > self._max_jump:       # relocalised: no distance, measure from here on
+            if not step == step:            # nan: no pose now or at the anchor
+                if x == x:
+                    self._anchor = (x, y)
+            elif step > self._max_jump:     # relocalised: no distance, measure from here on
                 self._anchor = (x, y)
             elif step >= 1e-3:              # below: pose jitter, measured once it adds up
                 s.distance += step
@@ -178,6 +186,8 @@ class RunAnalyzer(object):
         still = abs(speed) < self._stop_speed and abs(yaw_rate) < self._stop_yaw_rate
         if still and self._still_since is None:
             self._still_since = (rel, x, y)
+        elif still and self._still_since[1] != self._still_since[1]:   # stood still before the first pose
+            self._still_since = (self._still_since[0], x, y)
         elif not still and self._still_since is not None:
             self._close_stop(rel)
 

@@ -146,11 +146,11 @@ def _feed(analyzer, grids, warnings, name, msg, t):
 
 
 def grid_image(grid):
-    """(RGB float image, extent) of an OccupancyGrid: free white, occupied black, unknown grey."""
+    """(grey level image, extent) of an OccupancyGrid: free near-white, occupied black, unknown grey."""
     import numpy as np
     info = grid.info
     cells = np.asarray(grid.data, dtype=np.int16).reshape(info.height, info.width)
-    shade = np.where(cells < 0, 0.8, 1.0 - np.clip(cells, 0, 100) / 100.0)
+    shade = np.where(cells < 0, 0.75, 0.97 - 0.97 * np.clip(cells, 0, 100) / 100.0)
     extent = (info.origin.position.x, info.origin.position.x + info.width * info.resolution,
               info.origin.position.y, info.origin.position.y + info.height * info.resolution)
     return shade, extent
@@ -170,7 +170,7 @@ def plot_run(summary, grid, virtual, out_path, title):
     if grid is not None:
         shade, extent = grid_image(grid)
         ax.imshow(shade, cmap="gray", vmin=0, vmax=1, origin="lower", extent=extent, interpolation="nearest")
-    if virtual is not None:
+    if virtual is not None and (grid_image(virtual)[0] <= 0.5).any():
         vshade, vextent = grid_image(virtual)
         mask = np.ma.masked_where(vshade > 0.5, np.ones_like(vshade))
         ax.imshow(mask, cmap="autumn", alpha=0.8, origin="lower", extent=vextent, interpolation="nearest")
@@ -189,9 +189,12 @@ def plot_run(summary, grid, virtual, out_path, title):
                     mec="black" if marker != "x" else color, label="%s (%d)" % (label, len(events)))
     for i, stop in enumerate(summary.stops[:30]):
         ax.annotate("S%d" % (i + 1), (stop.x, stop.y), xytext=(6, 6), textcoords="offset points", fontsize=9)
-    for alarm in summary.alarms[:12]:
-        ax.annotate(alarm.text, (alarm.x, alarm.y), xytext=(6, -12), textcoords="offset points", fontsize=8,
-                    color="darkred")
+    placed = []
+    for alarm in summary.alarms[:12]:   # labels at the same spot are stacked, not drawn over each other
+        below = sum(1 for p in placed if abs(p[0] - alarm.x) < 0.5 and abs(p[1] - alarm.y) < 0.5)
+        placed.append((alarm.x, alarm.y))
+        ax.annotate("%s (%.0f s)" % (alarm.text, alarm.t), (alarm.x, alarm.y), xytext=(8, -12 - 11 * below),
+                    textcoords="offset points", fontsize=8, color="darkred")
     _zoom(ax, xs[finite], ys[finite], summary)
     ax.set_xlabel("x (m, map)")
     ax.set_ylabel("y (m, map)")
@@ -229,7 +232,7 @@ def _zoom(ax, xs, ys, summary):
         return
     lo_x, hi_x = min(p[0] for p in pts), max(p[0] for p in pts)
     lo_y, hi_y = min(p[1] for p in pts), max(p[1] for p in pts)
-    margin = max(3.0, 0.15 * max(hi_x - lo_x, hi_y - lo_y))
+    margin = max(6.0, 0.15 * max(hi_x - lo_x, hi_y - lo_y))   # some of the yard around a short run
     ax.set_xlim(lo_x - margin, hi_x + margin)
     ax.set_ylim(lo_y - margin, hi_y + margin)
 
