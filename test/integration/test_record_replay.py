@@ -69,6 +69,10 @@ class RecordReplayTest(unittest.TestCase):
         cls.replayed_bag = cls.replay(cls.bag)
 
     @classmethod
+    def tearDownClass(cls):
+        cls.timer.shutdown()
+
+    @classmethod
     def beat(cls, _event):
         if cls.beating.is_set():
             cls.server.publish(GeneralTopic(sender="server", data="alive"))
