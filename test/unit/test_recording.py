@@ -239,3 +239,16 @@ def test_positions_before_the_first_nav_status_are_not_a_pose():
     s = analyzer.finish()
     assert s.distance == 0.0 and math.isnan(s.x[0]) and s.x[-1] == 4.0
     assert [(st.x, st.y) for st in s.stops] == [(4.0, 5.0)]
+
+
+def test_record_is_off_in_simulation_and_on_on_the_robot():
+    import xml.etree.ElementTree as ElementTree
+    root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+
+    def record_default(name):
+        tree = ElementTree.parse(os.path.join(root, "launch", name))
+        return [a.get("default") for a in tree.getroot().iter("arg") if a.get("name") == "record"]
+    assert record_default("sim.launch") == ["false"]
+    assert record_default("robot.launch") == ["true"]
+    core = ElementTree.parse(os.path.join(root, "launch", "core.launch")).getroot()
+    assert any(i.get("file", "").endswith("/launch/include/record.launch") for i in core.iter("include"))
