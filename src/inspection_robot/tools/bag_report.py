@@ -270,4 +270,8 @@ def _duration(seconds):
 
 
 def main():
-    sys.exit(run())
+    try:
+        code = run()
+    except BrokenPipeError:   # output piped into `head`: not an error of the bag
+        code = 0
+    sys.exit(code)
