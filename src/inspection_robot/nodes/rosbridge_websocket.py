@@ -187,8 +187,9 @@ def main():
     rosapi = RosApi(RosGraph(backend), types)
     authenticator = None
     if params["auth_token"]:
-        authenticator = Authenticator(params["auth_token"], lambda: rospy.get_rostime().to_sec(),
-                                      params["auth_window"])
+        # The client's auth time stamp is its wall clock: compare with ours, not with ROS time, which
+        # is the bag's time during a replay (use_sim_time) and would refuse every client.
+        authenticator = Authenticator(params["auth_token"], time.time, params["auth_window"])
     config = SessionConfig(authenticator, params["fragment_timeout"], params["max_message_size"],
                            params["service_timeout"])
     count_pub = rospy.Publisher("client_count", Int32, queue_size=1, latch=True)

@@ -32,44 +32,72 @@ class StatusControl(object):
 
     @staticmethod
     def _now():
-        return rospy.get_time()
+        """ROS time in seconds (the bag's clock during a replay), or None before the first /clock.
+
+        Every timeout (heartbeat, staleness) is measured on this clock, never the wall clock. Under
+        use_sim_time rospy says 0 until /clock arrives: an input then would be stamped 0 and read as
+        decades old at the first tick (offline_warn flickering on at the start of a replay), so it
+        is dropped.
+        """
+        now = rospy.get_time()
+        if now == 0:
+            rospy.logwarn_throttle(5.0, "status_control: no /clock yet (use_sim_time); input ignored")
+            return None
+        return now
 
     def _on_server_status(self, msg):
+        now = self._now()
+        if now is None:
+            return
         problem = heartbeat_text_problem(msg.sender, msg.receiver, msg.data)
         if problem:
             rospy.logwarn_throttle(5.0, "server_status from %r malformed (%s); counted as heartbeat"
                                    % (msg.sender[:40], problem))
-        self._merger.heartbeat.beat(self._now())
-        self._publish_if_changed()
+        self._merger.heartbeat.beat(now)
+        self._publish_if_changed(now)
 
     def _on_control_status(self, msg):
+        now = self._now()
+        if now is None:
+            return
         fields = {name: getattr(msg, name) for name in ("mode",) + CONTROL_FIELDS}
-        for problem in self._merger.update_control(self._now(), fields):
+        for problem in self._merger.update_control(now, fields):
             rospy.logwarn_throttle(5.0, "control_status: %s; padded/truncated" % problem)
-        self._publish_if_changed()
+        self._publish_if_changed(now)
 
     def _on_nav_status(self, msg):
-        for problem in self._merger.update_nav(self._now(), msg.nav_warn, msg.position, msg.orientation):
+        now = self._now()
+        if now is None:
+            return
+        for problem in self._merger.update_nav(now, msg.nav_warn, msg.position, msg.orientation):
             rospy.logwarn_throttle(5.0, "nav_status: %s; keeping the last valid pose" % problem)
-        self._publish_if_changed()
+        self._publish_if_changed(now)
 
     def _on_odom(self, msg):
+        now = self._now()
+        if now is None:
+            return
         twist = msg.twist.twist
-        self._merger.update_odometry(self._now(), twist.linear.x, twist.angular.z)
-        self._publish_if_changed()
+        self._merger.update_odometry(now, twist.linear.x, twist.angular.z)
+        self._publish_if_changed(now)
 
     def _on_diagnostics(self, msg):
+        now = self._now()
+        if now is None:
+            return
         for status in msg.status:
             bit = self._sensor_bits.get(status.hardware_id)
             if bit is not None:
                 self._merger.set_sensor_bit(1 << int(bit), status.level >= DiagnosticStatus.ERROR)
-        self._publish_if_changed()
+        self._publish_if_changed(now)
 
     def _on_timer(self, _event):
-        self._publish(self._merger.robot_status(self._now()))
+        now = self._now()
+        if now is not None:
+            self._publish(self._merger.robot_status(now))
 
-    def _publish_if_changed(self):
-        status = self._merger.robot_status(self._now())
+    def _publish_if_changed(self, now):
+        status = self._merger.robot_status(now)
         if status != self._last_published:
             self._publish(status)
 

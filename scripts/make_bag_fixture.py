@@ -1,0 +1,176 @@
+#!/usr/bin/env python3
+"""Writes test/fixtures/replay_run.bag: a small made-up 40 s run of a robot, as bag_recorder records it.
+
+    scripts/rosenv python3 scripts/make_bag_fixture.py [OUT.bag]
+
+The inputs of status_control (control_status 10 Hz, nav_status 10 Hz, robot_odom 20 Hz,
+server_status 5 Hz) and the robot_status that status_control's logic (status.merge, default
+timeouts) makes of them at 10 Hz, the latched map and virtual_obstacle_map, obstacle_status, one move_action
+goal and result, one read_scale_ack and one failed control_ack, with a script a reader can follow
+(FIXTURE_* below, which the tests import):
+- 0-10 s task mode at rest; 5-15 s drive along x from (0, 0) to (8, 0) at 0.8 m/s (a goal);
+- 10-20 s backend (server) mode; 22-25 s soft e-stop engaged; 25-32 s drive along y to (8, 5.6);
+- server_status stops after 27.8 s and resumes at 34 s: offline_warn rises at 30.8 s (3 s timeout);
+- a 3-D obstacle from 26 to 27 s; a reading 0.42 at 17 s; a failed control_ack at 21 s.
+Deterministic: the same file every time (fixed start time, no randomness). About 250 kB (lz4).
+"""
+import json
+import math
+import os
+import sys
+
+import rosbag
+import rospy
+from diagnostic_msgs.msg import DiagnosticArray
+from nav_msgs.msg import OccupancyGrid, Odometry
+
+from inspection_robot.interface import LIGHT_SOFT_ESTOP, MODE_SERVER, MODE_TASK
+from inspection_robot.msg import (ControlStatus, GeneralAck, GeneralActionGoal, GeneralActionResult, GeneralTopic,
+                                  NavStatus, ObstacleStatus, ReadScaleAck, RobotStatus)
+from inspection_robot.status.merge import CONTROL_FIELDS, Heartbeat, StatusMerger
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+DEFAULT_OUT = os.path.join(ROOT, "test", "fixtures", "replay_run.bag")
+FIXTURE_START = 1700000000.0       # bag time of the first message
+FIXTURE_DURATION = 40.0
+FIXTURE_HEARTBEAT_GAP = (28.0, 34.0)
+FIXTURE_OFFLINE_AT = 30.8          # last beat (27.8 s, 5 Hz) + status_control's 3 s heartbeat_timeout
+FIXTURE_SERVER_MODE = (10.0, 20.0)
+FIXTURE_ESTOP = (22.0, 25.0)
+FIXTURE_GOAL = (8.0, 0.0)
+
+
+def pose_at(t):
+    """(x, y, yaw, speed) of the made-up run at ``t`` seconds."""
+    if t < 5.0:
+        return 0.0, 0.0, 0.0, 0.0
+    if t < 15.0:
+        return 0.8 * (t - 5.0), 0.0, 0.0, 0.8
+    if t < 25.0:
+        return 8.0, 0.0, math.pi / 2 if t >= 24.0 else 0.0, 0.0
+    if t < 32.0:
+        return 8.0, 0.8 * (t - 25.0), math.pi / 2, 0.8
+    return 8.0, 5.6, math.pi / 2, 0.0
+
+
+def control_status(t):
+    msg = ControlStatus(sender="robot_control")
+    msg.mode = MODE_SERVER if FIXTURE_SERVER_MODE[0] <= t < FIXTURE_SERVER_MODE[1] else MODE_TASK
+    msg.wheel_status = 1
+    msg.light_status = LIGHT_SOFT_ESTOP if FIXTURE_ESTOP[0] <= t < FIXTURE_ESTOP[1] else 0
+    msg.other_status = [0]
+    msg.battery_voltage, msg.battery_current = 254, -12
+    msg.battery_quantity = 80 - int(t // 20)
+    msg.battery_status = 1 << 5
+    msg.motor_status, msg.motor_info = [0] * 8, [0] * 8
+    msg.temperature = [250] + [-1000] * 12
+    return msg
+
+
+def grid(width, height, resolution, origin, cells):
+    msg = OccupancyGrid()
+    msg.header.frame_id = "map"
+    msg.info.resolution, msg.info.width, msg.info.height = resolution, width, height
+    msg.info.origin.position.x, msg.info.origin.position.y = origin
+    msg.info.origin.orientation.w = 1.0
+    msg.data = cells
+    return msg
+
+
+def yard_map():
+    """20 m x 16 m at 0.1 m from (-4, -5): a fence ring and one equipment block."""
+    width, height = 200, 160
+    cells = [0] * (width * height)
+    for row in range(height):
+        for col in range(width):
+            x, y = -4 + col * 0.1, -5 + row * 0.1
+            fence = row in (0, height - 1) or col in (0, width - 1)
+            block = 2.0 <= x <= 5.0 and 2.0 <= y <= 4.0
+            cells[row * width + col] = 100 if fence or block else 0
+    return grid(width, height, 0.1, (-4.0, -5.0), cells)
+
+
+def virtual_map():
+    width, height = 200, 160
+    cells = [0] * (width * height)
+    for row in range(height):
+        for col in range(width):
+            x, y = -4 + col * 0.1, -5 + row * 0.1
+            if 10.0 <= x <= 11.0 and -1.0 <= y <= 3.0:
+                cells[row * width + col] = 100
+    return grid(width, height, 0.1, (-4.0, -5.0), cells)
+
+
+def latched(topic, msg):
+    return {"topic": topic, "type": msg._type, "md5sum": msg._md5sum, "message_definition": msg._full_text,
+            "latching": "1", "callerid": "/move_base"}
+
+
+def write_fixture(path):
+    os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
+    t0 = FIXTURE_START
+    stamp = lambda t: rospy.Time.from_sec(t0 + t)
+    merger = StatusMerger(Heartbeat(3.0), {"control": 1.0, "nav": 2.0, "odom": 1.0})
+    with rosbag.Bag(path, "w", compression="lz4") as bag:
+        for topic, msg in (("/map", yard_map()), ("/virtual_obstacle_map", virtual_map())):
+            msg.header.stamp = stamp(0.0)
+            bag.write(topic, msg, stamp(0.0), connection_header=latched(topic, msg))
+        obstacle = ObstacleStatus(sender="obstacle_detector", obstacle=False)
+        bag.write("/obstacle_status", obstacle, stamp(0.0), connection_header=latched("/obstacle_status", obstacle))
+        for i in range(int(FIXTURE_DURATION * 20)):
+            t = i * 0.05
+            x, y, yaw, speed = pose_at(t)
+            odom = Odometry()
+            odom.header.stamp, odom.header.frame_id, odom.child_frame_id = stamp(t), "odom", "base_link"
+            odom.twist.twist.linear.x = speed
+            bag.write("/robot_odom", odom, stamp(t + 0.002))
+            merger.update_odometry(t0 + t + 0.002, speed, 0.0)
+            if i % 2 == 0:
+                cs = control_status(t)
+                cs.header.stamp = stamp(t)
+                bag.write("/control_status", cs, stamp(t + 0.003))
+                merger.update_control(t0 + t + 0.003, {n: getattr(cs, n) for n in ("mode",) + CONTROL_FIELDS})
+                ns = NavStatus(sender="move_base", nav_status=7, nav_warn=0, position=[x, y], orientation=yaw)
+                ns.header.stamp = stamp(t)
+                bag.write("/nav_status", ns, stamp(t + 0.004))
+                merger.update_nav(t0 + t + 0.004, 0, [x, y], yaw)
+            if i % 4 == 0 and not FIXTURE_HEARTBEAT_GAP[0] <= t < FIXTURE_HEARTBEAT_GAP[1]:
+                beat = GeneralTopic(sender="server", data="")
+                beat.header.stamp = stamp(t)
+                bag.write("/server_status", beat, stamp(t + 0.001))
+                merger.heartbeat.beat(t0 + t + 0.001)
+            if i % 2 == 1:
+                status = RobotStatus(sender="status_control", **merger.robot_status(t0 + t + 0.005))
+                status.header.stamp = stamp(t + 0.005)
+                bag.write("/robot_status", status, stamp(t + 0.006))
+        goal = GeneralActionGoal()
+        goal.header.stamp = goal.goal_id.stamp = stamp(5.0)
+        goal.goal_id.id = "fixture-goal-1"
+        goal.goal.type = "move"
+        goal.goal.data = json.dumps({"goal_pose": {"position": {"x": FIXTURE_GOAL[0], "y": FIXTURE_GOAL[1], "z": 0},
+                                                   "orientation": {"x": 0, "y": 0, "z": 0, "w": 1}}})
+        bag.write("/move_action/goal", goal, stamp(5.0))
+        result = GeneralActionResult()
+        result.header.stamp = stamp(15.0)
+        result.status.goal_id = goal.goal_id
+        result.status.status = 3
+        result.result.ret_code, result.result.data = "0", json.dumps({"position_error": 0.03})
+        bag.write("/move_action/result", result, stamp(15.0))
+        reading = ReadScaleAck(sender="read_scale", result="success", scale=[0.42], possibility=[97.0])
+        reading.header.stamp = stamp(17.0)
+        bag.write("/read_scale_ack", reading, stamp(17.0))
+        ack = GeneralAck(sender="robot_control", receiver="server", trans_id=7, ack="failed",
+                         data="unknown command 'foo'")
+        ack.header.stamp = stamp(21.0)
+        bag.write("/control_ack", ack, stamp(21.0))
+        for t, flag in ((26.0, True), (27.0, False)):
+            msg = ObstacleStatus(sender="obstacle_detector", obstacle=flag)
+            msg.header.stamp = stamp(t)
+            bag.write("/obstacle_status", msg, stamp(t), connection_header=latched("/obstacle_status", msg))
+        bag.write("/diagnostics", DiagnosticArray(), stamp(1.0))
+    return path
+
+
+if __name__ == "__main__":
+    out = write_fixture(sys.argv[1] if len(sys.argv) > 1 else DEFAULT_OUT)
+    print("%s: %d bytes" % (out, os.path.getsize(out)))

@@ -1,0 +1,185 @@
+"""bag_recorder: records the robot's interface topics with rosbag into split bags under a disk budget.
+
+Runs rosbag's ``record`` executable as a child process (recording.recorder builds its command
+line): the interface topics of docs/operations.md "Recording", split every ~split_size_mb, lz4
+compressed, latched topics (map, virtual obstacles, plan...) repeated at the start of every split.
+Every ~check_period it deletes the oldest closed bags until the folder fits ~budget_mb (never the
+bag being written) and checks the free space: below ~min_free_mb it stops the recorder cleanly
+(SIGINT: the bag is closed and indexed) and reports ERROR on diagnostics; it starts again once
+twice that space is free. A recorder that dies is restarted (at most every ~check_period).
+
+Subscribes:  ~image_topics (sensor_msgs/Image) only when ~record_images
+Publishes:   <image topic>/compressed (sensor_msgs/CompressedImage, JPEG, at most ~image_rate Hz)
+             diagnostics (diagnostic_msgs/DiagnosticArray, hardware_id "bag_recorder")
+Parameters:  ~enabled (true; false: the node only reports "disabled" on diagnostics, e.g. from robot_config)
+             data_root (namespace param: this robot's state directory, ros.data_root)
+             ~directory (folder of the bags, relative to data_root unless absolute, "bags"), ~prefix ("run"),
+             ~split_size_mb (MB, 100), ~budget_mb (MB, 2000), ~min_free_mb (MB, 500),
+             ~check_period (s, 5.0), ~record_images (false), ~image_topics (["camera/image_raw"]),
+             ~image_rate (Hz, 1.0), ~jpeg_quality (0..100, 80), ~extra_topics ([])
+"""
+import os
+import shutil
+import signal
+import subprocess
+
+import roslib.packages
+import rospy
+from sensor_msgs.msg import CompressedImage, Image
+
+from inspection_robot.recording.recorder import (IMAGE_SUFFIX, RecorderError, compress_image, disk_verdict,
+                                                 enforce_budget, list_bags, record_command)
+from inspection_robot.ros.data_root import data_root, path_param
+from inspection_robot.ros.diagnostics import DeviceDiagnostics
+
+HARDWARE_ID = "bag_recorder"
+MB = 1000 * 1000
+STOP_TIMEOUT_S = 15.0
+
+
+class ImageCompressor(object):
+    """Republishes a raw image topic as JPEG at ``<topic>/compressed``, at most ``rate_hz``."""
+
+    def __init__(self, topic, rate_hz, quality):
+        self._topic = topic
+        self._period = 1.0 / rate_hz
+        self._quality = quality
+        self._last = None
+        self._pub = rospy.Publisher(topic + IMAGE_SUFFIX, CompressedImage, queue_size=2)
+        self._sub = rospy.Subscriber(topic, Image, self._on_image, queue_size=1, buff_size=2 ** 24)
+
+    def _on_image(self, msg):
+        now = rospy.get_time()
+        if self._last is not None and 0 <= now - self._last < self._period:
+            return
+        self._last = now
+        try:
+            jpeg = compress_image(msg.data, msg.width, msg.height, msg.step, msg.encoding, self._quality)
+        except RecorderError as exc:
+            rospy.logwarn_throttle(30.0, "bag_recorder: %s: %s; image not recorded" % (self._topic, exc))
+            return
+        out = CompressedImage(format="jpeg", data=jpeg)
+        out.header = msg.header
+        self._pub.publish(out)
+
+
+class BagRecorder(object):
+    def __init__(self, argv, directory, budget_bytes, min_free_bytes, check_period, diagnostics):
+        self._argv = argv
+        self._dir = directory
+        self._budget = budget_bytes
+        self._min_free = min_free_bytes
+        self._diag = diagnostics
+        self._child = None
+        self._disk_full = None   # reason while stopped for lack of space
+        self._problem = None
+        self._timer = rospy.Timer(rospy.Duration(check_period), self._on_timer)
+
+    def begin(self):
+        """Check the budget and the disk, then record unless the disk is already full."""
+        os.makedirs(self._dir, exist_ok=True)
+        self.check()
+        if self._disk_full is None:
+            self.start()
+
+    def start(self):
+        os.makedirs(self._dir, exist_ok=True)
+        rospy.loginfo("bag_recorder: recording into %s", self._dir)
+        self._child = subprocess.Popen(self._argv, start_new_session=True)
+
+    def stop(self):
+        child, self._child = self._child, None
+        if child is None or child.poll() is not None:
+            return
+        child.send_signal(signal.SIGINT)   # rosbag closes and indexes the bag on SIGINT
+        try:
+            child.wait(STOP_TIMEOUT_S)
+        except subprocess.TimeoutExpired:
+            rospy.logerr("bag_recorder: recorder did not stop within %.0f s; killed (bag left .active)"
+                         % STOP_TIMEOUT_S)
+            child.kill()
+            child.wait()
+
+    def _on_timer(self, _event):
+        try:
+            self.check()
+        except Exception as exc:  # boundary: a timer tick never kills the node
+            rospy.logerr_throttle(30.0, "bag_recorder: check failed: %r" % (exc,))
+
+    def check(self):
+        deleted, errors = enforce_budget(self._dir, self._budget)
+        for path in deleted:
+            rospy.loginfo("bag_recorder: budget %.0f MB reached, deleted %s", self._budget / MB, path)
+        for error in errors:
+            rospy.logwarn_throttle(60.0, "bag_recorder: %s" % error)
+        try:
+            free = shutil.disk_usage(self._dir).free
+        except OSError as exc:
+            free = 0
+            self._problem = "cannot read free space of %s: %s" % (self._dir, exc)
+        reason = disk_verdict(free, self._min_free)
+        if reason:
+            if self._disk_full is None:
+                rospy.logerr("bag_recorder: %s on %s; recording stopped", reason, self._dir)
+            self.stop()
+            self._disk_full = reason
+        elif self._disk_full and free >= 2 * self._min_free:
+            rospy.loginfo("bag_recorder: %.0f MB free again on %s; recording resumes", free / MB, self._dir)
+            self._disk_full = None
+            self.start()
+        elif not self._disk_full and self._child is not None and self._child.poll() is not None:
+            self._problem = "recorder exited with status %s; restarted" % self._child.returncode
+            rospy.logerr("bag_recorder: %s", self._problem)
+            self.start()
+        self._report(free, errors)
+
+    def _report(self, free, errors):
+        bags = list_bags(self._dir)
+        active = [os.path.basename(b[0]) for b in bags if b[3]]
+        values = [("directory", self._dir), ("bags", len(bags)),
+                  ("total_mb", "%.1f" % (sum(b[1] for b in bags) / MB)), ("budget_mb", "%.0f" % (self._budget / MB)),
+                  ("free_mb", "%.0f" % (free / MB)), ("min_free_mb", "%.0f" % (self._min_free / MB)),
+                  ("recording", active[0] if active else "")]
+        if self._disk_full:
+            self._diag.publish(False, self._disk_full + "; recording stopped", values)
+        elif errors or self._problem:
+            self._diag.publish(False, (errors + [self._problem])[0] if errors else self._problem, values)
+            self._problem = None
+        else:
+            self._diag.publish(True, "recording", values)
+
+
+def main():
+    rospy.init_node("bag_recorder")
+    if not rospy.get_param("~enabled", True):
+        rospy.loginfo("bag_recorder: ~enabled is false; not recording")
+        DeviceDiagnostics("bag recorder", HARDWARE_ID).publish(True, "disabled (~enabled false)", [])
+        rospy.spin()
+        return
+    directory = path_param("~directory", "bags", data_root())
+    prefix = rospy.get_param("~prefix", "run")
+    split_mb = float(rospy.get_param("~split_size_mb", 100))
+    budget_mb = float(rospy.get_param("~budget_mb", 2000))
+    min_free_mb = float(rospy.get_param("~min_free_mb", 500))
+    check_period = float(rospy.get_param("~check_period", 5.0))
+    record_images = bool(rospy.get_param("~record_images", False))
+    image_topics = list(rospy.get_param("~image_topics", ["camera/image_raw"])) if record_images else []
+    image_rate = float(rospy.get_param("~image_rate", 1.0))
+    quality = int(rospy.get_param("~jpeg_quality", 80))
+    extra = list(rospy.get_param("~extra_topics", []))
+    if budget_mb < 2 * split_mb or check_period <= 0 or image_rate <= 0 or not 0 <= quality <= 100:
+        raise RecorderError("need ~budget_mb >= 2 * ~split_size_mb, ~check_period > 0, ~image_rate > 0 and "
+                            "~jpeg_quality in 0..100 (got %s, %s, %s, %s, %s)"
+                            % (budget_mb, split_mb, check_period, image_rate, quality))
+    found = roslib.packages.find_node("rosbag", "record")
+    if not found:
+        raise RecorderError("rosbag's record executable not found (install python3-rosbag / ros-noetic-rosbag)")
+    namespace = rospy.get_namespace()
+    argv = record_command(directory, prefix, namespace, split_mb, min_free_mb, image_topics, extra, found[0])
+    for topic in image_topics:   # each lives on in its subscriber's callback
+        ImageCompressor(rospy.resolve_name(topic), image_rate, quality)
+    recorder = BagRecorder(argv, directory, budget_mb * MB, min_free_mb * MB, check_period,
+                           DeviceDiagnostics("bag recorder", HARDWARE_ID))
+    rospy.on_shutdown(recorder.stop)
+    recorder.begin()
+    rospy.spin()

@@ -1,0 +1,241 @@
+"""Pure logic of bag_report: what happened during a recorded run, from plain values.
+
+tools/bag_report reads the bag (rosbag API) and feeds a RunAnalyzer with plain numbers and
+strings, one call per message; ``finish()`` returns a RunSummary (series for the plots, stops,
+goals, readings, alarms, faults, obstacles) and ``format_summary`` the text. No ROS, no plotting:
+unit tests drive it with made-up runs.
+
+Definitions (docs/operations.md "bag_report"):
+- position: robot_status's, except while its nav_status stale bit is set (no pose yet: not drawn);
+- distance: path length of robot_status positions (pose jitter under 1 mm is measured only once
+  it adds up; a step over ``max_jump_m`` is a relocalisation, not distance);
+- stop: the robot stood still (|velocity_x| and |velocity_yaw| under the thresholds) for at least
+  ``min_stop_s``;
+- alarm: the rising edge of an alarm bit of robot_status (ALARM_BITS) or of offline_warn;
+- fault: a ``*_ack`` answered ``failed``, an action result other than "0", a motor_status fault;
+- reading: a value of read_scale_ack (``scale`` and ``foreign_scale``) or a task result.
+"""
+import collections
+import json
+import math
+
+from inspection_robot.interface import (BATTERY_HIGH_TEMP, BATTERY_LINE_FAULT, BATTERY_LOW_TEMP,
+                                        BATTERY_OVER_VOLTAGE, BATTERY_UNDER_VOLTAGE, CIRCUIT_BATTERY_CRITICAL,
+                                        CIRCUIT_COLLISION_LINE, CIRCUIT_JOY_COMM_LOST, CIRCUIT_STEPPER_COMM,
+                                        LIGHT_BUMPER, LIGHT_HARD_ESTOP, LIGHT_SOFT_ESTOP, MODE_NAMES,
+                                        MOTOR_NAMES, NAV_LOCALIZATION_LOST, NAV_OBSTACLE_3D, NAV_OFF_TRACK,
+                                        SENSOR_CAMERA_ALARM, SENSOR_THERMAL_ALARM, STOP_FRONT_COLLISION,
+                                        STOP_LEFT_FALL, STOP_OBSTACLE, STOP_RIGHT_FALL)
+from inspection_robot.status.merge import STALE_NAV_STATUS
+
+# (robot_status field, bit, alarm name): each rising edge is one alarm.
+ALARM_BITS = (
+    ("light_status", LIGHT_SOFT_ESTOP, "soft e-stop"),
+    ("light_status", LIGHT_HARD_ESTOP, "hard e-stop"),
+    ("light_status", LIGHT_BUMPER, "bumper"),
+    ("stop_status", STOP_FRONT_COLLISION, "front collision"),
+    ("stop_status", STOP_OBSTACLE, "obstacle stop"),
+    ("stop_status", STOP_LEFT_FALL, "left fall"),
+    ("stop_status", STOP_RIGHT_FALL, "right fall"),
+    ("circuit_status", CIRCUIT_STEPPER_COMM, "stepper board comm"),
+    ("circuit_status", CIRCUIT_JOY_COMM_LOST, "joystick link lost"),
+    ("circuit_status", CIRCUIT_COLLISION_LINE, "collision line fault"),
+    ("circuit_status", CIRCUIT_BATTERY_CRITICAL, "battery critical"),
+    ("nav_status", NAV_OFF_TRACK, "off track"),
+    ("nav_status", NAV_LOCALIZATION_LOST, "localization lost"),
+    ("nav_status", NAV_OBSTACLE_3D, "3-D obstacle"),
+    ("sensor_status", SENSOR_CAMERA_ALARM, "camera alarm"),
+    ("sensor_status", SENSOR_THERMAL_ALARM, "thermal imager alarm"),
+    ("battery_status", BATTERY_UNDER_VOLTAGE, "battery under-voltage"),
+    ("battery_status", BATTERY_OVER_VOLTAGE, "battery over-voltage"),
+    ("battery_status", BATTERY_LOW_TEMP, "battery low temperature"),
+    ("battery_status", BATTERY_HIGH_TEMP, "battery high temperature"),
+    ("battery_status", BATTERY_LINE_FAULT, "battery line fault"),
+)
+OFFLINE_ALARM = "backend link lost (offline_warn)"
+
+Event = collections.namedtuple("Event", "t x y text")
+Stop = collections.namedtuple("Stop", "t x y duration")
+
+
+class RunSummary(object):
+    """Everything bag_report draws and prints. Times are seconds since the run's start (``start``)."""
+
+    def __init__(self):
+        self.start = None          # absolute bag time of the first robot_status (s)
+        self.duration = 0.0
+        self.distance = 0.0
+        self.max_speed = 0.0
+        self.status_count = 0
+        self.t, self.x, self.y, self.speed, self.battery, self.mode = [], [], [], [], [], []
+        self.stops, self.goals, self.readings = [], [], []
+        self.alarms, self.faults, self.obstacles = [], [], []
+
+
+class RunAnalyzer(object):
+    def __init__(self, stop_speed=0.02, stop_yaw_rate=0.02, min_stop_s=2.0, max_jump_m=5.0):
+        self._stop_speed = stop_speed
+        self._stop_yaw_rate = stop_yaw_rate
+        self._min_stop_s = min_stop_s
+        self._max_jump = max_jump_m
+        self._s = RunSummary()
+        self._last = None            # previous robot_status fields
+        self._still_since = None     # (t, x, y) when the robot last came to rest
+        self._pending = []           # events before the first robot_status: placed once it is known
+
+    # -- input, one call per message; t: absolute bag time in seconds -------------------------
+    def add_status(self, t, status):
+        """``status``: dict of robot_status fields (as in RobotStatus)."""
+        s = self._s
+        if s.start is None:
+            s.start = t
+        rel = t - s.start
+        x, y = (list(status["position"]) + [float("nan")] * 2)[:2]
+        other = list(status.get("other_status") or [0])
+        if other[0] & STALE_NAV_STATUS:     # no nav_status (yet): the position is not a pose
+            x = y = float("nan")
+        if self._last is not None:
+            ax, ay = self._anchor
+            step = math.hypot(x - ax, y - ay)
+            if not step == step:            # nan: no pose now or at the anchor
+                if x == x:
+                    self._anchor = (x, y)
+            elif step > self._max_jump:     # relocalised: no distance, measure from here on
+                self._anchor = (x, y)
+            elif step >= 1e-3:              # below: pose jitter, measured once it adds up
+                s.distance += step
+                self._anchor = (x, y)
+            self._edges(rel, x, y, self._last, status)
+        else:
+            self._anchor = (x, y)
+            if status.get("offline_warn"):
+                s.alarms.append(Event(rel, x, y, OFFLINE_ALARM))
+        speed = float(status["velocity_x"])
+        s.max_speed = max(s.max_speed, abs(speed))
+        s.status_count += 1
+        for series, value in ((s.t, rel), (s.x, x), (s.y, y), (s.speed, speed),
+                              (s.battery, int(status["battery_quantity"])), (s.mode, int(status["mode"]))):
+            series.append(value)
+        self._track_stop(rel, x, y, speed, float(status["velocity_yaw"]))
+        self._last = dict(status, position=[x, y])
+        s.duration = rel
+        for pending in self._pending:
+            pending()
+        self._pending = []
+
+    def add_goal(self, t, data):
+        """A move_action goal's JSON ``data``; returns a problem text or None (bad goals are not drawn)."""
+        try:
+            position = json.loads(data)["goal_pose"]["position"]
+            gx, gy = float(position["x"]), float(position["y"])
+        except (ValueError, KeyError, TypeError) as exc:
+            return "move_action goal without a readable goal_pose (%s)" % (exc.__class__.__name__,)
+        self._at(t, lambda rel, x, y: self._s.goals.append(Event(rel, gx, gy, "goal")))
+        return None
+
+    def add_obstacle(self, t, obstacle):
+        if obstacle:
+            self._at(t, lambda rel, x, y: self._s.obstacles.append(Event(rel, x, y, "3-D obstacle")))
+
+    def add_reading(self, t, source, values):
+        """``values``: the numbers one reading message carries (read_scale_ack scale + foreign_scale)."""
+        values = list(values)
+        self._at(t, lambda rel, x, y: self._s.readings.append(
+            Event(rel, x, y, "%s: %s" % (source, ", ".join("%g" % v for v in values) or "no value"))))
+
+    def add_ack(self, t, topic, ack, data):
+        if ack == "failed":
+            self._at(t, lambda rel, x, y: self._s.faults.append(Event(rel, x, y, "%s failed: %s" % (topic, data))))
+
+    def add_action_result(self, t, action, ret_code, data):
+        if ret_code != "0":
+            try:
+                reason = json.loads(data).get("reason", data)
+            except (ValueError, AttributeError):
+                reason = data
+            self._at(t, lambda rel, x, y: self._s.faults.append(
+                Event(rel, x, y, "%s ended with %s: %s" % (action, ret_code, reason))))
+
+    def finish(self):
+        s = self._s
+        if self._still_since is not None and s.t:
+            self._close_stop(s.t[-1])
+        return s
+
+    # -- helpers --------------------------------------------------------------------------------
+    def _at(self, t, record):
+        """Call ``record(rel_t, x, y)`` with the robot's latest position (after the first status)."""
+        if self._s.start is None:
+            self._pending.append(lambda: self._at(t, record))
+            return
+        x, y = self._last["position"] if self._last else (float("nan"), float("nan"))
+        record(t - self._s.start, x, y)
+
+    def _edges(self, rel, x, y, before, after):
+        for field, bit, name in ALARM_BITS:
+            if int(after[field]) & bit and not int(before[field]) & bit:
+                self._s.alarms.append(Event(rel, x, y, name))
+        if after["offline_warn"] and not before["offline_warn"]:
+            self._s.alarms.append(Event(rel, x, y, OFFLINE_ALARM))
+        for i, (old, new) in enumerate(zip(before["motor_status"], after["motor_status"])):
+            if new and not old:
+                name = MOTOR_NAMES[i] if i < len(MOTOR_NAMES) else "motor %d" % i
+                self._s.faults.append(Event(rel, x, y, "%s motor_status 0x%02x" % (name, new)))
+
+    def _track_stop(self, rel, x, y, speed, yaw_rate):
+        still = abs(speed) < self._stop_speed and abs(yaw_rate) < self._stop_yaw_rate
+        if still and self._still_since is None:
+            self._still_since = (rel, x, y)
+        elif still and self._still_since[1] != self._still_since[1]:   # stood still before the first pose
+            self._still_since = (self._still_since[0], x, y)
+        elif not still and self._still_since is not None:
+            self._close_stop(rel)
+
+    def _close_stop(self, rel):
+        since, x, y = self._still_since
+        self._still_since = None
+        if rel - since >= self._min_stop_s:
+            self._s.stops.append(Stop(since, x, y, rel - since))
+
+
+def _clock(seconds):
+    seconds = max(0, int(round(seconds)))
+    return "%d:%02d:%02d" % (seconds // 3600, seconds // 60 % 60, seconds % 60)
+
+
+def _events(title, events, limit=10):
+    lines = ["%s: %d" % (title, len(events))]
+    for e in events[:limit]:
+        lines.append("  %s  %-40s at (%.1f, %.1f)" % (_clock(e.t), e.text, e.x, e.y))
+    if len(events) > limit:
+        lines.append("  ... and %d more" % (len(events) - limit))
+    return lines
+
+
+def mode_time(summary):
+    """Seconds spent in each mode name (time until the next status counted for the previous mode)."""
+    spent = collections.OrderedDict()
+    for i in range(len(summary.t) - 1):
+        name = MODE_NAMES.get(summary.mode[i], str(summary.mode[i]))
+        spent[name] = spent.get(name, 0.0) + summary.t[i + 1] - summary.t[i]
+    return spent
+
+
+def format_summary(summary, bag_name=""):
+    s = summary
+    battery = ("%d %% -> %d %%" % (s.battery[0], s.battery[-1])) if s.battery else "n/a"
+    lines = ["run %s" % bag_name if bag_name else "run",
+             "duration: %s (%.1f s), robot_status messages: %d" % (_clock(s.duration), s.duration, s.status_count),
+             "distance: %.1f m, max speed %.2f m/s, battery %s" % (s.distance, s.max_speed, battery),
+             "modes: " + (", ".join("%s %.0f s" % kv for kv in mode_time(s).items()) or "n/a"),
+             "goals: %d" % len(s.goals)]
+    lines.append("stops: %d" % len(s.stops))
+    for stop in s.stops[:10]:
+        lines.append("  %s  %.0f s at (%.1f, %.1f)" % (_clock(stop.t), stop.duration, stop.x, stop.y))
+    if len(s.stops) > 10:
+        lines.append("  ... and %d more" % (len(s.stops) - 10))
+    lines += _events("readings", s.readings)
+    lines += _events("alarms", s.alarms)
+    lines += _events("faults", s.faults)
+    lines += _events("3-D obstacles", s.obstacles, limit=5)
+    return "\n".join(lines)

@@ -1,0 +1,277 @@
+"""bag_report: turn a recorded run (rosbag) into a picture and a short text summary.
+
+    bag_report BAG [BAG ...] [--out PNG] [--ns NAMESPACE] [--no-plot]
+
+Reads the bags (rosbag Python API; several splits of one run are read in time order), feeds
+recording.summary.RunAnalyzer and prints its summary (duration, distance, stops, readings,
+alarms, faults). Unless ``--no-plot`` it writes a PNG (default: next to the first bag,
+``<bag>.png``): the driven path over the recorded map with virtual obstacles, stops, goals,
+alarms and 3-D obstacles marked, and time plots of speed, battery and mode (matplotlib, Agg).
+
+A missing, truncated or foreign bag, or a topic of an unexpected type, ends with one line
+``bag_report: error: ...`` naming the file, topic and type, exit status 1, no traceback.
+Run it with ``scripts/rosenv bag_report ...`` or ``rosrun inspection_robot bag_report ...``.
+"""
+import argparse
+import os
+import struct
+import sys
+
+import genpy
+import rosbag
+
+from inspection_robot.msg import (GeneralAck, GeneralActionGoal, GeneralActionResult, ObstacleStatus,
+                                  ReadScaleAck, RobotStatus)
+from inspection_robot.recording.summary import RunAnalyzer, format_summary
+
+STATUS_FIELDS = ("offline_warn", "mode", "velocity_x", "velocity_yaw", "position", "orientation", "nav_status",
+                 "sensor_status", "wheel_status", "light_status", "stop_status", "circuit_status", "other_status",
+                 "battery_voltage", "battery_current", "battery_quantity", "battery_status", "motor_status",
+                 "motor_info", "temperature")
+# topic (relative to the robot's namespace) -> message class it must carry.
+TYPED_TOPICS = {
+    "robot_status": RobotStatus,
+    "obstacle_status": ObstacleStatus,
+    "move_action/goal": GeneralActionGoal,
+    "move_action/result": GeneralActionResult,
+    "find_scale_action/result": GeneralActionResult,
+    "read_scale_ack": ReadScaleAck,
+    "map": "nav_msgs/OccupancyGrid",
+    "virtual_obstacle_map": "nav_msgs/OccupancyGrid",
+}
+BAG_ERRORS = (rosbag.ROSBagException, genpy.DeserializationError, struct.error, OSError, ValueError)
+
+
+class ReportError(Exception):
+    """Bad input: the message is printed as is."""
+
+
+def status_fields(msg):
+    return {name: getattr(msg, name) for name in STATUS_FIELDS}
+
+
+def _open(path):
+    if not os.path.exists(path):
+        raise ReportError("%s: no such bag file" % path)
+    try:
+        return rosbag.Bag(path)
+    except rosbag.ROSBagUnindexedException:
+        raise ReportError("%s: bag is not indexed (recording interrupted or still running?); "
+                          "repair a copy with 'rosbag reindex'" % path)
+    except BAG_ERRORS as exc:
+        raise ReportError("%s: not a readable bag (truncated or foreign file?): %s" % (path, exc))
+
+
+def find_namespace(bags, namespace):
+    """The robot namespace prefix ('/' or '/ns/') whose robot_status the bags hold."""
+    topics = {}
+    for path, bag in bags:
+        for topic, info in bag.get_type_and_topic_info().topics.items():
+            topics.setdefault(topic, info.msg_type)
+    if namespace is not None:
+        prefix = "/" + namespace.strip("/") + "/" if namespace.strip("/") else "/"
+    else:
+        candidates = sorted(t[:-len("robot_status")] for t in topics if t.endswith("/robot_status"))
+        if not candidates:
+            raise ReportError("%s: no robot_status topic (inspection_robot/RobotStatus) in the bag; topics: %s"
+                              % (bags[0][0], ", ".join(sorted(topics)[:12]) or "none"))
+        if len(candidates) > 1:
+            raise ReportError("robot_status of several robots (%s): choose one with --ns" % ", ".join(candidates))
+        prefix = candidates[0]
+    if prefix + "robot_status" not in topics:
+        raise ReportError("%s: no topic %srobot_status in the bag" % (bags[0][0], prefix))
+    return prefix, topics
+
+
+def check_types(bags, prefix):
+    """Every topic of TYPED_TOPICS that the bags hold must carry the expected type (same definition)."""
+    for path, bag in bags:
+        for conn in bag._get_connections():
+            if not conn.topic.startswith(prefix):
+                continue
+            expected = TYPED_TOPICS.get(conn.topic[len(prefix):])
+            if expected is None:
+                continue
+            name = expected if isinstance(expected, str) else expected._type
+            if conn.datatype != name:
+                raise ReportError("%s: topic %s has type %s, expected %s" % (path, conn.topic, conn.datatype, name))
+            if not isinstance(expected, str) and conn.md5sum != expected._md5sum:
+                raise ReportError("%s: topic %s: type %s in the bag differs from this build's definition "
+                                  "(md5 %s, expected %s)" % (path, conn.topic, name, conn.md5sum, expected._md5sum))
+
+
+def read_run(paths, namespace=None):
+    """Returns (RunSummary, map OccupancyGrid or None, virtual obstacle grid or None, warnings)."""
+    bags = [(p, _open(p)) for p in paths]
+    try:
+        prefix, _topics = find_namespace(bags, namespace)
+        check_types(bags, prefix)
+        analyzer = RunAnalyzer()
+        grids = {"map": None, "virtual_obstacle_map": None}
+        warnings = []
+        for path, bag in sorted(bags, key=lambda pb: pb[1].get_start_time() if pb[1].get_message_count() else 0):
+            try:
+                for topic, msg, stamp in bag.read_messages():
+                    if topic.startswith(prefix):
+                        _feed(analyzer, grids, warnings, topic[len(prefix):], msg, stamp.to_sec())
+            except BAG_ERRORS as exc:
+                raise ReportError("%s: bag is truncated or corrupt after %.1f s of data: %s"
+                                  % (path, analyzer.finish().duration, exc))
+        summary = analyzer.finish()
+    finally:
+        for _path, bag in bags:
+            bag.close()
+    if not summary.status_count:
+        raise ReportError("%s: topic %srobot_status holds no message" % (paths[0], prefix))
+    return summary, grids["map"], grids["virtual_obstacle_map"], warnings
+
+
+def _feed(analyzer, grids, warnings, name, msg, t):
+    if name == "robot_status":
+        analyzer.add_status(t, status_fields(msg))
+    elif name in grids:
+        grids[name] = msg
+    elif name == "obstacle_status":
+        analyzer.add_obstacle(t, msg.obstacle)
+    elif name == "move_action/goal":
+        problem = analyzer.add_goal(t, msg.goal.data)
+        if problem and len(warnings) < 20:
+            warnings.append(problem)
+    elif name.endswith("_action/result"):
+        analyzer.add_action_result(t, name[:-len("/result")], msg.result.ret_code, msg.result.data)
+    elif name == "read_scale_ack":
+        analyzer.add_reading(t, "read_scale", list(msg.scale) + list(msg.foreign_scale))
+    elif name.endswith("_ack") and getattr(msg, "_type", "") == GeneralAck._type:
+        analyzer.add_ack(t, name, msg.ack, msg.data)
+
+
+def grid_image(grid):
+    """(grey level image, extent) of an OccupancyGrid: free near-white, occupied black, unknown grey."""
+    import numpy as np
+    info = grid.info
+    cells = np.asarray(grid.data, dtype=np.int16).reshape(info.height, info.width)
+    shade = np.where(cells < 0, 0.75, 0.97 - 0.97 * np.clip(cells, 0, 100) / 100.0)
+    extent = (info.origin.position.x, info.origin.position.x + info.width * info.resolution,
+              info.origin.position.y, info.origin.position.y + info.height * info.resolution)
+    return shade, extent
+
+
+def plot_run(summary, grid, virtual, out_path, title):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import numpy as np
+    from inspection_robot.interface import MODE_NAMES
+
+    fig = plt.figure(figsize=(15, 8.5), dpi=100)
+    spec = fig.add_gridspec(3, 2, width_ratios=(1.35, 1), hspace=0.35, wspace=0.18)
+    ax = fig.add_subplot(spec[:, 0])
+    xs, ys = np.asarray(summary.x, float), np.asarray(summary.y, float)
+    if grid is not None:
+        shade, extent = grid_image(grid)
+        ax.imshow(shade, cmap="gray", vmin=0, vmax=1, origin="lower", extent=extent, interpolation="nearest")
+    if virtual is not None and (grid_image(virtual)[0] <= 0.5).any():
+        vshade, vextent = grid_image(virtual)
+        mask = np.ma.masked_where(vshade > 0.5, np.ones_like(vshade))
+        ax.imshow(mask, cmap="autumn", alpha=0.8, origin="lower", extent=vextent, interpolation="nearest")
+        ax.plot([], [], color="red", lw=4, label="virtual obstacle")
+    ax.plot(xs, ys, color="tab:blue", lw=2, label="driven path (%.1f m)" % summary.distance)
+    finite = np.isfinite(xs) & np.isfinite(ys)
+    if finite.any():
+        ax.plot(xs[finite][0], ys[finite][0], "o", color="green", ms=10, label="start")
+        ax.plot(xs[finite][-1], ys[finite][-1], "s", color="black", ms=9, label="end")
+    markers = (("goals", summary.goals, "*", "tab:green", 16), ("stops", summary.stops, "o", "orange", 10),
+               ("readings", summary.readings, "D", "tab:cyan", 8),
+               ("alarms", summary.alarms, "^", "red", 12), ("3-D obstacles", summary.obstacles, "x", "magenta", 11))
+    for label, events, marker, color, size in markers:
+        if events:
+            ax.plot([e.x for e in events], [e.y for e in events], marker, color=color, ms=size, ls="none",
+                    mec="black" if marker != "x" else color, label="%s (%d)" % (label, len(events)))
+    for i, stop in enumerate(summary.stops[:30]):
+        ax.annotate("S%d" % (i + 1), (stop.x, stop.y), xytext=(6, 6), textcoords="offset points", fontsize=9)
+    placed = []
+    for alarm in summary.alarms[:12]:   # labels at the same spot are stacked, not drawn over each other
+        below = sum(1 for p in placed if abs(p[0] - alarm.x) < 0.5 and abs(p[1] - alarm.y) < 0.5)
+        placed.append((alarm.x, alarm.y))
+        ax.annotate("%s (%.0f s)" % (alarm.text, alarm.t), (alarm.x, alarm.y), xytext=(8, -12 - 11 * below),
+                    textcoords="offset points", fontsize=8, color="darkred")
+    _zoom(ax, xs[finite], ys[finite], summary)
+    ax.set_xlabel("x (m, map)")
+    ax.set_ylabel("y (m, map)")
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.legend(loc="upper left", fontsize=8, framealpha=0.85)
+    ax.set_title(title, fontsize=11)
+
+    t = np.asarray(summary.t, float)
+    axes = [fig.add_subplot(spec[i, 1]) for i in range(3)]
+    axes[0].plot(t, summary.speed, color="tab:blue")
+    axes[0].set_ylabel("speed (m/s)")
+    axes[1].plot(t, summary.battery, color="tab:green")
+    axes[1].set_ylabel("battery (%)")
+    axes[2].step(t, summary.mode, where="post", color="tab:purple")
+    axes[2].set_yticks(sorted(MODE_NAMES))
+    axes[2].set_yticklabels([MODE_NAMES[m] for m in sorted(MODE_NAMES)])
+    axes[2].set_ylim(-0.5, max(MODE_NAMES) + 0.5)
+    axes[2].set_ylabel("mode")
+    axes[2].set_xlabel("time since start (s)")
+    for a in axes:
+        a.grid(True, alpha=0.3)
+        for alarm in summary.alarms:
+            a.axvline(alarm.t, color="red", alpha=0.35, lw=1)
+    axes[0].set_title("speed, battery and mode (red lines: alarms)", fontsize=10)
+    fig.savefig(out_path, bbox_inches="tight")
+    plt.close(fig)
+
+
+def _zoom(ax, xs, ys, summary):
+    """Show the driven area (with every marker) plus a margin, not the whole yard map."""
+    px = list(xs) + [e.x for group in (summary.goals, summary.alarms, summary.obstacles) for e in group]
+    py = list(ys) + [e.y for group in (summary.goals, summary.alarms, summary.obstacles) for e in group]
+    pts = [(a, b) for a, b in zip(px, py) if a == a and b == b]
+    if not pts:
+        return
+    lo_x, hi_x = min(p[0] for p in pts), max(p[0] for p in pts)
+    lo_y, hi_y = min(p[1] for p in pts), max(p[1] for p in pts)
+    margin = max(6.0, 0.15 * max(hi_x - lo_x, hi_y - lo_y))   # some of the yard around a short run
+    ax.set_xlim(lo_x - margin, hi_x + margin)
+    ax.set_ylim(lo_y - margin, hi_y + margin)
+
+
+def run(argv=None):
+    parser = argparse.ArgumentParser(description="Summarise a recorded run and draw it (PNG).")
+    parser.add_argument("bags", nargs="+", help="bag files of one run (splits are read in time order)")
+    parser.add_argument("--out", help="PNG path (default: <first bag>.png)")
+    parser.add_argument("--ns", help="robot namespace when the bag holds several robots")
+    parser.add_argument("--no-plot", action="store_true", help="print the summary only")
+    args = parser.parse_args(argv)
+    try:
+        summary, grid, virtual, warnings = read_run(args.bags, args.ns)
+    except ReportError as exc:
+        print("bag_report: error: %s" % exc, file=sys.stderr)
+        return 1
+    for warning in warnings:
+        print("bag_report: warning: %s" % warning, file=sys.stderr)
+    name = os.path.basename(args.bags[0])
+    print(format_summary(summary, name))
+    if not args.no_plot:
+        out = args.out or os.path.splitext(args.bags[0])[0] + ".png"
+        try:
+            plot_run(summary, grid, virtual, out, "%s: %s, %.1f m" % (name, _duration(summary.duration),
+                                                                      summary.distance))
+        except OSError as exc:
+            print("bag_report: error: cannot write %s: %s" % (out, exc.strerror or exc), file=sys.stderr)
+            return 1
+        print("picture: %s" % out)
+    return 0
+
+
+def _duration(seconds):
+    return "%d min %02d s" % (int(seconds) // 60, int(seconds) % 60)
+
+
+def main():
+    try:
+        code = run()
+    except BrokenPipeError:   # output piped into `head`: not an error of the bag
+        code = 0
+    sys.exit(code)

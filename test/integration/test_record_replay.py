@@ -1,0 +1,191 @@
+#!/usr/bin/env python3
+"""rostest (record_replay.test): record a short simulated run with sim.launch record:=true (driving
+under backend control, a navigation goal, a soft e-stop, a heartbeat loss), close the bag, replay
+it with replay.launch in a second ROS master (use_sim_time, its own status_control), capture the
+replayed robot_status with rosbag record, and compare: field by field with the live robot_status
+the bag holds, and the heartbeat loss raising offline_warn at the same bag time."""
+import glob
+import json
+import os
+import signal
+import socket
+import subprocess
+import threading
+import unittest
+
+import actionlib
+import rosbag
+import rosgraph
+import rosnode
+import rospy
+import rostest
+
+from inspection_robot.interface import LIGHT_SOFT_ESTOP, MODE_SERVER, MODE_TASK
+from inspection_robot.msg import GeneralAction, GeneralCmd, GeneralGoal, GeneralTopic, MoveCmd, RobotStatus
+from inspection_robot.recording.compare import compare_runs, rising_edges
+from inspection_robot.tools.bag_report import status_fields
+from rostest_helpers import Latest, wait_for, wait_subscribed
+
+HEARTBEAT_TIMEOUT = 3.0   # config/status_control.yaml
+TIME_TOL = 0.5            # s: sim time lags under load, see test_replay_fixture.py (played at 1x here)
+POS_TOL = 0.1             # m
+
+
+def free_port():
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def bag_stream(path, topic):
+    with rosbag.Bag(path) as bag:
+        return [(m.header.stamp.to_sec(), status_fields(m)) for _t, m, _s in bag.read_messages(topics=[topic])]
+
+
+def goal_data(x, y, velocity_x=0.5):
+    return json.dumps({"velocity_x": velocity_x, "goal_pose": {"position": {"x": x, "y": y, "z": 0},
+                                                               "orientation": {"x": 0, "y": 0, "z": 0, "w": 1}}})
+
+
+class RecordReplayTest(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        rospy.init_node("test_record_replay")
+        cls.dir = rospy.get_param("test_bag_dir")
+        cls.status = Latest("robot_status", RobotStatus, queue_size=5000)
+        cls.server = rospy.Publisher("server_status", GeneralTopic, queue_size=10)
+        cls.mode_cmd = rospy.Publisher("mode_cmd", GeneralCmd, queue_size=10)
+        cls.control = rospy.Publisher("control_cmd", GeneralCmd, queue_size=10)
+        cls.move = rospy.Publisher("move_cmd", MoveCmd, queue_size=10)
+        cls.client = actionlib.SimpleActionClient("move_action", GeneralAction)
+        assert cls.client.wait_for_server(rospy.Duration(60.0)), "move_action server"
+        for pub in (cls.server, cls.mode_cmd, cls.control, cls.move):
+            wait_subscribed(pub, 30.0)
+        cls.beating = threading.Event()
+        cls.beating.set()
+        cls.timer = rospy.Timer(rospy.Duration(0.2), cls.beat)
+        wait_for(lambda: glob.glob(os.path.join(cls.dir, "bags", "*.bag.active")), 30.0, "recording")
+        cls.bag = cls.run_live()
+        cls.replayed_bag = cls.replay(cls.bag)
+
+    @classmethod
+    def tearDownClass(cls):
+        cls.timer.shutdown()
+
+    @classmethod
+    def beat(cls, _event):
+        if cls.beating.is_set():
+            cls.server.publish(GeneralTopic(sender="server", data="alive"))
+
+    @classmethod
+    def run_live(cls):
+        """The scenario; returns the closed bag."""
+        cls.status.wait(lambda m: m.offline_warn == 0 and m.mode == MODE_TASK, 30.0, "online, task mode")
+        # backend drives for 2 s at 0.3 m/s, then gives the robot back
+        cls.mode_cmd.publish(GeneralCmd(sender="server", cmd="acquire", data="server"))
+        cls.status.wait(lambda m: m.mode == MODE_SERVER, 5.0, "server mode")
+        start = rospy.get_time()
+        wait_for(lambda: cls.move.publish(MoveCmd(sender="server", velocity_x=300.0)) or
+                 rospy.get_time() - start > 2.0, 5.0, "2 s of driving", period=0.05)
+        cls.status.wait(lambda m: m.velocity_x > 0.1, 2.0, "moving")
+        cls.move.publish(MoveCmd(sender="server", velocity_x=0.0))
+        cls.status.wait(lambda m: abs(m.velocity_x) < 0.01, 5.0, "stopped")
+        cls.mode_cmd.publish(GeneralCmd(sender="server", cmd="release", data="server"))
+        x0, y0 = cls.status.wait(lambda m: m.mode == MODE_TASK, 5.0, "task mode").position
+        # a navigation goal 1.5 m away
+        cls.client.send_goal(GeneralGoal(sender="task_manager", type="move", data=goal_data(x0 - 1.5, y0)))
+        assert cls.client.wait_for_result(rospy.Duration(60.0)), "goal result"
+        cls.goal_result = cls.client.get_result()
+        # soft e-stop on and off
+        cls.control.publish(GeneralCmd(sender="server", cmd="enable_stop"))
+        cls.status.wait(lambda m: m.light_status & LIGHT_SOFT_ESTOP, 5.0, "soft e-stop")
+        rospy.sleep(1.0)
+        cls.control.publish(GeneralCmd(sender="server", cmd="disable_stop"))
+        cls.status.wait(lambda m: not m.light_status & LIGHT_SOFT_ESTOP, 5.0, "e-stop released")
+        # heartbeat loss
+        cls.beating.clear()
+        cls.status.wait(lambda m: m.offline_warn == 1, HEARTBEAT_TIMEOUT + 3.0, "offline")
+        rospy.sleep(1.0)
+        cls.beating.set()
+        cls.status.wait(lambda m: m.offline_warn == 0, 5.0, "online again")
+        rospy.sleep(2.0)
+        # stop recording: the node closes its bag on shutdown (respawn starts a new one, ignored)
+        active = glob.glob(os.path.join(cls.dir, "bags", "*.bag.active"))
+        assert len(active) == 1, active
+        rosnode.kill_nodes(["/bag_recorder"])
+        closed = active[0][:-len(".active")]
+        wait_for(lambda: os.path.exists(closed), 30.0, "the bag closed")
+        return closed
+
+    @classmethod
+    def replay(cls, bag):
+        """Plays ``bag`` with replay.launch on a second master; returns the bag of replayed robot_status."""
+        port = free_port()
+        env = dict(os.environ, ROS_MASTER_URI="http://127.0.0.1:%d" % port)
+        out = os.path.join(cls.dir, "replayed.bag")
+        launch = subprocess.Popen(["roslaunch", "-p", str(port), "inspection_robot", "replay.launch", "bag:=" + bag,
+                                   "bridge:=false", "pause:=true", "player_required:=false", "delay:=0.5"],
+                                  env=env, stdout=subprocess.DEVNULL, stderr=subprocess.STDOUT,
+                                  start_new_session=True)
+        capture = None
+        try:
+            master = rosgraph.Master("/test_record_replay_probe", master_uri=env["ROS_MASTER_URI"])
+
+            def graph():
+                try:
+                    return master.getSystemState()
+                except (socket.error, OSError, rosgraph.MasterException):
+                    return None
+            wait_for(graph, 60.0, "replay master")
+            capture = subprocess.Popen(["rosbag", "record", "-O", out, "/robot_status", "__name:=replay_capture"],
+                                       env=env, stdout=subprocess.DEVNULL, stderr=subprocess.STDOUT)
+
+            def subscribed(topic, node):
+                state = graph()
+                return state and any(t == topic and node in nodes for t, nodes in state[1])
+            wait_for(lambda: all(subscribed(t, n) for t, n in (
+                ("/control_status", "/status_control"), ("/nav_status", "/status_control"),
+                ("/robot_odom", "/status_control"), ("/recorded/server_status", "/status_control"),
+                ("/robot_status", "/replay_capture"))), 60.0, "replay nodes subscribed")
+            subprocess.check_call(["rosservice", "call", "/replay_player/pause_playback", "false"], env=env,
+                                  stdout=subprocess.DEVNULL, timeout=30)
+
+            def player_done():
+                state = graph()
+                return state and not any("/replay_player" in nodes for _t, nodes in state[0])
+            wait_for(player_done, 300.0, "the end of the replay", period=0.5)
+        finally:
+            for proc in (capture, launch):
+                if proc is not None and proc.poll() is None:
+                    proc.send_signal(signal.SIGINT)
+                    try:
+                        proc.wait(30)
+                    except subprocess.TimeoutExpired:
+                        proc.kill()
+                        proc.wait()
+        return out
+
+    def test_the_run_did_what_the_scenario_says(self):
+        live = bag_stream(self.bag, "/robot_status")
+        self.assertEqual(self.goal_result.ret_code, "0", self.goal_result.data)
+        self.assertEqual({f["mode"] for _t, f in live}, {MODE_TASK, MODE_SERVER})
+        self.assertTrue(any(f["light_status"] & LIGHT_SOFT_ESTOP for _t, f in live))
+        self.assertGreater(max(f["velocity_x"] for _t, f in live), 0.2)
+
+    def test_replayed_robot_status_matches_the_live_one_field_by_field(self):
+        live, replayed = bag_stream(self.bag, "/robot_status"), bag_stream(self.replayed_bag, "/robot_status")
+        checked, mismatches = compare_runs(live, replayed, time_tol=TIME_TOL, pos_tol=POS_TOL)
+        self.assertGreater(checked, 0.5 * len(live), "replayed %d of %d live statuses" % (checked, len(live)))
+        self.assertEqual(mismatches[:5], [], "%d of %d replayed statuses differ" % (len(mismatches), checked))
+        self.assertEqual({f["mode"] for _t, f in replayed}, {MODE_TASK, MODE_SERVER})
+
+    def test_heartbeat_loss_raises_offline_warn_at_the_same_bag_time(self):
+        live = rising_edges(bag_stream(self.bag, "/robot_status"), "offline_warn")
+        replayed = rising_edges(bag_stream(self.replayed_bag, "/robot_status"), "offline_warn")
+        self.assertEqual(len(live), 1, live)
+        self.assertEqual(len(replayed), 1, replayed)
+        self.assertAlmostEqual(replayed[0], live[0], delta=TIME_TOL)
+
+
+if __name__ == "__main__":
+    rostest.rosrun("inspection_robot", "test_record_replay", RecordReplayTest)
