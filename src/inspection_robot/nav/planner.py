@@ -62,17 +62,37 @@ class Planner(object):
         if changes == []:
             return
         hc, wc = self._coarse_shape
+        k = self.coarse_factor
         if changes is None:
             self._block_cost = np.zeros((hc, wc), dtype=np.float64)
             # free cells along each block's edges: [top, bottom, left, right], corners [tl, tr, bl, br]
-            self._edge_free = np.zeros((4, hc, wc, self.coarse_factor), dtype=bool)
+            self._edge_free = np.zeros((4, hc, wc, k), dtype=bool)
             self._corner_free = np.zeros((4, hc, wc), dtype=bool)
-            self._update_blocks(0, hc, 0, wc)
-        else:
-            k = self.coarse_factor
-            for w in changes:
-                self._update_blocks(w.r0 // k, -(-w.r1 // k), w.c0 // k, -(-w.c1 // k))
-        self._build_coarse_graph()
+            # per block and direction _OFFSETS_8[i]: the neighbour, whether linked, the edge weight
+            rows, cols = np.mgrid[0:hc, 0:wc]
+            self._targets = np.stack([((rows + dr) % hc) * wc + (cols + dc) % wc for dr, dc in _OFFSETS_8], axis=2)
+            self._linked = np.zeros((hc, wc, len(_OFFSETS_8)), dtype=bool)
+            self._weights = np.zeros((hc, wc, len(_OFFSETS_8)), dtype=np.float64)
+            changes = [None]
+            ht, wt = -(-hc // TOP), -(-wc // TOP)
+            self._top_shape = (ht, wt)
+            self._top_block = ((rows // TOP) * wt + cols // TOP).ravel()
+            self._part = np.zeros(hc * wc, dtype=np.int64)
+            self._part_cost = np.zeros(hc * wc)
+            self._part_row = np.zeros(hc * wc)
+            self._part_col = np.zeros(hc * wc)
+            self._top_edges = [np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64), np.zeros(0)]
+        for w in changes:
+            b0, b1, d0, d1 = (0, hc, 0, wc) if w is None else (w.r0 // k, -(-w.r1 // k), w.c0 // k, -(-w.c1 // k))
+            self._update_blocks(b0, b1, d0, d1)
+            # links of the changed blocks and of their neighbours (into the changed blocks)
+            b0, b1, d0, d1 = max(b0 - 1, 0), min(b1 + 1, hc), max(d0 - 1, 0), min(d1 + 1, wc)
+            self._update_links(b0, b1, d0, d1)
+            ht, wt = self._top_shape
+            self._update_top(max(b0 // TOP - 1, 0), min(-(-b1 // TOP) + 1, ht),
+                             max(d0 // TOP - 1, 0), min(-(-d1 // TOP) + 1, wt))
+        self._coarse = _CsrParts(self._targets.reshape(hc * wc, -1),
+                                 np.where(self._linked, self._weights, np.inf).reshape(hc * wc, -1))
         self._version = self.costmap.version
 
     def _update_blocks(self, b0, b1, d0, d1):
@@ -94,67 +114,74 @@ class Planner(object):
         self._corner_free[:, b0:b1, d0:d1] = [finite[:, :, 0, 0], finite[:, :, 0, -1], finite[:, :, -1, 0],
                                               finite[:, :, -1, -1]]
 
-    def _build_coarse_graph(self):
+    def _update_links(self, b0, b1, d0, d1):
+        """Recompute the links (and weights) leaving blocks rows [b0, b1) x cols [d0, d1)."""
         hc, wc = self._coarse_shape
-        cost = self._block_cost
         top, bottom, left, right = self._edge_free
         tl, tr, bl, br = self._corner_free
-        passable = np.isfinite(cost)
-        # linked[i, r, c]: block (r, c) links to its neighbour in direction _OFFSETS_8[i]
-        linked = np.zeros((len(_OFFSETS_8), hc, wc), dtype=bool)
+        cost = self._block_cost
+        rows, cols = np.mgrid[b0:b1, d0:d1]
         for i, (dr, dc) in enumerate(_OFFSETS_8):
-            a = (slice(max(-dr, 0), hc - max(dr, 0)), slice(max(-dc, 0), wc - max(dc, 0)))
-            b = (slice(max(dr, 0), hc + min(dr, 0)), slice(max(dc, 0), wc + min(dc, 0)))
+            nr, nc = rows + dr, cols + dc
+            inside = (nr >= 0) & (nr < hc) & (nc >= 0) & (nc < wc)
+            nr, nc = np.clip(nr, 0, hc - 1), np.clip(nc, 0, wc - 1)
+            mine, theirs = (rows, cols), (nr, nc)
             if dr == 0:  # a free cell on my shared edge 8-adjacent to a free cell on its edge
-                ok = _touch(right[a], left[b]) if dc > 0 else _touch(left[a], right[b])
+                ok = _touch(right[mine], left[theirs]) if dc > 0 else _touch(left[mine], right[theirs])
             elif dc == 0:
-                ok = _touch(bottom[a], top[b]) if dr > 0 else _touch(top[a], bottom[b])
+                ok = _touch(bottom[mine], top[theirs]) if dr > 0 else _touch(top[mine], bottom[theirs])
             else:
-                mine = {(1, 1): br, (1, -1): bl, (-1, 1): tr, (-1, -1): tl}[(dr, dc)]
-                theirs = {(1, 1): tl, (1, -1): tr, (-1, 1): bl, (-1, -1): br}[(dr, dc)]
-                ok = mine[a] & theirs[b]
-            linked[i][a] = ok & passable[a] & passable[b]
-        ids = np.arange(hc * wc).reshape(hc, wc)
-        targets = np.stack([np.roll(np.roll(ids, -dr, axis=0), -dc, axis=1) for dr, dc in _OFFSETS_8])
-        lengths = np.array([math.hypot(dr, dc) for dr, dc in _OFFSETS_8])
-        weights = lengths[:, None, None] * 0.5 * (cost[None] + cost.ravel()[targets])
-        order = linked.transpose(1, 2, 0).reshape(-1, len(_OFFSETS_8))  # CSR order: by source node
-        self._coarse = _CsrParts(order, targets.transpose(1, 2, 0).reshape(order.shape),
-                                 weights.transpose(1, 2, 0).reshape(order.shape))
-        self._build_top_graph(linked, targets)
+                corner = {(1, 1): (br, tl), (1, -1): (bl, tr), (-1, 1): (tr, bl), (-1, -1): (tl, br)}[(dr, dc)]
+                ok = corner[0][mine] & corner[1][theirs]
+            self._linked[b0:b1, d0:d1, i] = ok & inside & np.isfinite(cost[mine]) & np.isfinite(cost[theirs])
+            self._weights[b0:b1, d0:d1, i] = math.hypot(dr, dc) * 0.5 * (cost[mine] + cost[theirs])
 
-    def _build_top_graph(self, linked, targets):
-        """Abstract graph over TOP x TOP blocks of coarse blocks, one node per connected part.
+    def _update_top(self, t0, t1, u0, u1):
+        """Re-derive the top-level parts and their edges for top blocks rows [t0, t1) x cols [u0, u1).
 
-        A node is a set of coarse blocks linked within one top block (so a wall through a top
-        block gives two nodes, and the abstraction never routes through it); two nodes are linked
-        when a coarse link joins them. Its route confines the coarse search, which keeps it from
-        flooding the space in front of a long wall.
+        The window must include one top block of margin around every changed coarse block: edges
+        from outside it then keep their ends and weights. A part's id is its smallest coarse block
+        id, so a window update gives the same ids as a full build.
         """
         hc, wc = self._coarse_shape
         n = hc * wc
-        ht, wt = -(-hc // TOP), -(-wc // TOP)
-        rows, cols = np.divmod(np.arange(n), wc)
-        top_block = (rows // TOP) * wt + cols // TOP
-        src = np.broadcast_to(np.arange(n).reshape(1, hc, wc), linked.shape)[linked]
-        dst = targets[linked]
-        inner = top_block[src] == top_block[dst]
-        graph = csr_matrix((np.ones(int(inner.sum())), (src[inner], dst[inner])), shape=(n, n))
-        count, part = connected_components(graph, directed=True, connection="weak")
-        cross = ~inner
-        pairs = np.unique(part[src[cross]] * count + part[dst[cross]])
-        a, b = np.divmod(pairs, count)
-        passable = np.isfinite(self._block_cost).ravel()
-        members = np.maximum(np.bincount(part, weights=passable, minlength=count), 1)
-        mean_cost = np.bincount(part, weights=np.where(passable, self._block_cost.ravel(), 0.0),
-                                minlength=count) / members
-        centre_r = np.bincount(part, weights=rows * passable, minlength=count) / members
-        centre_c = np.bincount(part, weights=cols * passable, minlength=count) / members
-        weight = np.hypot(centre_r[a] - centre_r[b], centre_c[a] - centre_c[b]) * 0.5 * (mean_cost[a] + mean_cost[b])
-        self._part = part
-        self._top_block = top_block
-        self._top_shape = (ht, wt)
-        self._top_graph = csr_matrix((np.maximum(weight, 1e-6), (a, b)), shape=(count, count))
+        rows, cols = np.mgrid[t0 * TOP:min(t1 * TOP, hc), u0 * TOP:min(u1 * TOP, wc)]
+        nodes = (rows * wc + cols).ravel()  # ascending
+        m = len(nodes)
+        local = np.full(n, -1, dtype=np.int64)
+        local[nodes] = np.arange(m)
+        linked = self._linked.reshape(n, -1)[nodes]
+        targets = self._targets.reshape(n, -1)[nodes]
+        block = self._top_block[nodes]
+        inner = linked & (self._top_block[targets] == block[:, None])
+        src = np.repeat(np.arange(m), inner.sum(axis=1))
+        graph = csr_matrix((np.ones(len(src)), (src, local[targets[inner]])), shape=(m, m))
+        count, comp = connected_components(graph, directed=True, connection="weak")
+        _labels, first = np.unique(comp, return_index=True)  # nodes ascend: first member = smallest id
+        part = nodes[first][comp]
+        self._part[nodes] = part
+        cost = self._block_cost.ravel()[nodes]
+        passable = np.isfinite(cost)
+        members = np.maximum(np.bincount(comp, weights=passable, minlength=count), 1)
+        ids = nodes[first]
+        self._part_cost[ids] = np.bincount(comp, weights=np.where(passable, cost, 0.0), minlength=count) / members
+        self._part_row[ids] = np.bincount(comp, weights=(nodes // wc) * passable, minlength=count) / members
+        self._part_col[ids] = np.bincount(comp, weights=(nodes % wc) * passable, minlength=count) / members
+        # edges leaving the window's parts, one per pair of parts
+        cross = linked & ~inner
+        a = np.repeat(part, cross.sum(axis=1))
+        b = self._part[targets[cross]]
+        pairs = np.unique(a * n + b)
+        a, b = np.divmod(pairs, n)
+        ht, wt = self._top_shape
+        in_window = np.zeros(ht * wt, dtype=bool)
+        in_window.reshape(ht, wt)[t0:t1, u0:u1] = True
+        keep = ~in_window[self._top_block[self._top_edges[0]]]
+        weight = np.hypot(self._part_row[a] - self._part_row[b], self._part_col[a] - self._part_col[b]) \
+            * 0.5 * (self._part_cost[a] + self._part_cost[b])
+        self._top_edges = [np.concatenate([e[keep], new]) for e, new in zip(self._top_edges, (a, b, weight))]
+        ea, eb, ew = self._top_edges
+        self._top_graph = csr_matrix((np.maximum(ew, 1e-6), (ea, eb)), shape=(n, n))
 
     # --- planning ------------------------------------------------------------------------------
     def plan(self, start_xy, goal_xy):
@@ -281,7 +308,7 @@ class Planner(object):
         linked = np.stack(linked, axis=1)
         lengths = np.array([math.hypot(dr, dc) for dr, dc in _OFFSETS_8])
         weights = lengths[None, :] * 0.5 * (node_cost[free][:, None] + node_cost[targets])
-        parts = _CsrParts(linked, targets, weights, free, len(rows))
+        parts = _CsrParts(targets, np.where(linked, weights, np.inf), free, len(rows))
 
         def node(cell):
             return rank[cell[0] // k + 1, cell[1] // k + 1] * kk + (cell[0] % k) * k + cell[1] % k
@@ -329,25 +356,26 @@ class Planner(object):
 
 
 class _CsrParts(object):
-    """A directed graph in CSR order: node ``nodes[i]`` has edges to ``targets[i][linked[i]]``.
+    """A directed graph with a fixed number of edge slots per node (infinite weight: no edge).
 
-    ``subgraph`` cuts out the part a search may use.
+    Slot j of row i goes to ``targets[i, j]``; the rows are ``nodes`` (sorted ids, None: 0..)
+    of a graph of ``n`` nodes. Fixed slots keep a window update to an in-place write.
     """
 
-    def __init__(self, linked, targets, weights, nodes=None, n=None):
-        counts = linked.sum(axis=1)
-        n = len(linked) if n is None else n
+    def __init__(self, targets, weights, nodes=None, n=None):
+        slots = targets.shape[1]
+        n = len(targets) if n is None else n
         per_node = np.zeros(n, dtype=np.int64)
-        per_node[np.arange(len(linked)) if nodes is None else nodes] = counts
+        per_node[slice(None) if nodes is None else nodes] = slots
         self.n = n
         self.indptr = np.concatenate([[0], np.cumsum(per_node)])
-        self.indices = targets[linked]
-        self.weights = weights[linked]
+        self.indices = targets.ravel()
+        self.weights = weights.ravel()
 
     def subgraph(self, nodes):
         """CSR matrix of the graph restricted to ``nodes`` (sorted ids, renumbered 0..); None: all."""
         if nodes is None:
-            return csr_matrix((self.weights, self.indices, self.indptr), shape=(self.n, self.n))
+            nodes = np.arange(self.n)
         local = np.full(self.n, -1, dtype=np.int64)
         local[nodes] = np.arange(len(nodes))
         starts = self.indptr[nodes]
@@ -356,7 +384,7 @@ class _CsrParts(object):
         first = np.cumsum(counts) - counts
         edges = np.repeat(starts - first, counts) + np.arange(total)
         targets = local[self.indices[edges]]
-        ok = targets >= 0
+        ok = (targets >= 0) & np.isfinite(self.weights[edges])
         sources = np.repeat(np.arange(len(nodes)), counts)
         return csr_matrix((self.weights[edges][ok], (sources[ok], targets[ok])), shape=(len(nodes), len(nodes)))
 
