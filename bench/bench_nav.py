@@ -9,16 +9,23 @@ import os
 import sys
 import time
 
+import cv2
 import numpy as np
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "src"))
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 
 from inspection_robot.nav.costmap import Costmap  # noqa: E402
-from inspection_robot.nav.follower import DONE, FollowerParams, PathFollower  # noqa: E402
+from inspection_robot.angles import wrap_angle  # noqa: E402
+from inspection_robot.interface import (MOVE_VELOCITY_X_UNIT_M_S, MOVE_VELOCITY_YAW_UNIT_RAD_S,  # noqa: E402
+                                        SENDER_MOVE_BASE)
+from inspection_robot.motion.controller import MotionController  # noqa: E402
+from inspection_robot.motion.velocity import VelocityLimits  # noqa: E402
+from inspection_robot.nav.follower import ALIGN, DONE, FollowerParams, PathFollower, stop_spin_go_params  # noqa: E402
 from inspection_robot.nav.goal import MoveGoal  # noqa: E402
 from inspection_robot.nav.obstacle import FORWARD, CorridorDetector, cloud_bytes, xyz_from_cloud  # noqa: E402
 from inspection_robot.nav.planner import Planner  # noqa: E402
+from inspection_robot.sim.chassis import SimChassis  # noqa: E402
 from nav_reference import path_cost, reference_path  # noqa: E402
 from nav_yards import STYLES, make_yard, pairs  # noqa: E402
 
@@ -85,8 +92,9 @@ def bench_planner(styles, seeds, pairs_per_yard, reference_per_yard):
 def bench_virtual_edit(costmap, planner, near_xy):
     """ms until the next plan can start after adding, moving and deleting one 4 m virtual wall."""
     x, y = near_xy
-    wall = ([[x + 2.0, y - 2.0], [x + 2.0, y + 2.0]], False)
-    moved = ([[x + 3.0, y - 2.0], [x + 3.0, y + 2.0]], False)
+    side = 1.0 if x < 100.0 else -1.0  # towards the middle of the yard
+    wall = ([[x + 2.0 * side, y - 2.0], [x + 2.0 * side, y + 2.0]], False)
+    moved = ([[x + 3.0 * side, y - 2.0], [x + 3.0 * side, y + 2.0]], False)
     out = []
     for layer in ([wall], [moved], []):
         started = time.perf_counter()
@@ -94,6 +102,78 @@ def bench_virtual_edit(costmap, planner, near_xy):
         planner.refresh()
         out.append((time.perf_counter() - started) * 1000.0)
     return out
+
+
+def staircase(costmap, corners=10, leg_m=8.0):
+    """Patrol route of right-angle corners, placed at the first spot of the yard where all its points are free."""
+    grid = costmap.grid
+    for shift in range(400):
+        x0, y0 = 20.0 + 2.0 * (shift % 20), 20.0 + 2.0 * (shift // 20)
+        route = [(x0 + leg_m * ((i + 1) // 2), y0 + leg_m * (i // 2)) for i in range(corners + 2)]
+        if all(costmap.free(*grid.world_to_cell(x, y)) for x, y in route):
+            return route
+    raise RuntimeError("no free spot for the route")
+
+
+def drive_on_chassis(path, goal, params, clearance, timeout_s=900.0):
+    """Follower at 20 Hz -> MotionController at 50 Hz -> SimChassis, on a fake clock.
+
+    Returns (seconds to DONE, final pose, minimum clearance (m) on the way, spins in place).
+    """
+    clock = [0.0]
+    chassis = SimChassis(lambda: clock[0], (path[0][0], path[0][1], math.atan2(path[1][1] - path[0][1],
+                                                                                path[1][0] - path[0][0])))
+    controller = MotionController(chassis, VelocityLimits(1.0, 1.0, 5.0, 5.0), 0.5, lambda: clock[0])
+    follower = PathFollower(np.asarray(path, dtype=float), goal, params)
+    tick, step, spins, phase = 0.01, 0, 0, None
+    min_clearance = float("inf")
+    while clock[0] < timeout_s:
+        (x, y, yaw), _velocity = chassis.true_pose()
+        min_clearance = min(min_clearance, clearance(x, y))
+        if step % 5 == 0:
+            progress = follower.step(x, y, yaw)
+            if progress.phase == ALIGN and phase != ALIGN:
+                spins += 1
+            phase = progress.phase
+            if phase == DONE:
+                return clock[0], (x, y, yaw), min_clearance, spins
+            cmd = progress.command
+            controller.on_move_cmd(SENDER_MOVE_BASE, cmd.velocity_x / MOVE_VELOCITY_X_UNIT_M_S,
+                                   cmd.velocity_yaw / MOVE_VELOCITY_YAW_UNIT_RAD_S, cmd.wheel_control)
+        if step % 2 == 0:
+            controller.tick()
+        clock[0] += tick
+        step += 1
+    raise RuntimeError("route not finished in %.0f s" % timeout_s)
+
+
+def bench_route():
+    """Standard patrol route with 10 corners: regulated pure pursuit against stop-spin-go."""
+    grid = make_yard("posts", 1)
+    costmap = Costmap(grid, robot_radius=0.45, safety_margin=0.3)
+    planner = Planner(costmap)
+    route = staircase(costmap)
+    legs = [planner.plan(a, b).points for a, b in zip(route[:-1], route[1:])]
+    path = np.vstack([legs[0]] + [leg[1:] for leg in legs[1:]])
+    obstacles = costmap._static | costmap.virtual
+    distance = cv2.distanceTransform((~obstacles).astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+
+    def clearance(x, y):
+        row, col = grid.world_to_cell(x, y)
+        return float(distance[row, col]) * grid.resolution
+
+    goal = MoveGoal(route[-1][0], route[-1][1], math.pi, True, True, False, 1.0, 1.0)
+    out = {}
+    for name, params in (("stop_spin_go", stop_spin_go_params()), ("regulated", FollowerParams())):
+        seconds, (x, y, yaw), min_clearance, spins = drive_on_chassis(path, goal, params, clearance)
+        out[name] = seconds
+        print(json.dumps({"bench": "nav_route_10_corners_88m", "follower": name, "seconds": round(seconds, 1),
+                          "min_clearance_m": round(min_clearance, 3), "spins": spins,
+                          "goal_error_m": round(math.hypot(x - goal.x, y - goal.y), 4),
+                          "yaw_error_deg": round(abs(math.degrees(wrap_angle(yaw - goal.yaw))), 2),
+                          "path_m": round(float(np.hypot(*np.diff(path, axis=0).T).sum()), 1)}))
+    print(json.dumps({"bench": "nav_route_time_saved", "percent": round(100.0 * (1.0 - out["regulated"]
+                                                                                 / out["stop_spin_go"]), 1)}))
 
 
 def bench_follower():
@@ -138,11 +218,13 @@ def main():
     parser.add_argument("--seeds", default="1,2", help="yard seeds, comma-separated")
     parser.add_argument("--pairs", type=int, default=40, help="start/goal pairs per yard")
     parser.add_argument("--reference", type=int, default=6, help="pairs per yard checked against the optimum")
-    parser.add_argument("--only", default="", help="planner|follower|detector (default: all)")
+    parser.add_argument("--only", default="", help="planner|route|follower|detector (default: all)")
     args = parser.parse_args()
     rng = np.random.default_rng(7)
     if args.only in ("", "follower"):
         bench_follower()
+    if args.only in ("", "route"):
+        bench_route()
     if args.only in ("", "detector"):
         bench_detector(rng)
     if args.only in ("", "planner"):
