@@ -172,7 +172,8 @@ def test_huge_virtual_polygon_is_a_full_window_not_a_stall():
     t = np.linspace(0.0, 2.0 * math.pi, 10000, endpoint=False)
     ring = np.stack([10.0 + 5e4 * np.cos(t), 10.0 + 5e4 * np.sin(t)], axis=1).tolist()
     window = costmap.set_virtual([(ring, True)])
-    assert window is None  # nothing of it lies on the map
+    assert (window.r1 - window.r0, window.c1 - window.c0) == costmap.shape  # it spans the map: full rebuild
+    assert not costmap.virtual.any()  # its outline lies off the map
     fence = [[-1e3, 10.0], [1e3, 10.0]]  # crosses the whole map: a wall from edge to edge
     costmap.set_virtual([(ring, True), (fence, False)])
     with pytest.raises(PlanningError, match="not reachable"):
