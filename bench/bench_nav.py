@@ -37,7 +37,7 @@ def percentiles(samples_s):
 
 def bench_planner(styles, seeds, pairs_per_yard, reference_per_yard):
     """Per yard: costmap build, plan p50/p99 over pairs >= 40 m apart, length and cost vs the optimum."""
-    all_times, ratios, cost_ratios, builds, edits = [], [], [], [], []
+    all_times, cpu_times, ratios, cost_ratios, builds, edits = [], [], [], [], [], []
     for style in styles:
         for seed in seeds:
             grid = make_yard(style, seed)
@@ -51,9 +51,10 @@ def bench_planner(styles, seeds, pairs_per_yard, reference_per_yard):
             samples = pairs(costmap, rng, pairs_per_yard)
             yard_ratios, yard_cost_ratios = [], []
             for i, (a, b) in enumerate(samples):
-                started = time.perf_counter()
+                started, cpu = time.perf_counter(), time.process_time()
                 plan = planner.plan(a, b)
                 times.append(time.perf_counter() - started)
+                cpu_times.append(time.process_time() - cpu)
                 if i < reference_per_yard:
                     ref = reference_path(costmap, a, b)
                     if ref is None or ref[2]:
@@ -75,8 +76,9 @@ def bench_planner(styles, seeds, pairs_per_yard, reference_per_yard):
                               "cost_ratio_max": round(max(yard_cost_ratios), 4) if yard_cost_ratios else None,
                               "n_reference": len(yard_ratios)}))
     p50, p99 = percentiles(all_times)
-    print(json.dumps({"bench": "nav_plan_200m_5cm", "p50_ms": p50, "p99_ms": p99, "n": len(all_times),
-                      "yards": len(styles) * len(seeds)}))
+    c50, c99 = percentiles(cpu_times)
+    print(json.dumps({"bench": "nav_plan_200m_5cm", "p50_ms": p50, "p99_ms": p99, "cpu_p50_ms": c50, "cpu_p99_ms": c99,
+                      "n": len(all_times), "yards": len(styles) * len(seeds)}))
     print(json.dumps({"bench": "nav_costmap_build_200m_5cm", "max_ms": round(max(builds), 1),
                       "mean_ms": round(float(np.mean(builds)), 1)}))
     e50, e99 = percentiles(np.array(edits) / 1000.0)
@@ -121,8 +123,8 @@ def drive_on_chassis(path, goal, params, clearance, timeout_s=900.0):
     Returns (seconds to DONE, final pose, minimum clearance (m) on the way, spins in place).
     """
     clock = [0.0]
-    chassis = SimChassis(lambda: clock[0], (path[0][0], path[0][1], math.atan2(path[1][1] - path[0][1],
-                                                                                path[1][0] - path[0][0])))
+    heading = math.atan2(path[1][1] - path[0][1], path[1][0] - path[0][0])
+    chassis = SimChassis(lambda: clock[0], (path[0][0], path[0][1], heading))
     controller = MotionController(chassis, VelocityLimits(1.0, 1.0, 5.0, 5.0), 0.5, lambda: clock[0])
     follower = PathFollower(np.asarray(path, dtype=float), goal, params)
     tick, step, spins, phase = 0.01, 0, 0, None
