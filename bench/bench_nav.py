@@ -55,7 +55,7 @@ def bench_planner(styles, seeds, pairs_per_yard, reference_per_yard):
                 plan = planner.plan(a, b)
                 times.append(time.perf_counter() - started)
                 cpu_times.append(time.process_time() - cpu)
-                if i < reference_per_yard:
+                if len(yard_ratios) < reference_per_yard:
                     ref = reference_path(costmap, a, b)
                     if ref is None or ref[2]:
                         continue

@@ -12,13 +12,18 @@ from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import dijkstra
 
 
-def reference_path(costmap, start_xy, goal_xy, margin_m=15.0):
-    """Return (cells (N, 2) of the min-cost 8-connected path, its cost, touches_border) or None."""
+def reference_path(costmap, start_xy, goal_xy, margin_m=15.0, max_cells=6000000):
+    """Return (cells (N, 2) of the min-cost 8-connected path, its cost, touches_border) or None.
+
+    None also when the window would exceed ``max_cells`` (the graph would not fit the memory).
+    """
     grid = costmap.grid
     a, b = grid.world_to_cell(*start_xy), grid.world_to_cell(*goal_xy)
     m = int(margin_m / grid.resolution)
     r0, r1 = max(min(a[0], b[0]) - m, 0), min(max(a[0], b[0]) + m + 1, grid.height)
     c0, c1 = max(min(a[1], b[1]) - m, 0), min(max(a[1], b[1]) + m + 1, grid.width)
+    if (r1 - r0) * (c1 - c0) > max_cells:
+        return None
     cost = costmap.cost[r0:r1, c0:c1].astype(np.float64)
     h, w = cost.shape
     free = np.isfinite(cost)

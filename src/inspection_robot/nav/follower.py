@@ -9,8 +9,9 @@ Each ``step(pose)`` returns a Command (m/s, rad/s, wheel mode) for robot_control
   lookahead grows with speed (``lookahead_time`` x speed, between ``lookahead_min`` and
   ``lookahead``), the curvature is capped at 1 / ``min_turn_radius`` (the chassis' straight-mode
   limit), and the speed is regulated so that every corner within braking distance is taken with
-  at most ``corner_accel`` lateral acceleration; slowing down near the goal; backward goals drive
-  with negative speed and pursue with the robot's rear;
+  at most ``corner_accel`` lateral acceleration (braking for it at ``corner_decel``); slowing
+  down near the goal (at ``decel``, below the chassis' limit so a late 20 Hz tick cannot
+  overshoot); backward goals drive with negative speed and pursue with the robot's rear;
 - ``spin``: with_direction goals turn in place to the goal heading at the end;
 - ``done``: zero command.
 
@@ -33,14 +34,16 @@ ALIGN, TRACK, SPIN, DONE = "align", "track", "spin", "done"
 class FollowerParams(object):
     def __init__(self, lookahead_m=0.8, xy_tolerance_m=0.05, xy_tolerance_precise_m=0.01,
                  yaw_tolerance_rad=0.035, yaw_tolerance_precise_rad=0.015, spin_enter_rad=1.57,
-                 spin_exit_rad=0.15, decel_m_s2=0.7, approach_gain=1.5, min_speed_m_s=0.05,
+                 spin_exit_rad=0.15, decel_m_s2=0.5, approach_gain=1.5, min_speed_m_s=0.05,
                  min_speed_precise_m_s=0.02, min_yaw_rate_rad_s=0.05, yaw_gain=3.0, yaw_decel_rad_s2=1.0,
-                 lookahead_min_m=0.4, lookahead_time_s=1.0, min_turn_radius_m=0.65, corner_accel_m_s2=1.0):
+                 lookahead_min_m=0.4, lookahead_time_s=1.0, min_turn_radius_m=0.65, corner_accel_m_s2=1.0,
+                 corner_decel_m_s2=0.7):
         self.lookahead = float(lookahead_m)
         self.lookahead_min = min(float(lookahead_min_m), self.lookahead)
         self.lookahead_time = float(lookahead_time_s)
         self.min_turn_radius = float(min_turn_radius_m)
         self.corner_accel = float(corner_accel_m_s2)
+        self.corner_decel = float(corner_decel_m_s2)
         self.xy_tolerance = float(xy_tolerance_m)
         self.xy_tolerance_precise = float(xy_tolerance_precise_m)
         self.yaw_tolerance = float(yaw_tolerance_rad)
@@ -160,7 +163,7 @@ class PathFollower(object):
         if not near.any():
             return float("inf")
         distance = np.maximum(ahead[near], 0.0)
-        return float(np.sqrt(self._corner_speed[near] ** 2 + 2.0 * self.p.decel * distance).min())
+        return float(np.sqrt(self._corner_speed[near] ** 2 + 2.0 * self.p.corner_decel * distance).min())
 
     def _pursue(self, alpha, goal_dist, remaining, lookahead):
         to_go = max(remaining, goal_dist)
@@ -187,7 +190,7 @@ class PathFollower(object):
 
 def stop_spin_go_params(**overrides):
     """The follower as it drove before regulation (fixed 0.6 m lookahead, spin beyond 1 rad): a baseline."""
-    values = dict(lookahead_m=0.6, lookahead_min_m=0.6, spin_enter_rad=1.0, decel_m_s2=0.5, min_turn_radius_m=0.0,
+    values = dict(lookahead_m=0.6, lookahead_min_m=0.6, spin_enter_rad=1.0, min_turn_radius_m=0.0,
                   corner_accel_m_s2=1e9)
     values.update(overrides)
     return FollowerParams(**values)
