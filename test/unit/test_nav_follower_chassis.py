@@ -92,3 +92,14 @@ def test_backward_goal_on_the_chassis():
     (x, y, yaw), _seconds, phases = drive([[0, 0], [-6, 0]], goal, (0.0, 0.0, 0.0))
     assert math.hypot(x + 6.0, y) < 0.1
     assert abs(yaw) < 0.05 and "align" not in phases
+
+
+def test_corners_driven_without_stopping_and_docked_precisely():
+    # staircase of 8 right-angle corners, 6 m legs; a precise goal with heading at the end
+    path = [[6.0 * ((i + 1) // 2), 6.0 * (i // 2)] for i in range(10)]
+    goal = MoveGoal(path[-1][0], path[-1][1], math.pi / 2, True, True, False, 1.0, 1.0)
+    (x, y, yaw), seconds, phases = drive(path, goal, (0.0, 0.0, 0.0))
+    assert "align" not in phases  # no stop-and-spin on the way
+    assert math.hypot(x - goal.x, y - goal.y) <= 0.02
+    assert abs(math.degrees(wrap_angle(yaw - goal.yaw))) <= 1.0
+    assert seconds < 70.0  # 54 m at <= 1 m/s: the corners cost little

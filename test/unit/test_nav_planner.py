@@ -143,3 +143,38 @@ def test_virtual_obstacles_never_touch_the_static_map():
     costmap.set_virtual([([[5.0, 5.0], [6.0, 6.0]], False)])
     assert (grid.occupancy == before).all()
     assert not np.isfinite(costmap.cost[grid.world_to_cell(5.5, 5.5)])
+
+
+def test_bad_input_fails_clearly():
+    costmap = Costmap(empty_grid(), robot_radius=0.4, safety_margin=0.3)
+    planner = Planner(costmap)
+    with pytest.raises(PlanningError, match="outside the map"):
+        planner.plan((2.0, 2.0), (500.0, 2.0))
+    with pytest.raises(PlanningError, match="finite"):
+        planner.plan((2.0, 2.0), (float("nan"), 2.0))
+    with pytest.raises(PlanningError, match="inside an obstacle"):
+        planner.plan((2.0, 2.0), (0.1, 0.1))
+
+
+def test_map_without_free_cell_fails_clearly():
+    occ = np.full((200, 200), 100, dtype=np.int8)
+    costmap = Costmap(GridMap(occ, RES, (0.0, 0.0, 0.0)), robot_radius=0.4, safety_margin=0.3)
+    planner = Planner(costmap)
+    with pytest.raises(PlanningError, match="inside an obstacle"):
+        planner.plan((5.0, 5.0), (6.0, 6.0))
+
+
+def test_huge_virtual_polygon_is_a_full_window_not_a_stall():
+    grid = empty_grid()
+    costmap = Costmap(grid, robot_radius=0.4, safety_margin=0.3)
+    planner = Planner(costmap)
+    # a polygon far larger than the map with 10,000 points (the most the command accepts)
+    t = np.linspace(0.0, 2.0 * math.pi, 10000, endpoint=False)
+    ring = np.stack([10.0 + 5e4 * np.cos(t), 10.0 + 5e4 * np.sin(t)], axis=1).tolist()
+    window = costmap.set_virtual([(ring, True)])
+    assert (window.r1 - window.r0, window.c1 - window.c0) == costmap.shape  # it spans the map: full rebuild
+    assert not costmap.virtual.any()  # its outline lies off the map
+    fence = [[-1e3, 10.0], [1e3, 10.0]]  # crosses the whole map: a wall from edge to edge
+    costmap.set_virtual([(ring, True), (fence, False)])
+    with pytest.raises(PlanningError, match="not reachable"):
+        planner.plan((5.0, 5.0), (5.0, 15.0))

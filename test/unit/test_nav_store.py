@@ -56,6 +56,8 @@ def test_commands_round_trip_through_the_file(tmp_path):
     ("add", '{"id":"a","points":[[2,2],[1e8,2]]}', "points[1] is 1e+08 m"),
     ("add", '{"id":"a","points":[[2,2],[1e300,2]]}', "at most 100000 m"),
     ("add", '{"id":"a","points":' + "[" * 100000 + "]" * 100000 + '}', "not valid JSON"),
+    ("add", '{"id":"a","points":' + json.dumps([[1.5, 2.5]] * 2000000) + '}', "at most 1000000 (10000 points)"),
+    ("add", '{"id":"a","points":' + json.dumps([[1.5, 2.5]] * 10001) + '}', "points must be a list of 1..10000"),
     ("modify", '{"id":"ghost","points":[[0,0]]}', "no virtual obstacle"),
     ("delete", '{"id":"ghost"}', "no virtual obstacle"),
     ("query", '{"id":"ghost"}', "no virtual obstacle"),

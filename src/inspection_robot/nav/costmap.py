@@ -1,18 +1,86 @@
 """Planning costmap: static map + rasterised virtual obstacles, inflated by the robot's footprint.
 
 Virtual obstacles are drawn into a layer of their own that only the planner sees; the static
-map published for localization is never modified. Inflation uses one exact Euclidean distance
-transform (OpenCV) per change: cells closer than ``robot_radius`` to an obstacle are lethal, cells
-within ``robot_radius + safety_margin`` carry a cost that decays linearly, so paths keep clear of
-walls when they can. Free space is labelled into 8-connected components once per change, so
-"goal unreachable" is answered exactly without searching.
+map published for localization is never modified. Inflation uses an exact Euclidean distance
+transform (OpenCV): cells closer than ``robot_radius`` to an obstacle are lethal, cells within
+``robot_radius + safety_margin`` carry a cost that decays linearly, so paths keep clear of walls
+when they can. Free space is labelled into 8-connected components after every change, so "goal
+unreachable" is answered exactly without searching.
+
+A change of the virtual layer is incremental: only the window its polylines and their inflation
+touch is redrawn and re-inflated (a cell's cost depends on obstacles within
+``robot_radius + safety_margin`` only), and the result equals a full rebuild exactly.
+``version`` counts changes and ``changes_since(version)`` tells a planner which windows to update.
 """
+import math
+
 import cv2
 import numpy as np
 
 from inspection_robot.nav.gridmap import OCC_UNKNOWN
 
 LETHAL = np.float32(np.inf)
+_SHIFT = 4  # sub-pixel bits of cv2.polylines
+
+
+class Window(object):
+    """Half-open cell rectangle rows [r0, r1) x cols [c0, c1)."""
+
+    __slots__ = ("r0", "r1", "c0", "c1")
+
+    def __init__(self, r0, r1, c0, c1):
+        self.r0, self.r1, self.c0, self.c1 = int(r0), int(r1), int(c0), int(c1)
+
+    def empty(self):
+        return self.r0 >= self.r1 or self.c0 >= self.c1
+
+    def grown(self, cells, shape):
+        return Window(max(self.r0 - cells, 0), min(self.r1 + cells, shape[0]),
+                      max(self.c0 - cells, 0), min(self.c1 + cells, shape[1]))
+
+    def union(self, other):
+        if self.empty():
+            return other
+        if other.empty():
+            return self
+        return Window(min(self.r0, other.r0), max(self.r1, other.r1), min(self.c0, other.c0), max(self.c1, other.c1))
+
+    def overlaps(self, other):
+        return not (self.empty() or other.empty() or self.r1 <= other.r0 or other.r1 <= self.r0
+                    or self.c1 <= other.c0 or other.c1 <= self.c0)
+
+    def slices(self):
+        return slice(self.r0, self.r1), slice(self.c0, self.c1)
+
+    def __repr__(self):
+        return "Window(%d, %d, %d, %d)" % (self.r0, self.r1, self.c0, self.c1)
+
+
+def _fixed_point(points, resolution, origin):
+    """Polyline vertices in cv2.polylines' fixed-point map coordinates (col, row) << _SHIFT."""
+    pts = np.asarray(points, dtype=np.float64).reshape(-1, 2)
+    scale = float(1 << _SHIFT) / resolution
+    # cell (row, col) has its centre at origin + (col + 0.5, row + 0.5) * resolution
+    cols = (pts[:, 0] - origin[0]) * scale - (1 << (_SHIFT - 1))
+    rows = (pts[:, 1] - origin[1]) * scale - (1 << (_SHIFT - 1))
+    poly = np.round(np.stack([cols, rows], axis=1)).astype(np.int64)
+    if len(poly) == 1:
+        poly = np.concatenate([poly, poly])
+    return poly
+
+
+def _draw(mask, poly, closed, r0=0, c0=0):
+    """Draw a fixed-point polyline into ``mask`` whose cell (0, 0) is map cell (r0, c0)."""
+    local = poly - np.array([c0 << _SHIFT, r0 << _SHIFT], dtype=np.int64)
+    cv2.polylines(mask, [local.astype(np.int32).reshape(-1, 1, 2)], bool(closed), 1, thickness=1,
+                  lineType=cv2.LINE_8, shift=_SHIFT)
+
+
+def _bounds(poly, shape):
+    """Window of the cells a fixed-point polyline can touch, clipped to the map (may be empty)."""
+    cells = poly >> _SHIFT
+    return Window(cells[:, 1].min() - 1, cells[:, 1].max() + 3, cells[:, 0].min() - 1, cells[:, 0].max() + 3) \
+        .grown(0, shape)
 
 
 def rasterise_polylines(shape, polylines, resolution, origin):
@@ -22,20 +90,18 @@ def rasterise_polylines(shape, polylines, resolution, origin):
     diagonal gap a 4-neighbour step could slip through once inflated by at least one cell.
     """
     mask = np.zeros(shape, dtype=np.uint8)
-    shift = 4  # sub-pixel bits of cv2.polylines
-    scale = float(1 << shift) / resolution
     for points, closed in polylines:
-        pts = np.asarray(points, dtype=np.float64).reshape(-1, 2)
-        if len(pts) == 0:
+        if len(points) == 0:
             continue
-        # cell (row, col) has its centre at origin + (col + 0.5, row + 0.5) * resolution
-        cols = (pts[:, 0] - origin[0]) * scale - (1 << (shift - 1))
-        rows = (pts[:, 1] - origin[1]) * scale - (1 << (shift - 1))
-        poly = np.round(np.stack([cols, rows], axis=1)).astype(np.int32).reshape(-1, 1, 2)
-        if len(pts) == 1:
-            poly = np.concatenate([poly, poly])
-        cv2.polylines(mask, [poly], bool(closed), 1, thickness=1, lineType=cv2.LINE_8, shift=shift)
+        _draw(mask, _fixed_point(points, resolution, origin), closed)
     return mask.astype(bool)
+
+
+class _Polyline(object):
+    __slots__ = ("key", "poly", "closed", "bounds")
+
+    def __init__(self, key, poly, closed, bounds):
+        self.key, self.poly, self.closed, self.bounds = key, poly, closed, bounds
 
 
 class Costmap(object):
@@ -53,8 +119,13 @@ class Costmap(object):
             static |= grid.occupancy == OCC_UNKNOWN
         self._static = static
         self.virtual = np.zeros_like(static)
+        self._polylines = []
+        # a cell's cost depends on obstacle cells within this many cells (+1 for rounding)
+        self._reach = int(math.ceil((self.robot_radius + self.safety_margin) / grid.resolution)) + 2
         self.cost = None
         self.labels = None
+        self.version = 0
+        self._changes = []  # (version, Window or None = everything)
         self.rebuild()
 
     @property
@@ -66,27 +137,101 @@ class Costmap(object):
         return self._static.shape
 
     def set_virtual(self, polylines):
-        """Replace the virtual obstacle layer with ``[(points, closed), ...]`` and re-inflate."""
-        self.virtual = rasterise_polylines(self.shape, polylines, self.grid.resolution, self.grid.origin)
-        self.rebuild()
+        """Replace the virtual obstacle layer with ``[(points, closed), ...]`` and re-inflate.
+
+        Only the polylines that differ from the current layer are redrawn, and only the window
+        they and their inflation touch is re-inflated. Returns that window (None: nothing changed).
+        """
+        wanted = []
+        for points, closed in polylines:
+            if len(points) == 0:
+                continue
+            poly = _fixed_point(points, self.grid.resolution, self.grid.origin)
+            key = (poly.tobytes(), bool(closed))
+            wanted.append(_Polyline(key, poly, bool(closed), _bounds(poly, self.shape)))
+        old_keys = sorted(p.key for p in self._polylines)
+        new_keys = sorted(p.key for p in wanted)
+        if old_keys == new_keys:
+            return None
+        remaining = list(new_keys)
+        window = Window(0, 0, 0, 0)
+        for p in self._polylines:  # removed ones
+            if p.key in remaining:
+                remaining.remove(p.key)
+            else:
+                window = window.union(p.bounds)
+        kept = list(old_keys)
+        for p in wanted:  # added ones
+            if p.key in kept:
+                kept.remove(p.key)
+            else:
+                window = window.union(p.bounds)
+        self._polylines = wanted
+        if window.empty():  # every change lies outside the map
+            return None
+        # redraw whole polylines only (no clipping at the window edge, which could move pixels)
+        while True:
+            grown = window
+            for p in wanted:
+                if p.bounds.overlaps(window):
+                    grown = grown.union(p.bounds)
+            if (grown.r0, grown.r1, grown.c0, grown.c1) == (window.r0, window.r1, window.c0, window.c1):
+                break
+            window = grown
+        mask = np.zeros((window.r1 - window.r0, window.c1 - window.c0), dtype=np.uint8)
+        for p in wanted:
+            if p.bounds.overlaps(window):
+                _draw(mask, p.poly, p.closed, window.r0, window.c0)
+        self.virtual[window.slices()] = mask.astype(bool)
+        touched = window.grown(self._reach, self.shape)
+        self._inflate(touched)
+        self._label()
+        self.version += 1
+        self._changes.append((self.version, touched))
+        del self._changes[:-64]
+        return touched
 
     def rebuild(self):
-        obstacles = self._static | self.virtual
+        """Re-inflate the whole map."""
+        self.cost = np.ones(self.shape, dtype=np.float32)
+        self._inflate(Window(0, self.shape[0], 0, self.shape[1]))
+        self._label()
+        self.version += 1
+        self._changes.append((self.version, None))
+        del self._changes[:-64]
+
+    def changes_since(self, version):
+        """Windows changed after ``version``; None when the whole map must be taken as changed."""
+        if version == self.version:
+            return []
+        if not self._changes or self._changes[0][0] > version + 1:
+            return None
+        windows = [w for v, w in self._changes if v > version]
+        return None if any(w is None for w in windows) else windows
+
+    def _inflate(self, window):
+        """Recompute the cost of ``window`` from the obstacles within reach of it."""
+        source = window.grown(self._reach, self.shape)
+        rows, cols = source.slices()
+        obstacles = self._static[rows, cols] | self.virtual[rows, cols]
         res = self.grid.resolution
         if obstacles.any():
             # exact Euclidean distance (m) from each cell centre to the nearest obstacle cell centre
             dist = cv2.distanceTransform((~obstacles).astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE) * res
         else:
-            dist = np.full(self.shape, np.float32(1e9))
+            dist = np.full(obstacles.shape, np.float32(1e9))
+        dist = dist[window.r0 - source.r0:window.r1 - source.r0, window.c0 - source.c0:window.c1 - source.c0]
         lethal = dist < max(self.robot_radius, res * 0.5)
-        cost = np.ones(self.shape, dtype=np.float32)
+        cost = np.ones(dist.shape, dtype=np.float32)
         if self.safety_margin > 0:
             band = (dist - self.robot_radius) / self.safety_margin
             near = ~lethal & (band < 1.0)
             cost[near] += self.margin_cost * (1.0 - band[near])
         cost[lethal] = LETHAL
-        self.cost = cost
-        _count, self.labels = cv2.connectedComponents((~lethal).astype(np.uint8), connectivity=8)
+        self.cost[window.slices()] = cost
+
+    def _label(self):
+        _count, self.labels = cv2.connectedComponents(np.isfinite(self.cost).view(np.uint8), connectivity=8)
 
     def free(self, row, col):
         return self.grid.contains(row, col) and np.isfinite(self.cost[row, col])

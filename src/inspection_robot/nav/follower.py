@@ -1,11 +1,17 @@
-"""Path follower: pure pursuit along the planned polyline, spins in place when needed.
+"""Path follower: regulated pure pursuit along the planned polyline, spins in place only when needed.
 
 Each ``step(pose)`` returns a Command (m/s, rad/s, wheel mode) for robot_control and the progress
 (remaining distance, lateral error). Phases:
 
-- ``align``: heading far from the path direction -> spin in place (steer mode, wheel_control 1);
-- ``track``: pure pursuit in straight mode (wheel_control 0, velocity_yaw steers), slowing down
-  near the goal; backward goals drive with negative speed and pursue with the robot's rear;
+- ``align``: heading far from the path direction (more than ``spin_enter``) -> spin in place
+  (steer mode, wheel_control 1);
+- ``track``: regulated pure pursuit in straight mode (wheel_control 0, velocity_yaw steers): the
+  lookahead grows with speed (``lookahead_time`` x speed, between ``lookahead_min`` and
+  ``lookahead``), the curvature is capped at 1 / ``min_turn_radius`` (the chassis' straight-mode
+  limit), and the speed is regulated so that every corner within braking distance is taken with
+  at most ``corner_accel`` lateral acceleration (braking for it at ``corner_decel``); slowing
+  down near the goal (at ``decel``, below the chassis' limit so a late 20 Hz tick cannot
+  overshoot); backward goals drive with negative speed and pursue with the robot's rear;
 - ``spin``: with_direction goals turn in place to the goal heading at the end;
 - ``done``: zero command.
 
@@ -26,11 +32,18 @@ ALIGN, TRACK, SPIN, DONE = "align", "track", "spin", "done"
 
 
 class FollowerParams(object):
-    def __init__(self, lookahead_m=0.6, xy_tolerance_m=0.05, xy_tolerance_precise_m=0.01,
-                 yaw_tolerance_rad=0.035, yaw_tolerance_precise_rad=0.015, spin_enter_rad=1.0,
+    def __init__(self, lookahead_m=0.8, xy_tolerance_m=0.05, xy_tolerance_precise_m=0.01,
+                 yaw_tolerance_rad=0.035, yaw_tolerance_precise_rad=0.015, spin_enter_rad=1.57,
                  spin_exit_rad=0.15, decel_m_s2=0.5, approach_gain=1.5, min_speed_m_s=0.05,
-                 min_speed_precise_m_s=0.02, min_yaw_rate_rad_s=0.05, yaw_gain=3.0, yaw_decel_rad_s2=1.0):
+                 min_speed_precise_m_s=0.02, min_yaw_rate_rad_s=0.05, yaw_gain=3.0, yaw_decel_rad_s2=1.0,
+                 lookahead_min_m=0.4, lookahead_time_s=1.0, min_turn_radius_m=0.65, corner_accel_m_s2=1.0,
+                 corner_decel_m_s2=0.7):
         self.lookahead = float(lookahead_m)
+        self.lookahead_min = min(float(lookahead_min_m), self.lookahead)
+        self.lookahead_time = float(lookahead_time_s)
+        self.min_turn_radius = float(min_turn_radius_m)
+        self.corner_accel = float(corner_accel_m_s2)
+        self.corner_decel = float(corner_decel_m_s2)
         self.xy_tolerance = float(xy_tolerance_m)
         self.xy_tolerance_precise = float(xy_tolerance_precise_m)
         self.yaw_tolerance = float(yaw_tolerance_rad)
@@ -67,7 +80,17 @@ class PathFollower(object):
         self.direction = -1.0 if goal.backward else 1.0
         self.phase = ALIGN
         self._progress_s = 0.0
+        self._speed = 0.0  # last commanded speed (m/s), sets the lookahead
         self.length = float(self._cum[-1])
+        # corner speeds: turning angle at each inner vertex -> the speed to take it with
+        heading = np.arctan2(seg[:, 1], seg[:, 0])
+        turn = np.abs(np.angle(np.exp(1j * np.diff(heading)))) if len(seg) > 1 else np.zeros(0)
+        turn[self._seg_len[1:] < 1e-9] = 0.0
+        turn[self._seg_len[:-1] < 1e-9] = 0.0
+        radius = np.maximum(params.min_turn_radius,
+                            params.lookahead_min / np.maximum(2.0 * np.sin(turn / 2.0), 1e-9))
+        self._corner_s = self._cum[1:-1][turn > 0.05]
+        self._corner_speed = np.sqrt(params.corner_accel * radius)[turn > 0.05]
 
     def project(self, x, y):
         """Arc length of the closest path point (searching ahead of the last one) and its distance."""
@@ -100,17 +123,21 @@ class PathFollower(object):
             if goal_dist <= self.tolerance:
                 self.phase = SPIN if self.goal.with_direction else DONE
             else:
-                target = self.goal_point() if goal_dist <= self.p.lookahead else \
-                    self.point_at(self._progress_s + self.p.lookahead)
+                lookahead = min(max(self.p.lookahead_time * abs(self._speed), self.p.lookahead_min), self.p.lookahead)
+                target = self.goal_point() if goal_dist <= lookahead else \
+                    self.point_at(self._progress_s + lookahead)
                 alpha = wrap_angle(math.atan2(target[1] - y, target[0] - x) - heading)
-                far = goal_dist > 2.0 * self.p.lookahead
+                far = goal_dist > 2.0 * lookahead
                 if self.phase == TRACK and far and abs(alpha) > self.p.spin_enter:
                     self.phase = ALIGN
                 if self.phase == ALIGN:
                     if abs(alpha) > self.p.spin_exit and goal_dist > self.tolerance * 4:
+                        self._speed = 0.0
                         return Progress(ALIGN, remaining, lateral, self._spin(alpha))
                     self.phase = TRACK
-                return Progress(TRACK, remaining, lateral, self._pursue(alpha, goal_dist, remaining))
+                command = self._pursue(alpha, goal_dist, remaining, lookahead)
+                self._speed = command.velocity_x
+                return Progress(TRACK, remaining, lateral, command)
         if self.phase == SPIN:
             error = wrap_angle(self.goal.yaw - yaw)
             if abs(error) <= self.yaw_tolerance:
@@ -129,13 +156,28 @@ class PathFollower(object):
         rate = max(self.p.min_yaw_rate, rate)
         return Command(0.0, math.copysign(rate, error), WHEEL_STEER)
 
-    def _pursue(self, alpha, goal_dist, remaining):
+    def _corner_limit(self):
+        """Highest speed from which every corner ahead can still be reached at its corner speed."""
+        ahead = self._corner_s - self._progress_s
+        near = (ahead > -self.p.lookahead_min) & (ahead < 10.0)
+        if not near.any():
+            return float("inf")
+        distance = np.maximum(ahead[near], 0.0)
+        return float(np.sqrt(self._corner_speed[near] ** 2 + 2.0 * self.p.corner_decel * distance).min())
+
+    def _pursue(self, alpha, goal_dist, remaining, lookahead):
         to_go = max(remaining, goal_dist)
         # braking profile: constant deceleration, then a proportional approach (no overshoot at 20 Hz)
-        speed = min(self.goal.velocity_x, math.sqrt(2.0 * self.p.decel * to_go), self.p.approach_gain * to_go)
+        speed = min(self.goal.velocity_x, math.sqrt(2.0 * self.p.decel * to_go), self.p.approach_gain * to_go,
+                    self._corner_limit())
         speed = max(speed, self.min_speed)
-        lookahead = max(min(self.p.lookahead, goal_dist), 1e-3)
+        lookahead = max(min(lookahead, goal_dist), 1e-3)
         curvature = 2.0 * math.sin(alpha) / lookahead
+        if self.p.min_turn_radius > 0 and abs(curvature) > 1.0 / self.p.min_turn_radius:
+            curvature = math.copysign(1.0 / self.p.min_turn_radius, curvature)
+        # lateral acceleration cap for the curvature actually commanded
+        if abs(curvature) > 1e-9:
+            speed = max(min(speed, math.sqrt(self.p.corner_accel / abs(curvature))), self.min_speed)
         yaw_rate = speed * curvature
         if abs(yaw_rate) > self.goal.velocity_yaw:
             speed *= self.goal.velocity_yaw / abs(yaw_rate)
@@ -144,3 +186,11 @@ class PathFollower(object):
             speed = -min(speed, self.min_speed)
             yaw_rate = 0.0
         return Command(self.direction * speed, yaw_rate, WHEEL_STRAIGHT)
+
+
+def stop_spin_go_params(**overrides):
+    """The follower as it drove before regulation (fixed 0.6 m lookahead, spin beyond 1 rad): a baseline."""
+    values = dict(lookahead_m=0.6, lookahead_min_m=0.6, spin_enter_rad=1.0, min_turn_radius_m=0.0,
+                  corner_accel_m_s2=1e9)
+    values.update(overrides)
+    return FollowerParams(**values)

@@ -17,6 +17,9 @@ from inspection_robot.command import CommandError, CommandTable, parse_json
 from inspection_robot.files import FileError, read_json, write_json_atomic
 
 MAX_POINTS = 10000
+# a polyline of MAX_POINTS points fits in far less; a bigger message (millions of points) is
+# refused before it is parsed, so it cannot stall the node
+MAX_DATA_CHARS = 100 * MAX_POINTS
 MAX_ID_LENGTH = 128
 # |x|, |y| at most 100 km: a substation map is far smaller, and larger values (a unit error, mm for
 # m) would overflow the costmap's fixed-point rasteriser, which then drew the wall the wrong way.
@@ -25,6 +28,8 @@ MAX_COORDINATE_M = 1.0e5
 
 def parse_obstacle(data, need_points=True):
     """Validate command JSON; return (id, points, closed). Raises CommandError with the reason."""
+    if len(data) > MAX_DATA_CHARS:
+        raise CommandError("data is %d characters, at most %d (%d points)" % (len(data), MAX_DATA_CHARS, MAX_POINTS))
     obj = parse_json(data)
     if not isinstance(obj, dict):
         raise CommandError("data must be a JSON object")

@@ -41,9 +41,9 @@ from nav_msgs.msg import OccupancyGrid, Path
 
 from inspection_robot.angles import quaternion_from_yaw, wrap_angle, yaw_from_quaternion
 from inspection_robot.command import CommandError
-from inspection_robot.interface import (MODE_NAMES, MODE_TASK,
+from inspection_robot.interface import (MODE_TASK,
                                         MOVE_FEEDBACK_ALARM, MOVE_FEEDBACK_MOVING, MOVE_FEEDBACK_PLANNED,
-                                        MOVE_FEEDBACK_PLANNING, MOVE_RESULT_BLOCKED, MOVE_RESULT_CANCELLED,
+                                        MOVE_FEEDBACK_PLANNING, MOVE_RESULT_CANCELLED,
                                         MOVE_RESULT_LOCALIZATION_LOST, MOVE_RESULT_PLAN_FAILED,
                                         MOVE_RESULT_SUCCESS, MOVE_VELOCITY_X_UNIT_M_S, MOVE_VELOCITY_YAW_UNIT_RAD_S,
                                         NAV_LOCALIZATION_LOST, NAV_OBSTACLE_3D, NAV_OFF_TRACK, SENDER_MOVE_BASE,
@@ -57,6 +57,7 @@ from inspection_robot.nav.gridmap import load_map
 from inspection_robot.nav.localization import LocalizationMonitor, location_target
 from inspection_robot.files import FileError, read_json, write_json_atomic
 from inspection_robot.nav.planner import Planner, PlanningError
+from inspection_robot.nav.supervisor import FOLLOW, REPLAN, STOP, GoalAborted, GoalSupervisor
 from inspection_robot.nav.virtual_obstacles import VirtualObstacles
 from inspection_robot.ros.twin import CommandTwin
 from inspection_robot.ros.data_root import data_root, path_param
@@ -83,14 +84,6 @@ def pose_json(pose):
     return {"x": round(pose[0], 4), "y": round(pose[1], 4), "yaw": round(pose[2], 4)}
 
 
-class Aborted(Exception):
-    """Ends the running goal with ``ret_code`` and ``reason`` (actionlib state ABORTED)."""
-
-    def __init__(self, ret_code, reason):
-        Exception.__init__(self, reason)
-        self.ret_code = ret_code
-
-
 class MoveBase(object):
     def __init__(self, grid, costmap, planner, obstacles, localization, follower_params, cfg):
         self.grid = grid
@@ -105,7 +98,7 @@ class MoveBase(object):
         self.off_track = False
         self.control_mode = MODE_TASK  # robot_control's mode; task until heard otherwise
         self._costmap_lock = threading.Lock()
-        self._replan = threading.Event()
+        self._supervisor = None  # of the running goal
         self._last_saved_pose = None
 
         stamp = rospy.Time.now()
@@ -178,7 +171,9 @@ class MoveBase(object):
             self.costmap.set_virtual(self.obstacles.polylines())
             self.planner.refresh()
         self._publish_virtual()
-        self._replan.set()
+        supervisor = self._supervisor
+        if supervisor is not None:
+            supervisor.request_replan()
 
     # --- outputs -------------------------------------------------------------------------------
     def _publish_virtual(self):
@@ -242,7 +237,7 @@ class MoveBase(object):
         aborted = False
         try:
             ret_code, data = self._run(goal_msg)
-        except Aborted as end:
+        except GoalAborted as end:
             ret_code, data, aborted = end.ret_code, {"reason": str(end)}, True
         except rospy.ROSInterruptException:
             ret_code, data = MOVE_RESULT_CANCELLED, {"reason": "shutting down"}
@@ -261,24 +256,22 @@ class MoveBase(object):
             self._server.set_aborted(result, data.get("reason", ""))
         rospy.loginfo("move_base: goal finished with ret_code %s %s", ret_code, data)
 
-    def _check_localization(self):
-        problem = self.loc.problem(time.monotonic())
-        if problem and self.enable_bits & NAV_LOCALIZATION_LOST:
-            raise Aborted(MOVE_RESULT_LOCALIZATION_LOST, "localization lost: %s" % problem)
+    def _check_localization(self, supervisor):
+        supervisor.check_localization(self.loc.problem(time.monotonic()), self.enable_bits)
         return self.loc.pose
 
-    def _plan(self, goal):
+    def _plan(self, goal, supervisor):
         self._feedback(MOVE_FEEDBACK_PLANNING)
-        pose = self._check_localization()
+        pose = self._check_localization(supervisor)
         if pose is None:
-            raise Aborted(MOVE_RESULT_LOCALIZATION_LOST, "localization lost: no pose")
-        self._replan.clear()
+            raise GoalAborted(MOVE_RESULT_LOCALIZATION_LOST, "localization lost: no pose")
         started = time.monotonic()
+        supervisor.replanned(started)
         try:
             with self._costmap_lock:
                 plan = self.planner.plan(pose[:2], (goal.x, goal.y))
         except PlanningError as err:
-            raise Aborted(MOVE_RESULT_PLAN_FAILED, "planning failed: %s" % err)
+            raise GoalAborted(MOVE_RESULT_PLAN_FAILED, "planning failed: %s" % err)
         self._publish_plan(plan.points)
         self._feedback(MOVE_FEEDBACK_PLANNED, path_length=round(plan.length, 3),
                        planning_time=round(time.monotonic() - started, 3))
@@ -290,63 +283,45 @@ class MoveBase(object):
             goal = parse_move_goal(goal_msg.type, goal_msg.data, cfg["default_velocity_x"],
                                    cfg["default_velocity_yaw"], cfg["max_velocity_x"], cfg["max_velocity_yaw"])
         except CommandError as err:
-            raise Aborted(MOVE_RESULT_PLAN_FAILED, "bad goal: %s" % err)
-        follower = self._plan(goal)
-        rate = rospy.Rate(cfg["control_rate"])
-        blocked_since = paused_since = None
-        last_feedback = last_replan = 0.0
+            raise GoalAborted(MOVE_RESULT_PLAN_FAILED, "bad goal: %s" % err)
+        supervisor = GoalSupervisor(cfg["mode_wait"], cfg["obstacle_wait"], cfg["replan_min_interval"],
+                                    cfg["off_track_m"])
+        self._supervisor = supervisor
+        try:
+            return self._supervise(goal, supervisor)
+        finally:
+            self._supervisor = None
+
+    def _supervise(self, goal, supervisor):
+        follower = self._plan(goal, supervisor)
+        rate = rospy.Rate(self.cfg["control_rate"])
+        last_feedback = 0.0
         while not rospy.is_shutdown():
             if self._server.is_preempt_requested():
                 return MOVE_RESULT_CANCELLED, {"reason": "cancelled"}
-            pose = self._check_localization()
-            now = time.monotonic()
-            mode = self.control_mode
-            if mode != MODE_TASK:
-                # another mode holds the robot: robot_control ignores our move_cmd, so send none
-                if paused_since is None:
-                    paused_since = now
-                    self._feedback(MOVE_FEEDBACK_ALARM, nav_warn=self.nav_warn(),
-                                   reason="robot_control in %s mode (%d): goal paused"
-                                   % (MODE_NAMES.get(mode, "unknown"), mode))
-                elif now - paused_since > cfg["mode_wait"]:
-                    raise Aborted(MOVE_RESULT_CANCELLED, "robot_control in %s mode (%d) for %.1f s: goal given up"
-                                  % (MODE_NAMES.get(mode, "unknown"), mode, cfg["mode_wait"]))
-                rate.sleep()
-                continue
-            if paused_since is not None:
-                paused_since = None
-                self._replan.set()  # the robot was driven elsewhere meanwhile
-            if self.obstacle and self.enable_bits & NAV_OBSTACLE_3D:
+            pose = self._check_localization(supervisor)
+            action, alarm = supervisor.check(time.monotonic(), self.control_mode, self.obstacle, self.enable_bits)
+            if action == STOP:
                 self.stop()
-                if blocked_since is None:
-                    blocked_since = now
-                    self._feedback(MOVE_FEEDBACK_ALARM, nav_warn=self.nav_warn(),
-                                   reason="obstacle in the travel corridor")
-                elif now - blocked_since > cfg["obstacle_wait"]:
-                    raise Aborted(MOVE_RESULT_BLOCKED, "blocked by an obstacle for %.1f s" % cfg["obstacle_wait"])
-                rate.sleep()
-                continue
-            if blocked_since is not None:
-                blocked_since = None
-                self._replan.set()  # the world may have changed while we waited
-            if self._replan.is_set() or (self.off_track and self.enable_bits & NAV_OFF_TRACK
-                                         and now - last_replan > cfg["replan_min_interval"]):
-                if self.off_track:
-                    self._feedback(MOVE_FEEDBACK_ALARM, nav_warn=self.nav_warn(), reason="off track, replanning")
-                follower = self._plan(goal)
-                last_replan = now
+            if alarm:
+                self._feedback(MOVE_FEEDBACK_ALARM, nav_warn=self.nav_warn(), reason=alarm)
+            if action == REPLAN:
+                follower = self._plan(goal, supervisor)
                 pose = self.loc.pose
-            progress = follower.step(*pose)
-            self.off_track = progress.lateral_error > cfg["off_track_m"]
-            if progress.phase == DONE:
-                error = math.hypot(goal.x - pose[0], goal.y - pose[1])
-                return MOVE_RESULT_SUCCESS, {"position_error": round(error, 4),
-                                             "yaw_error": round(abs(wrap_angle(goal.yaw - pose[2])), 4)}
-            cmd = progress.command
-            self.send(cmd.velocity_x, cmd.velocity_yaw, cmd.wheel_control)
-            if now - last_feedback >= cfg["feedback_period"]:
-                last_feedback = now
-                self._feedback(MOVE_FEEDBACK_MOVING, remaining=round(progress.remaining, 3), phase=progress.phase)
+            if action in (REPLAN, FOLLOW):
+                progress = follower.step(*pose)
+                supervisor.followed(progress)
+                self.off_track = supervisor.off_track
+                if progress.phase == DONE:
+                    error = math.hypot(goal.x - pose[0], goal.y - pose[1])
+                    return MOVE_RESULT_SUCCESS, {"position_error": round(error, 4),
+                                                 "yaw_error": round(abs(wrap_angle(goal.yaw - pose[2])), 4)}
+                cmd = progress.command
+                self.send(cmd.velocity_x, cmd.velocity_yaw, cmd.wheel_control)
+                now = time.monotonic()
+                if now - last_feedback >= self.cfg["feedback_period"]:
+                    last_feedback = now
+                    self._feedback(MOVE_FEEDBACK_MOVING, remaining=round(progress.remaining, 3), phase=progress.phase)
             rate.sleep()
         return MOVE_RESULT_CANCELLED, {"reason": "shutting down"}
 

@@ -1,0 +1,93 @@
+"""Goal supervision for move_action, without ROS: what the running goal does on each control tick.
+
+One GoalSupervisor per goal. The node calls ``check(now, ...)`` every tick with the inputs of
+that moment and acts on the answer:
+
+- ``PAUSE``: robot_control is in another mode (joystick, server) and ignores move_cmd: send
+  nothing; after ``mode_wait`` s the goal ends with ret_code "4";
+- ``STOP``: a 3-D obstacle is in the travel corridor (and its enable bit is set): send a stop;
+  after ``obstacle_wait`` s the goal ends with "3";
+- ``REPLAN``: plan again (after a pause or an obstacle wait the world may have changed, a
+  virtual obstacle changed, or the robot is off track, at most every ``replan_min_interval`` s);
+  the node then calls ``replanned(now)``;
+- ``FOLLOW``: step the path follower and report its progress with ``followed(progress)``.
+
+``check`` returns (action, alarm): ``alarm`` is a reason to report once as feedback "3", else
+None. An end of the goal is raised as GoalAborted(ret_code, reason); localization lost (with its
+enable bit set) ends the goal with "2".
+"""
+from inspection_robot.interface import (MODE_NAMES, MODE_TASK, MOVE_RESULT_BLOCKED, MOVE_RESULT_CANCELLED,
+                                        MOVE_RESULT_LOCALIZATION_LOST, NAV_LOCALIZATION_LOST, NAV_OBSTACLE_3D,
+                                        NAV_OFF_TRACK)
+
+PAUSE, STOP, REPLAN, FOLLOW = "pause", "stop", "replan", "follow"
+OBSTACLE_REASON = "obstacle in the travel corridor"
+OFF_TRACK_REASON = "off track, replanning"
+
+
+class GoalAborted(Exception):
+    """Ends the running goal with ``ret_code`` and ``reason`` (actionlib state ABORTED)."""
+
+    def __init__(self, ret_code, reason):
+        Exception.__init__(self, reason)
+        self.ret_code = ret_code
+
+
+class GoalSupervisor(object):
+    def __init__(self, mode_wait, obstacle_wait, replan_min_interval, off_track_m):
+        self.mode_wait = float(mode_wait)
+        self.obstacle_wait = float(obstacle_wait)
+        self.replan_min_interval = float(replan_min_interval)
+        self.off_track_m = float(off_track_m)
+        self.off_track = False
+        self._paused_since = None
+        self._blocked_since = None
+        self._last_replan = None
+        self._replan_requested = False
+
+    def request_replan(self):
+        """The costmap changed (any thread): plan again on the next tick."""
+        self._replan_requested = True
+
+    def replanned(self, now):
+        self._replan_requested = False
+        self._last_replan = now
+
+    def followed(self, progress):
+        self.off_track = progress.lateral_error > self.off_track_m
+
+    def check_localization(self, problem, enable_bits):
+        """``problem``: LocalizationMonitor.problem() (None when fine)."""
+        if problem and enable_bits & NAV_LOCALIZATION_LOST:
+            raise GoalAborted(MOVE_RESULT_LOCALIZATION_LOST, "localization lost: %s" % problem)
+
+    def check(self, now, mode, obstacle, enable_bits):
+        """Action for this tick (see the module docstring); raises GoalAborted to end the goal."""
+        if mode != MODE_TASK:
+            name = MODE_NAMES.get(mode, "unknown")
+            if self._paused_since is None:
+                self._paused_since = now
+                return PAUSE, "robot_control in %s mode (%d): goal paused" % (name, mode)
+            if now - self._paused_since > self.mode_wait:
+                raise GoalAborted(MOVE_RESULT_CANCELLED, "robot_control in %s mode (%d) for %.1f s: goal given up"
+                                  % (name, mode, self.mode_wait))
+            return PAUSE, None
+        if self._paused_since is not None:
+            self._paused_since = None
+            self._replan_requested = True  # the robot was driven elsewhere meanwhile
+        if obstacle and enable_bits & NAV_OBSTACLE_3D:
+            if self._blocked_since is None:
+                self._blocked_since = now
+                return STOP, OBSTACLE_REASON
+            if now - self._blocked_since > self.obstacle_wait:
+                raise GoalAborted(MOVE_RESULT_BLOCKED, "blocked by an obstacle for %.1f s" % self.obstacle_wait)
+            return STOP, None
+        if self._blocked_since is not None:
+            self._blocked_since = None
+            self._replan_requested = True  # the world may have changed while we waited
+        if self._replan_requested:
+            return REPLAN, OFF_TRACK_REASON if self.off_track else None
+        if self.off_track and enable_bits & NAV_OFF_TRACK and (
+                self._last_replan is None or now - self._last_replan > self.replan_min_interval):
+            return REPLAN, OFF_TRACK_REASON
+        return FOLLOW, None

@@ -1,0 +1,84 @@
+"""Incremental virtual obstacles: costmap and planner graph after random edits equal a full rebuild."""
+import numpy as np
+import pytest
+
+from inspection_robot.nav.costmap import Costmap
+from inspection_robot.nav.gridmap import GridMap
+from inspection_robot.nav.planner import Planner
+
+RES = 0.05
+
+
+def yard(rng, size_m=30.0):
+    n = int(size_m / RES)
+    occ = np.zeros((n, n), dtype=np.int8)
+    occ[:3, :] = occ[-3:, :] = occ[:, :3] = occ[:, -3:] = 100
+    for _ in range(25):
+        r, c = rng.integers(10, n - 40, 2)
+        h, w = rng.integers(2, 30, 2)
+        occ[r:r + h, c:c + w] = 100
+    return GridMap(occ, RES, (0.0, 0.0, 0.0))
+
+
+def random_polyline(rng, size_m=30.0):
+    count = int(rng.integers(1, 6))
+    centre = rng.uniform(-2.0, size_m + 2.0, 2)  # some reach over the map edge
+    points = (centre + rng.normal(0.0, 2.5, (count, 2))).tolist()
+    return points, bool(count >= 3 and rng.random() < 0.5)
+
+
+def top_edges(planner):
+    graph = planner._top_graph.tocoo()
+    return sorted(zip(graph.row.tolist(), graph.col.tolist(), graph.data.tolist()))
+
+
+def assert_same(incremental, planner, layer, grid):
+    full = Costmap(grid, robot_radius=0.45, safety_margin=0.3)
+    full.set_virtual(layer)
+    np.testing.assert_array_equal(incremental.virtual, full.virtual)
+    np.testing.assert_array_equal(incremental.cost, full.cost)
+    np.testing.assert_array_equal(incremental.labels, full.labels)
+    rebuilt = Planner(full)
+    planner.refresh()
+    np.testing.assert_array_equal(planner._block_cost, rebuilt._block_cost)
+    np.testing.assert_array_equal(planner._linked, rebuilt._linked)
+    np.testing.assert_array_equal(np.where(planner._linked, planner._weights, 0),
+                                  np.where(rebuilt._linked, rebuilt._weights, 0))
+    np.testing.assert_array_equal(planner._part, rebuilt._part)
+    assert top_edges(planner) == top_edges(rebuilt)
+
+
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_random_edits_equal_a_full_rebuild(seed):
+    rng = np.random.default_rng(seed)
+    grid = yard(rng)
+    costmap = Costmap(grid, robot_radius=0.45, safety_margin=0.3)
+    planner = Planner(costmap)
+    layer = {}
+    for step in range(12):
+        action = rng.choice(["add", "modify", "delete"]) if layer else "add"
+        if action == "add":
+            layer["o%d" % step] = random_polyline(rng)
+        elif action == "modify":
+            layer[sorted(layer)[int(rng.integers(0, len(layer)))]] = random_polyline(rng)
+        else:
+            del layer[sorted(layer)[int(rng.integers(0, len(layer)))]]
+        polylines = [layer[k] for k in sorted(layer)]
+        costmap.set_virtual(polylines)
+        assert_same(costmap, planner, polylines, grid)
+
+
+def test_edit_touches_only_its_window_and_plans_follow_it():
+    grid = yard(np.random.default_rng(4))
+    costmap = Costmap(grid, robot_radius=0.45, safety_margin=0.3)
+    planner = Planner(costmap)
+    before = costmap.cost.copy()
+    window = costmap.set_virtual([([[10.0, 10.0], [14.0, 10.0]], False)])
+    changed = np.argwhere(before != costmap.cost)
+    assert len(changed) > 0
+    assert (changed[:, 0] >= window.r0).all() and (changed[:, 0] < window.r1).all()
+    assert (changed[:, 1] >= window.c0).all() and (changed[:, 1] < window.c1).all()
+    assert window.r1 - window.r0 < 60 and window.c1 - window.c0 < 140  # 4 m wall + inflation, not the map
+    assert costmap.set_virtual([([[10.0, 10.0], [14.0, 10.0]], False)]) is None  # same layer: no work
+    plan = planner.plan((12.0, 8.0), (12.0, 12.0))
+    assert plan.length > 4.0  # around the new wall, not through it
