@@ -5,8 +5,8 @@ Subscribes:  infrared_cmd (GeneralCmd) -> answers on infrared_ack (GeneralAck), 
              control_status (ControlStatus): joystick-busy rule (mode 2)
              sim only: sim/true_pose, terrace_state, sim/world_state (nodes.sim_view)
 Publishes:   diagnostics (diagnostic_msgs/DiagnosticArray, hardware_id "thermal_imager", ~status_rate Hz)
-Parameters:  ~driver ("sim", a vendor plug-in "package.module:Class", or "" = none configured:
-             every command fails and diagnostics report ERROR; default ""),
+Parameters:  ~driver (sim | none | vendor plug-in "package.module:Class", required; none = not fitted:
+             every command fails "thermal not fitted (driver: none)" and diagnostics report ERROR),
              ~driver_params (dict of keyword arguments for a plug-in, {}),
              ~width, ~height (px, 384, 288), ~roots (["/tmp/inspection_robot"]),
              ~measure_box_px (px, 16), ~status_rate (Hz, 1.0), ~jpeg_quality (90),
@@ -16,10 +16,10 @@ Parameters:  ~driver ("sim", a vendor plug-in "package.module:Class", or "" = no
 import rospy
 
 from inspection_robot.camera.driver import DeviceHealth
+from inspection_robot.drivers import SIM, make_driver
 from inspection_robot.ros.diagnostics import DeviceDiagnostics, probe_device
 from inspection_robot.ros.twin import CommandTwin
 from inspection_robot.thermal.commands import ThermalCommands
-from inspection_robot.plugin import load_class
 from inspection_robot.thermal.driver import NoImager, ThermalError
 
 NODE = "infrared_imager"
@@ -42,8 +42,8 @@ class InfraredNode(object):
                                   [("measure_spot", "%d,%d" % (x, y)), ("failures", self._health.failures)])
 
 
-def make_driver(kind, width, height):
-    if kind == "sim":
+def make_imager(spec, width, height):
+    def simulator():
         from inspection_robot.ros.sim_view import SimView
         from inspection_robot.sim.render import ThermalRenderer
         from inspection_robot.sim.thermal import SimulatedImager
@@ -53,10 +53,8 @@ def make_driver(kind, width, height):
         renderer = ThermalRenderer(world, int(params.get("seed", 0)), float(params.get("noise_sigma", 0.05)))
         return SimulatedImager(renderer, SimView(world), world.sensor_height, width, height,
                                float(params.get("hfov_deg", 25.0)), list(params.get("unsupported", [])))
-    if not kind:
-        rospy.logerr("%s: no thermal imager driver configured (~driver); every command will fail" % NODE)
-        return NoImager()
-    return load_class(kind)(**rospy.get_param("~driver_params", {}))
+
+    return make_driver("thermal", spec, {SIM: simulator}, rospy.get_param("~driver_params", {}), NoImager)
 
 
 def main():
@@ -66,7 +64,7 @@ def main():
     status_rate = float(rospy.get_param("~status_rate", 1.0))
     if width < 8 or height < 8 or status_rate <= 0:
         raise ValueError("~width/~height must be >= 8 px and ~status_rate > 0")
-    driver = make_driver(rospy.get_param("~driver", ""), width, height)
+    driver = make_imager(rospy.get_param("~driver", ""), width, height)
     health = DeviceHealth()
     commands = ThermalCommands(driver, rospy.get_param("~roots", ["/tmp/inspection_robot"]), health, width, height,
                                int(rospy.get_param("~measure_box_px", 16)), int(rospy.get_param("~jpeg_quality", 90)))

@@ -22,7 +22,8 @@ Services:    imu_control (ControlService): twin of imu_cmd/imu_ack
              sim only: sim/inject_fault (ControlService): cmd = fault (hard_estop, bumper, fall_left,
                  fall_right, motor_disconnect, joystick_link_lost, stepper_comm, low_battery) or
                  condition (at_dock), data 1|0; query; set_pose "x,y,yaw"
-Parameters:  ~driver ("sim" or "package.module:Class"), ~driver_params ({}): vendor constructor kwargs
+Parameters:  ~driver (sim | none | "package.module:Class", required; see inspection_robot.drivers),
+             ~driver_params ({}): vendor constructor kwargs
              ~rate (Hz, 50.0) control cycle; ~status_rate (Hz, 10.0)
              ~cmd_timeout (s, 0.5)
              ~max_velocity_x (m/s, 1.0), ~max_velocity_yaw (rad/s, 1.0)
@@ -41,13 +42,13 @@ from geometry_msgs.msg import PoseWithCovarianceStamped, TransformStamped, Twist
 from nav_msgs.msg import Odometry
 
 from inspection_robot.angles import quaternion_from_yaw
+from inspection_robot.drivers import SIM, make_driver
 from inspection_robot.interface import ACK_SUCCESS, VOICE_LANGUAGES
+from inspection_robot.motion.chassis import NoChassis
 from inspection_robot.motion.controller import MotionController
 from inspection_robot.motion.velocity import VelocityLimits
 from inspection_robot.msg import ControlStatus, GeneralAck, GeneralCmd, MoveCmd, ObstacleStatus, RobotStatus, VoiceCmd
-from inspection_robot.plugin import load_class
 from inspection_robot.ros.twin import CommandTwin, control_response
-from inspection_robot.sim.chassis import SimChassis
 from inspection_robot.srv import ControlService
 
 NODE_NAME = "robot_control"
@@ -247,7 +248,7 @@ def _log(level, text):
 
 def main():
     rospy.init_node(NODE_NAME)
-    driver_spec = str(rospy.get_param("~driver", "sim"))
+    driver_spec = rospy.get_param("~driver", "")
     rate_hz = float(rospy.get_param("~rate", 50.0))
     status_rate_hz = float(rospy.get_param("~status_rate", 10.0))
     cmd_timeout = float(rospy.get_param("~cmd_timeout", 0.5))
@@ -260,14 +261,16 @@ def main():
         raise ValueError("~rate and ~status_rate must be positive")
     if language not in VOICE_LANGUAGES:
         raise ValueError("~voice_language must be one of %s" % (VOICE_LANGUAGES,))
-    sim = None
-    if driver_spec == "sim":
+
+    def simulator():
+        from inspection_robot.sim.chassis import SimChassis
         start_pose = [float(v) for v in rospy.get_param("~sim_world/world/robot/start_pose", [0.0, 0.0, 0.0])]
         if len(start_pose) != 3:
             raise ValueError("~start_pose must be [x, y, yaw]")
-        sim = driver = SimChassis(time.monotonic, start_pose, **rospy.get_param("~sim", {}))
-    else:
-        driver = load_class(driver_spec)(**rospy.get_param("~driver_params", {}))
+        return SimChassis(time.monotonic, start_pose, **rospy.get_param("~sim", {}))
+
+    driver = make_driver("chassis", driver_spec, {SIM: simulator}, rospy.get_param("~driver_params", {}), NoChassis)
+    sim = driver if driver_spec == SIM else None
     controller = MotionController(driver, limits, cmd_timeout, time.monotonic, log=_log)
     node = RobotControl(controller, rate_hz, status_rate_hz, str(rospy.get_param("~odom_frame", "odom")),
                         str(rospy.get_param("~base_frame", "base_link")), bool(rospy.get_param("~publish_tf", True)),
