@@ -1,9 +1,11 @@
 #!/usr/bin/env python3
-"""rostest: robot.launch refuses to start on simulators or unset drivers, with one message naming
-every setting to fix and the file that should hold it (check_drivers, a required node)."""
+"""rostest: the real robot's start-up refusals. robot.launch refuses simulators and unset drivers with
+one message naming every setting to fix and the file that should hold it (check_drivers, a required
+node); rosbridge_websocket refuses a non-loopback bind without authentication unless insecure."""
 import os
 import subprocess
 import tempfile
+import time
 import unittest
 
 import rostest
@@ -30,6 +32,18 @@ def robot_config(drivers):
     return path
 
 
+def run_bridge(*params):
+    """rosbridge_websocket with ``params`` (``_name:=value``), in its own namespace: the Popen."""
+    return subprocess.Popen(["rosrun", "inspection_robot", "rosbridge_websocket", "__ns:=/bridge_refusal_test",
+                             "_port:=0"] + list(params), stdout=subprocess.PIPE, stderr=subprocess.STDOUT)
+
+
+def refusal_of(*params):
+    proc = run_bridge(*params)
+    output, _ = proc.communicate(timeout=LAUNCH_TIMEOUT)
+    return proc.returncode, output.decode("utf-8", "replace")
+
+
 class RobotLaunchTest(unittest.TestCase):
     def assert_refused(self, output, count):
         self.assertIn("robot.launch refused to start, %d driver setting(s) to fix" % count, output)
@@ -53,6 +67,39 @@ class RobotLaunchTest(unittest.TestCase):
             os.unlink(path)
         self.assert_refused(output, 1)
         self.assertIn("robot_control/driver is sim: robot.launch drives real devices only", output)
+
+    def test_bridge_refuses_open_bind_without_auth(self):
+        code, output = refusal_of("_address:=0.0.0.0")
+        self.assertNotEqual(code, 0)
+        self.assertIn("refusing to listen on 0.0.0.0 without authentication: set ~auth_token_file", output)
+
+    def test_bridge_refuses_token_file_others_can_read(self):
+        handle, path = tempfile.mkstemp()
+        os.write(handle, b"s3cret\n")
+        os.close(handle)
+        os.chmod(path, 0o644)
+        try:
+            code, output = refusal_of("_address:=0.0.0.0", "_auth_token_file:=" + path)
+        finally:
+            os.unlink(path)
+        self.assertNotEqual(code, 0)
+        self.assertIn("is accessible by group/others (mode 644): chmod 600 it", output)
+
+    def test_bridge_insecure_starts_and_warns(self):
+        proc = run_bridge("_address:=0.0.0.0", "_insecure:=true")
+        deadline = time.monotonic() + LAUNCH_TIMEOUT
+        seen = []
+        try:
+            for line in iter(proc.stdout.readline, b""):
+                seen.append(line.decode("utf-8", "replace"))
+                if "INSECURE: the backend link listens on 0.0.0.0 without authentication" in seen[-1]:
+                    break
+                self.assertLess(time.monotonic(), deadline, "".join(seen))
+            self.assertIn("INSECURE", seen[-1] if seen else "", "".join(seen))
+            self.assertIsNone(proc.poll())
+        finally:
+            proc.terminate()
+            proc.wait(15)
 
 
 if __name__ == "__main__":
