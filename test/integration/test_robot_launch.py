@@ -32,15 +32,21 @@ def robot_config(drivers):
     return path
 
 
-def run_bridge(*params):
-    """rosbridge_websocket with ``params`` (``_name:=value``), in its own namespace: the Popen."""
+def run_bridge(name, *params):
+    """rosbridge_websocket ``name`` (its own private parameters) with ``params`` (``_param:=value``)."""
     return subprocess.Popen(["rosrun", "inspection_robot", "rosbridge_websocket", "__ns:=/bridge_refusal_test",
-                             "_port:=0"] + list(params), stdout=subprocess.PIPE, stderr=subprocess.STDOUT)
+                             "__name:=" + name, "_port:=0"] + list(params),
+                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT)
 
 
-def refusal_of(*params):
-    proc = run_bridge(*params)
-    output, _ = proc.communicate(timeout=LAUNCH_TIMEOUT)
+def refusal_of(name, *params):
+    proc = run_bridge(name, *params)
+    try:
+        output, _ = proc.communicate(timeout=LAUNCH_TIMEOUT)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
     return proc.returncode, output.decode("utf-8", "replace")
 
 
@@ -69,7 +75,7 @@ class RobotLaunchTest(unittest.TestCase):
         self.assertIn("robot_control/driver is sim: robot.launch drives real devices only", output)
 
     def test_bridge_refuses_open_bind_without_auth(self):
-        code, output = refusal_of("_address:=0.0.0.0")
+        code, output = refusal_of("open_bridge", "_address:=0.0.0.0")
         self.assertNotEqual(code, 0)
         self.assertIn("refusing to listen on 0.0.0.0 without authentication: set ~auth_token_file", output)
 
@@ -79,14 +85,14 @@ class RobotLaunchTest(unittest.TestCase):
         os.close(handle)
         os.chmod(path, 0o644)
         try:
-            code, output = refusal_of("_address:=0.0.0.0", "_auth_token_file:=" + path)
+            code, output = refusal_of("shared_token_bridge", "_address:=0.0.0.0", "_auth_token_file:=" + path)
         finally:
             os.unlink(path)
         self.assertNotEqual(code, 0)
         self.assertIn("is accessible by group/others (mode 644): chmod 600 it", output)
 
     def test_bridge_insecure_starts_and_warns(self):
-        proc = run_bridge("_address:=0.0.0.0", "_insecure:=true")
+        proc = run_bridge("insecure_bridge", "_address:=0.0.0.0", "_insecure:=true")
         deadline = time.monotonic() + LAUNCH_TIMEOUT
         seen = []
         try:
