@@ -99,40 +99,50 @@ class RobotControl(object):
         controller.set_speaker(self._speak)
         self._imu_twin = CommandTwin(_ImuTable(controller), "imu_control", "imu_cmd", "imu_ack", NODE_NAME,
                                      busy_when_joystick=False)
-        rospy.Subscriber("mode_cmd", GeneralCmd, self._on_mode_cmd, queue_size=50)
-        rospy.Subscriber("move_cmd", MoveCmd, self._on_move_cmd, queue_size=10)
-        rospy.Subscriber("control_cmd", GeneralCmd, self._on_control_cmd, queue_size=50)
-        rospy.Subscriber("obstacle_status", ObstacleStatus, self._on_obstacle, queue_size=10)
-        rospy.Subscriber("robot_status", RobotStatus, self._on_robot_status, queue_size=1)
+        # Every input, by topic: (message type, queue size, handler). A handler applies its stop in the
+        # callback, before returning; _dispatch is the one boundary around all of them.
+        self._inputs = {
+            "mode_cmd": (GeneralCmd, 50, self._on_mode_cmd),
+            "move_cmd": (MoveCmd, 10, self._on_move_cmd),
+            "control_cmd": (GeneralCmd, 50, self._on_control_cmd),
+            "obstacle_status": (ObstacleStatus, 10, self._on_obstacle),
+            "robot_status": (RobotStatus, 1, self._on_robot_status),
+        }
+        for topic, (msg_type, queue_size, _handler) in self._inputs.items():
+            rospy.Subscriber(topic, msg_type, self._dispatch, callback_args=topic, queue_size=queue_size)
         self._timer = rospy.Timer(rospy.Duration(1.0 / rate_hz), self._on_tick)
         self._status_timer = rospy.Timer(rospy.Duration(1.0 / status_rate_hz), self._on_status_timer)
 
-    # --- inputs: each applies its stop in this callback, before returning ----------------------
+    def _dispatch(self, msg, topic):
+        try:
+            self._inputs[topic][2](msg)
+        except Exception as err:  # boundary: one bad input must not kill the node; stop to be safe
+            rospy.logerr("%s: %s raised: %s\n%s" % (NODE_NAME, topic, err, traceback.format_exc()))
+            self._emergency_stop()
+
+    # --- inputs (handlers of self._inputs) -----------------------------------------------------
     def _on_mode_cmd(self, msg):
-        self._guard("mode_cmd", self._ctl.on_mode_cmd, msg.sender, msg.cmd, msg.data)
+        self._ctl.on_mode_cmd(msg.sender, msg.cmd, msg.data)
         self._publish_status_if_changed()
 
     def _on_move_cmd(self, msg):
-        reply = self._guard("move_cmd", self._ctl.on_move_cmd, msg.sender, msg.velocity_x, msg.velocity_yaw,
-                            msg.wheel_control)
-        if reply is not None and reply.ack != ACK_SUCCESS:
+        reply = self._ctl.on_move_cmd(msg.sender, msg.velocity_x, msg.velocity_yaw, msg.wheel_control)
+        if reply.ack != ACK_SUCCESS:
             rospy.logwarn_throttle(2.0, "%s: move_cmd from %r not obeyed: %s" % (NODE_NAME, msg.sender, reply.data))
 
     def _on_control_cmd(self, msg):
-        reply = self._guard("control_cmd", self._ctl.on_control_cmd, msg.sender, msg.cmd, msg.data)
-        if reply is not None:
-            ack = GeneralAck(sender=NODE_NAME, receiver=msg.sender, trans_id=msg.trans_id, ack=reply.ack,
-                             data=reply.data)
-            ack.header.stamp = rospy.Time.now()
-            self._control_ack_pub.publish(ack)
+        reply = self._ctl.on_control_cmd(msg.sender, msg.cmd, msg.data)
+        ack = GeneralAck(sender=NODE_NAME, receiver=msg.sender, trans_id=msg.trans_id, ack=reply.ack, data=reply.data)
+        ack.header.stamp = rospy.Time.now()
+        self._control_ack_pub.publish(ack)
         self._publish_status_if_changed()
 
     def _on_obstacle(self, msg):
-        self._guard("obstacle_status", self._ctl.on_obstacle, msg.obstacle)
+        self._ctl.on_obstacle(msg.obstacle)
         self._publish_status_if_changed()
 
     def _on_robot_status(self, msg):
-        self._guard("robot_status", self._ctl.on_offline, msg.offline_warn != 0)
+        self._ctl.on_offline(msg.offline_warn != 0)
 
     def _on_inject_fault(self, req):
         with self._ctl.locked():
@@ -140,14 +150,6 @@ class RobotControl(object):
         rospy.loginfo("%s: sim/inject_fault %s(%r): %s %s" % (NODE_NAME, req.cmd, req.data, reply.ack, reply.data))
         self._publish_status_if_changed()
         return control_response(req, reply)
-
-    def _guard(self, what, fn, *args):
-        try:
-            return fn(*args)
-        except Exception as err:  # boundary: one bad input must not kill the node; stop to be safe
-            rospy.logerr("%s: %s raised: %s\n%s" % (NODE_NAME, what, err, traceback.format_exc()))
-            self._emergency_stop()
-            return None
 
     def _emergency_stop(self):
         try:
