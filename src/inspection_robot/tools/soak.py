@@ -133,7 +133,6 @@ class Observer(object):
         self.offline = None
         self.mode = None
         self.expect_offline_stop = False
-        self._master = rosgraph.Master("/" + NODE_NAME)
         rospy.Subscriber("sim/chassis_cmd", TwistStamped, self._on_command, queue_size=1000)
         rospy.Subscriber("robot_status", RobotStatus, self._on_status, queue_size=100)
         self.nodes = []
@@ -159,8 +158,8 @@ class Observer(object):
             self.motion.stop_cause(t_cause, t_deadline, cause)
 
     def pid(self, node):
-        try:
-            return ServerProxy(self._master.lookupNode(node)).getPid("/" + NODE_NAME)[2]
+        try:  # a Master (an XML-RPC proxy) per call: the sampler and the soak thread both ask
+            return ServerProxy(rosgraph.Master("/" + NODE_NAME).lookupNode(node)).getPid("/" + NODE_NAME)[2]
         except (rosgraph.MasterError, OSError):
             return None
 
