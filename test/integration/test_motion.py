@@ -115,23 +115,27 @@ class MotionTest(unittest.TestCase):
         self.move(sender, vx)
         return self.wait_driver(lambda m: abs(m.twist.linear.x - vx / 1000.0) < 1e-9, since, what="moving")
 
-    def assert_stops_within_cycle(self, apply, what, synchronous=False):
-        """A topic cause: zero velocity at the driver within one cycle of publishing it. A synchronous
-        cause (the simulator's fault service, handled inside robot_control): the stop is applied
-        before the service answers, however long the call took on a loaded machine."""
+    def assert_stops_within_cycle(self, apply, what, reported=None):
+        """The stop is applied in the callback that receives the cause, not at a later control cycle:
+        the zero command reaches the driver before robot_control reports the cause, i.e. before the
+        fault service answers (``reported`` None) or before the first control_status satisfying
+        ``reported``, published by that callback. Judged by order, not by a wall-clock figure a
+        loaded machine can miss (the latency figures are in bench_motion)."""
         self.start_moving()
         t0 = rospy.get_time()
         apply()
         t_answered = rospy.get_time()
         msg = self.wait_driver(lambda m: m.twist.linear.x == 0.0 and m.twist.angular.z == 0.0, t0,
                                what="zero velocity after " + what)
-        latency = msg.header.stamp.to_sec() - t0
-        rospy.loginfo("stop latency %s: %.2f ms" % (what, latency * 1000))
-        if synchronous:
-            self.assertLessEqual(msg.header.stamp.to_sec(), t_answered,
-                                 "%s: stop not applied before the fault service answered" % what)
-        else:
-            self.assertLess(latency, CYCLE, "%s stopped after %.1f ms" % (what, latency * 1000))
+        stop_stamp = msg.header.stamp.to_sec()
+        if reported is not None:
+            def first_report():
+                return next((m for _t, m in list(self.status.messages)
+                             if m.header.stamp.to_sec() >= t0 and reported(m)), None)
+            t_answered = wait_for(first_report, 2.0, "control_status reporting " + what).header.stamp.to_sec()
+        rospy.loginfo("stop latency %s: %.2f ms" % (what, (stop_stamp - t0) * 1000))
+        self.assertLessEqual(stop_stamp, t_answered, "%s: stop reached the driver %.1f ms after robot_control "
+                             "reported the cause" % (what, (stop_stamp - t_answered) * 1000))
 
     def assert_refused(self, window=0.2, sender="move_base"):
         """Stream move_cmd for ``window`` s; the driver must see only zero velocity meanwhile."""
@@ -190,7 +194,8 @@ class MotionTest(unittest.TestCase):
 
     # --- safety stops ----------------------------------------------------------------------------
     def test_obstacle_stop_refuse_and_clear(self):
-        self.assert_stops_within_cycle(lambda: self.obstacle_pub.publish(ObstacleStatus(obstacle=True)), "obstacle")
+        self.assert_stops_within_cycle(lambda: self.obstacle_pub.publish(ObstacleStatus(obstacle=True)), "obstacle",
+                                       lambda m: m.stop_status & STOP_OBSTACLE)
         self.status.wait(lambda m: m.stop_status & STOP_OBSTACLE, 1.0, "obstacle alarm bit")
         self.assert_refused()
         self.obstacle_pub.publish(ObstacleStatus(obstacle=False))
@@ -203,14 +208,14 @@ class MotionTest(unittest.TestCase):
 
     def test_soft_estop_until_disable_stop(self):
         self.assert_stops_within_cycle(lambda: self.control_pub.publish(
-            GeneralCmd(sender="server", cmd="enable_stop")), "soft e-stop")
+            GeneralCmd(sender="server", cmd="enable_stop")), "soft e-stop", lambda m: m.light_status & LIGHT_SOFT_ESTOP)
         self.status.wait(lambda m: m.light_status & LIGHT_SOFT_ESTOP, 1.0, "soft e-stop bit")
         self.assert_refused()
         self.control("disable_stop")
         self.start_moving()
 
     def test_hard_estop_until_released_and_disable_stop(self):
-        self.assert_stops_within_cycle(lambda: self.fault("hard_estop", 1), "hard e-stop", synchronous=True)
+        self.assert_stops_within_cycle(lambda: self.fault("hard_estop", 1), "hard e-stop")
         self.status.wait(lambda m: m.light_status & LIGHT_HARD_ESTOP and m.light_status & LIGHT_SOFT_ESTOP, 1.0,
                          "hard e-stop bits")
         self.control("disable_stop", expect="failed")
@@ -221,7 +226,7 @@ class MotionTest(unittest.TestCase):
         self.start_moving()
 
     def check_chassis_stop(self, fault, bit, switch):
-        self.assert_stops_within_cycle(lambda: self.fault(fault, 1), fault, synchronous=True)
+        self.assert_stops_within_cycle(lambda: self.fault(fault, 1), fault)
         self.status.wait(lambda m: m.stop_status & bit, 1.0, "%s alarm bit" % fault)
         self.assert_refused()
         self.control("disable_" + switch)
@@ -242,8 +247,7 @@ class MotionTest(unittest.TestCase):
         self.check_chassis_stop("fall_right", STOP_RIGHT_FALL, "fallen")
 
     def test_motor_disconnect(self):
-        self.assert_stops_within_cycle(lambda: self.fault("motor_disconnect", 1), "motor disconnect",
-                                       synchronous=True)
+        self.assert_stops_within_cycle(lambda: self.fault("motor_disconnect", 1), "motor disconnect")
         self.status.wait(lambda m: m.motor_status[0] & 1 and m.motor_info[0] & 1, 1.0, "motor bits")
         self.assert_refused()
         self.fault("motor_disconnect", 0)
