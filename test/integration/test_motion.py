@@ -101,13 +101,16 @@ class MotionTest(unittest.TestCase):
         self.move_pub.publish(MoveCmd(sender=sender, velocity_x=vx, velocity_yaw=wz, wheel_control=wheel))
 
     def wait_driver(self, predicate, since, timeout=2.0, what="driver command"):
+        """The EARLIEST driver command stamped at or after ``since`` that satisfies ``predicate`` (a
+        poll delayed by load must not pick a later cycle's command and inflate a stop latency)."""
         def found():
+            earliest = None
             for _t, msg in reversed(self.driver.messages[-300:]):
                 if msg.header.stamp.to_sec() < since:
                     break
                 if predicate(msg):
-                    return msg
-            return None
+                    earliest = msg
+            return earliest
         return wait_for(found, timeout, what)
 
     def start_moving(self, sender="move_base", vx=500):
