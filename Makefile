@@ -1,5 +1,6 @@
 # Entry points; each installs what is missing first (scripts/setup is idempotent and fast).
-.PHONY: setup build run shell test unit integration lint bench clean
+.PHONY: setup build run shell test unit integration lint bench soak clean
+MINUTES ?= 10
 
 setup:
 	@bash scripts/setup
@@ -27,6 +28,9 @@ lint: setup
 
 bench: build
 	@bash scripts/bench
+
+soak: build
+	@bash scripts/soak $(MINUTES)
 
 clean:
 	rm -rf "$$(root=$$PWD; . scripts/ws.sh; echo $$ws)" test_logs

@@ -86,6 +86,7 @@ def main():
             time.sleep(0.1)
         subprocess.check_call(["rosparam", "load", os.path.join(ROOT, "config", "robot_control.yaml"),
                                "/robot_control"], env=env)
+        subprocess.check_call(["rosparam", "set", "/robot_control/driver", "sim"], env=env)
         subprocess.check_call(["rosparam", "set", "/robot_control/sim", "{max_accel_x: 10.0, max_accel_yaw: 10.0}"],
                               env=env)
         node = subprocess.Popen([sys.executable, "-c", "from inspection_robot.nodes.robot_control import main; main()",

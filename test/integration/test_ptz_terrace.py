@@ -91,6 +91,8 @@ class TerraceTest(unittest.TestCase):
                     self.assertEqual(run(cmd, "high_speed").ack, "success")
                     wait_for(lambda: sign * self.sim_state()[axis] > 300, 3.0, "%s moving" % cmd)
                     self.assertEqual(run("terrace_stop").ack, "success")
+                    # the ack means the stop frame is on the wire; the head acts when it reads it
+                    wait_for(lambda: self.sim_cmd("get_motion") == "still", 2.0, "%s stopped at the head" % cmd)
                     still = self.sim_state()
                     rospy.sleep(0.2)   # measuring that nothing moves needs an interval
                     self.assertEqual(self.sim_state()[:2], still[:2])

@@ -36,7 +36,8 @@ def test_free_space_path_is_nearly_straight(goal):
     plan = Planner(costmap).plan((2.0, 2.0), goal)
     straight = math.hypot(goal[0] - 2.0, goal[1] - 2.0)
     assert plan.length == pytest.approx(polyline_length(plan.points))
-    assert straight <= plan.length <= straight * 1.05
+    # a straight plan's length may differ from math.hypot in the last bit (NumPy 1.17 sums differently)
+    assert straight * (1.0 - 1e-12) <= plan.length <= straight * 1.05
     assert tuple(plan.points[0]) == (2.0, 2.0) and tuple(plan.points[-1]) == goal
 
 

@@ -7,6 +7,8 @@ spec's sets happens before a driver is called (camera.commands).
 import threading
 import time
 
+from inspection_robot.drivers import not_fitted_class
+
 
 class CameraError(Exception):
     """The camera could not carry out a request (unreachable, refused, malformed reply)."""
@@ -122,3 +124,7 @@ class CameraDriver(object):
 
     def close(self):
         pass
+
+
+NoCamera = not_fitted_class(CameraDriver, CameraError, "camera")
+"""``~driver: none``: every request fails with the reason."""

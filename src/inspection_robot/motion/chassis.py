@@ -16,6 +16,7 @@ spec's status units (0.1 V, 0.1 A, 0.1 degC) when it assembles control_status.
 """
 from collections import namedtuple
 
+from inspection_robot.drivers import not_fitted_class
 from inspection_robot.interface import MOTOR_COUNT, TEMPERATURE_COUNT, WHEEL_STRAIGHT
 
 _STATE_FIELDS = (
@@ -111,3 +112,14 @@ class ChassisDriver(object):
     def close(self):
         """Stop and release the link to the board."""
         raise NotImplementedError
+
+
+def _no_chassis_velocity(self, velocity_x, velocity_yaw, wheel_mode):
+    if velocity_x or velocity_yaw:
+        raise ChassisError(self.reason)
+
+
+NoChassis = not_fitted_class(
+    ChassisDriver, ChassisError, "chassis", set_safety_listener=lambda self, listener: None,
+    send_velocity=_no_chassis_velocity, stop=lambda self: None, state=lambda self: ChassisState())
+"""``~driver: none``: a control cycle's zero velocity and every stop pass, anything else fails."""

@@ -8,7 +8,8 @@ Publishes:   camera_zoom (std_msgs/Float64, latched, on change)
              camera/image_raw (sensor_msgs/Image, bgr8, ~image_width px wide, ~image_rate Hz)
              camera/camera_info (sensor_msgs/CameraInfo, with each image)
              diagnostics (diagnostic_msgs/DiagnosticArray, hardware_id "camera", ~status_rate Hz)
-Parameters:  ~driver (sim|isapi, "sim"), ~camera_optics ({width, height, zoom_hfov_deg}, required),
+Parameters:  ~driver (sim | isapi | none | "package.module:Class" with ~driver_params, required),
+             ~camera_optics ({width, height, zoom_hfov_deg}, required),
              ~roots (folders capture paths must lie in, under data_root unless absolute; [captures, presets, pictures]),
              ~image_rate (Hz, 1.0; 0 = no image topic), ~image_width (px, 640), ~status_rate (Hz, 2.0),
              ~jpeg_quality (0..100, 90), ~frame_id ("camera_optical_frame"),
@@ -25,8 +26,9 @@ from sensor_msgs.msg import CameraInfo, Image
 from std_msgs.msg import Float64
 
 from inspection_robot.camera.commands import CameraCommands, format_zoom
-from inspection_robot.camera.driver import CameraError, DeviceHealth
+from inspection_robot.camera.driver import CameraError, DeviceHealth, NoCamera
 from inspection_robot.camera.optics import ZoomOptics
+from inspection_robot.drivers import SIM, make_driver
 from inspection_robot.ros.diagnostics import DeviceDiagnostics, probe_device
 from inspection_robot.ros.images import bgr_image_msg
 from inspection_robot.ros.twin import CommandTwin
@@ -103,15 +105,16 @@ class CameraNode(object):
         self.commands.shutdown()
 
 
-def make_driver(kind, optics):
-    if kind == "isapi":
+def make_camera(spec, optics):
+    def isapi():
         from inspection_robot.camera.isapi import IsapiCamera
         params = rospy.get_param("~isapi", {})
         return IsapiCamera(str(params.get("url", "http://192.168.1.64")), str(params.get("user", "admin")),
                            str(params.get("password", "")), int(params.get("channel", 1)),
                            float(params.get("timeout", 2.0)),
                            str(params.get("snapshot_url", "/onvif-http/snapshot?Profile_1")))
-    if kind == "sim":
+
+    def simulator():
         from inspection_robot.ros.sim_view import SimView
         from inspection_robot.sim.camera import SimulatedCamera
         from inspection_robot.sim.render import Renderer
@@ -123,7 +126,9 @@ def make_driver(kind, optics):
         return SimulatedCamera(renderer, optics, SimView(world), world.sensor_height,
                                float(params.get("zoom_rate", 2.0)), float(params.get("focus_rate", 0x4000)),
                                int(rospy.get_param("~jpeg_quality", 90)))
-    raise ValueError("~driver must be sim or isapi, got %r" % (kind,))
+
+    return make_driver("camera", spec, {"isapi": isapi, SIM: simulator}, rospy.get_param("~driver_params", {}),
+                       NoCamera)
 
 
 def main():
@@ -136,7 +141,7 @@ def main():
     status_rate = float(rospy.get_param("~status_rate", 2.0))
     if status_rate <= 0 or image_rate < 0 or not 16 <= image_width <= optics.width:
         raise ValueError("~status_rate must be > 0, ~image_rate >= 0, 16 <= ~image_width <= camera width")
-    driver = make_driver(rospy.get_param("~driver", "sim"), optics)
+    driver = make_camera(rospy.get_param("~driver", ""), optics)
     node = CameraNode(driver, optics, roots, image_rate, image_width, status_rate,
                       rospy.get_param("~frame_id", "camera_optical_frame"))
     rospy.on_shutdown(node.shutdown)

@@ -11,7 +11,9 @@ Publishes:   terrace_ack (GeneralAck): replies to terrace_cmd, and the outcome o
              diagnostics (diagnostic_msgs/DiagnosticArray, diagnostic_updater): hardware_id
                "pan_tilt_head", 1 Hz; "pan/tilt head" ERROR while the head is lost, and
                "terrace_state rate" (FrequencyStatus against ~state_rate)
-Parameters:  ~port (pyserial URL or device, "/tmp/inspection_robot_pelco"), ~baudrate (9600),
+Parameters:  ~driver (pelco | sim | none | "package.module:Class" with ~driver_params, required; sim is
+               pelco on the pty of sim_pelco_head; none: every command fails "head not fitted (driver: none)"),
+             ~port (pyserial URL or device, "/tmp/inspection_robot_pelco"), ~baudrate (9600),
              ~address (Pelco-D address, 1), ~reply_timeout (s, 0.3),
              ~reconnect_backoff ([first, max] s, [0.1, 2.0]),
              ~speeds ({high_speed: 63, mid_speed: 32, low_speed: 8}, Pelco-D speed bytes),
@@ -27,13 +29,14 @@ from std_msgs.msg import Float64
 
 from inspection_robot.camera.optics import ZoomOptics
 from inspection_robot.command import CommandError, failed, success
+from inspection_robot.drivers import SIM, make_driver
 from inspection_robot.msg import PresetRotate
 from inspection_robot.interface import ACK_SUCCESS, BUSY
 from inspection_robot.ros.diagnostics import DeviceDiagnostics
 from inspection_robot.ros.twin import CommandTwin
 from inspection_robot.ros.worker import RequestWorker
 from inspection_robot.ptz import pelco
-from inspection_robot.ptz.driver import HeadError, PelcoHead
+from inspection_robot.ptz.driver import HeadError, NoHead, PelcoHead
 from inspection_robot.ptz.terrace import Terrace, format_centi
 
 NODE_NAME = "cloud_terrace"
@@ -119,9 +122,14 @@ def main():
         raise ValueError("~reconnect_backoff must be [first, max] seconds, 0 < first <= max, got %r" % (backoff,))
     if state_rate <= 0 or move_timeout <= 0 or poll_period <= 0 or reply_timeout <= 0:
         raise ValueError("~state_rate, ~move_timeout, ~poll_period and ~reply_timeout must be positive")
-    head = PelcoHead(port, baudrate=rospy.get_param("~baudrate", 9600), address=rospy.get_param("~address", 1),
-                     reply_timeout=reply_timeout, backoff=backoff,
-                     logger=lambda text: rospy.loginfo("%s: %s" % (NODE_NAME, text)))
+
+    def pelco_head():  # sim: the same Pelco-D driver, on the pty of sim_pelco_head (the launch starts it)
+        return PelcoHead(port, baudrate=rospy.get_param("~baudrate", 9600), address=rospy.get_param("~address", 1),
+                         reply_timeout=reply_timeout, backoff=backoff,
+                         logger=lambda text: rospy.loginfo("%s: %s" % (NODE_NAME, text)))
+
+    head = make_driver("head", rospy.get_param("~driver", ""), {"pelco": pelco_head, SIM: pelco_head},
+                       rospy.get_param("~driver_params", {}), NoHead)
     terrace = Terrace(head, speeds, tilt_limits, tolerance, move_timeout, poll_period)
 
     def stop_head():

@@ -7,8 +7,8 @@ Subscribes:  infrared_cmd (GeneralCmd) -> answers on infrared_ack (GeneralAck), 
 Publishes:   diagnostics (diagnostic_msgs/DiagnosticArray, hardware_id "thermal_imager", ~status_rate Hz)
              thermal/image_raw (sensor_msgs/Image, bgr8 false colour, ~image_rate Hz, only with subscribers)
              thermal/hottest (GeneralTopic, JSON {"x", "y", "temperature"} of the same frame)
-Parameters:  ~driver ("sim", a vendor plug-in "package.module:Class", or "" = none configured:
-             every command fails and diagnostics report ERROR; default ""),
+Parameters:  ~driver (sim | none | vendor plug-in "package.module:Class", required; none = not fitted:
+             every command fails "thermal not fitted (driver: none)" and diagnostics report ERROR),
              ~driver_params (dict of keyword arguments for a plug-in, {}),
              ~width, ~height (px, 384, 288), ~roots (under data_root unless absolute, [thermal, presets, pictures]),
              ~measure_box_px (px, 16), ~status_rate (Hz, 1.0), ~image_rate (Hz, 1.0), ~jpeg_quality (90),
@@ -23,11 +23,11 @@ from sensor_msgs.msg import Image
 from inspection_robot.camera.driver import DeviceHealth
 from inspection_robot.command import CommandError
 from inspection_robot.msg import GeneralTopic
+from inspection_robot.drivers import SIM, make_driver
 from inspection_robot.ros.diagnostics import DeviceDiagnostics, probe_device
 from inspection_robot.ros.images import bgr_image_msg
 from inspection_robot.ros.twin import CommandTwin
 from inspection_robot.thermal.commands import ThermalCommands
-from inspection_robot.plugin import load_class
 from inspection_robot.thermal.driver import NoImager, ThermalError
 from inspection_robot.ros.data_root import data_root, path_list_param
 
@@ -68,8 +68,8 @@ class InfraredNode(object):
                                   [("measure_spot", "%d,%d" % (x, y)), ("failures", self._health.failures)])
 
 
-def make_driver(kind, width, height):
-    if kind == "sim":
+def make_imager(spec, width, height):
+    def simulator():
         from inspection_robot.ros.sim_view import SimView
         from inspection_robot.sim.render import ThermalRenderer
         from inspection_robot.sim.thermal import SimulatedImager
@@ -79,10 +79,8 @@ def make_driver(kind, width, height):
         renderer = ThermalRenderer(world, int(params.get("seed", 0)), float(params.get("noise_sigma", 0.05)))
         return SimulatedImager(renderer, SimView(world), world.sensor_height, width, height,
                                float(params.get("hfov_deg", 25.0)), list(params.get("unsupported", [])))
-    if not kind:
-        rospy.logerr("%s: no thermal imager driver configured (~driver); every command will fail" % NODE)
-        return NoImager()
-    return load_class(kind)(**rospy.get_param("~driver_params", {}))
+
+    return make_driver("thermal", spec, {SIM: simulator}, rospy.get_param("~driver_params", {}), NoImager)
 
 
 def main():
@@ -93,7 +91,7 @@ def main():
     image_rate = float(rospy.get_param("~image_rate", 1.0))
     if width < 8 or height < 8 or status_rate <= 0 or image_rate <= 0:
         raise ValueError("~width/~height must be >= 8 px, ~status_rate and ~image_rate > 0")
-    driver = make_driver(rospy.get_param("~driver", ""), width, height)
+    driver = make_imager(rospy.get_param("~driver", ""), width, height)
     health = DeviceHealth()
     roots = path_list_param("~roots", ["thermal", "presets", "pictures"], data_root())
     commands = ThermalCommands(driver, roots, health, width, height,

@@ -1,34 +1,38 @@
 """obstacle_detector: 3-D points in the robot's travel corridor -> obstacle_status (on change only).
 
-Subscribes:  ~cloud_topic ("obstacle_cloud", sensor_msgs/PointCloud2, float32 x/y/z, sensor frame)
+Subscribes:  ~cloud_topic ("obstacle_cloud", sensor_msgs/PointCloud2, float32 x/y/z, sensor frame) with
+               ~driver pointcloud (a ROS driver publishes it) or sim (sim_obstacle_cloud publishes it)
              move_cmd (MoveCmd): the travel direction (sign of velocity_x, spin in steer mode);
              a zero command keeps the last direction, so a stopped robot still sees what stopped it
 Publishes:   obstacle_status (ObstacleStatus, latched): once at start-up (false), then on every change
 Parameters:  ~half_width (m, 0.45), ~front_offset (m, 0.45), ~rear_offset (m, 0.45), ~distance (m, 1.2),
              ~ground_height (m, 0.08), ~max_height (m, 1.8), ~spin_radius (m, 0.8), ~min_points (5),
-             ~clear_count (clouds, 3), ~sensor_pose ([x, y, z, yaw] of the sensor in the robot frame, m/rad)
+             ~driver (pointcloud | sim | none | "package.module:Class" with ~driver_params, required; none:
+             no 3-D sensor fitted, obstacle_status stays false; a plug-in is start(callback)ed with
+             N x 3 float arrays), ~clear_count (clouds, 3),
+             ~sensor_pose ([x, y, z, yaw] of the sensor in the robot frame, m/rad)
 """
 import rospy
 from sensor_msgs.msg import PointCloud2, PointField
 
+from inspection_robot.drivers import SIM, make_driver, not_fitted_reason
 from inspection_robot.msg import MoveCmd, ObstacleStatus
 from inspection_robot.nav.obstacle import FORWARD, CorridorDetector, direction_from_command, xyz_from_cloud
 
 
 class ObstacleDetector(object):
-    def __init__(self, detector, cloud_topic):
+    def __init__(self, detector):
         self._detector = detector
         self._direction = FORWARD
         self._pub = rospy.Publisher("obstacle_status", ObstacleStatus, queue_size=10, latch=True)
         self._state = False
         self._publish(False)
         rospy.Subscriber("move_cmd", MoveCmd, self._on_move, queue_size=10)
-        rospy.Subscriber(cloud_topic, PointCloud2, self._on_cloud, queue_size=1, buff_size=2 ** 24)
 
     def _on_move(self, msg):
         self._direction = direction_from_command(msg.velocity_x, msg.velocity_yaw, msg.wheel_control, self._direction)
 
-    def _on_cloud(self, msg):
+    def on_cloud(self, msg):
         offsets = {f.name: f.offset for f in msg.fields if f.datatype == PointField.FLOAT32}
         if not all(k in offsets for k in "xyz") or msg.is_bigendian:
             rospy.logwarn_throttle(10.0, "obstacle_detector: cloud on %s lacks little-endian float32 x/y/z; ignored"
@@ -38,7 +42,9 @@ class ObstacleDetector(object):
         if len(msg.data) < count * msg.point_step:
             rospy.logwarn_throttle(10.0, "obstacle_detector: cloud shorter than width*height*point_step; ignored")
             return
-        points = xyz_from_cloud(msg.data, msg.point_step, (offsets["x"], offsets["y"], offsets["z"]), count)
+        self.on_points(xyz_from_cloud(msg.data, msg.point_step, (offsets["x"], offsets["y"], offsets["z"]), count))
+
+    def on_points(self, points):
         state = self._detector.update(points, self._direction)
         if state != self._state:
             self._publish(state)
@@ -67,5 +73,16 @@ def main():
     detector = CorridorDetector(p["half_width"], p["front_offset"], p["rear_offset"], p["distance"],
                                 p["ground_height"], p["max_height"], p["spin_radius"], min_points, clear_count,
                                 sensor_pose)
-    ObstacleDetector(detector, rospy.get_param("~cloud_topic", "obstacle_cloud"))
+    cloud_topic = rospy.get_param("~cloud_topic", "obstacle_cloud")
+    node = ObstacleDetector(detector)
+    source = make_driver("sensor3d", rospy.get_param("~driver", ""),
+                         {SIM: lambda: cloud_topic, "pointcloud": lambda: cloud_topic},
+                         rospy.get_param("~driver_params", {}))
+    if source is None:
+        rospy.logwarn("obstacle_detector: %s: no obstacle detection, obstacle_status stays false"
+                      % not_fitted_reason("sensor3d"))
+    elif isinstance(source, str):
+        rospy.Subscriber(source, PointCloud2, node.on_cloud, queue_size=1, buff_size=2 ** 24)
+    else:  # a plug-in sensor: start(callback) calls back with an N x 3 float array (m, sensor frame)
+        source.start(node.on_points)
     rospy.spin()

@@ -6,7 +6,8 @@ Services:    arm_control (ControlService): every arm command
 Subscribes:  arm_cmd (GeneralCmd), control_status (ControlStatus): joystick-busy rule
 Publishes:   arm_ack (GeneralAck): replies to arm_cmd, and unprompted reports (trans_id 0,
                receiver "") when a recording or playback ends or fails
-Parameters:  ~driver ("sim"; "none" answers every command failed/unsupported),
+Parameters:  ~driver (sim | none | "package.module:Class" with ~driver_params, required; none answers
+               every command failed "unsupported: arm not fitted (driver: none)"),
              data_root (namespace), ~trajectory_roots ([arm], under data_root unless absolute): where
              trajectory files may live, ~default_trajectory ("arm/default_orbit.csv"),
              ~record_rate (Hz, 20.0), ~move_timeout (s, 20.0), ~tolerance_mm (0.5),
@@ -22,9 +23,9 @@ import rospy
 from inspection_robot.arm.controller import AXIS_NAMES, ArmController
 from inspection_robot.arm.driver import Limits
 from inspection_robot.command import CommandTable, failed
+from inspection_robot.drivers import SIM, make_driver, not_fitted_reason
 from inspection_robot.interface import ARM_COMMANDS, UNSUPPORTED
 from inspection_robot.ros.twin import CommandTwin, serve_table
-from inspection_robot.sim.arm import SimArm
 from inspection_robot.ros.data_root import data_root, path_list_param, path_param
 
 NODE_NAME = "robot_arm"
@@ -46,7 +47,7 @@ def _serve_sim_faults(arm):
 
 def main():
     rospy.init_node(NODE_NAME)
-    driver_name = rospy.get_param("~driver", "sim")
+    driver_spec = rospy.get_param("~driver", "")
     root = data_root()
     roots = path_list_param("~trajectory_roots", ["arm"], root)
     default_file = path_param("~default_trajectory", "arm/default_orbit.csv", root)
@@ -60,8 +61,17 @@ def main():
         rospy.loginfo("%s: %s: %s" % (NODE_NAME, reply.ack, reply.data))
         holder["twin"].publish_ack(reply)
 
-    if driver_name == "sim":
+    def simulator():
+        from inspection_robot.sim.arm import SimArm
         arm = SimArm(limits, sim.get("linear_speed_mm_s", 200.0), sim.get("angular_speed_deg_s", 90.0))
+        _serve_sim_faults(arm)
+        return arm
+
+    arm = make_driver("arm", driver_spec, {SIM: simulator}, rospy.get_param("~driver_params", {}))
+    if arm is None:  # driver: none
+        reason = "%s: %s" % (UNSUPPORTED, not_fitted_reason("arm"))
+        table = CommandTable({name: (lambda data: failed(reason)) for name in ARM_COMMANDS})
+    else:
         controller = ArmController(arm, roots, default_file,
                                    record_rate_hz=float(rospy.get_param("~record_rate", 20.0)),
                                    move_timeout=float(rospy.get_param("~move_timeout", 20.0)),
@@ -70,11 +80,6 @@ def main():
                                    max_record_s=float(rospy.get_param("~max_record_s", 600.0)),
                                    report=report)
         table = controller.table()
-        _serve_sim_faults(arm)
         rospy.on_shutdown(controller.shutdown)
-    elif driver_name == "none":
-        table = CommandTable({name: (lambda data: failed(UNSUPPORTED)) for name in ARM_COMMANDS})
-    else:
-        raise ValueError("~driver must be 'sim' or 'none', got %r" % (driver_name,))
     holder["twin"] = CommandTwin(table, "arm_control", "arm_cmd", "arm_ack", NODE_NAME)
     rospy.spin()

@@ -24,7 +24,8 @@ Services:    imu_control (ControlService): twin of imu_cmd/imu_ack
              sim only: sim/inject_fault (ControlService): cmd = fault (hard_estop, bumper, fall_left,
                  fall_right, motor_disconnect, joystick_link_lost, stepper_comm, low_battery) or
                  condition (at_dock, charger_off), data 1|0; query; set_pose "x,y,yaw"; set_soc "%"
-Parameters:  ~driver ("sim" or "package.module:Class"), ~driver_params ({}): vendor constructor kwargs
+Parameters:  ~driver (sim | none | "package.module:Class", required; see inspection_robot.drivers),
+             ~driver_params ({}): vendor constructor kwargs
              ~rate (Hz, 50.0) control cycle; ~status_rate (Hz, 10.0)
              ~cmd_timeout (s, 0.5)
              ~max_velocity_x (m/s, 1.0), ~max_velocity_yaw (rad/s, 1.0)
@@ -44,13 +45,13 @@ from geometry_msgs.msg import PoseWithCovarianceStamped, TransformStamped, Twist
 from nav_msgs.msg import Odometry
 
 from inspection_robot.angles import quaternion_from_yaw
+from inspection_robot.drivers import SIM, make_driver
 from inspection_robot.interface import ACK_SUCCESS, VOICE_LANGUAGES
+from inspection_robot.motion.chassis import NoChassis
 from inspection_robot.motion.controller import MotionController
 from inspection_robot.motion.velocity import VelocityLimits
 from inspection_robot.msg import ControlStatus, GeneralAck, GeneralCmd, MoveCmd, ObstacleStatus, RobotStatus, VoiceCmd
-from inspection_robot.plugin import load_class
 from inspection_robot.ros.twin import CommandTwin, control_response
-from inspection_robot.sim.chassis import SimChassis
 from inspection_robot.srv import ControlService
 
 NODE_NAME = "robot_control"
@@ -102,17 +103,30 @@ class RobotControl(object):
         controller.set_speaker(self._speak)
         self._imu_twin = CommandTwin(_ImuTable(controller), "imu_control", "imu_cmd", "imu_ack", NODE_NAME,
                                      busy_when_joystick=False)
-        rospy.Subscriber("mode_cmd", GeneralCmd, self._on_mode_cmd, queue_size=50)
-        rospy.Subscriber("move_cmd", MoveCmd, self._on_move_cmd, queue_size=10)
-        rospy.Subscriber("control_cmd", GeneralCmd, self._on_control_cmd, queue_size=50)
-        rospy.Subscriber("obstacle_status", ObstacleStatus, self._on_obstacle, queue_size=10)
-        rospy.Subscriber("robot_status", RobotStatus, self._on_robot_status, queue_size=1)
+        # Every input, by topic: (message type, queue size, handler). A handler applies its stop in the
+        # callback, before returning; _dispatch is the one boundary around all of them.
+        self._inputs = {
+            "mode_cmd": (GeneralCmd, 50, self._on_mode_cmd),
+            "move_cmd": (MoveCmd, 10, self._on_move_cmd),
+            "control_cmd": (GeneralCmd, 50, self._on_control_cmd),
+            "obstacle_status": (ObstacleStatus, 10, self._on_obstacle),
+            "robot_status": (RobotStatus, 1, self._on_robot_status),
+        }
+        for topic, (msg_type, queue_size, _handler) in self._inputs.items():
+            rospy.Subscriber(topic, msg_type, self._dispatch, callback_args=topic, queue_size=queue_size)
         self._timer = rospy.Timer(rospy.Duration(1.0 / rate_hz), self._on_tick)
         self._status_timer = rospy.Timer(rospy.Duration(1.0 / status_rate_hz), self._on_status_timer)
 
-    # --- inputs: each applies its stop in this callback, before returning ----------------------
+    def _dispatch(self, msg, topic):
+        try:
+            self._inputs[topic][2](msg)
+        except Exception as err:  # boundary: one bad input must not kill the node; stop to be safe
+            rospy.logerr("%s: %s raised: %s\n%s" % (NODE_NAME, topic, err, traceback.format_exc()))
+            self._emergency_stop()
+
+    # --- inputs (handlers of self._inputs) -----------------------------------------------------
     def _on_mode_cmd(self, msg):
-        decision = self._guard("mode_cmd", self._ctl.on_mode_cmd, msg.sender, msg.cmd, msg.data)
+        decision = self._ctl.on_mode_cmd(msg.sender, msg.cmd, msg.data)
         reply = self._ctl.mode_reply(decision)
         ack = GeneralAck(sender=NODE_NAME, receiver=msg.sender, trans_id=msg.trans_id, ack=reply.ack, data=reply.data)
         ack.header.stamp = rospy.Time.now()
@@ -120,26 +134,23 @@ class RobotControl(object):
         self._publish_status_if_changed()
 
     def _on_move_cmd(self, msg):
-        reply = self._guard("move_cmd", self._ctl.on_move_cmd, msg.sender, msg.velocity_x, msg.velocity_yaw,
-                            msg.wheel_control)
-        if reply is not None and reply.ack != ACK_SUCCESS:
+        reply = self._ctl.on_move_cmd(msg.sender, msg.velocity_x, msg.velocity_yaw, msg.wheel_control)
+        if reply.ack != ACK_SUCCESS:
             rospy.logwarn_throttle(2.0, "%s: move_cmd from %r not obeyed: %s" % (NODE_NAME, msg.sender, reply.data))
 
     def _on_control_cmd(self, msg):
-        reply = self._guard("control_cmd", self._ctl.on_control_cmd, msg.sender, msg.cmd, msg.data)
-        if reply is not None:
-            ack = GeneralAck(sender=NODE_NAME, receiver=msg.sender, trans_id=msg.trans_id, ack=reply.ack,
-                             data=reply.data)
-            ack.header.stamp = rospy.Time.now()
-            self._control_ack_pub.publish(ack)
+        reply = self._ctl.on_control_cmd(msg.sender, msg.cmd, msg.data)
+        ack = GeneralAck(sender=NODE_NAME, receiver=msg.sender, trans_id=msg.trans_id, ack=reply.ack, data=reply.data)
+        ack.header.stamp = rospy.Time.now()
+        self._control_ack_pub.publish(ack)
         self._publish_status_if_changed()
 
     def _on_obstacle(self, msg):
-        self._guard("obstacle_status", self._ctl.on_obstacle, msg.obstacle)
+        self._ctl.on_obstacle(msg.obstacle)
         self._publish_status_if_changed()
 
     def _on_robot_status(self, msg):
-        self._guard("robot_status", self._ctl.on_offline, msg.offline_warn != 0)
+        self._ctl.on_offline(msg.offline_warn != 0)
 
     def _on_inject_fault(self, req):
         with self._ctl.locked():
@@ -147,14 +158,6 @@ class RobotControl(object):
         rospy.loginfo("%s: sim/inject_fault %s(%r): %s %s" % (NODE_NAME, req.cmd, req.data, reply.ack, reply.data))
         self._publish_status_if_changed()
         return control_response(req, reply)
-
-    def _guard(self, what, fn, *args):
-        try:
-            return fn(*args)
-        except Exception as err:  # boundary: one bad input must not kill the node; stop to be safe
-            rospy.logerr("%s: %s raised: %s\n%s" % (NODE_NAME, what, err, traceback.format_exc()))
-            self._emergency_stop()
-            return None
 
     def _emergency_stop(self):
         try:
@@ -255,7 +258,7 @@ def _log(level, text):
 
 def main():
     rospy.init_node(NODE_NAME)
-    driver_spec = str(rospy.get_param("~driver", "sim"))
+    driver_spec = rospy.get_param("~driver", "")
     rate_hz = float(rospy.get_param("~rate", 50.0))
     status_rate_hz = float(rospy.get_param("~status_rate", 10.0))
     cmd_timeout = float(rospy.get_param("~cmd_timeout", 0.5))
@@ -268,12 +271,14 @@ def main():
         raise ValueError("~rate and ~status_rate must be positive")
     if language not in VOICE_LANGUAGES:
         raise ValueError("~voice_language must be one of %s" % (VOICE_LANGUAGES,))
-    sim = None
-    if driver_spec == "sim":
-        sim = driver = SimChassis.from_world(time.monotonic, rospy.get_param("~sim_world/world", {}),
-                                             **rospy.get_param("~sim", {}))
-    else:
-        driver = load_class(driver_spec)(**rospy.get_param("~driver_params", {}))
+
+    def simulator():
+        from inspection_robot.sim.chassis import SimChassis
+        return SimChassis.from_world(time.monotonic, rospy.get_param("~sim_world/world", {}),
+                                     **rospy.get_param("~sim", {}))
+
+    driver = make_driver("chassis", driver_spec, {SIM: simulator}, rospy.get_param("~driver_params", {}), NoChassis)
+    sim = driver if driver_spec == SIM else None
     controller = MotionController(driver, limits, cmd_timeout, time.monotonic, log=_log)
     node = RobotControl(controller, rate_hz, status_rate_hz, str(rospy.get_param("~odom_frame", "odom")),
                         str(rospy.get_param("~base_frame", "base_link")), bool(rospy.get_param("~publish_tf", True)),

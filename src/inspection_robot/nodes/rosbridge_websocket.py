@@ -12,7 +12,11 @@ Subscribes:  every topic a client subscribes to (one ROS subscriber per topic, s
 Services:    every service a client advertises; calls any ROS service for clients
 Parameters:  ~port (int, 9090; 0 = any free port), ~address (str, "127.0.0.1"; "" = all),
              ~actual_port (int, written: the bound port),
-             ~certfile / ~keyfile (str, ""; both set = TLS), ~auth_token (str, ""; empty = no auth),
+             ~certfile / ~keyfile (str, ""; both set = TLS), ~client_ca (str, "": CA file; set = TLS
+             client certificates required), ~auth_token (str, ""; empty = no auth),
+             ~auth_token_file (str, "": file holding the token, mode 600 or stricter),
+             ~insecure (bool, false): allow a non-loopback ~address without token or client
+             certificates (warns every minute); otherwise such a bind is refused at start-up,
              ~auth_window (s, 60.0), ~max_message_size (bytes, 10000000),
              ~ping_interval (s, 10.0; 0 = off), ~ping_timeout (s, 30.0),
              ~client_budget (bytes per client send queue, 67108864), ~budget_grace (s, 5.0: over budget
@@ -25,6 +29,7 @@ Parameters:  ~port (int, 9090; 0 = any free port), ~address (str, "127.0.0.1"; "
 """
 import asyncio
 import concurrent.futures
+import ssl
 import threading
 import time
 
@@ -34,6 +39,7 @@ import tornado.ioloop
 from diagnostic_msgs.msg import DiagnosticStatus
 from std_msgs.msg import Int32
 
+from inspection_robot.bridge.access import listen_check, read_token_file
 from inspection_robot.bridge.codec import Codec
 from inspection_robot.bridge.console import CONSOLE_PATH, console_routes, missing_files
 from inspection_robot.bridge.protocol import Authenticator, Session, SessionConfig
@@ -41,6 +47,8 @@ from inspection_robot.ros.bridge_backend import RosBackend, RosGraph
 from inspection_robot.ros.message_types import GenpyTypes
 from inspection_robot.bridge.rosapi import RosApi
 from inspection_robot.bridge.server import BridgeServer, LoopPoster, make_ssl_context
+
+INSECURE_WARNING_PERIOD = 60.0  # s between warnings while insecure:=true leaves the link open
 
 # A client repeating one bad request must not flood the log: identical lines once a second.
 LOGGERS = {"info": rospy.loginfo,
@@ -59,6 +67,9 @@ def read_params():
         "certfile": str(rospy.get_param("~certfile", "")),
         "keyfile": str(rospy.get_param("~keyfile", "")),
         "auth_token": str(rospy.get_param("~auth_token", "")),
+        "auth_token_file": str(rospy.get_param("~auth_token_file", "")),
+        "client_ca": str(rospy.get_param("~client_ca", "")),
+        "insecure": bool(rospy.get_param("~insecure", False)),
         "auth_window": float(rospy.get_param("~auth_window", 60.0)),
         "max_message_size": int(rospy.get_param("~max_message_size", 10000000)),
         "ping_interval": float(rospy.get_param("~ping_interval", 10.0)),
@@ -83,6 +94,14 @@ def read_params():
             raise ValueError("~%s must not be negative" % name)
     if bool(params["certfile"]) != bool(params["keyfile"]) and not params["certfile"]:
         raise ValueError("~keyfile given without ~certfile")
+    if params["client_ca"] and not params["certfile"]:
+        raise ValueError("~client_ca needs ~certfile/~keyfile (client certificates are checked over TLS)")
+    if params["auth_token_file"]:
+        if params["auth_token"]:
+            raise ValueError("set ~auth_token_file or ~auth_token, not both")
+        params["auth_token"] = read_token_file(params["auth_token_file"])
+    params["insecure_warning"] = listen_check(params["address"], bool(params["auth_token"]),
+                                              bool(params["client_ca"]), params["insecure"])
     return params
 
 
@@ -205,6 +224,9 @@ def main():
         else:
             http_routes = console_routes(params["console_dir"], params["console_vendor_dir"], bool(authenticator))
     ssl_context = make_ssl_context(params["certfile"], params["keyfile"]) if params["certfile"] else None
+    if params["client_ca"]:
+        ssl_context.verify_mode = ssl.CERT_REQUIRED
+        ssl_context.load_verify_locations(params["client_ca"])
     server = BridgeServer(make_session, params["address"], params["port"], ssl_context,
                           params["ping_interval"], params["ping_timeout"], params["max_message_size"],
                           params["client_budget"], params["budget_grace"], lambda n: count_pub.publish(Int32(n)),
@@ -220,6 +242,10 @@ def main():
     if http_routes:
         rospy.loginfo("bridge: operator console on %s://%s:%d%s", "https" if ssl_context else "http",
                       params["address"] or "0.0.0.0", port, CONSOLE_PATH)
+    if params["insecure_warning"]:
+        rospy.logwarn("bridge: " + params["insecure_warning"])
+        rospy.Timer(rospy.Duration(INSECURE_WARNING_PERIOD),
+                    lambda _event: rospy.logwarn("bridge: " + params["insecure_warning"]))
     rospy.spin()
     io_thread.stop(server.stop)
     executor.shutdown(wait=False)

@@ -7,6 +7,7 @@ Services:    ~sim_control (ControlService), simulator-only:
                fault   data none|silence|bad_checksum|garbage
                unplug  the port vanishes (pty closed, link removed); replug: a new pty, same link
                get_state -> "pan,tilt,wiper,lamp" (standard hundredths of a degree, 0|1)
+               get_motion -> "moving" | "still" (whether the last move frame still drives the head)
 Parameters:  ~link (path, "/tmp/inspection_robot_pelco"), ~address (1),
              ~max_speed_deg_s (60.0: speed byte 0x3F; 0x40 turbo = 1.5x), ~position_speed_deg_s
              (90.0: absolute moves), ~tilt_min_deg (-90.0), ~tilt_max_deg (90.0)
@@ -23,7 +24,7 @@ class SimPelcoHeadNode(object):
     def __init__(self, server):
         self._server = server
         self._table = CommandTable({"fault": self._fault, "unplug": self._unplug, "replug": self._replug,
-                                    "get_state": self._get_state})
+                                    "get_state": self._get_state, "get_motion": self._get_motion})
         self._service = serve_table("~sim_control", self._table)
 
     def _fault(self, data):
@@ -41,6 +42,9 @@ class SimPelcoHeadNode(object):
     def _get_state(self, _data):
         pan, tilt, wiper, lamp = self._server.head.state()
         return "%d,%d,%d,%d" % (pan, tilt, int(wiper), int(lamp))
+
+    def _get_motion(self, _data):
+        return "moving" if self._server.head.moving() else "still"
 
 
 def main():

@@ -13,6 +13,7 @@ import threading
 
 import serial
 
+from inspection_robot.drivers import not_fitted_class, not_fitted_reason
 from inspection_robot.ptz import pelco
 
 
@@ -254,3 +255,8 @@ class PelcoHead(PanTiltHead):
 
     def set_lamp(self, on):
         self._write(pelco.lamp(self.address, on))
+
+
+NoHead = not_fitted_class(PanTiltHead, HeadError, "head", stop=lambda self: None, stats={}, port="none",
+                          last_error=not_fitted_reason("head"))
+"""``~driver: none``: every request fails with the reason; stop (shutdown) passes."""

@@ -81,6 +81,12 @@ class SimPelcoHead(object):
             self._advance()
             return (pelco.wrap_pan_centi(int(round(self.pan))), int(round(self.tilt)), self.wiper, self.lamp)
 
+    def moving(self):
+        """True while a continuous or absolute move is under way (a stop frame ends both)."""
+        with self._lock:
+            return bool(self.pan_rate or self.tilt_rate or self.pan_target is not None
+                        or self.tilt_target is not None)
+
     def _speed(self, byte):
         if byte >= pelco.TURBO_SPEED:
             return self.max_speed * 1.5

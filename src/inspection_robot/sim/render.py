@@ -28,6 +28,7 @@ WALL_HEIGHT_M = 2.5
 GROUND_MARGIN_M = 10.0
 GROUND_PX_PER_M = 25.0
 PANEL_PX_PER_M = 100.0
+FACE_CACHE_BYTES = 64 * 1024 * 1024  # rendered face textures kept for reuse
 
 
 def head_rotation(yaw, tilt):
@@ -256,12 +257,17 @@ class Renderer(object):
         key = (face.id, face.value, size)
         tex = self._face_cache.get(key)
         if tex is None:
-            if len(self._face_cache) > 128:
-                self._face_cache.clear()
             tex = cv2.convertScaleAbs(painter.paint_face(face, size), alpha=0.85 + 0.15 * _shade(face.quad.normal,
                                                                                                  self._sun))
-            self._face_cache[key] = tex
+            self._cache_texture(key, tex)
         return tex
+
+    def _cache_texture(self, key, tex):
+        # bounded in bytes, not entries: 128 entries of up to 2048 px were 1.5 GB, and the chaos soak
+        # saw camera_node's memory climb for minutes as the head panned over new faces and zooms
+        if sum(t.nbytes for t in self._face_cache.values()) + tex.nbytes > FACE_CACHE_BYTES:
+            self._face_cache.clear()
+        self._face_cache[key] = tex
 
     def render(self, camera, frame_index=None):
         """BGR uint8 picture of ``camera``'s view. Frame ``frame_index`` (default: a counter) seeds noise."""
@@ -299,7 +305,7 @@ class Renderer(object):
             width = max(16, int(thing.quad.width * 400))
             height = max(16, int(thing.quad.height * 400))
             tex = painter.paint_foreign(zlib.crc32(thing.id.encode("utf-8")), width, height)
-            self._face_cache[key] = tex
+            self._cache_texture(key, tex)
         return tex
 
     def _far_to_near(self, camera):

@@ -5,6 +5,7 @@ the spec's commands (vendors differ): ``supports(command)`` says which; the comm
 the rest ``failed``/``unsupported``. Vendor plug-ins are classes named "package.module:Class"
 (parameter ``~driver``), constructed with keyword arguments from ``~driver_params``.
 """
+from inspection_robot.drivers import not_fitted_reason
 
 
 class ThermalError(Exception):
@@ -36,11 +37,11 @@ class ThermalDriver(object):
 
 
 class NoImager(ThermalDriver):
-    """Stands in when no vendor plug-in is configured: every request fails, diagnostics show ERROR."""
+    """``~driver: none`` (no imager fitted): every request fails with the reason, diagnostics show ERROR."""
 
     supported = ("save_temperature", "capture_picture", "get_max_temperature", "get_spot_temperature",
                  "get_high_temperature", "get_low_temperature", "auto_focus", "set_measure_spot")
-    REASON = "no thermal imager driver configured (~driver)"
+    REASON = not_fitted_reason("thermal")
 
     def frame(self):
         raise ThermalError(self.REASON)

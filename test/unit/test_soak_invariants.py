@@ -1,0 +1,92 @@
+"""sim.soak: the chaos soak's invariant checkers, fed with hand-made observation sequences."""
+from inspection_robot.sim.soak import Availability, Ledger, MemoryGrowth, MotionAuthority, NodeLiveness, held, table
+
+CYCLE = 0.02
+
+
+def test_motion_before_authorisation_is_a_violation():
+    m = MotionAuthority()
+    m.command(1.0, 0.0, 0.0)
+    assert m.violations == []
+    m.command(1.02, 0.3, 0.0)
+    assert len(m.violations) == 1 and "without an authorised source (after start-up" in m.violations[0]
+
+
+def test_authorised_motion_and_a_stop_within_one_cycle_hold():
+    m = MotionAuthority()
+    m.authorise(1.0)
+    m.command(1.02, 0.3, 0.0)
+    m.stop_cause(2.0, 2.0 + CYCLE, "hard_estop")
+    m.command(2.005, 0.3, 0.0)          # already on its way before the stop took effect
+    m.command(2.01, 0.0, 0.0)           # the stop
+    m.command(2.03, 0.0, 0.0)
+    m.tick(5.0)
+    assert m.violations == [] and m.checks == 3 and abs(m.stop_latencies[0] - 0.01) < 1e-9
+
+
+def test_late_stop_and_motion_after_the_deadline_are_violations():
+    m = MotionAuthority()
+    m.authorise(0.0)
+    m.stop_cause(2.0, 2.0 + CYCLE, "heartbeat lost")
+    m.command(2.05, 0.3, 0.0)
+    m.command(2.07, 0.0, 0.0)
+    assert len(m.violations) == 2
+    assert "without an authorised source (after heartbeat lost)" in m.violations[0]
+    assert "stop after heartbeat lost reached the driver 0.070 s after the cause" in m.violations[1]
+
+
+def test_stop_never_seen_is_a_violation():
+    m = MotionAuthority()
+    m.authorise(0.0)
+    m.stop_cause(2.0, 2.02, "e-stop")
+    m.tick(2.5)
+    assert m.violations == []
+    m.tick(3.1)
+    assert m.violations == ["no stop at the driver after e-stop"]
+
+
+def test_node_respawned_in_time_holds_and_a_long_outage_does_not():
+    n = NodeLiveness(max_down=5.0)
+    n.seen(0.0, "/cloud_terrace", 10)
+    n.missing(1.0, "/cloud_terrace")
+    n.seen(3.0, "/cloud_terrace", 11)
+    assert n.violations == [] and n.respawns == 1
+    n.missing(10.0, "/camera_node")
+    n.missing(16.0, "/camera_node")
+    n.missing(17.0, "/camera_node")
+    assert n.violations == ["/camera_node down for more than 5.0 s"]
+
+
+def test_memory_growth_against_the_level_after_warm_up():
+    g = MemoryGrowth(warmup=10.0, window=3)
+    for t in range(0, 40):
+        g.sample(float(t), "/a", 1, 100e6)
+        g.sample(float(t), "/b", 2, 100e6 if t < 20 else 120e6)
+    g.sample(0.0, "/c", 3, 50e6)        # too short to judge (respawned and killed again)
+    g.finish()
+    assert g.checks == 2
+    assert g.violations == ["/b (pid 2) grew from 100.0 to 120.0 MB (+20 %)"]
+
+
+def test_ledger_lost_and_corrupted():
+    ledger = Ledger()
+    ledger.stored("virtual obstacle", "w1", [[0, 0], [1, 1]])
+    ledger.stored("virtual obstacle", "w2", [[2, 2], [3, 3]])
+    ledger.stored("virtual obstacle", "w3", [[4, 4], [5, 5]])
+    ledger.removed("virtual obstacle", "w3")
+    ledger.listed("virtual obstacle", {"w1": [[0, 0], [1, 1]], "w2": [[2, 2], [3, 4]]})
+    assert ledger.checks == 2
+    assert ledger.violations == ["virtual obstacle w2 corrupted: [[2, 2], [3, 4]], stored [[2, 2], [3, 3]]"]
+    ledger.listed("virtual obstacle", {})
+    assert "virtual obstacle w1 lost" in ledger.violations
+
+
+def test_table_names_faults_and_results():
+    a, b = Availability(10.0), Availability(10.0)
+    a.recovered("head", 1.5)
+    text = table({"head unplugged and back": 3}, [a, b])
+    assert "head unplugged and back" in text and "     3" in text
+    assert "HELD" in text and "NOT EXERCISED" in text
+    assert not held([a, b]) and held([a])
+    b.recovered("camera", None)
+    assert "VIOLATED" in table({}, [b])
