@@ -105,6 +105,6 @@ def test_every_topic_service_and_action_of_the_nodes_is_named():
 
 
 @pytest.mark.parametrize("pattern", [r"INTERFACE\.md", r"/work/", r"spec file", r"\bV3\.0\.1 \(English",
-                                     r"used to ", r"were dropped", r"before \(main"])
+                                     r"\bused to ", r"were dropped", r"before \(main"])
 def test_stands_alone_without_history(pattern):
     assert not re.search(pattern, doc_text()), pattern
