@@ -1,5 +1,5 @@
 # Entry points; each installs what is missing first (scripts/setup is idempotent and fast).
-.PHONY: setup build run shell test unit integration lint bench clean
+.PHONY: setup build run patrol shell test unit integration lint bench clean
 
 setup:
 	@bash scripts/setup
@@ -9,6 +9,9 @@ build: setup
 
 run: build
 	scripts/rosenv roslaunch inspection_robot sim.launch
+
+patrol: build
+	@bash scripts/patrol
 
 shell: build
 	@scripts/rosenv bash
