@@ -51,7 +51,7 @@ def env(tmp_path):
 
 
 def reading_for(step, value=0.5):
-    n = 1 if "p_gauge" in step.preset else 2
+    n = len(step.preset["targets"])
     return Inspection([value] * n, [90.0] * n, ["/pic/%d_%d_%d.jpg" % (step.stop, step.preset_index, k)
                                                for k in range(n)], (1.0, 2.0, 0.0))
 

@@ -198,7 +198,11 @@ class TaskManager(object):
         started = time.time()
         rospy.loginfo("%s: %s %s stop %d preset %d" % (NODE_NAME, step.task_id, step.kind, step.stop + 1,
                                                        step.preset_index + 1))
-        outcome, detail, timings = self._runner.run(step, lambda: self._interrupt_wanted(step))
+        try:
+            outcome, detail, timings = self._runner.run(step, lambda: self._interrupt_wanted(step))
+        except Exception as err:  # boundary: a bug in one step fails that step, the patrol goes on
+            rospy.logerr("%s: %s step raised %s\n%s" % (NODE_NAME, step.kind, err, traceback.format_exc()))
+            outcome, detail, timings = "failed", "internal error: %s" % (err,), {}
         tick = time.monotonic()
         ended = time.time()
         with self._lock:

@@ -6,19 +6,24 @@ eight presets (one infrared, lamps and switches). ``PatrolClient`` talks only ro
 roslibpy ``Ros`` passed in (roslibpy is a test/demo dependency, never imported here): it records
 the presets like an operator (robot put at the stop with robot_control's sim/inject_fault
 set_pose, head aimed, preset_scale_cmd), calibrates them from the world's ground truth
-(``calibrate_preset --from-world``, a local tool, as the inspection rostest does), submits the
+(``calibrate_preset --from-world``'s library, in-process, as the inspection rostest does with the tool), submits the
 task on task_cmd and follows task_status. ``alarm_bands`` derives each target's normal band from
 the world (a gauge's green zone, else its range without the red zones at its ends; a lamp or switch
 its current state; a hot spot up to ``HOT_SPOT_LIMIT_C``).
 """
+import concurrent.futures
 import json
 import math
+import multiprocessing
 import os
-import shutil
-import subprocess
-import sys
 import threading
 import time
+
+import yaml
+
+from inspection_robot.camera.optics import ZoomOptics
+from inspection_robot.sim.inspection_sim import calibrate_from_world
+from inspection_robot.sim.world import World
 
 HALF_PI = math.pi / 2.0
 HOT_SPOT_LIMIT_C = 60.0
@@ -158,6 +163,19 @@ class PatrolClient(object):
             raise RuntimeError("%s %s: trans_id %d echoed as %d" % (service, cmd, trans_id, reply["trans_id"]))
         return reply["ack"], reply["data"]
 
+    def wait_services(self, names, timeout=120.0):
+        """Wait until every ControlService in ``names`` answers (nodes start in any order)."""
+        deadline = time.monotonic() + timeout
+        for name in names:
+            while True:
+                try:
+                    self.call(name, "__ping__")   # any answer (an unknown-command failure) will do
+                    break
+                except self.roslibpy.core.ServiceException:
+                    if time.monotonic() > deadline:
+                        raise RuntimeError("service %s not available after %.0f s" % (name, timeout))
+                    time.sleep(1.0)   # not advertised yet; the bridge has no way to wait for it
+
     def must(self, service, cmd, data="", timeout=30):
         ack, out = self.call(service, cmd, data, timeout)
         if ack != "success":
@@ -188,7 +206,7 @@ class PatrolClient(object):
         self.must("terrace_control", "set_angle", "0,%d" % tilt)
         self.must("camera_control", "set_zoom_level", "%.2f" % zoom)
         self.wait(lambda: self._joints is not None and abs(math.degrees(self._joints.get("tilt", 99)) - tilt / 100.0)
-                  < 0.02 and abs(math.degrees(self._joints.get("pan", 99))) < 0.02, 10.0, "head settled")
+                  < 0.02 and abs(math.degrees(self._joints.get("pan", 99))) < 0.02, 30.0, "head settled")
         trans_id = self.next_id()
         self._preset_cmd.publish(self.roslibpy.Message({"sender": "server", "trans_id": trans_id,
                                                         "preset_id": preset_id, "infrared": infrared,
@@ -199,14 +217,22 @@ class PatrolClient(object):
         return ack["directory"]
 
     def record_yard(self, world_file, stops=None, progress=None):
-        """Record and calibrate every preset of the plan; returns ({preset id: dir}, {preset id: targets})."""
-        directories, targets = {}, {}
-        for _name, pose, presets in (stops or YARD_STOPS):
-            self.teleport(pose)
-            for preset_id, aim, dist, zoom, infrared in presets:
-                directory = self.record_preset(preset_id, aim, dist, zoom, infrared)
-                targets[preset_id] = calibrate(directory, world_file)
-                directories[preset_id] = directory
+        """Record and calibrate every preset of the plan; returns ({preset id: dir}, {preset id: targets}).
+        Each calibration runs in the background while the next preset is recorded."""
+        directories, pending = {}, {}
+        self.wait_services(("sim/inject_fault", "terrace_control", "camera_control", "infrared_control",
+                            "task_control"))
+        # a separate process: the renderer would hold the GIL and starve the websocket client's thread
+        context = multiprocessing.get_context("spawn")
+        with concurrent.futures.ProcessPoolExecutor(max_workers=1, mp_context=context) as pool:
+            for _name, pose, presets in (stops or YARD_STOPS):
+                self.teleport(pose)
+                for preset_id, aim, dist, zoom, infrared in presets:
+                    directories[preset_id] = self.record_preset(preset_id, aim, dist, zoom, infrared)
+                    pending[preset_id] = pool.submit(calibrate_in_worker, world_file, directories[preset_id])
+            targets = {}
+            for preset_id, future in pending.items():
+                targets[preset_id] = future.result()
                 if progress:
                     progress(preset_id, targets[preset_id])
         return directories, targets
@@ -242,16 +268,27 @@ class PatrolClient(object):
                                                                                  "limit": 5000})))
 
 
-def calibrate(preset_dir, world_file):
-    """Calibrate a recorded preset from the world's ground truth; returns its target names."""
-    tool = shutil.which("calibrate_preset")
-    command = [sys.executable, tool] if tool else ["rosrun", "inspection_robot", "calibrate_preset"]
-    proc = subprocess.run(command + [preset_dir, "--from-world", world_file], stdout=subprocess.PIPE,
-                          stderr=subprocess.PIPE, universal_newlines=True, timeout=120)
-    if proc.returncode != 0:
-        raise RuntimeError("calibrate_preset %s: %s" % (preset_dir, proc.stderr.strip()))
-    from inspection_robot.inspection.preset import load_preset
-    return [t.name for t in load_preset(preset_dir).targets]
+class WorldCalibrator(object):
+    """calibrate_preset --from-world in-process (the world and optics loaded once): calibrates a
+    recorded preset from the world's ground truth and returns its target names."""
+
+    def __init__(self, world_file, optics_file=None):
+        self.world = World.load(world_file)
+        with open(optics_file or config_file("camera_optics.yaml")) as f:
+            cfg = yaml.safe_load(f)["camera_optics"]
+        self.optics = ZoomOptics(cfg["zoom_hfov_deg"], cfg["width"], cfg["height"])
+
+    def __call__(self, preset_dir):
+        return [t.name for t in calibrate_from_world(preset_dir, self.world, self.optics)]
+
+
+_WORKER_CALIBRATORS = {}   # per calibration worker process: world file -> WorldCalibrator (loaded once)
+
+
+def calibrate_in_worker(world_file, preset_dir):
+    if world_file not in _WORKER_CALIBRATORS:
+        _WORKER_CALIBRATORS[world_file] = WorldCalibrator(world_file)
+    return _WORKER_CALIBRATORS[world_file](preset_dir)
 
 
 def progress_bar(status, width=30):
@@ -264,6 +301,11 @@ def progress_bar(status, width=30):
         (" (held: %s)" % ",".join(status["holds"])) if status.get("holds") else "", status.get("eta_s", 0.0))
 
 
-def default_world_file():
+def config_file(name):
+    """A file of the package's config/ folder (source tree or devel space)."""
     here = os.path.dirname(os.path.abspath(__file__))
-    return os.path.normpath(os.path.join(here, "..", "..", "..", "config", "sim_world.yaml"))
+    return os.path.normpath(os.path.join(here, "..", "..", "..", "config", name))
+
+
+def default_world_file():
+    return config_file("sim_world.yaml")

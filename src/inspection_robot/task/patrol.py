@@ -55,7 +55,8 @@ ALARM_FAILED = "failed"  # no reading
 
 MODE_TASK = 0
 
-# kind: move | inspect | home; stop / preset_index are 0-based (-1 when not applicable)
+# kind: move | inspect | home; stop / preset_index are 0-based (-1 when not applicable); preset: the
+# task's preset entry {"preset", "directory", "targets", "alarms", "foreign"} of an inspection
 Step = namedtuple("Step", "kind task_id stop preset_index x y yaw precision preset")
 # what the node measured: values/confidences/pictures per target (calibration order), pose (x, y, yaw)
 # or None, and optionally foreign = (count, confidence, picture)
@@ -208,7 +209,7 @@ class Patrol(object):
             if HOLD_MODE in self.holds or HOLD_CHARGE in self.holds:
                 return None
             x, y, yaw = self.config.home_pose
-            self.running = Step(STEP_HOME, "", -1, -1, x, y, yaw, 0, "")
+            self.running = Step(STEP_HOME, "", -1, -1, x, y, yaw, 0, None)
             return self.running
         run = self.active
         if run is None or self.holds or (run.retry_at is not None and now < run.retry_at):
@@ -219,11 +220,11 @@ class Patrol(object):
         stop = run.task.stops[key[0]]
         if run.at_stop != key[0]:
             self.running = Step(STEP_MOVE, run.task.task_id, key[0], -1, stop["x"], stop["y"], stop["yaw"],
-                                stop["precision"], "")
+                                stop["precision"], None)
         else:
             preset = stop["presets"][key[1]]
             self.running = Step(STEP_INSPECT, run.task.task_id, key[0], key[1], stop["x"], stop["y"], stop["yaw"],
-                                stop["precision"], preset["directory"])
+                                stop["precision"], preset)
         return self.running
 
     def interrupt_wanted(self, step):
