@@ -38,6 +38,10 @@ def main():
     ros = connect(args.port, 180.0)
     client = PatrolClient(ros, roslibpy, log=print)
     client.wait(lambda: client.status, 120.0, "task_status from task_manager")
+    if client.status["state"] in ("running", "paused"):
+        # a previous `make patrol` was stopped mid-patrol: task_manager resumed its task at start-up
+        print("patrol: cancelling task %s left unfinished by a previous run" % client.status["task_id"])
+        client.task_cmd("cancel", "")
     print("patrol: recording %d presets at %d stops (simulated operator, calibrated from the world)"
           % (preset_count(), len(YARD_STOPS)))
     dirs, targets = client.record_yard(args.world, progress=lambda p, t: print("  %-20s %s" % (p, ", ".join(t))))
@@ -57,8 +61,8 @@ def main():
         sum(1 for r in rows if r["status"] == "failed")))
     for row in rows:
         if row["alarm"] in ("alarm", "failed"):
-            print("  %-8s %-28s %s %s %s" % (row["alarm"], row["target_name"], row["value"], row["unit"],
-                                            row["reason"]))
+            print("  %-8s %-28s %s %s %s"
+                  % (row["alarm"], row["target_name"], row["value"], row["unit"], row["reason"]))
     paths = json.loads(client.must("task_control", "report", task["id"]))
     print("patrol: report %s" % paths["report.html"])
     ros.close()

@@ -52,8 +52,8 @@ def env(tmp_path):
 
 def reading_for(step, value=0.5):
     n = len(step.preset["targets"])
-    return Inspection([value] * n, [90.0] * n, ["/pic/%d_%d_%d.jpg" % (step.stop, step.preset_index, k)
-                                               for k in range(n)], (1.0, 2.0, 0.0))
+    pictures = ["/pic/%d_%d_%d.jpg" % (step.stop, step.preset_index, k) for k in range(n)]
+    return Inspection([value] * n, [90.0] * n, pictures, (1.0, 2.0, 0.0))
 
 
 def run_step(patrol, clock, outcome=OUTCOME_OK, value=0.5, seconds=3.0):

@@ -33,10 +33,10 @@ YARD_STOPS = [
     ("transformer_1_left", (15.5, 10.0, 0.0), [("transformer_1_left", 1.5, 3.0, 2.0, False)]),
     ("transformer_1_front", (20.0, 15.0, -HALF_PI), [("transformer_1", 1.6, 3.0, 1.5, False)]),
     ("cabinet_1", (20.0, 21.4, HALF_PI), [("cabinet_1", 1.55, 3.0, 2.0, False)]),
-    ("cabinet_2", (26.0, 21.4, HALF_PI), [("cabinet_2", 1.45, 3.0, 2.0, False),
-                                          ("cabinet_2_zoom", 1.4, 3.0, 3.0, False)]),
-    ("breaker_1", (30.0, 14.5, -HALF_PI), [("breaker_1", 1.45, 3.5, 2.0, False),
-                                          ("breaker_1_thermal", 1.9, 3.5, 1.5, True)]),
+    ("cabinet_2", (26.0, 21.4, HALF_PI),
+     [("cabinet_2", 1.45, 3.0, 2.0, False), ("cabinet_2_zoom", 1.4, 3.0, 3.0, False)]),
+    ("breaker_1", (30.0, 14.5, -HALF_PI),
+     [("breaker_1", 1.45, 3.5, 2.0, False), ("breaker_1_thermal", 1.9, 3.5, 1.5, True)]),
     ("breaker_2", (36.0, 14.5, -HALF_PI), [("breaker_2", 1.45, 3.5, 2.0, False)]),
 ]
 
@@ -257,8 +257,8 @@ class PatrolClient(object):
                 if status["task_id"] == task_id and status["state"] in ("done", "cancelled", "failed"):
                     return status
             if time.monotonic() > deadline:
-                raise RuntimeError("task %s did not end within %.0f s (last status %s)" % (task_id, timeout,
-                                                                                          self.status))
+                raise RuntimeError("task %s did not end within %.0f s (last status %s)"
+                                   % (task_id, timeout, self.status))
             with self._lock:
                 if len(self.statuses) == seen:
                     self._lock.wait(0.5)

@@ -397,4 +397,3 @@ def result_summary(rows):
                           "status": r["status"]} for r in rows],
             "alarms": sum(1 for r in rows if r["alarm"] == ALARM_ALARM),
             "failed": sum(1 for r in rows if r["status"] == "failed"), "reason": rows[0]["reason"]}
-

@@ -54,6 +54,11 @@ def write_reports(folder, task_row, readings, steps):
     return paths
 
 
+def preset_label(directory):
+    """``<preset_id>/<stamp>`` of a preset directory."""
+    return "/".join(directory.rstrip("/").split("/")[-2:])
+
+
 def _fmt(value, digits=4):
     return "" if value is None else ("%.*g" % (digits, value))
 
@@ -64,13 +69,11 @@ def render_html(info, readings):
     body = []
     for r in rows:
         band = "" if r["low"] is None else "%s .. %s" % (_fmt(r["low"]), _fmt(r["high"]))
-        picture = ('<a href="file://%s"><img src="file://%s" alt="%s"></a>' % (esc(r["picture"]), esc(r["picture"]),
-                                                                             esc(r["target_name"]))
-                   if r["picture"] else "")
+        picture = ('<a href="file://%s"><img src="file://%s" alt="%s"></a>'
+                   % (esc(r["picture"]), esc(r["picture"]), esc(r["target_name"])) if r["picture"] else "")
         body.append('<tr class="%s"><td>%d %s</td><td>%s</td><td>%s (%s)</td><td>%s %s</td><td>%s</td><td>%s</td>'
                     '<td>%s</td><td>%s</td><td>%s</td><td>%s</td></tr>'
-                    % (esc(r["alarm"]), r["stop"] + 1, esc(r["stop_name"]), esc(os.path.basename(r["preset"]) or
-                                                                               r["preset"]),
+                    % (esc(r["alarm"]), r["stop"] + 1, esc(r["stop_name"]), esc(preset_label(r["preset"])),
                        esc(r["target_name"]), esc(r["kind"]), _fmt(r["value"], 6), esc(r["unit"]), band,
                        esc(r["alarm"]), _fmt(r["confidence"], 3),
                        time.strftime("%Y-%m-%d %H:%M:%S", time.localtime(r["time"])), esc(r["reason"]), picture))

@@ -160,7 +160,8 @@ def _parse_stop(stop, index, resolve_preset):
         raise CommandError("%s: too many presets: %d (at most %d)" % (what, len(presets), MAX_PRESETS_PER_STOP))
     return {"name": name, "x": x, "y": y, "yaw": math.atan2(math.sin(yaw), math.cos(yaw)),
             "precision": int(precision),
-            "presets": [_parse_preset(p, "%s preset %d" % (what, j + 1), resolve_preset) for j, p in enumerate(presets)]}
+            "presets": [_parse_preset(p, "%s preset %d" % (what, j + 1), resolve_preset)
+                        for j, p in enumerate(presets)]}
 
 
 def _parse_preset(entry, what, resolve_preset):
