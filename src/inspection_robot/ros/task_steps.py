@@ -13,6 +13,7 @@ import time
 
 import actionlib
 import rospy
+from actionlib.action_client import CommState
 
 from inspection_robot.interface import FIND_RESULT_SUCCESS, MOVE_GOAL_TYPE, MOVE_RESULT_SUCCESS
 from inspection_robot.msg import GeneralAction, GeneralGoal, ReadScaleAck, ReadScaleCmd
@@ -37,8 +38,11 @@ class StepRunner(object):
         self._velocity = (velocity_x, velocity_yaw)
         self._timeouts = timeouts
         self._pose = pose
-        self.move = actionlib.SimpleActionClient("move_action", GeneralAction)
-        self.find = actionlib.SimpleActionClient("find_scale_action", GeneralAction)
+        # ActionClient, not SimpleActionClient: the simple client drops the result of a goal that ends
+        # before send_goal has returned ("transition callback on a goal handle that we're not
+        # tracking", e.g. a goal refused at once) and then waits forever
+        self.move = actionlib.ActionClient("move_action", GeneralAction)
+        self.find = actionlib.ActionClient("find_scale_action", GeneralAction)
         self._read_pub = rospy.Publisher("read_scale_cmd", ReadScaleCmd, queue_size=10)
         self._acks = {}
         self._acks_changed = threading.Condition()
@@ -132,19 +136,24 @@ class StepRunner(object):
         """The action's result, or (outcome, reason) when it did not finish normally."""
         if not client.wait_for_server(rospy.Duration(5.0)):
             return OUTCOME_FAILED, "%s server not available" % name
-        client.send_goal(GeneralGoal(type=goal_type, data=data))
+        handle = client.send_goal(GeneralGoal(type=goal_type, data=data))
         deadline = time.monotonic() + timeout
-        while not client.wait_for_result(rospy.Duration(POLL_S)):
+        cancelled = None
+        while handle.get_comm_state() != CommState.DONE:
             if rospy.is_shutdown():
                 return OUTCOME_INTERRUPTED, "shutdown"
-            if interrupted():
-                client.cancel_goal()
-                client.wait_for_result(rospy.Duration(5.0))
-                return OUTCOME_INTERRUPTED, "cancelled by task_manager"
-            if time.monotonic() > deadline:
-                client.cancel_goal()
-                return OUTCOME_FAILED, "%s: no result within %.0f s" % (name, timeout)
-        result = client.get_result()
+            if cancelled is None and interrupted():
+                handle.cancel()
+                cancelled = (OUTCOME_INTERRUPTED, "cancelled by task_manager", time.monotonic() + 5.0)
+            elif cancelled is None and time.monotonic() > deadline:
+                handle.cancel()
+                cancelled = (OUTCOME_FAILED, "%s: no result within %.0f s" % (name, timeout), time.monotonic() + 5.0)
+            if cancelled is not None and time.monotonic() > cancelled[2]:
+                break   # the server did not confirm the cancel: give the goal up anyway
+            rospy.sleep(POLL_S)
+        if cancelled is not None:
+            return cancelled[:2]
+        result = handle.get_result()
         if result is None:
-            return OUTCOME_FAILED, "%s ended (actionlib state %d) without a result" % (name, client.get_state())
+            return OUTCOME_FAILED, "%s ended (goal status %d) without a result" % (name, handle.get_goal_status())
         return result
