@@ -6,7 +6,7 @@ eight presets (one infrared, lamps and switches). ``PatrolClient`` talks only ro
 roslibpy ``Ros`` passed in (roslibpy is a test/demo dependency, never imported here): it records
 the presets like an operator (robot put at the stop with robot_control's sim/inject_fault
 set_pose, head aimed, preset_scale_cmd), calibrates them from the world's ground truth
-(``calibrate_preset --from-world``'s library, in-process, as the inspection rostest does with the tool), submits the
+(``calibrate_preset --from-world``, as the inspection rostest does), submits the
 task on task_cmd and follows task_status. ``alarm_bands`` derives each target's normal band from
 the world (a gauge's green zone, else its range without the red zones at its ends; a lamp or switch
 its current state; a hot spot up to ``HOT_SPOT_LIMIT_C``).
@@ -14,16 +14,14 @@ its current state; a hot spot up to ``HOT_SPOT_LIMIT_C``).
 import concurrent.futures
 import json
 import math
-import multiprocessing
 import os
+import shutil
+import subprocess
+import sys
 import threading
 import time
 
-import yaml
-
-from inspection_robot.camera.optics import ZoomOptics
-from inspection_robot.sim.inspection_sim import calibrate_from_world
-from inspection_robot.sim.world import World
+from inspection_robot.inspection.preset import load_preset
 
 HALF_PI = math.pi / 2.0
 HOT_SPOT_LIMIT_C = 60.0
@@ -222,14 +220,12 @@ class PatrolClient(object):
         directories, pending = {}, {}
         self.wait_services(("sim/inject_fault", "terrace_control", "camera_control", "infrared_control",
                             "task_control"))
-        # a separate process: the renderer would hold the GIL and starve the websocket client's thread
-        context = multiprocessing.get_context("spawn")
-        with concurrent.futures.ProcessPoolExecutor(max_workers=1, mp_context=context) as pool:
+        with concurrent.futures.ThreadPoolExecutor(max_workers=1) as pool:
             for _name, pose, presets in (stops or YARD_STOPS):
                 self.teleport(pose)
                 for preset_id, aim, dist, zoom, infrared in presets:
                     directories[preset_id] = self.record_preset(preset_id, aim, dist, zoom, infrared)
-                    pending[preset_id] = pool.submit(calibrate_in_worker, world_file, directories[preset_id])
+                    pending[preset_id] = pool.submit(calibrate, directories[preset_id], world_file)
             targets = {}
             for preset_id, future in pending.items():
                 targets[preset_id] = future.result()
@@ -268,27 +264,16 @@ class PatrolClient(object):
                                                                                  "limit": 5000})))
 
 
-class WorldCalibrator(object):
-    """calibrate_preset --from-world in-process (the world and optics loaded once): calibrates a
-    recorded preset from the world's ground truth and returns its target names."""
-
-    def __init__(self, world_file, optics_file=None):
-        self.world = World.load(world_file)
-        with open(optics_file or config_file("camera_optics.yaml")) as f:
-            cfg = yaml.safe_load(f)["camera_optics"]
-        self.optics = ZoomOptics(cfg["zoom_hfov_deg"], cfg["width"], cfg["height"])
-
-    def __call__(self, preset_dir):
-        return [t.name for t in calibrate_from_world(preset_dir, self.world, self.optics)]
-
-
-_WORKER_CALIBRATORS = {}   # per calibration worker process: world file -> WorldCalibrator (loaded once)
-
-
-def calibrate_in_worker(world_file, preset_dir):
-    if world_file not in _WORKER_CALIBRATORS:
-        _WORKER_CALIBRATORS[world_file] = WorldCalibrator(world_file)
-    return _WORKER_CALIBRATORS[world_file](preset_dir)
+def calibrate(preset_dir, world_file):
+    """``calibrate_preset PRESET_DIR --from-world WORLD`` (a separate process: the renderer would
+    hold the GIL and starve the websocket client's thread); returns the preset's target names."""
+    tool = shutil.which("calibrate_preset")
+    command = [sys.executable, tool] if tool else ["rosrun", "inspection_robot", "calibrate_preset"]
+    proc = subprocess.run(command + [preset_dir, "--from-world", world_file], stdout=subprocess.PIPE,
+                          stderr=subprocess.PIPE, universal_newlines=True, timeout=300)
+    if proc.returncode != 0:
+        raise RuntimeError("calibrate_preset %s: %s" % (preset_dir, proc.stderr.strip()))
+    return [t.name for t in load_preset(preset_dir).targets]
 
 
 def progress_bar(status, width=30):
