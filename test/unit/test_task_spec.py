@@ -100,3 +100,25 @@ def test_store_queries_by_task_and_time(tmp_path):
     assert [r["value"] for r in store.readings(task_id="b", since=101.0)] == [1.0, 2.0]
     assert len(store.readings(until=100.5)) == 2
     assert store.done_presets("a") == {(0, 0), (0, 1), (0, 2)}
+
+
+def test_reachability_on_the_shipped_map():
+    import os
+    from inspection_robot.task.checks import Reachability
+    root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+    reachable = Reachability(os.path.join(root, "config", "maps", "substation.yaml"), 0.45, (5.0, 5.0))
+    assert reachable(20.0, 21.4) is None
+    assert reachable(20.0, 10.0) == "inside an obstacle or too close to one"   # transformer_1
+    assert reachable(500.0, 5.0) == "outside the map"
+
+
+def test_unknown_or_outside_preset_directories_are_refused(tmp_path):
+    from inspection_robot.task.checks import resolve_preset
+    with pytest.raises(CommandError, match="unknown preset directory 'nope': preset directory not found"):
+        resolve_preset(str(tmp_path), "nope")
+    with pytest.raises(CommandError, match="unknown preset directory '../x': path '../x' is outside the allowed"):
+        resolve_preset(str(tmp_path), "../x")
+    (tmp_path / "p" / "20260101_000000").mkdir(parents=True)
+    (tmp_path / "p" / "20260101_000000" / "preset.ini").write_text("[preset]\n")
+    with pytest.raises(CommandError, match="unknown preset directory 'p': "):
+        resolve_preset(str(tmp_path), "p")

@@ -162,17 +162,16 @@ class PatrolClient(object):
         return reply["ack"], reply["data"]
 
     def wait_services(self, names, timeout=120.0):
-        """Wait until every ControlService in ``names`` answers (nodes start in any order)."""
+        """Wait until rosapi lists every service in ``names`` (nodes start in any order)."""
+        wanted = set("/" + n.lstrip("/") for n in names)
         deadline = time.monotonic() + timeout
-        for name in names:
-            while True:
-                try:
-                    self.call(name, "__ping__")   # any answer (an unknown-command failure) will do
-                    break
-                except self.roslibpy.core.ServiceException:
-                    if time.monotonic() > deadline:
-                        raise RuntimeError("service %s not available after %.0f s" % (name, timeout))
-                    time.sleep(1.0)   # not advertised yet; the bridge has no way to wait for it
+        while True:
+            missing = wanted - set(self.ros.get_services())
+            if not missing:
+                return
+            if time.monotonic() > deadline:
+                raise RuntimeError("services %s not available after %.0f s" % (", ".join(sorted(missing)), timeout))
+            time.sleep(1.0)   # the bridge offers no way to wait for a service: ask rosapi again
 
     def must(self, service, cmd, data="", timeout=30):
         ack, out = self.call(service, cmd, data, timeout)
