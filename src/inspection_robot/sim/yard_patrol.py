@@ -113,6 +113,8 @@ class PatrolClient(object):
         self._joints = None
         roslibpy.Topic(ros, "terrace_state", "sensor_msgs/JointState", throttle_rate=50).subscribe(self._on_joints)
         self.preset_acks = {}
+        self._nav_pose = None
+        roslibpy.Topic(ros, "nav_status", "inspection_robot/NavStatus", throttle_rate=50).subscribe(self._on_nav)
 
     # --- plumbing ------------------------------------------------------------------------------
     def _on_status(self, msg):
@@ -130,6 +132,12 @@ class PatrolClient(object):
         with self._lock:
             self.preset_acks[msg["trans_id"]] = msg
             self._lock.notify_all()
+
+    def _on_nav(self, msg):
+        with self._lock:
+            if len(msg["position"]) >= 2:
+                self._nav_pose = (msg["position"][0], msg["position"][1], msg["orientation"])
+                self._lock.notify_all()
 
     def _on_joints(self, msg):
         with self._lock:
@@ -193,10 +201,15 @@ class PatrolClient(object):
         while True:
             ack, data = self.call("sim/inject_fault", "set_pose", "%.4f,%.4f,%.5f" % tuple(pose))
             if ack == "success":
-                return
+                break
             if time.monotonic() > deadline:
                 raise RuntimeError("set_pose %s refused: %s" % (pose, data))
             time.sleep(0.2)   # the chassis is still moving: ask again (no state to wait on over the link)
+        # preset_scale records the pose of nav_status: wait until it shows the new one
+        self.wait(lambda: self._nav_pose is not None and math.hypot(self._nav_pose[0] - pose[0],
+                                                                    self._nav_pose[1] - pose[1]) < 0.02
+                  and abs(math.remainder(self._nav_pose[2] - pose[2], 2 * math.pi)) < 0.02, 15.0,
+                  "nav_status at %s" % (pose,))
 
     def record_preset(self, preset_id, aim_height, dist, zoom, infrared, sensor_height=1.2):
         tilt = round(math.degrees(math.atan2(sensor_height - aim_height, dist)) * 100)
