@@ -76,6 +76,9 @@ class PatrolSimTest(unittest.TestCase):
         cls.world_file = default_world_file()
         cls.world = World.load(cls.world_file)
         cls.mode_cmd = roslibpy.Topic(cls.ros, "/mode_cmd", "inspection_robot/GeneralCmd")
+        cls.robot_status = []
+        roslibpy.Topic(cls.ros, "/robot_status", "inspection_robot/RobotStatus", throttle_rate=200).subscribe(
+            cls.robot_status.append)
 
     @classmethod
     def tearDownClass(cls):
@@ -155,7 +158,9 @@ class PatrolSimTest(unittest.TestCase):
         self.status_where(lambda s: s["task_id"] == routine["id"] and s["done"] >= 2, 300.0, "2 presets done")
         heartbeat = Heartbeat(self.ros)
         self.addCleanup(heartbeat.stop)
+        wait_for(lambda: self.robot_status and self.robot_status[-1]["offline_warn"] == 0, 20.0, "robot online")
         self.mode_cmd.publish(roslibpy.Message({"sender": "server", "cmd": "acquire", "data": "server"}))
+        wait_for(lambda: self.robot_status[-1]["mode"] == 1, 10.0, "backend mode")
         paused = self.status_where(lambda s: s["state"] == "paused" and s["holds"] == ["mode"], 120.0,
                                    "paused by the take-over")
         done_at_pause = paused["done"]
