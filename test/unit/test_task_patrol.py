@@ -234,6 +234,8 @@ def test_special_task_preempts_after_the_preset_and_routine_resumes_at_its_stop(
     for _ in range(3):
         assert run_step(patrol, clock).task_id == "urgent"
     assert finished == ["urgent"]
+    assert patrol.status()["last_ended"] == {"task_id": "urgent", "state": "done", "reason": ""}
+    assert patrol.status()["task_id"] == "routine"
     step = run_step(patrol, clock)
     assert (step.task_id, step.kind, step.stop) == ("routine", STEP_MOVE, 1)
     step = run_step(patrol, clock)

@@ -262,8 +262,9 @@ class PatrolClient(object):
             for status in fresh:
                 if progress:
                     progress(status)
-                if status["task_id"] == task_id and status["state"] in ("done", "cancelled", "failed"):
-                    return status
+                ended = status.get("last_ended") or {}
+                if ended.get("task_id") == task_id:
+                    return dict(status, task_id=task_id, state=ended["state"], reason=ended["reason"])
             if time.monotonic() > deadline:
                 raise RuntimeError("task %s did not end within %.0f s (last status %s)"
                                    % (task_id, timeout, self.status))

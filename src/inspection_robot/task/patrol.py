@@ -325,7 +325,9 @@ class Patrol(object):
         out = {"task_id": "", "priority": "", "state": STATE_IDLE, "holds": sorted(self.holds), "stop": 0,
                "stops": 0, "stop_name": "", "preset": 0, "presets": 0, "done": 0, "total": 0,
                "last_result": self.last_result, "eta_s": 0.0,
-               "suspended": self.suspended.task.task_id if self.suspended else "", "reason": ""}
+               "suspended": self.suspended.task.task_id if self.suspended else "", "reason": "",
+               "last_ended": None if self.last_task is None else dict(zip(("task_id", "state", "reason"),
+                                                                          self.last_task))}
         if self.returning_home:
             out["state"] = STATE_RETURNING_HOME
             return out
