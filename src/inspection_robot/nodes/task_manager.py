@@ -57,8 +57,11 @@ class TaskManager(object):
         self.patrol = Patrol(store, patrol_config, time.time(), on_finished=self._on_finished)
         self._runner = runner_factory(lambda: self._pose)
         table = CommandTable({
-            "submit": self._submit, "pause": self._pause, "resume": self._resume, "cancel": self._cancel,
-            "return_home": no_data(self._return_home), "query_status": no_data(lambda d: self._status_json()),
+            "submit": self._submit, "pause": self._changing(self.patrol.pause),
+            "resume": self._changing(self.patrol.resume),
+            "cancel": self._changing(lambda data: self.patrol.cancel(data, time.time())),
+            "return_home": no_data(self._changing(lambda _data: self.patrol.return_home(time.time()))),
+            "query_status": no_data(lambda d: self._status_json()),
             "query_tasks": no_data(self._query_tasks), "query_results": self._query_results, "report": self._report,
         })
         self._twin = CommandTwin(table, "task_control", "task_cmd", "task_ack", NODE_NAME, busy_when_joystick=False)
@@ -79,39 +82,23 @@ class TaskManager(object):
         self._wake.notify_all()
 
     # --- commands (run under the lock; CommandError -> failed with the reason) ---------------------
+    def _changing(self, change):
+        """A command handler: ``change(data)`` on the patrol under the lock, then the new status
+        is published and answered (CommandError from the patrol -> failed with its reason)."""
+        def handler(data):
+            with self._lock:
+                change(data)
+                self._changed()
+                return self._status_json()
+        return handler
+
     def _submit(self, data):
         with self._lock:
             known = self.store.task_ids()
+        # parsed outside the lock: checking presets and the map must not stall the patrol loop
         task = parse_task(data, lambda name: resolve_preset(self._preset_root, name), self._reachable,
                           self._default_retries, known)
-        with self._lock:
-            self.patrol.submit(task, time.time())
-            self._changed()
-            return self._status_json()
-
-    def _pause(self, data):
-        with self._lock:
-            self.patrol.pause(data)
-            self._changed()
-            return self._status_json()
-
-    def _resume(self, data):
-        with self._lock:
-            self.patrol.resume(data)
-            self._changed()
-            return self._status_json()
-
-    def _cancel(self, data):
-        with self._lock:
-            self.patrol.cancel(data, time.time())
-            self._changed()
-            return self._status_json()
-
-    def _return_home(self, _data):
-        with self._lock:
-            self.patrol.return_home(time.time())
-            self._changed()
-            return self._status_json()
+        return self._changing(lambda _data: self.patrol.submit(task, time.time()))(data)
 
     def _query_tasks(self, _data):
         return json.dumps([{"task_id": t["task_id"], "priority": t["priority"], "state": t["state"],
