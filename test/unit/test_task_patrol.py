@@ -262,6 +262,8 @@ def test_busy_refusals(env):
     patrol.submit(task("s1", priority="special"), clock())
     with pytest.raises(CommandError, match="busy: task 's1' is running"):
         patrol.submit(task("s2", priority="special"), clock())
+    with pytest.raises(CommandError, match="duplicate task id 'r1'"):
+        patrol.submit(task("r1"), clock())
 
 
 def test_cancel_ends_the_task_and_interrupts_its_step(env):

@@ -136,6 +136,8 @@ class Patrol(object):
         """Start ``task`` (checked by spec.parse_task); a special one pre-empts a routine one."""
         if self.returning_home:
             raise CommandError("busy: returning home")
+        if task.task_id in self.store.task_ids():   # two submissions of one id racing
+            raise CommandError("duplicate task id '%s' (ids are never reused)" % task.task_id)
         if self.active is not None:
             if not task.special or self.active.task.special:
                 raise CommandError("busy: task '%s' is running (cancel it first)" % self.active.task.task_id)
