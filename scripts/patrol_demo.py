@@ -51,12 +51,14 @@ def main():
     print("patrol: task %s submitted" % task["id"])
 
     def show(status):
-        if status["task_id"] == task["id"]:
+        if status["task_id"] == task["id"] and status["state"] in ("running", "paused"):
             sys.stdout.write("\r" + progress_bar(status) + "   ")
             sys.stdout.flush()
     end = client.wait_task_end(task["id"], args.timeout, show)
     rows = client.results(task["id"])
-    print("\npatrol: %s, %d readings, %d alarm(s), %d failed" % (
+    print("\r" + progress_bar(dict(end, done=preset_count(), total=preset_count(), stop=len(YARD_STOPS),
+                                   stops=len(YARD_STOPS), stop_name="", eta_s=0.0)))
+    print("patrol: %s, %d readings, %d alarm(s), %d failed" % (
         end["state"], len(rows), sum(1 for r in rows if r["alarm"] == "alarm"),
         sum(1 for r in rows if r["status"] == "failed")))
     for row in rows:
