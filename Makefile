@@ -1,5 +1,5 @@
 # Entry points; each installs what is missing first (scripts/setup is idempotent and fast).
-.PHONY: setup build run shell test unit integration lint bench soak clean
+.PHONY: setup build run patrol shell test unit integration lint bench soak clean
 MINUTES ?= 10
 
 setup:
@@ -10,6 +10,9 @@ build: setup
 
 run: build
 	scripts/rosenv roslaunch inspection_robot sim.launch
+
+patrol: build
+	@bash scripts/patrol
 
 shell: build
 	@scripts/rosenv bash

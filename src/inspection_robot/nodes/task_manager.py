@@ -1,0 +1,239 @@
+"""task_manager: unattended patrols (docs/interface.md, "Patrol (task_manager)").
+
+Services:    task_control (ControlService): submit, pause, resume, cancel, return_home, query_status,
+             query_tasks, query_results, report (same table as task_cmd)
+Subscribes:  task_cmd (GeneralCmd), robot_status (RobotStatus: mode, pose)
+             read_scale_ack (ReadScaleAck)
+Publishes:   task_ack (GeneralAck), task_status (GeneralTopic, latched, JSON), read_scale_cmd (ReadScaleCmd)
+Actions:     move_action, find_scale_action (GeneralAction), client
+Parameters:  data_root (namespace: the robot's state directory): store and reports under
+             <data_root>/tasks/; ~preset_root (str, presets: relative to data_root unless absolute);
+             ~map_file (str): the navigation map, for reachability; ~robot_radius (m, 0.45);
+             ~home_pose ([x, y, yaw], [5, 5, 0]); ~retries (int, 1); ~retry_delay_s (s, 3.0);
+             ~velocity_x (m/s, 0.8), ~velocity_yaw (rad/s, 0.8); ~move_timeout_s (300),
+             ~find_timeout_s (90), ~read_timeout_s (60); ~move_estimate_s (20), ~preset_estimate_s (10):
+             ETA before anything was measured; ~status_period (s, 1.0): task_status republished
+             at least this often while a task runs (at once on every change)
+"""
+import json
+import os
+import threading
+import time
+import traceback
+
+import rospy
+
+from inspection_robot.command import CommandError, CommandTable, no_data, parse_json
+from inspection_robot.msg import GeneralTopic, RobotStatus
+from inspection_robot.ros.task_steps import StepRunner
+from inspection_robot.ros.twin import CommandTwin
+from inspection_robot.task.checks import Reachability, resolve_preset
+from inspection_robot.task.patrol import Patrol, PatrolConfig
+from inspection_robot.task.report import write_reports
+from inspection_robot.task.spec import parse_task
+from inspection_robot.task.store import ResultStore, StoreError
+from inspection_robot.ros.data_root import data_root, path_param
+
+NODE_NAME = "task_manager"
+MAX_QUERY_ROWS = 5000
+QUERY_KEYS = ("task_id", "from", "to", "limit")
+
+
+class TaskManager(object):
+    def __init__(self, store, reports_dir, patrol_config, preset_root, reachable, runner_factory, default_retries,
+                 status_period):
+        self._lock = threading.RLock()
+        self._wake = threading.Condition(self._lock)
+        self.store = store
+        self._reports_dir = reports_dir
+        self._preset_root = preset_root
+        self._reachable = reachable
+        self._default_retries = default_retries
+        self._status_period = status_period
+        self._pose = None
+        self._overhead_s = 0.0
+        self._status_pub = rospy.Publisher("task_status", GeneralTopic, queue_size=5, latch=True)
+        self._last_status = None
+        self._last_status_time = 0.0
+        self.patrol = Patrol(store, patrol_config, time.time(), on_finished=self._on_finished)
+        self._runner = runner_factory(lambda: self._pose)
+        table = CommandTable({
+            "submit": self._submit, "pause": self._changing(self.patrol.pause),
+            "resume": self._changing(self.patrol.resume),
+            "cancel": self._changing(lambda data: self.patrol.cancel(data, time.time())),
+            "return_home": no_data(self._changing(lambda _data: self.patrol.return_home(time.time()))),
+            "query_status": no_data(lambda d: self._status_json()),
+            "query_tasks": no_data(self._query_tasks), "query_results": self._query_results, "report": self._report,
+        })
+        self._twin = CommandTwin(table, "task_control", "task_cmd", "task_ack", NODE_NAME, busy_when_joystick=False)
+        self._status_sub = rospy.Subscriber("robot_status", RobotStatus, self._on_robot_status, queue_size=1)
+        self._publish_status(force=True)
+
+    # --- inputs --------------------------------------------------------------------------------
+    def _on_robot_status(self, msg):
+        if len(msg.position) >= 2:
+            self._pose = (float(msg.position[0]), float(msg.position[1]), float(msg.orientation))
+        with self._lock:
+            if msg.mode != self.patrol.mode:
+                self.patrol.set_mode(msg.mode)
+                self._changed()
+
+    def _changed(self):
+        self._publish_status()
+        self._wake.notify_all()
+
+    # --- commands (run under the lock; CommandError -> failed with the reason) ---------------------
+    def _changing(self, change):
+        """A command handler: ``change(data)`` on the patrol under the lock, then the new status
+        is published and answered (CommandError from the patrol -> failed with its reason)."""
+        def handler(data):
+            with self._lock:
+                change(data)
+                self._changed()
+                return self._status_json()
+        return handler
+
+    def _submit(self, data):
+        with self._lock:
+            known = self.store.task_ids()
+        # parsed outside the lock: checking presets and the map must not stall the patrol loop
+        task = parse_task(data, lambda name: resolve_preset(self._preset_root, name), self._reachable,
+                          self._default_retries, known)
+        return self._changing(lambda _data: self.patrol.submit(task, time.time()))(data)
+
+    def _query_tasks(self, _data):
+        return json.dumps([{"task_id": t["task_id"], "priority": t["priority"], "state": t["state"],
+                            "reason": t["reason"], "submitted": t["submitted"], "ended": t["ended"]}
+                           for t in self.store.tasks()])
+
+    def _query_results(self, data):
+        query = parse_json(data or "{}", "query")
+        if not isinstance(query, dict) or set(query) - set(QUERY_KEYS):
+            raise CommandError("query must be a JSON object with keys %s" % ", ".join(QUERY_KEYS))
+        for key in ("from", "to"):
+            if query.get(key) is not None and (isinstance(query[key], bool) or
+                                               not isinstance(query[key], (int, float))):
+                raise CommandError("%s must be a unix time in seconds" % key)
+        limit = query.get("limit", 1000)
+        if isinstance(limit, bool) or not isinstance(limit, int) or not 1 <= limit <= MAX_QUERY_ROWS:
+            raise CommandError("limit must be an integer in [1, %d]" % MAX_QUERY_ROWS)
+        task_id = query.get("task_id")
+        if task_id is not None and not isinstance(task_id, str):
+            raise CommandError("task_id must be a string")
+        return json.dumps(self.store.readings(task_id, query.get("from"), query.get("to"), limit))
+
+    def _report(self, data):
+        if self.store.task(data) is None:
+            raise CommandError("unknown task '%s'" % data[:64])
+        try:
+            return json.dumps(self._write_report(data))
+        except OSError as err:
+            raise CommandError("cannot write the report: %s" % err)
+
+    def _write_report(self, task_id):
+        return write_reports(os.path.join(self._reports_dir, task_id), self.store.task(task_id),
+                             self.store.readings(task_id=task_id, limit=10 ** 9), self.store.steps(task_id))
+
+    def _on_finished(self, task_id):
+        """A task ended: its report is written at once (a failure is logged, the patrol goes on)."""
+        try:
+            paths = self._write_report(task_id)
+            rospy.loginfo("%s: task %s ended, report %s" % (NODE_NAME, task_id, paths["report.html"]))
+        except (OSError, StoreError) as err:
+            rospy.logerr("%s: cannot write the report of %s: %s" % (NODE_NAME, task_id, err))
+
+    # --- status --------------------------------------------------------------------------------
+    def _status_json(self):
+        status = self.patrol.status()
+        status["overhead_s"] = round(self._overhead_s, 3)
+        status["store"] = self.store.path
+        if status["task_id"] and status["state"] in ("done", "cancelled", "failed"):
+            status["report"] = os.path.join(self._reports_dir, status["task_id"], "report.html")
+        return json.dumps(status, sort_keys=True)
+
+    def _publish_status(self, force=False):
+        text = self._status_json()
+        now = time.monotonic()
+        if force or text != self._last_status or now - self._last_status_time > self._status_period:
+            msg = GeneralTopic(sender=NODE_NAME, data=text)
+            msg.header.stamp = rospy.Time.now()
+            self._status_pub.publish(msg)
+            self._last_status, self._last_status_time = text, now
+
+    # --- the patrol loop -----------------------------------------------------------------------
+    def spin(self):
+        while not rospy.is_shutdown():
+            try:
+                self._once()
+            except StoreError as err:   # disk full, permissions: keep trying, loudly
+                rospy.logerr_throttle(10.0, "%s: %s" % (NODE_NAME, err))
+                rospy.sleep(1.0)
+            except Exception as err:  # boundary: the patrol loop outlives any one step
+                rospy.logerr("%s: patrol loop: %s\n%s" % (NODE_NAME, err, traceback.format_exc()))
+                rospy.sleep(1.0)
+
+    def _once(self):
+        tick = time.monotonic()
+        with self._lock:
+            step = self.patrol.next_step(time.time())
+            if step is None:
+                self._publish_status()
+                self._overhead_s += time.monotonic() - tick
+                self._wake.wait(0.5)
+                return
+            self._publish_status()
+        self._overhead_s += time.monotonic() - tick
+        started = time.time()
+        rospy.loginfo("%s: %s %s stop %d preset %d" % (NODE_NAME, step.task_id, step.kind, step.stop + 1,
+                                                       step.preset_index + 1))
+        try:
+            outcome, detail, timings = self._runner.run(step, lambda: self._interrupt_wanted(step))
+        except Exception as err:  # boundary: a bug in one step fails that step, the patrol goes on
+            rospy.logerr("%s: %s step raised %s\n%s" % (NODE_NAME, step.kind, err, traceback.format_exc()))
+            outcome, detail, timings = "failed", "internal error: %s" % (err,), {}
+        tick = time.monotonic()
+        ended = time.time()
+        with self._lock:
+            self.patrol.step_done(step, outcome, detail, started, ended)
+            offset = started
+            for kind in ("find", "read"):
+                if kind in timings:
+                    self.store.add_step(step.task_id, step.stop, step.preset_index, kind, outcome, offset,
+                                        offset + timings[kind])
+                    offset += timings[kind]
+            if outcome != "ok":
+                rospy.logwarn("%s: %s %s stop %d: %s: %s" % (NODE_NAME, step.task_id, step.kind, step.stop + 1,
+                                                             outcome, detail))
+            self._overhead_s += time.monotonic() - tick
+            self._publish_status(force=True)
+
+    def _interrupt_wanted(self, step):
+        with self._lock:
+            return self.patrol.interrupt_wanted(step)
+
+
+def main():
+    rospy.init_node(NODE_NAME)
+    root = data_root()
+    tasks_dir = os.path.join(root, "tasks")
+    os.makedirs(tasks_dir, exist_ok=True)
+    preset_root = path_param("~preset_root", "presets", root)
+    home_pose = [float(v) for v in rospy.get_param("~home_pose", [5.0, 5.0, 0.0])]
+    if len(home_pose) != 3:
+        raise ValueError("~home_pose must be [x, y, yaw], got %r" % (home_pose,))
+    config = PatrolConfig(retry_delay_s=float(rospy.get_param("~retry_delay_s", 3.0)), home_pose=tuple(home_pose),
+                          move_estimate_s=float(rospy.get_param("~move_estimate_s", 20.0)),
+                          preset_estimate_s=float(rospy.get_param("~preset_estimate_s", 10.0)))
+    retries = int(rospy.get_param("~retries", 1))
+    reachable = Reachability(os.path.expanduser(rospy.get_param("~map_file")),
+                             float(rospy.get_param("~robot_radius", 0.45)), home_pose[:2])
+    timeouts = {"move": float(rospy.get_param("~move_timeout_s", 300.0)),
+                "find": float(rospy.get_param("~find_timeout_s", 90.0)),
+                "read": float(rospy.get_param("~read_timeout_s", 60.0))}
+    velocity = (float(rospy.get_param("~velocity_x", 0.8)), float(rospy.get_param("~velocity_yaw", 0.8)))
+    store = ResultStore(os.path.join(tasks_dir, "results.sqlite"))
+    manager = TaskManager(store, os.path.join(tasks_dir, "reports"), config, preset_root, reachable,
+                          lambda pose: StepRunner(NODE_NAME, velocity[0], velocity[1], timeouts, pose), retries,
+                          float(rospy.get_param("~status_period", 1.0)))
+    rospy.loginfo("%s: results in %s" % (NODE_NAME, store.path))
+    manager.spin()

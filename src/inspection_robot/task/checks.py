@@ -1,0 +1,70 @@
+"""The two task checks that need the robot's world: does a preset exist (and is it calibrated),
+and can a stop be reached on the map. Used by task_manager at submission, before anything moves."""
+import configparser
+import os
+
+from inspection_robot.command import CommandError, confine_path
+from inspection_robot.inspection.preset import CALIB_INI, PRESET_INI, PresetError, load_preset
+from inspection_robot.nav.costmap import Costmap
+from inspection_robot.nav.gridmap import MapError, load_map
+from inspection_robot.task.spec import ResolvedPreset, parse_band
+
+
+def resolve_preset(preset_root, name):
+    """``name`` = a preset directory (``<preset_id>/<stamp>``) or a preset id (its newest recording),
+    relative to ``preset_root``; returns a ResolvedPreset or raises CommandError."""
+    try:
+        path = confine_path(name, [preset_root])
+    except CommandError as err:
+        raise CommandError("unknown preset directory '%s': %s" % (name, err))
+    if os.path.isdir(path) and not os.path.isfile(os.path.join(path, PRESET_INI)):
+        recordings = sorted(d for d in os.listdir(path)
+                            if not d.startswith(".") and os.path.isfile(os.path.join(path, d, PRESET_INI)))
+        if recordings:
+            path = os.path.join(path, recordings[-1])
+    try:
+        preset = load_preset(path)
+    except PresetError as err:
+        raise CommandError("unknown preset directory '%s': %s" % (name, err))
+    targets = [{"name": t.name, "kind": t.kind, "unit": t.params.get("unit", "") if t.kind == "pointer" else ""}
+               for t in preset.targets]
+    return ResolvedPreset(path, targets, preset_bands(path, targets))
+
+
+def preset_bands(path, targets):
+    """Alarm bands stored with the preset: ``normal = low,high`` in a target's section of
+    preset_calib_info.ini (optional; the task's own bands override them)."""
+    parser = configparser.ConfigParser()
+    parser.read(os.path.join(path, CALIB_INI))
+    bands = {}
+    for i, target in enumerate(targets):
+        text = parser.get("target_%d" % i, "normal", fallback="")
+        if text:
+            try:
+                band = [float(v) for v in text.split(",")]
+            except ValueError:
+                raise CommandError("preset '%s' target %d: normal must be low,high, got '%s'" % (path, i, text))
+            bands[target["name"]] = parse_band(band, "preset '%s' target %d normal" % (path, i))
+    return bands
+
+
+class Reachability(object):
+    """A stop is reachable when its cell is free of the (inflated) static map and connected to the
+    home pose's cell. Virtual obstacles are not considered (they may change before the robot gets there)."""
+
+    def __init__(self, map_file, robot_radius, home_xy):
+        try:
+            self.costmap = Costmap(load_map(map_file), robot_radius, 0.0)
+        except (MapError, OSError, ValueError) as err:
+            raise CommandError("cannot load the map %s: %s" % (map_file, err))
+        self.home = self.costmap.grid.world_to_cell(*home_xy)
+
+    def __call__(self, x, y):
+        cell = self.costmap.grid.world_to_cell(x, y)
+        if not self.costmap.grid.contains(*cell):
+            return "outside the map"
+        if not self.costmap.free(*cell):
+            return "inside an obstacle or too close to one"
+        if self.costmap.free(*self.home) and not self.costmap.connected(self.home, cell):
+            return "no path from the home pose"
+        return None

@@ -1,0 +1,97 @@
+"""Patrol reports: one folder per task with report.csv, report.json and report.html.
+
+The HTML page lists every reading with its annotated picture (linked by absolute path, the
+pictures stay where read_scale wrote them), alarms first and highlighted, failures with their
+reason. Files are written with atomic_file.write_atomic: a reader sees the old report or the new.
+"""
+import csv
+import html
+import io
+import json
+import os
+import time
+
+from inspection_robot.atomic_file import write_atomic
+from inspection_robot.task.store import READING_COLUMNS
+
+REPORT_FILES = ("report.csv", "report.json", "report.html")
+ALARM_ORDER = {"alarm": 0, "failed": 1, "normal": 2, "none": 3}
+
+
+def step_split(steps):
+    """Seconds spent per step kind (move, inspect, home) and per outcome, for the summary."""
+    split = {}
+    for step in steps:
+        key = step["kind"]
+        split[key] = split.get(key, 0.0) + max(0.0, step["ended"] - step["started"])
+    return split
+
+
+def summary(task_row, readings, steps):
+    counts = {"readings": len(readings), "read": sum(1 for r in readings if r["status"] == "read"),
+              "failed": sum(1 for r in readings if r["status"] == "failed"),
+              "alarms": sum(1 for r in readings if r["alarm"] == "alarm")}
+    ended = task_row["ended"]
+    return {"task_id": task_row["task_id"], "priority": task_row["priority"], "state": task_row["state"],
+            "reason": task_row["reason"], "submitted": task_row["submitted"], "ended": ended,
+            "duration_s": round(ended - task_row["submitted"], 1) if ended else None,
+            "stops": len(task_row["spec"]["stops"]), "counts": counts,
+            "time_by_step_s": dict((k, round(v, 2)) for k, v in step_split(steps).items())}
+
+
+def write_reports(folder, task_row, readings, steps):
+    """Write the three report files of one task into ``folder``; returns {name: path}."""
+    info = summary(task_row, readings, steps)
+    paths = dict((name, os.path.join(folder, name)) for name in REPORT_FILES)
+    out = io.StringIO()
+    writer = csv.writer(out)
+    writer.writerow(READING_COLUMNS)
+    for row in readings:
+        writer.writerow(["" if row[c] is None else row[c] for c in READING_COLUMNS])
+    write_atomic(paths["report.csv"], out.getvalue())
+    write_atomic(paths["report.json"], json.dumps({"summary": info, "readings": readings}, indent=1, sort_keys=True))
+    write_atomic(paths["report.html"], render_html(info, readings))
+    return paths
+
+
+def preset_label(directory):
+    """``<preset_id>/<stamp>`` of a preset directory."""
+    return "/".join(directory.rstrip("/").split("/")[-2:])
+
+
+def _fmt(value, digits=4):
+    return "" if value is None else ("%.*g" % (digits, value))
+
+
+def render_html(info, readings):
+    esc = html.escape
+    rows = sorted(readings, key=lambda r: (ALARM_ORDER.get(r["alarm"], 9), r["stop"], r["preset_index"], r["target"]))
+    body = []
+    for r in rows:
+        band = "" if r["low"] is None else "%s .. %s" % (_fmt(r["low"]), _fmt(r["high"]))
+        picture = ('<a href="file://%s"><img src="file://%s" alt="%s"></a>'
+                   % (esc(r["picture"]), esc(r["picture"]), esc(r["target_name"])) if r["picture"] else "")
+        body.append('<tr class="%s"><td>%d %s</td><td>%s</td><td>%s (%s)</td><td>%s %s</td><td>%s</td><td>%s</td>'
+                    '<td>%s</td><td>%s</td><td>%s</td><td>%s</td></tr>'
+                    % (esc(r["alarm"]), r["stop"] + 1, esc(r["stop_name"]), esc(preset_label(r["preset"])),
+                       esc(r["target_name"]), esc(r["kind"]), _fmt(r["value"], 6), esc(r["unit"]), band,
+                       esc(r["alarm"]), _fmt(r["confidence"], 3),
+                       time.strftime("%Y-%m-%d %H:%M:%S", time.localtime(r["time"])), esc(r["reason"]), picture))
+    counts = info["counts"]
+    return """<!DOCTYPE html>
+<html><head><meta charset="utf-8"><title>Patrol report %(id)s</title>
+<style>
+body{font-family:sans-serif;margin:1em} table{border-collapse:collapse} td,th{border:1px solid #999;padding:3px 6px}
+tr.alarm td{background:#f8c0c0;font-weight:bold} tr.failed td{background:#eee;color:#a00}
+img{max-width:240px;max-height:160px}
+</style></head><body>
+<h1>Patrol report %(id)s</h1>
+<p>priority %(priority)s, state <b>%(state)s</b> %(reason)s; %(stops)d stops; %(readings)d readings:
+%(read)d read, <b>%(alarms)d alarm(s)</b>, %(failed)d failed; duration %(duration)s s</p>
+<table><tr><th>stop</th><th>preset</th><th>target</th><th>value</th><th>normal band</th><th>alarm</th>
+<th>confidence</th><th>time</th><th>reason</th><th>picture</th></tr>
+%(body)s
+</table></body></html>
+""" % {"id": esc(info["task_id"]), "priority": esc(info["priority"]), "state": esc(info["state"]),
+       "reason": esc(info["reason"]), "stops": info["stops"], "readings": counts["readings"], "read": counts["read"],
+       "alarms": counts["alarms"], "failed": counts["failed"], "duration": info["duration_s"], "body": "\n".join(body)}

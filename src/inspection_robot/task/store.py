@@ -1,0 +1,154 @@
+"""The results store: one SQLite file (stdlib sqlite3) holding tasks, readings and step timings.
+
+Crash safety: WAL journal with ``synchronous=FULL``, so a committed transaction survives a killed
+process and a power cut; a reading is committed before anyone is told about it. Readings carry a
+UNIQUE (task_id, stop, preset_index, target) key: the patrol state machine derives what is left to
+do from the store itself (a preset with rows is done), so a restarted task_manager neither repeats
+nor loses a reading. One connection shared under a lock (the node's threads are few and short).
+"""
+import json
+import sqlite3
+import threading
+
+SCHEMA = """
+CREATE TABLE IF NOT EXISTS tasks (
+    task_id TEXT PRIMARY KEY, priority TEXT NOT NULL, spec TEXT NOT NULL, state TEXT NOT NULL,
+    reason TEXT NOT NULL DEFAULT '', submitted REAL NOT NULL, ended REAL, seq INTEGER NOT NULL);
+CREATE TABLE IF NOT EXISTS readings (
+    id INTEGER PRIMARY KEY AUTOINCREMENT, task_id TEXT NOT NULL, stop INTEGER NOT NULL,
+    stop_name TEXT NOT NULL, preset_index INTEGER NOT NULL, preset TEXT NOT NULL, target INTEGER NOT NULL,
+    target_name TEXT NOT NULL, kind TEXT NOT NULL, status TEXT NOT NULL, value REAL, unit TEXT NOT NULL,
+    alarm TEXT NOT NULL, low REAL, high REAL, confidence REAL, picture TEXT NOT NULL,
+    x REAL, y REAL, yaw REAL, time REAL NOT NULL, reason TEXT NOT NULL,
+    UNIQUE (task_id, stop, preset_index, target));
+CREATE INDEX IF NOT EXISTS readings_time ON readings (time);
+CREATE TABLE IF NOT EXISTS steps (
+    id INTEGER PRIMARY KEY AUTOINCREMENT, task_id TEXT NOT NULL, stop INTEGER NOT NULL,
+    preset_index INTEGER NOT NULL, kind TEXT NOT NULL, outcome TEXT NOT NULL, started REAL NOT NULL,
+    ended REAL NOT NULL, reason TEXT NOT NULL);
+CREATE TABLE IF NOT EXISTS meta (key TEXT PRIMARY KEY, value TEXT NOT NULL);
+"""
+READING_COLUMNS = ("id", "task_id", "stop", "stop_name", "preset_index", "preset", "target", "target_name", "kind",
+                   "status", "value", "unit", "alarm", "low", "high", "confidence", "picture", "x", "y", "yaw",
+                   "time", "reason")
+STEP_COLUMNS = ("task_id", "stop", "preset_index", "kind", "outcome", "started", "ended", "reason")
+UNFINISHED_STATES = ("running", "paused", "suspended")
+
+
+class StoreError(Exception):
+    """The store cannot be opened or written (disk full, permissions, corrupt file)."""
+
+
+class ResultStore(object):
+    def __init__(self, path):
+        self.path = path
+        self._lock = threading.Lock()
+        try:
+            self._db = sqlite3.connect(path, check_same_thread=False, isolation_level=None, timeout=10.0)
+            self._db.execute("PRAGMA journal_mode=WAL")
+            self._db.execute("PRAGMA synchronous=FULL")
+            self._db.executescript(SCHEMA)
+        except sqlite3.Error as err:
+            raise StoreError("cannot open the results store %s: %s" % (path, err))
+
+    def close(self):
+        with self._lock:
+            self._db.close()
+
+    def _write(self, statements):
+        """Run [(sql, params)] in one transaction; returns the number of rows changed."""
+        with self._lock:
+            try:
+                self._db.execute("BEGIN IMMEDIATE")
+                changed = 0
+                for sql, params in statements:
+                    changed += self._db.execute(sql, params).rowcount
+                self._db.execute("COMMIT")
+                return changed
+            except sqlite3.Error as err:
+                if self._db.in_transaction:
+                    self._db.execute("ROLLBACK")
+                raise StoreError("results store %s: %s" % (self.path, err))
+
+    def _query(self, sql, params=()):
+        with self._lock:
+            try:
+                return self._db.execute(sql, params).fetchall()
+            except sqlite3.Error as err:
+                raise StoreError("results store %s: %s" % (self.path, err))
+
+    # --- tasks ---------------------------------------------------------------------------------
+    def add_task(self, task, state, now):
+        seq = self._query("SELECT COALESCE(MAX(seq), 0) + 1 FROM tasks")[0][0]
+        self._write([("INSERT INTO tasks (task_id, priority, spec, state, submitted, seq) VALUES (?, ?, ?, ?, ?, ?)",
+                      (task.task_id, task.priority, json.dumps(task.to_dict()), state, now, seq))])
+
+    def set_task_state(self, task_id, state, reason="", ended=None):
+        self._write([("UPDATE tasks SET state = ?, reason = ?, ended = ? WHERE task_id = ?",
+                      (state, reason, ended, task_id))])
+
+    def task_ids(self):
+        return set(row[0] for row in self._query("SELECT task_id FROM tasks"))
+
+    def task(self, task_id):
+        """{"task_id", "priority", "spec", "state", "reason", "submitted", "ended"} or None."""
+        rows = self._query("SELECT task_id, priority, spec, state, reason, submitted, ended FROM tasks "
+                           "WHERE task_id = ?", (task_id,))
+        return self._task_row(rows[0]) if rows else None
+
+    def tasks(self, limit=100):
+        rows = self._query("SELECT task_id, priority, spec, state, reason, submitted, ended FROM tasks "
+                           "ORDER BY seq DESC LIMIT ?", (limit,))
+        return [self._task_row(r) for r in rows]
+
+    def unfinished_tasks(self):
+        """Tasks a killed task_manager left running, paused or suspended, oldest first."""
+        rows = self._query("SELECT task_id, priority, spec, state, reason, submitted, ended FROM tasks "
+                           "WHERE state IN (?, ?, ?) ORDER BY seq", UNFINISHED_STATES)
+        return [self._task_row(r) for r in rows]
+
+    @staticmethod
+    def _task_row(row):
+        return {"task_id": row[0], "priority": row[1], "spec": json.loads(row[2]), "state": row[3],
+                "reason": row[4], "submitted": row[5], "ended": row[6]}
+
+    # --- readings ------------------------------------------------------------------------------
+    def add_readings(self, rows):
+        """Commit the readings of one preset in one transaction; returns how many were new."""
+        statements = [("INSERT OR IGNORE INTO readings (%s) VALUES (%s)"
+                       % (", ".join(READING_COLUMNS[1:]), ", ".join("?" * (len(READING_COLUMNS) - 1))),
+                       tuple(row[c] for c in READING_COLUMNS[1:])) for row in rows]
+        return self._write(statements)
+
+    def done_presets(self, task_id):
+        """{(stop, preset_index)} that already have readings (read or failed)."""
+        return set(self._query("SELECT DISTINCT stop, preset_index FROM readings WHERE task_id = ?", (task_id,)))
+
+    def readings(self, task_id=None, since=None, until=None, limit=1000):
+        """Readings filtered by task and time range [since, until] (unix s), in recording order."""
+        clauses, params = [], []
+        for clause, value in (("task_id = ?", task_id), ("time >= ?", since), ("time <= ?", until)):
+            if value is not None:
+                clauses.append(clause)
+                params.append(value)
+        where = (" WHERE " + " AND ".join(clauses)) if clauses else ""
+        rows = self._query("SELECT %s FROM readings%s ORDER BY id LIMIT ?" % (", ".join(READING_COLUMNS), where),
+                           tuple(params) + (limit,))
+        return [dict(zip(READING_COLUMNS, r)) for r in rows]
+
+    # --- step timings --------------------------------------------------------------------------
+    def add_step(self, task_id, stop, preset_index, kind, outcome, started, ended, reason=""):
+        self._write([("INSERT INTO steps (%s) VALUES (?, ?, ?, ?, ?, ?, ?, ?)" % ", ".join(STEP_COLUMNS),
+                      (task_id, stop, preset_index, kind, outcome, started, ended, reason))])
+
+    def steps(self, task_id):
+        rows = self._query("SELECT %s FROM steps WHERE task_id = ? ORDER BY id" % ", ".join(STEP_COLUMNS), (task_id,))
+        return [dict(zip(STEP_COLUMNS, r)) for r in rows]
+
+    # --- small persistent settings (holds) -------------------------------------------------------
+    def get_meta(self, key, default=None):
+        rows = self._query("SELECT value FROM meta WHERE key = ?", (key,))
+        return json.loads(rows[0][0]) if rows else default
+
+    def set_meta(self, key, value):
+        self._write([("INSERT OR REPLACE INTO meta (key, value) VALUES (?, ?)", (key, json.dumps(value)))])

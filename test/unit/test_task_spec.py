@@ -1,0 +1,124 @@
+"""Task submission checks (every malformed task refused with a clear reason) and the store's queries."""
+import json
+
+import pytest
+
+from inspection_robot.command import CommandError
+from inspection_robot.task.spec import ResolvedPreset, parse_task
+from inspection_robot.task.store import ResultStore
+
+TARGETS = [{"name": "cab/ammeter", "kind": "pointer", "unit": "A"}]
+
+
+def resolve(name):
+    if name != "cab":
+        raise CommandError("unknown preset directory '%s': preset directory not found" % name)
+    return ResolvedPreset("/p/cab/20260101_000000", TARGETS, {"cab/ammeter": [0.0, 500.0]})
+
+
+def reachable(x, y):
+    return None if 0 <= x <= 60 and 0 <= y <= 40 else "outside the map"
+
+
+def good(**changes):
+    task = {"id": "t-1", "priority": "routine",
+            "stops": [{"name": "a", "pose": {"x": 1.0, "y": 2.0, "yaw": 0.5}, "precision": 1,
+                       "presets": [{"preset": "cab", "alarms": {"cab/ammeter": [10, 400]}, "foreign": True}]}]}
+    task.update(changes)
+    return task
+
+
+def parse(obj, known=()):
+    return parse_task(obj if isinstance(obj, str) else json.dumps(obj), resolve, reachable, 2, known)
+
+
+def test_a_good_task_is_resolved_with_bands_from_the_task_over_the_preset():
+    t = parse(good())
+    assert (t.task_id, t.priority, t.retries) == ("t-1", "routine", 2)
+    preset = t.stops[0]["presets"][0]
+    assert preset["directory"] == "/p/cab/20260101_000000" and preset["alarms"] == {"cab/ammeter": [10.0, 400.0]}
+    assert t.stops[0]["precision"] == 1 and preset["foreign"] is True
+    short = parse(good(stops=[{"pose": {"x": 1, "y": 2, "yaw": 0}, "presets": ["cab"]}]))
+    assert short.stops[0]["presets"][0]["alarms"] == {"cab/ammeter": [0.0, 500.0]}
+    assert short.stops[0]["name"] == "stop_1"
+
+
+@pytest.mark.parametrize("task, reason", [
+    ("{not json", "task is not valid JSON"),
+    ("[1, 2]", "task must be a JSON object, got a list"),
+    (good(id=""), "task id must be 1-64 characters"),
+    (good(id="a/b"), "task id must be 1-64 characters"),
+    (good(priority="urgent"), "priority must be one of routine|special"),
+    (good(retries=-1), "retries out of range [0, 10]: -1"),
+    (good(stops=[]), "stops must be a non-empty list"),
+    (good(extra=1), "task: unknown key(s) extra"),
+    (good(stops=[{"pose": {"x": 1, "y": 2, "yaw": 0}, "presets": ["nope"]}]), "unknown preset directory 'nope'"),
+    (good(stops=[{"pose": {"x": 1, "y": 2, "yaw": 0}, "presets": []}]), "stop 1: presets must be a non-empty list"),
+    (good(stops=[{"pose": {"x": 1, "y": 2, "yaw": 0}, "precision": -1, "presets": ["cab"]}]),
+     "stop 1: precision must be 0 or 1, got -1"),
+    (good(stops=[{"pose": {"x": 1, "y": 2}, "presets": ["cab"]}]), "stop 1 pose: missing yaw"),
+    (good(stops=[{"pose": {"x": "1", "y": 2, "yaw": 0}, "presets": ["cab"]}]), "stop 1 pose x must be a number"),
+    (good(stops=[{"pose": {"x": 1e300, "y": 2, "yaw": 0}, "presets": ["cab"]}]), "stop 1 pose x out of range"),
+    (good(stops=[{"pose": {"x": 99, "y": 2, "yaw": 0}, "presets": ["cab"]}]),
+     "stop 1 (stop_1): pose (99.00, 2.00) is unreachable: outside the map"),
+    (good(stops=[{"pose": {"x": 1, "y": 2, "yaw": 0}, "presets": [{"preset": "cab", "alarms": {"x": [1, 2]}}]}]),
+     "alarm for unknown target 'x' of preset 'cab'"),
+    (good(stops=[{"pose": {"x": 1, "y": 2, "yaw": 0}, "presets": [{"preset": "cab",
+                                                                   "alarms": {"cab/ammeter": [5, 1]}}]}]),
+     "low 5 is above high 1"),
+    (good(stops=[{"pose": {"x": 1, "y": 2, "yaw": 0}, "presets": [{"preset": "cab", "foreign": "yes"}]}]),
+     "foreign must be true or false"),
+])
+def test_malformed_tasks_are_refused_with_the_reason(task, reason):
+    with pytest.raises(CommandError) as err:
+        parse(task)
+    assert reason in str(err.value)
+
+
+def test_duplicate_id_is_refused():
+    with pytest.raises(CommandError, match="duplicate task id 't-1'"):
+        parse(good(), known={"t-1"})
+
+
+def test_unreachable_is_checked_after_every_preset(monkeypatch):
+    calls = []
+    task = good(stops=[{"pose": {"x": 99, "y": 2, "yaw": 0}, "presets": ["nope"]}])
+    with pytest.raises(CommandError, match="unknown preset"):
+        parse_task(json.dumps(task), resolve, lambda x, y: calls.append((x, y)), 1)
+    assert calls == []
+
+
+def test_store_queries_by_task_and_time(tmp_path):
+    store = ResultStore(str(tmp_path / "s.sqlite"))
+    base = {"stop_name": "a", "preset": "/p", "target_name": "g", "kind": "pointer", "status": "read", "unit": "A",
+            "alarm": "none", "low": None, "high": None, "confidence": 90.0, "picture": "", "x": 1.0, "y": 2.0,
+            "yaw": 0.0, "reason": ""}
+    rows = [dict(base, task_id=t, stop=0, preset_index=j, target=0, value=float(j), time=100.0 + j)
+            for t in ("a", "b") for j in range(3)]
+    assert store.add_readings(rows) == 6
+    assert store.add_readings(rows[:1]) == 0          # the same reading twice is stored once
+    assert [r["value"] for r in store.readings(task_id="b", since=101.0)] == [1.0, 2.0]
+    assert len(store.readings(until=100.5)) == 2
+    assert store.done_presets("a") == {(0, 0), (0, 1), (0, 2)}
+
+
+def test_reachability_on_the_shipped_map():
+    import os
+    from inspection_robot.task.checks import Reachability
+    root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+    reachable = Reachability(os.path.join(root, "config", "maps", "substation.yaml"), 0.45, (5.0, 5.0))
+    assert reachable(20.0, 21.4) is None
+    assert reachable(20.0, 10.0) == "inside an obstacle or too close to one"   # transformer_1
+    assert reachable(500.0, 5.0) == "outside the map"
+
+
+def test_unknown_or_outside_preset_directories_are_refused(tmp_path):
+    from inspection_robot.task.checks import resolve_preset
+    with pytest.raises(CommandError, match="unknown preset directory 'nope': preset directory not found"):
+        resolve_preset(str(tmp_path), "nope")
+    with pytest.raises(CommandError, match="unknown preset directory '../x': path '../x' is outside the allowed"):
+        resolve_preset(str(tmp_path), "../x")
+    (tmp_path / "p" / "20260101_000000").mkdir(parents=True)
+    (tmp_path / "p" / "20260101_000000" / "preset.ini").write_text("[preset]\n")
+    with pytest.raises(CommandError, match="unknown preset directory 'p': "):
+        resolve_preset(str(tmp_path), "p")
