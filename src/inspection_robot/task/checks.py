@@ -3,7 +3,8 @@ and can a stop be reached on the map. Used by task_manager at submission, before
 import configparser
 import os
 
-from inspection_robot.command import CommandError, confine_path
+from inspection_robot.command import CommandError
+from inspection_robot.files import confine_path
 from inspection_robot.inspection.preset import CALIB_INI, PRESET_INI, PresetError, load_preset
 from inspection_robot.nav.costmap import Costmap
 from inspection_robot.nav.gridmap import MapError, load_map

@@ -2,7 +2,7 @@
 
 The HTML page lists every reading with its annotated picture (linked by absolute path, the
 pictures stay where read_scale wrote them), alarms first and highlighted, failures with their
-reason. Files are written with atomic_file.write_atomic: a reader sees the old report or the new.
+reason. Files are written with files.write_atomic: a reader sees the old report or the new.
 """
 import csv
 import html
@@ -11,7 +11,7 @@ import json
 import os
 import time
 
-from inspection_robot.atomic_file import write_atomic
+from inspection_robot.files import write_atomic
 from inspection_robot.task.store import READING_COLUMNS
 
 REPORT_FILES = ("report.csv", "report.json", "report.html")
