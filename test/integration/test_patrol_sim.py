@@ -5,11 +5,12 @@ roslibpy over the websocket only.
 Record and calibrate 8 presets at 6 stops (one infrared, lamps and switches), put an out-of-band
 value in the world (transformer_1/oil_temp 118 C, red zone), refuse malformed tasks before anything
 moves, run the routine patrol with a backend take-over and release, a task_manager kill and
-respawn, and a special task that pre-empts it; then every gauge within 1 % of full scale of the
+respawn, a low battery that sends the robot to its dock to charge and back, and a special task
+that pre-empts it; then every gauge within 1 % of full scale of the
 world's truth, lamps and switches exact, the hot spot within 1 C, the alarm where the world is out
 of band and nowhere else, no reading lost or duplicated, the report files present.
 rospy is used only to read the bridge's port, the simulator's true pose, task_manager's pid and
-the data_root folder.
+the data_root folder, and to drain the simulated battery.
 """
 import json
 import math
@@ -27,6 +28,7 @@ import rostest
 from geometry_msgs.msg import PoseWithCovarianceStamped
 
 from inspection_robot.sim.world import World
+from inspection_robot.srv import ControlService
 from inspection_robot.sim.yard_patrol import (YARD_STOPS, PatrolClient, build_task, default_world_file,
                                               expected_value)
 from rostest_helpers import Latest, wait_for
@@ -53,14 +55,6 @@ class Heartbeat(object):
     def _run(self):
         while not self._stop.wait(0.3):
             self._topic.publish(roslibpy.Message({"sender": "server", "data": "alive"}))
-
-
-def charge_cycle_hook(client):
-    """Hook for the low-battery dock-charge-resume step: added when charge_control (branch
-    `charge`) lands: drain the simulated battery, expect task_status holds == ["charge"] and
-    state paused after the current preset, the robot docked and charging, then the patrol running
-    again at the same stop. Without a charge_control node there is nothing to exercise yet."""
-    return None
 
 
 class PatrolSimTest(unittest.TestCase):
@@ -177,7 +171,7 @@ class PatrolSimTest(unittest.TestCase):
         self.status_where(lambda s: s["task_id"] == routine["id"] and s["state"] == "running", 60.0,
                           "interrupted task resumed")
 
-        charge_cycle_hook(client)
+        self.charge_cycle(client)
 
         # a special task pre-empts the routine after its current preset; the routine then resumes
         self.status_where(lambda s: s["done"] >= 5, 400.0, "5 presets done")
@@ -206,6 +200,35 @@ class PatrolSimTest(unittest.TestCase):
         with open(paths["report.html"]) as f:
             self.assertIn('<tr class="alarm">', f.read())
         self.assertGreater(math.hypot(self.pose()[0] - start[0], self.pose()[1] - start[1]), 5.0)
+
+    def charge_cycle(self, client):
+        """The battery runs low mid-patrol: charge_control pauses the patrol after its current preset
+        (hold "charge"), docks, charges to full_level, backs off and resumes; the patrol goes on at
+        the stop it was at. The low battery is the simulator's (set_soc), everything else is seen
+        over the websocket."""
+        charge = []
+        topic = roslibpy.Topic(self.ros, "/charge_status", "inspection_robot/GeneralTopic")
+        topic.subscribe(lambda m: charge.append(json.loads(m["data"])))
+        self.addCleanup(topic.unsubscribe)
+        inject = rospy.ServiceProxy("/sim/inject_fault", ControlService)
+        inject.wait_for_service(30.0)
+        reply = inject(cmd="set_soc", data="20")   # below charge_control's low_level (25 %)
+        self.assertEqual(reply.ack, "success", reply.data)
+        paused = self.status_where(lambda s: s["state"] == "paused" and "charge" in s["holds"], 300.0,
+                                   "patrol paused for charging")
+        wait_for(lambda: any(c["state"] == "charging" for c in charge), 300.0, "charging on the dock")
+        charging = wait_for(lambda: self.robot_status and self.robot_status[-1]["battery_status"] & 0x10
+                            and self.robot_status[-1], 30.0, "robot_status charging (battery_status b4)")
+        dock = (2.2, 5.0)   # world.dock of config/sim_world.yaml
+        self.assertLess(math.hypot(charging["position"][0] - dock[0], charging["position"][1] - dock[1]), 0.1)
+        resumed = self.status_where(lambda s: s["state"] == "running" and s["holds"] == [], 600.0,
+                                    "patrol resumed after charging")
+        self.assertEqual((resumed["task_id"], resumed["stop"]), (paused["task_id"], paused["stop"]))
+        states = [c["state"] for c in charge]
+        for state in ("to_approach", "docking", "charging", "relay_off", "backing_off", "idle"):
+            self.assertIn(state, states)
+        self.assertEqual(charge[-1]["alarm"], "")
+        self.assertGreaterEqual(self.robot_status[-1]["battery_quantity"], 85)
 
     def _pid_changed(self, old):
         try:
