@@ -4,8 +4,10 @@ Virtual obstacles are drawn into a layer of their own that only the planner sees
 map published for localization is never modified. Inflation uses an exact Euclidean distance
 transform (OpenCV): cells closer than ``robot_radius`` to an obstacle are lethal, cells within
 ``robot_radius + safety_margin`` carry a cost that decays linearly, so paths keep clear of walls
-when they can. Free space is labelled into 8-connected components after every change, so "goal
-unreachable" is answered exactly without searching.
+when they can. Free space is labelled into 8-connected components, so "goal unreachable" is
+answered exactly without searching: each ``LABEL_BLOCK`` x ``LABEL_BLOCK`` block is labelled on
+its own (OpenCV) and the block-local components are joined across block seams with a sparse
+connected-components pass (SciPy), so a change relabels only the blocks it touches.
 
 A change of the virtual layer is incremental: only the window its polylines and their inflation
 touch is redrawn and re-inflated (a cell's cost depends on obstacles within
@@ -16,11 +18,14 @@ import math
 
 import cv2
 import numpy as np
+from scipy.sparse import csr_matrix
+from scipy.sparse.csgraph import connected_components
 
 from inspection_robot.nav.gridmap import OCC_UNKNOWN
 
 LETHAL = np.float32(np.inf)
 _SHIFT = 4  # sub-pixel bits of cv2.polylines
+LABEL_BLOCK = 256  # cells per side of a free-space labelling block
 
 
 class Window(object):
@@ -123,7 +128,11 @@ class Costmap(object):
         # a cell's cost depends on obstacle cells within this many cells (+1 for rounding)
         self._reach = int(math.ceil((self.robot_radius + self.safety_margin) / grid.resolution)) + 2
         self.cost = None
-        self.labels = None
+        blocks = (-(-static.shape[0] // LABEL_BLOCK), -(-static.shape[1] // LABEL_BLOCK))
+        self._local = np.zeros(static.shape, dtype=np.int32)  # block-local component, 0: not free
+        self._block_count = np.zeros(blocks, dtype=np.int64)  # components per labelling block
+        self._component = np.zeros(0, dtype=np.int64)  # global component per block-local one
+        self._base = np.zeros(blocks[0] * blocks[1] + 1, dtype=np.int64)
         self.version = 0
         self._changes = []  # (version, Window or None = everything)
         self.rebuild()
@@ -185,7 +194,7 @@ class Costmap(object):
         self.virtual[window.slices()] = mask.astype(bool)
         touched = window.grown(self._reach, self.shape)
         self._inflate(touched)
-        self._label()
+        self._label(touched)
         self.version += 1
         self._changes.append((self.version, touched))
         del self._changes[:-64]
@@ -194,8 +203,9 @@ class Costmap(object):
     def rebuild(self):
         """Re-inflate the whole map."""
         self.cost = np.ones(self.shape, dtype=np.float32)
-        self._inflate(Window(0, self.shape[0], 0, self.shape[1]))
-        self._label()
+        everything = Window(0, self.shape[0], 0, self.shape[1])
+        self._inflate(everything)
+        self._label(everything)
         self.version += 1
         self._changes.append((self.version, None))
         del self._changes[:-64]
@@ -230,8 +240,52 @@ class Costmap(object):
         cost[lethal] = LETHAL
         self.cost[window.slices()] = cost
 
-    def _label(self):
-        _count, self.labels = cv2.connectedComponents(np.isfinite(self.cost).view(np.uint8), connectivity=8)
+    def _label(self, window):
+        """Relabel the labelling blocks ``window`` touches, then rejoin components across seams."""
+        b = LABEL_BLOCK
+        height, width = self.shape
+        for br in range(window.r0 // b, -(-window.r1 // b)):
+            for bc in range(window.c0 // b, -(-window.c1 // b)):
+                rows, cols = slice(br * b, min((br + 1) * b, height)), slice(bc * b, min((bc + 1) * b, width))
+                count, local = cv2.connectedComponents(np.isfinite(self.cost[rows, cols]).view(np.uint8),
+                                                       connectivity=8)
+                self._local[rows, cols] = local
+                self._block_count[br, bc] = count - 1
+        self._base[1:] = np.cumsum(self._block_count.ravel())
+        n = int(self._base[-1])
+        sources, targets = [], []
+        rows, cols = np.arange(height), np.arange(width)
+        seam_cols, seam_rows = np.arange(b, width, b), np.arange(b, height, b)
+        for d in (-1, 0, 1):  # the three 8-neighbours across each seam
+            r = rows[max(-d, 0):height - max(d, 0)]
+            a = self._node(r[:, None], seam_cols[None, :] - 1)
+            sources.append(a.ravel())
+            targets.append(self._node(r[:, None] + d, seam_cols[None, :]).ravel())
+            c = cols[max(-d, 0):width - max(d, 0)]
+            sources.append(self._node(seam_rows[:, None] - 1, c[None, :]).ravel())
+            targets.append(self._node(seam_rows[:, None], c[None, :] + d).ravel())
+        sources, targets = np.concatenate(sources), np.concatenate(targets)
+        linked = (sources >= 0) & (targets >= 0)
+        graph = csr_matrix((np.ones(int(linked.sum()), dtype=np.int8), (sources[linked], targets[linked])),
+                           shape=(n, n))
+        _count, self._component = connected_components(graph, directed=False)
+
+    def _node(self, rows, cols):
+        """Block-local component number across the whole map of cells (rows, cols); -1: not free."""
+        local = self._local[rows, cols]
+        block = (rows // LABEL_BLOCK) * self._block_count.shape[1] + cols // LABEL_BLOCK
+        return np.where(local > 0, self._base[block] + local - 1, -1)
+
+    def component(self, row, col):
+        """Free-space component id of cell (row, col), -1 when it is not free (ids are arbitrary)."""
+        node = int(self._node(row, col))
+        return int(self._component[node]) if node >= 0 else -1
+
+    def component_image(self):
+        """Component id of every cell (-1: not free); a whole-map array, for tests and tools."""
+        rows, cols = np.indices(self.shape)
+        node = self._node(rows, cols)
+        return np.where(node >= 0, self._component[np.maximum(node, 0)], -1)
 
     def free(self, row, col):
         return self.grid.contains(row, col) and np.isfinite(self.cost[row, col])
@@ -240,4 +294,4 @@ class Costmap(object):
         """True when cells a and b (row, col) are both free and in the same component."""
         if not (self.free(*a) and self.free(*b)):
             return False
-        return self.labels[a] == self.labels[b]
+        return self.component(*a) == self.component(*b)
