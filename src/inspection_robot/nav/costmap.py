@@ -133,6 +133,7 @@ class Costmap(object):
         self._block_count = np.zeros(blocks, dtype=np.int64)  # components per labelling block
         self._component = np.zeros(0, dtype=np.int64)  # global component per block-local one
         self._base = np.zeros(blocks[0] * blocks[1] + 1, dtype=np.int64)
+        self._seams = {}  # labelling block -> its links across its right and bottom seams
         self.version = 0
         self._changes = []  # (version, Window or None = everything)
         self.rebuild()
@@ -244,31 +245,50 @@ class Costmap(object):
         """Relabel the labelling blocks ``window`` touches, then rejoin components across seams."""
         b = LABEL_BLOCK
         height, width = self.shape
-        for br in range(window.r0 // b, -(-window.r1 // b)):
-            for bc in range(window.c0 // b, -(-window.c1 // b)):
+        nbr, nbc = self._block_count.shape
+        br0, br1, bc0, bc1 = window.r0 // b, -(-window.r1 // b), window.c0 // b, -(-window.c1 // b)
+        for br in range(br0, br1):
+            for bc in range(bc0, bc1):
                 rows, cols = slice(br * b, min((br + 1) * b, height)), slice(bc * b, min((bc + 1) * b, width))
                 count, local = cv2.connectedComponents(np.isfinite(self.cost[rows, cols]).view(np.uint8),
                                                        connectivity=8)
                 self._local[rows, cols] = local
                 self._block_count[br, bc] = count - 1
+        # a block's seams reach the blocks right of and below it (corners included)
+        for br in range(max(br0 - 1, 0), br1):
+            for bc in range(max(bc0 - 1, 0), min(bc1 + 1, nbc)):
+                self._seams[br * nbc + bc] = self._seam_links(br, bc)
         self._base[1:] = np.cumsum(self._block_count.ravel())
         n = int(self._base[-1])
-        sources, targets = [], []
-        rows, cols = np.arange(height), np.arange(width)
-        seam_cols, seam_rows = np.arange(b, width, b), np.arange(b, height, b)
-        for d in (-1, 0, 1):  # the three 8-neighbours across each seam
-            r = rows[max(-d, 0):height - max(d, 0)]
-            a = self._node(r[:, None], seam_cols[None, :] - 1)
-            sources.append(a.ravel())
-            targets.append(self._node(r[:, None] + d, seam_cols[None, :]).ravel())
-            c = cols[max(-d, 0):width - max(d, 0)]
-            sources.append(self._node(seam_rows[:, None] - 1, c[None, :]).ravel())
-            targets.append(self._node(seam_rows[:, None], c[None, :] + d).ravel())
-        sources, targets = np.concatenate(sources), np.concatenate(targets)
-        linked = (sources >= 0) & (targets >= 0)
-        graph = csr_matrix((np.ones(int(linked.sum()), dtype=np.int8), (sources[linked], targets[linked])),
-                           shape=(n, n))
+        links = np.concatenate(list(self._seams.values()) + [np.zeros((0, 4), dtype=np.int64)])
+        sources = self._base[links[:, 0]] + links[:, 1] - 1
+        targets = self._base[links[:, 2]] + links[:, 3] - 1
+        graph = csr_matrix((np.ones(len(links), dtype=np.int8), (sources, targets)), shape=(n, n))
         _count, self._component = connected_components(graph, directed=False)
+
+    def _seam_links(self, br, bc):
+        """Distinct (block, local, block, local) pairs of free cells 8-adjacent across the right and
+        bottom seams of labelling block (br, bc)."""
+        b = LABEL_BLOCK
+        height, width = self.shape
+        nbc = self._block_count.shape[1]
+        r0, r1, c0, c1 = br * b, min((br + 1) * b, height), bc * b, min((bc + 1) * b, width)
+        pairs = []
+        for d in (-1, 0, 1):
+            if c1 < width:
+                r = np.arange(max(r0, -d), min(r1, height - d))
+                pairs.append((r, np.full(len(r), c1 - 1), r + d, np.full(len(r), c1)))
+            if r1 < height:
+                c = np.arange(max(c0, -d), min(c1, width - d))
+                pairs.append((np.full(len(c), r1 - 1), c, np.full(len(c), r1), c + d))
+        if not pairs:
+            return np.zeros((0, 4), dtype=np.int64)
+        ra, ca, rb, cb = (np.concatenate(p) for p in zip(*pairs))
+        la, lb = self._local[ra, ca], self._local[rb, cb]
+        ok = (la > 0) & (lb > 0)
+        links = np.stack([np.full(int(ok.sum()), br * nbc + bc), la[ok], (rb[ok] // b) * nbc + cb[ok] // b, lb[ok]],
+                         axis=1).astype(np.int64)
+        return np.unique(links, axis=0) if len(links) else links
 
     def _node(self, rows, cols):
         """Block-local component number across the whole map of cells (rows, cols); -1: not free."""
