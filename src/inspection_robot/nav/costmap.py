@@ -307,6 +307,19 @@ class Costmap(object):
         node = self._node(rows, cols)
         return np.where(node >= 0, self._component[np.maximum(node, 0)], -1)
 
+    def clearance(self, x, y):
+        """Distance (m) from the robot's edge at map point (x, y) to the nearest obstacle, read back
+        from the cost band: exact within ``safety_margin``, inf beyond it, 0 in lethal or off-map cells."""
+        row, col = self.grid.world_to_cell(x, y)
+        if not self.grid.contains(row, col):
+            return 0.0
+        cost = float(self.cost[row, col])
+        if not math.isfinite(cost):
+            return 0.0
+        if cost <= 1.0 or self.margin_cost <= 0:
+            return float("inf")
+        return max(1.0 - (cost - 1.0) / self.margin_cost, 0.0) * self.safety_margin
+
     def free(self, row, col):
         return self.grid.contains(row, col) and np.isfinite(self.cost[row, col])
 
