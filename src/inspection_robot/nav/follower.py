@@ -205,6 +205,6 @@ class PathFollower(object):
 def stop_spin_go_params(**overrides):
     """The follower as it drove before regulation (fixed 0.6 m lookahead, spin beyond 1 rad): a baseline."""
     values = dict(lookahead_m=0.6, lookahead_min_m=0.6, spin_enter_rad=1.0, min_turn_radius_m=0.0,
-                  corner_accel_m_s2=1e9)
+                  corner_accel_m_s2=1e9, yaw_decel_rad_s2=1.0)
     values.update(overrides)
     return FollowerParams(**values)
