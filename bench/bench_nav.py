@@ -120,8 +120,10 @@ def staircase(costmap, corners=10, leg_m=8.0):
     raise RuntimeError("no free spot for the route")
 
 
-def drive_on_chassis(path, goal, params, clearance, timeout_s=900.0):
+def drive_on_chassis(path, goal, params, clearance, costmap=None, timeout_s=900.0):
     """Follower at 20 Hz -> MotionController at 50 Hz -> SimChassis, on a fake clock.
+
+    ``costmap``: regulate the speed near obstacles with its clearance (None: no regulation).
 
     Returns (seconds to DONE, final pose, minimum clearance (m) on the way, spins in place).
     """
@@ -129,7 +131,8 @@ def drive_on_chassis(path, goal, params, clearance, timeout_s=900.0):
     heading = math.atan2(path[1][1] - path[0][1], path[1][0] - path[0][0])
     chassis = SimChassis(lambda: clock[0], (path[0][0], path[0][1], heading))
     controller = MotionController(chassis, VelocityLimits(1.0, 1.0, 5.0, 5.0), 0.5, lambda: clock[0])
-    follower = PathFollower(np.asarray(path, dtype=float), goal, params)
+    follower = PathFollower(np.asarray(path, dtype=float), goal, params,
+                            None if costmap is None else costmap.clearance)
     tick, step, spins, phase = 0.01, 0, 0, None
     min_clearance = float("inf")
     while clock[0] < timeout_s:
@@ -169,8 +172,9 @@ def bench_route():
 
     goal = MoveGoal(route[-1][0], route[-1][1], math.pi, True, True, False, 1.0, 1.0)
     out = {}
-    for name, params in (("stop_spin_go", stop_spin_go_params()), ("regulated", FollowerParams())):
-        seconds, (x, y, yaw), min_clearance, spins = drive_on_chassis(path, goal, params, clearance)
+    for name, params, regulated_by in (("stop_spin_go", stop_spin_go_params(), None),
+                                       ("regulated", FollowerParams(), costmap)):
+        seconds, (x, y, yaw), min_clearance, spins = drive_on_chassis(path, goal, params, clearance, regulated_by)
         out[name] = seconds
         print(json.dumps({"bench": "nav_route_10_corners_88m", "follower": name, "seconds": round(seconds, 1),
                           "min_clearance_m": round(min_clearance, 3), "spins": spins,

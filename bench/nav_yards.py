@@ -123,7 +123,7 @@ def pairs(costmap, rng, count, min_distance_m=40.0):
         a, b = free[rng.integers(0, len(free), 2)]
         xa, ya = grid.cell_to_world(a[0], a[1])
         xb, yb = grid.cell_to_world(b[0], b[1])
-        if np.hypot(xa - xb, ya - yb) < min_distance_m or costmap.labels[tuple(a)] != costmap.labels[tuple(b)]:
+        if np.hypot(xa - xb, ya - yb) < min_distance_m or not costmap.connected(tuple(a), tuple(b)):
             continue
         out.append(((float(xa), float(ya)), (float(xb), float(yb))))
     return out

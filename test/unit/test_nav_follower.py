@@ -89,3 +89,30 @@ def test_progress_reports_remaining_and_lateral_error():
     progress = follower.step(3.0, 0.4, 0.0)
     assert progress.remaining == pytest.approx(7.0, abs=1e-6)
     assert progress.lateral_error == pytest.approx(0.4, abs=1e-6)
+
+
+def test_speed_regulated_near_obstacles_read_from_the_costmap():
+    # a wall (cell centres at y = 4.275) beside the second half of a straight 20 m path at y = 4.825:
+    # the robot's edge (radius 0.45 m) passes 0.1 m from it
+    from inspection_robot.nav.costmap import Costmap
+    from inspection_robot.nav.gridmap import GridMap
+    occ = np.zeros((200, 400), dtype=np.int8)
+    occ[85, 200:] = 100  # from x = 10 m on
+    costmap = Costmap(GridMap(occ, 0.05, (0.0, 0.0, 0.0)), robot_radius=0.45, safety_margin=0.3)
+    assert costmap.clearance(5.0, 5.0) == float("inf")
+    assert costmap.clearance(15.0, 4.825) == pytest.approx(0.1, abs=0.03)
+    assert costmap.clearance(15.0, 4.5) == 0.0
+    path = [[0.0, 4.825], [19.5, 4.825]]
+    g = MoveGoal(19.5, 4.825, 0.0, False, False, False, 1.0, 1.0)
+    speeds = {}
+    for name, clearance in (("free", None), ("regulated", costmap.clearance)):
+        follower = PathFollower(path, g, FollowerParams(), clearance)
+        x, yaw, out = 0.0, 0.0, []
+        while x < 18.0:
+            cmd = follower.step(x, 4.825, yaw).command
+            out.append((x, cmd.velocity_x))
+            x += cmd.velocity_x * DT
+        speeds[name] = max(v for px, v in out if 12.0 < px < 16.0)
+    assert speeds["free"] == pytest.approx(1.0)
+    # clearance ~0.1 m of the 0.2 m proximity distance: about half speed
+    assert 0.4 < speeds["regulated"] <= 0.6

@@ -4,7 +4,7 @@ import pytest
 
 from inspection_robot.nav.costmap import Costmap
 from inspection_robot.nav.gridmap import GridMap
-from inspection_robot.nav.planner import Planner
+from inspection_robot.nav.planner import Planner, PlanningError
 
 RES = 0.05
 
@@ -32,12 +32,19 @@ def top_edges(planner):
     return sorted(zip(graph.row.tolist(), graph.col.tolist(), graph.data.tolist()))
 
 
+def assert_same_partition(a, b):
+    """Component ids are arbitrary: the same cells must be free and grouped alike."""
+    np.testing.assert_array_equal(a < 0, b < 0)
+    pairs = np.unique(np.stack([a[a >= 0], b[b >= 0]]), axis=1)
+    assert pairs.shape[1] == len(np.unique(a[a >= 0])) == len(np.unique(b[b >= 0]))
+
+
 def assert_same(incremental, planner, layer, grid):
     full = Costmap(grid, robot_radius=0.45, safety_margin=0.3)
     full.set_virtual(layer)
     np.testing.assert_array_equal(incremental.virtual, full.virtual)
     np.testing.assert_array_equal(incremental.cost, full.cost)
-    np.testing.assert_array_equal(incremental.labels, full.labels)
+    assert_same_partition(incremental.component_image(), full.component_image())
     rebuilt = Planner(full)
     planner.refresh()
     np.testing.assert_array_equal(planner._block_cost, rebuilt._block_cost)
@@ -82,3 +89,24 @@ def test_edit_touches_only_its_window_and_plans_follow_it():
     assert costmap.set_virtual([([[10.0, 10.0], [14.0, 10.0]], False)]) is None  # same layer: no work
     plan = planner.plan((12.0, 8.0), (12.0, 12.0))
     assert plan.length > 4.0  # around the new wall, not through it
+
+
+def test_walls_that_split_and_join_free_space_across_label_blocks():
+    """A wall across the yard (over several labelling blocks) splits it in two; opening a gate joins it."""
+    grid = yard(np.random.default_rng(5), size_m=40.0)
+    costmap = Costmap(grid, robot_radius=0.45, safety_margin=0.3)
+    planner = Planner(costmap)
+    left, right = grid.world_to_cell(5.0, 20.0), grid.world_to_cell(35.0, 20.0)
+    costmap.set_virtual([])
+    wall = ([[20.0, -1.0], [20.0, 41.0]], False)
+    with_gate = [([[20.0, -1.0], [20.0, 18.0]], False), ([[20.0, 22.0], [20.0, 41.0]], False)]
+    edits = [[wall], with_gate, [wall], [], [wall, ([[-1.0, 30.0], [41.0, 30.0]], False)], with_gate]
+    split = []
+    for layer in edits:
+        costmap.set_virtual(layer)
+        assert_same(costmap, planner, layer, grid)
+        split.append(costmap.free(*left) and costmap.free(*right) and not costmap.connected(left, right))
+    assert split == [True, False, True, False, True, False]
+    with pytest.raises(PlanningError, match="not reachable"):
+        costmap.set_virtual([wall])
+        planner.plan((5.0, 20.0), (35.0, 20.0))

@@ -4,8 +4,10 @@ Virtual obstacles are drawn into a layer of their own that only the planner sees
 map published for localization is never modified. Inflation uses an exact Euclidean distance
 transform (OpenCV): cells closer than ``robot_radius`` to an obstacle are lethal, cells within
 ``robot_radius + safety_margin`` carry a cost that decays linearly, so paths keep clear of walls
-when they can. Free space is labelled into 8-connected components after every change, so "goal
-unreachable" is answered exactly without searching.
+when they can. Free space is labelled into 8-connected components, so "goal unreachable" is
+answered exactly without searching: each ``LABEL_BLOCK`` x ``LABEL_BLOCK`` block is labelled on
+its own (OpenCV) and the block-local components are joined across block seams with a sparse
+connected-components pass (SciPy), so a change relabels only the blocks it touches.
 
 A change of the virtual layer is incremental: only the window its polylines and their inflation
 touch is redrawn and re-inflated (a cell's cost depends on obstacles within
@@ -16,11 +18,14 @@ import math
 
 import cv2
 import numpy as np
+from scipy.sparse import csr_matrix
+from scipy.sparse.csgraph import connected_components
 
 from inspection_robot.nav.gridmap import OCC_UNKNOWN
 
 LETHAL = np.float32(np.inf)
 _SHIFT = 4  # sub-pixel bits of cv2.polylines
+LABEL_BLOCK = 256  # cells per side of a free-space labelling block
 
 
 class Window(object):
@@ -123,7 +128,12 @@ class Costmap(object):
         # a cell's cost depends on obstacle cells within this many cells (+1 for rounding)
         self._reach = int(math.ceil((self.robot_radius + self.safety_margin) / grid.resolution)) + 2
         self.cost = None
-        self.labels = None
+        blocks = (-(-static.shape[0] // LABEL_BLOCK), -(-static.shape[1] // LABEL_BLOCK))
+        self._local = np.zeros(static.shape, dtype=np.int32)  # block-local component, 0: not free
+        self._block_count = np.zeros(blocks, dtype=np.int64)  # components per labelling block
+        self._component = np.zeros(0, dtype=np.int64)  # global component per block-local one
+        self._base = np.zeros(blocks[0] * blocks[1] + 1, dtype=np.int64)
+        self._seams = {}  # labelling block -> its links across its right and bottom seams
         self.version = 0
         self._changes = []  # (version, Window or None = everything)
         self.rebuild()
@@ -185,7 +195,7 @@ class Costmap(object):
         self.virtual[window.slices()] = mask.astype(bool)
         touched = window.grown(self._reach, self.shape)
         self._inflate(touched)
-        self._label()
+        self._label(touched)
         self.version += 1
         self._changes.append((self.version, touched))
         del self._changes[:-64]
@@ -194,8 +204,9 @@ class Costmap(object):
     def rebuild(self):
         """Re-inflate the whole map."""
         self.cost = np.ones(self.shape, dtype=np.float32)
-        self._inflate(Window(0, self.shape[0], 0, self.shape[1]))
-        self._label()
+        everything = Window(0, self.shape[0], 0, self.shape[1])
+        self._inflate(everything)
+        self._label(everything)
         self.version += 1
         self._changes.append((self.version, None))
         del self._changes[:-64]
@@ -230,8 +241,84 @@ class Costmap(object):
         cost[lethal] = LETHAL
         self.cost[window.slices()] = cost
 
-    def _label(self):
-        _count, self.labels = cv2.connectedComponents(np.isfinite(self.cost).view(np.uint8), connectivity=8)
+    def _label(self, window):
+        """Relabel the labelling blocks ``window`` touches, then rejoin components across seams."""
+        b = LABEL_BLOCK
+        height, width = self.shape
+        nbr, nbc = self._block_count.shape
+        br0, br1, bc0, bc1 = window.r0 // b, -(-window.r1 // b), window.c0 // b, -(-window.c1 // b)
+        for br in range(br0, br1):
+            for bc in range(bc0, bc1):
+                rows, cols = slice(br * b, min((br + 1) * b, height)), slice(bc * b, min((bc + 1) * b, width))
+                count, local = cv2.connectedComponents(np.isfinite(self.cost[rows, cols]).view(np.uint8),
+                                                       connectivity=8)
+                self._local[rows, cols] = local
+                self._block_count[br, bc] = count - 1
+        # a block's seams reach the blocks right of and below it (corners included)
+        for br in range(max(br0 - 1, 0), br1):
+            for bc in range(max(bc0 - 1, 0), min(bc1 + 1, nbc)):
+                self._seams[br * nbc + bc] = self._seam_links(br, bc)
+        self._base[1:] = np.cumsum(self._block_count.ravel())
+        n = int(self._base[-1])
+        links = np.concatenate(list(self._seams.values()) + [np.zeros((0, 4), dtype=np.int64)])
+        sources = self._base[links[:, 0]] + links[:, 1] - 1
+        targets = self._base[links[:, 2]] + links[:, 3] - 1
+        graph = csr_matrix((np.ones(len(links), dtype=np.int8), (sources, targets)), shape=(n, n))
+        _count, self._component = connected_components(graph, directed=False)
+
+    def _seam_links(self, br, bc):
+        """Distinct (block, local, block, local) pairs of free cells 8-adjacent across the right and
+        bottom seams of labelling block (br, bc)."""
+        b = LABEL_BLOCK
+        height, width = self.shape
+        nbc = self._block_count.shape[1]
+        r0, r1, c0, c1 = br * b, min((br + 1) * b, height), bc * b, min((bc + 1) * b, width)
+        pairs = []
+        for d in (-1, 0, 1):
+            if c1 < width:
+                r = np.arange(max(r0, -d), min(r1, height - d))
+                pairs.append((r, np.full(len(r), c1 - 1), r + d, np.full(len(r), c1)))
+            if r1 < height:
+                c = np.arange(max(c0, -d), min(c1, width - d))
+                pairs.append((np.full(len(c), r1 - 1), c, np.full(len(c), r1), c + d))
+        if not pairs:
+            return np.zeros((0, 4), dtype=np.int64)
+        ra, ca, rb, cb = (np.concatenate(p) for p in zip(*pairs))
+        la, lb = self._local[ra, ca], self._local[rb, cb]
+        ok = (la > 0) & (lb > 0)
+        links = np.stack([np.full(int(ok.sum()), br * nbc + bc), la[ok], (rb[ok] // b) * nbc + cb[ok] // b, lb[ok]],
+                         axis=1).astype(np.int64)
+        return np.unique(links, axis=0) if len(links) else links
+
+    def _node(self, rows, cols):
+        """Block-local component number across the whole map of cells (rows, cols); -1: not free."""
+        local = self._local[rows, cols]
+        block = (rows // LABEL_BLOCK) * self._block_count.shape[1] + cols // LABEL_BLOCK
+        return np.where(local > 0, self._base[block] + local - 1, -1)
+
+    def component(self, row, col):
+        """Free-space component id of cell (row, col), -1 when it is not free (ids are arbitrary)."""
+        node = int(self._node(row, col))
+        return int(self._component[node]) if node >= 0 else -1
+
+    def component_image(self):
+        """Component id of every cell (-1: not free); a whole-map array, for tests and tools."""
+        rows, cols = np.indices(self.shape)
+        node = self._node(rows, cols)
+        return np.where(node >= 0, self._component[np.maximum(node, 0)], -1)
+
+    def clearance(self, x, y):
+        """Distance (m) from the robot's edge at map point (x, y) to the nearest obstacle, read back
+        from the cost band: exact within ``safety_margin``, inf beyond it, 0 in lethal or off-map cells."""
+        row, col = self.grid.world_to_cell(x, y)
+        if not self.grid.contains(row, col):
+            return 0.0
+        cost = float(self.cost[row, col])
+        if not math.isfinite(cost):
+            return 0.0
+        if cost <= 1.0 or self.margin_cost <= 0:
+            return float("inf")
+        return max(1.0 - (cost - 1.0) / self.margin_cost, 0.0) * self.safety_margin
 
     def free(self, row, col):
         return self.grid.contains(row, col) and np.isfinite(self.cost[row, col])
@@ -240,4 +327,4 @@ class Costmap(object):
         """True when cells a and b (row, col) are both free and in the same component."""
         if not (self.free(*a) and self.free(*b)):
             return False
-        return self.labels[a] == self.labels[b]
+        return self.component(*a) == self.component(*b)

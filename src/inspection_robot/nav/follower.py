@@ -11,7 +11,10 @@ Each ``step(pose)`` returns a Command (m/s, rad/s, wheel mode) for robot_control
   limit), and the speed is regulated so that every corner within braking distance is taken with
   at most ``corner_accel`` lateral acceleration (braking for it at ``corner_decel``); slowing
   down near the goal (at ``decel``, below the chassis' limit so a late 20 Hz tick cannot
-  overshoot); backward goals drive with negative speed and pursue with the robot's rear;
+  overshoot); near obstacles (proximity regulation): when the robot's edge, at its position or at
+  the lookahead point, is closer than ``proximity_m`` to an obstacle (``clearance(x, y)``, read
+  from the costmap), the speed is scaled by clearance / ``proximity_m``, down to
+  ``proximity_min_scale``; backward goals drive with negative speed and pursue with the robot's rear;
 - ``spin``: with_direction goals turn in place to the goal heading at the end;
 - ``done``: zero command.
 
@@ -32,18 +35,20 @@ ALIGN, TRACK, SPIN, DONE = "align", "track", "spin", "done"
 
 
 class FollowerParams(object):
-    def __init__(self, lookahead_m=0.8, xy_tolerance_m=0.05, xy_tolerance_precise_m=0.01,
+    def __init__(self, lookahead_m=1.0, xy_tolerance_m=0.05, xy_tolerance_precise_m=0.01,
                  yaw_tolerance_rad=0.035, yaw_tolerance_precise_rad=0.015, spin_enter_rad=1.57,
                  spin_exit_rad=0.15, decel_m_s2=0.5, approach_gain=1.5, min_speed_m_s=0.05,
-                 min_speed_precise_m_s=0.02, min_yaw_rate_rad_s=0.05, yaw_gain=3.0, yaw_decel_rad_s2=1.0,
-                 lookahead_min_m=0.4, lookahead_time_s=1.0, min_turn_radius_m=0.65, corner_accel_m_s2=1.0,
-                 corner_decel_m_s2=0.7):
+                 min_speed_precise_m_s=0.02, min_yaw_rate_rad_s=0.05, yaw_gain=3.0, yaw_decel_rad_s2=1.3,
+                 lookahead_min_m=0.4, lookahead_time_s=1.2, min_turn_radius_m=0.65, corner_accel_m_s2=1.0,
+                 corner_decel_m_s2=0.7, proximity_m=0.2, proximity_min_scale=0.4):
         self.lookahead = float(lookahead_m)
         self.lookahead_min = min(float(lookahead_min_m), self.lookahead)
         self.lookahead_time = float(lookahead_time_s)
         self.min_turn_radius = float(min_turn_radius_m)
         self.corner_accel = float(corner_accel_m_s2)
         self.corner_decel = float(corner_decel_m_s2)
+        self.proximity = float(proximity_m)
+        self.proximity_min_scale = float(proximity_min_scale)
         self.xy_tolerance = float(xy_tolerance_m)
         self.xy_tolerance_precise = float(xy_tolerance_precise_m)
         self.yaw_tolerance = float(yaw_tolerance_rad)
@@ -63,8 +68,10 @@ STOP = Command(0.0, 0.0, WHEEL_STRAIGHT)
 
 
 class PathFollower(object):
-    def __init__(self, points, goal, params):
-        """``points``: (N, 2) path in map metres (N >= 1); ``goal``: a goal.MoveGoal."""
+    def __init__(self, points, goal, params, clearance=None):
+        """``points``: (N, 2) path in map metres (N >= 1); ``goal``: a goal.MoveGoal; ``clearance``:
+        (x, y) -> metres from the robot's edge to the nearest obstacle (None: no proximity regulation)."""
+        self.clearance = clearance
         pts = np.asarray(points, dtype=np.float64).reshape(-1, 2)
         if len(pts) == 1:
             pts = np.vstack([pts, pts])
@@ -135,7 +142,7 @@ class PathFollower(object):
                         self._speed = 0.0
                         return Progress(ALIGN, remaining, lateral, self._spin(alpha))
                     self.phase = TRACK
-                command = self._pursue(alpha, goal_dist, remaining, lookahead)
+                command = self._pursue(alpha, goal_dist, remaining, lookahead, self._proximity_scale(x, y, target))
                 self._speed = command.velocity_x
                 return Progress(TRACK, remaining, lateral, command)
         if self.phase == SPIN:
@@ -165,11 +172,18 @@ class PathFollower(object):
         distance = np.maximum(ahead[near], 0.0)
         return float(np.sqrt(self._corner_speed[near] ** 2 + 2.0 * self.p.corner_decel * distance).min())
 
-    def _pursue(self, alpha, goal_dist, remaining, lookahead):
+    def _proximity_scale(self, x, y, target):
+        """Speed factor near obstacles: clearance / proximity below ``proximity`` (1.0: far from any)."""
+        if self.clearance is None or self.p.proximity <= 0:
+            return 1.0
+        near = min(self.clearance(x, y), self.clearance(float(target[0]), float(target[1])))
+        return min(max(near / self.p.proximity, self.p.proximity_min_scale), 1.0)
+
+    def _pursue(self, alpha, goal_dist, remaining, lookahead, scale=1.0):
         to_go = max(remaining, goal_dist)
         # braking profile: constant deceleration, then a proportional approach (no overshoot at 20 Hz)
-        speed = min(self.goal.velocity_x, math.sqrt(2.0 * self.p.decel * to_go), self.p.approach_gain * to_go,
-                    self._corner_limit())
+        speed = min(self.goal.velocity_x * scale, math.sqrt(2.0 * self.p.decel * to_go),
+                    self.p.approach_gain * to_go, self._corner_limit())
         speed = max(speed, self.min_speed)
         lookahead = max(min(lookahead, goal_dist), 1e-3)
         curvature = 2.0 * math.sin(alpha) / lookahead
@@ -191,6 +205,6 @@ class PathFollower(object):
 def stop_spin_go_params(**overrides):
     """The follower as it drove before regulation (fixed 0.6 m lookahead, spin beyond 1 rad): a baseline."""
     values = dict(lookahead_m=0.6, lookahead_min_m=0.6, spin_enter_rad=1.0, min_turn_radius_m=0.0,
-                  corner_accel_m_s2=1e9)
+                  corner_accel_m_s2=1e9, yaw_decel_rad_s2=1.0)
     values.update(overrides)
     return FollowerParams(**values)

@@ -204,7 +204,7 @@ class Planner(object):
             if escaped is None:
                 raise PlanningError("robot (%.2f, %.2f) is inside an obstacle" % tuple(start_xy))
             prefix, start = [start], escaped
-        if self.costmap.labels[start] != self.costmap.labels[goal]:
+        if not self.costmap.connected(start, goal):
             raise PlanningError("goal (%.2f, %.2f) is not reachable (enclosed by obstacles)" % tuple(goal_xy))
         coarse_route = self._coarse_route(start, goal)
         for blocks in self.corridor_blocks:

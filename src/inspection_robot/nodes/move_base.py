@@ -275,7 +275,7 @@ class MoveBase(object):
         self._publish_plan(plan.points)
         self._feedback(MOVE_FEEDBACK_PLANNED, path_length=round(plan.length, 3),
                        planning_time=round(time.monotonic() - started, 3))
-        return PathFollower(plan.points, goal, self.follower_params)
+        return PathFollower(plan.points, goal, self.follower_params, self.costmap.clearance)
 
     def _run(self, goal_msg):
         cfg = self.cfg
