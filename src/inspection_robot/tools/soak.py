@@ -208,13 +208,7 @@ class Soak(object):
         self.head = rospy.ServiceProxy("sim_pelco_head/sim_control", ControlService)
 
     def wait(self, condition, timeout, what):
-        deadline = time.monotonic() + timeout
-        while time.monotonic() < deadline:
-            value = condition()
-            if value:
-                return value
-            time.sleep(0.05)
-        raise RuntimeError("soak: timed out after %.0f s waiting for %s" % (timeout, what))
+        return _wait(condition, timeout, what, period=0.05)
 
     def take_control(self):
         self.b.start_heartbeat()
@@ -431,11 +425,12 @@ def main():
     sys.exit(0 if held(checkers) else 1)
 
 
-def _wait(condition, timeout, what):
+def _wait(condition, timeout, what, period=0.2):
+    """``condition()``'s first truthy value, polled every ``period`` s; RuntimeError after ``timeout`` s."""
     deadline = time.monotonic() + timeout
     while time.monotonic() < deadline:
         value = condition()
         if value:
             return value
-        time.sleep(0.2)
+        time.sleep(period)
     raise RuntimeError("soak: timed out after %.0f s waiting for %s" % (timeout, what))
