@@ -5,8 +5,8 @@ status in words, hold-to-move driving that stops on key-up, a polygon drawn on t
 virtual obstacle (then edited and deleted), a click on the picture turning the head, a recorded
 preset directory, a goal sent and cancelled; a meter box and needle points drawn on the preset's
 picture becoming its calibration (after the robot's refusal of a bad one is shown); a patrol started,
-paused, cancelled and resumed from the page as task_status reports it, its reading listed with its
-annotated picture; and a second, authenticated bridge where the page asks for the token, refuses a
+paused, cancelled, resumed and sent home from the page as task_status reports it, its reading listed
+with its annotated picture; and a second, authenticated bridge where the page asks for the token, refuses a
 wrong one and shows a dropped link. Any JavaScript error fails the test.
 Screenshots go to <package>/test_logs/console/.
 """
@@ -346,7 +346,7 @@ class ConsoleTest(unittest.TestCase):
     def task(self, predicate, what, timeout=30.0):
         return self.task_status.wait(lambda m: predicate(json.loads(m.data)), timeout, what)
 
-    def test_9_patrol_started_paused_cancelled_from_the_page(self):
+    def test_9_patrol_started_paused_cancelled_sent_home_from_the_page(self):
         self.assertIsNotNone(self.calibrated_preset, "test_8 calibrates the preset this patrol reads")
         self.ensure_task_mode()
         self.open_console()
@@ -363,6 +363,8 @@ class ConsoleTest(unittest.TestCase):
         self.page.fill("#patrol-task", json.dumps(task))
         self.page.click("#patrol-form button[type=submit]")
         self.task(lambda s: s.get("task_id") == task_id and s["state"] == "running", "the patrol running")
+        self.wait_page("document.getElementById('patrol-state').textContent.startsWith('running: %s')" % task_id,
+                       "the running patrol on the page")
         # Stop 1 inspected, the robot on its way to stop 2: pause from the page.
         self.task(lambda s: s.get("task_id") == task_id and s["done"] >= 1, "the first preset inspected", 120.0)
         self.wait_page("document.getElementById('patrol-state').textContent.includes('stop 2 of 2')",
@@ -392,6 +394,15 @@ class ConsoleTest(unittest.TestCase):
                        "id '%s' (ids are never reused)\")" % task_id, "the refusal shown")
         self.page.click("#patrol-resume")   # the operator hold outlives the task: release it
         self.task(lambda s: s["holds"] == [], "the operator hold released")
+        self.task_status.clear()
+        self.page.click("#patrol-home")
+        wait_for(lambda: any(json.loads(m.data)["state"] == "returning_home" for _, m in self.task_status.messages),
+                 10.0, "task_manager returning home")
+        # Home reached: task_manager leaves returning_home (it then shows the last task's end again).
+        status = json.loads(self.task(lambda s: s["state"] != "returning_home", "home reached", 60.0).data)
+        self.assertFalse(status["reason"].startswith("return home failed"), status["reason"])
+        home = self.true_pose.last.pose.pose.position
+        self.assertLess(math.hypot(home.x - 5.0, home.y - 5.0), 0.5)   # config/task_manager.yaml home_pose
 
     # ------------------------------------------------------------------ authentication and a dropped link
     def test_7_token_asked_refused_accepted_and_link_loss_shown(self):

@@ -687,7 +687,7 @@
     updateObstacleButtons();
   });
   window.addEventListener('keydown', (event) => {   // Enter finishes a polygon
-    if (event.key === 'Enter' && tool === 'draw' && draft.length >= 3) $('obstacle-finish').click();
+    if (event.key === 'Enter' && tool === 'draw' && draft.length >= 3 && !typing(event)) $('obstacle-finish').click();
   });
 
   let moveClient = null;
@@ -974,7 +974,8 @@
   // ------------------------------------------------------------------ patrol and history (task_manager)
   const MAX_RESULT_ROWS = 200;
   const MAX_RESULT_PICTURES = 30;
-  const patrol = { status: null, frame: 0, resultsFor: '', resultsKey: '', querying: false };
+  // ``follow``: the readings follow the running (or last) task until the operator types a task id.
+  const patrol = { status: null, frame: 0, follow: true, resultsKey: '', querying: false, again: false };
   window.consolePatrol = { status: () => patrol.status };
 
   function exampleTask() {
@@ -1037,17 +1038,16 @@
     // Follow the running (or last) task's readings unless the operator typed another task id.
     const task = s.task_id || (s.last_ended && s.last_ended.task_id) || '';
     const input = $('results-task');
-    if (task && document.activeElement !== input && (!input.value || input.value === patrol.resultsFor)) {
-      input.value = task;
-    }
+    if (task && patrol.follow) input.value = task;
     const key = task + '|' + s.done + '|' + s.state;
-    if (task && input.value === task && key !== patrol.resultsKey) {
+    if (task && patrol.follow && key !== patrol.resultsKey) {
       patrol.resultsKey = key;
       queryResults();
     }
   }
 
   $('results-refresh').addEventListener('click', queryResults);
+  $('results-task').addEventListener('input', () => { patrol.follow = $('results-task').value.trim() === ''; });
 
   function queryResults() {
     const task = $('results-task').value.trim();
@@ -1057,10 +1057,7 @@
     }
     patrol.querying = true;
     control('task_control', 'query_results', task ? { task_id: task, limit: 5000 } : { limit: 500 }, true)
-      .then((text) => {
-        patrol.resultsFor = task;
-        renderResults(JSON.parse(text));
-      })
+      .then((text) => renderResults(JSON.parse(text)))
       .catch((err) => { $('results-count').textContent = 'query refused: ' + err.message; })
       .then(() => {
         patrol.querying = false;
