@@ -292,6 +292,12 @@ class ConsoleTest(unittest.TestCase):
     def test_8_calibration_drawn_on_the_page_is_applied(self):
         self.open_console()
         self.wait_connected()
+        # A directory that is no preset: the robot's own failure text.
+        self.page.fill("#calib-preset", "presets/console_calib/no_such_recording")
+        self.page.click("#calib-load")
+        self.wait_page("document.getElementById('calib-result').textContent.startsWith('cannot load ')",
+                       "the failed load shown")
+        self.assertIn("preset directory not found", self.page.inner_text("#calib-result"))
         self.page.fill("#preset-id", "console_calib")
         self.page.click("#preset-form button[type=submit]")
         self.wait_page("document.getElementById('preset-result').textContent.startsWith('recorded: ')",

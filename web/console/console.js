@@ -795,7 +795,8 @@
 
   // ------------------------------------------------------------------ calibration (calibration_control)
   const calib = { preset: '', image: null, targets: [], box: null, zero: null, full: null, tool: null, drag: null };
-  window.consoleCalib = { ready: () => calib.image !== null && calib.preset !== '', preset: () => calib.preset,
+  window.consoleCalib = { ready: () => calib.image !== null && !$('calib-picture').classList.contains('empty'),
+    preset: () => calib.preset,
     size: () => (calib.image ? [calib.image.width, calib.image.height] : null) };
 
   function calibMessage(text, failed) {
@@ -822,7 +823,10 @@
           : 'not calibrated') + ', draft of ' + answer.draft.length + ' target(s)');
         drawCalib();
       });
-    }).catch((err) => calibMessage('cannot load ' + preset + ': ' + err.message, true));
+    }).catch((err) => {
+      calibMessage('cannot load ' + preset + ': ' + err.message, true);
+      drawCalib();   // no stale picture under a failed load
+    });
   }
 
   let calibFrame = 0;
@@ -834,10 +838,8 @@
     calibFrame = 0;
     const canvas = $('calib-picture');
     const ctx = canvas.getContext('2d');
-    if (!calib.image) {
-      ctx.clearRect(0, 0, canvas.width, canvas.height);
-      return;
-    }
+    canvas.classList.toggle('empty', !calib.image);
+    if (!calib.image) return;
     ctx.drawImage(calib.image, 0, 0);
     ctx.lineWidth = 2;
     ctx.strokeStyle = '#00c853';   // the robot's calibrated targets
