@@ -3,8 +3,11 @@
 against sim.launch. Every step asserts what the robot did, not only what the page shows:
 status in words, hold-to-move driving that stops on key-up, a polygon drawn on the map becoming a
 virtual obstacle (then edited and deleted), a click on the picture turning the head, a recorded
-preset directory, a goal sent and cancelled; and a second, authenticated bridge where the page asks
-for the token, refuses a wrong one and shows a dropped link. Any JavaScript error fails the test.
+preset directory, a goal sent and cancelled; a meter box and needle points drawn on the preset's
+picture becoming its calibration (after the robot's refusal of a bad one is shown); a patrol started,
+paused, cancelled, resumed and sent home from the page as task_status reports it, its reading listed
+with its annotated picture; and a second, authenticated bridge where the page asks for the token, refuses a
+wrong one and shows a dropped link. Any JavaScript error fails the test.
 Screenshots go to <package>/test_logs/console/.
 """
 import json
@@ -22,7 +25,8 @@ from nav_msgs.msg import OccupancyGrid
 from playwright.sync_api import sync_playwright
 from sensor_msgs.msg import JointState
 
-from inspection_robot.msg import GeneralAck, GeneralCmd, MoveCmd, RobotStatus
+from inspection_robot.msg import GeneralAck, GeneralCmd, GeneralTopic, MoveCmd, RobotStatus
+from inspection_robot.srv import ControlService
 from rostest_helpers import Latest, wait_for, wait_subscribed
 
 CHROMIUM = "/usr/bin/chromium"
@@ -30,6 +34,7 @@ CHROMIUM_ARGS = ["--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-
                  "--disable-background-networking", "--disable-component-update", "--disable-sync"]
 CMD_TIMEOUT = 0.5      # s, robot_control's move_cmd watchdog
 SHOTS = os.path.join(rospkg.RosPack().get_path("inspection_robot"), "test_logs", "console")
+FAR_STOP = (15.5, 10.0, 0.0)   # a reachable stop of the yard (sim/yard_patrol.py), ~11 m from the start
 
 
 def bridge_port(node):
@@ -51,6 +56,8 @@ class ConsoleTest(unittest.TestCase):
         cls.obstacle_cmd = rospy.Publisher("/virtual_obstacle_cmd", GeneralCmd, queue_size=10)
         cls.mode_cmd = rospy.Publisher("/mode_cmd", GeneralCmd, queue_size=10)
         cls.move_cmds = Latest("/move_cmd", MoveCmd, queue_size=1000)
+        cls.task_status = Latest("/task_status", GeneralTopic)
+        cls.calibrated_preset = None   # test_8's preset directory, patrolled by test_9
         cls.playwright = sync_playwright().start()
         cls.browser = cls.playwright.chromium.launch(executable_path=CHROMIUM, args=CHROMIUM_ARGS)
 
@@ -266,6 +273,142 @@ class ConsoleTest(unittest.TestCase):
         directory = self.page.inner_text("#preset-result")[len("recorded: "):].strip()
         self.assertTrue(os.path.isdir(directory), directory)
         self.assertTrue(os.path.isfile(os.path.join(directory, "preset.ini")), os.listdir(directory))
+
+    # ------------------------------------------------------------------ calibration on the page
+    def calib_point(self, x, y):
+        """Page coordinates of picture pixel (x, y) of the calibration canvas."""
+        box = self.page.locator("#calib-picture").bounding_box()
+        width, height = self.page.evaluate("window.consoleCalib.size()")
+        return box["x"] + x * box["width"] / width, box["y"] + y * box["height"] / height
+
+    def calibration(self, preset):
+        """calibration_control get over ROS (not through the page)."""
+        rospy.wait_for_service("/calibration_control", 30.0)
+        reply = rospy.ServiceProxy("/calibration_control", ControlService)(
+            sender="test_console", cmd="get", data=json.dumps({"preset": preset}))
+        self.assertEqual(reply.ack, "success", reply.data)
+        return json.loads(reply.data)
+
+    def test_8_calibration_drawn_on_the_page_is_applied(self):
+        self.open_console()
+        self.wait_connected()
+        # A directory that is no preset: the robot's own failure text.
+        self.page.fill("#calib-preset", "presets/console_calib/no_such_recording")
+        self.page.click("#calib-load")
+        self.wait_page("document.getElementById('calib-result').textContent.startsWith('cannot load ')",
+                       "the failed load shown")
+        self.assertIn("preset directory not found", self.page.inner_text("#calib-result"))
+        self.page.fill("#preset-id", "console_calib")
+        self.page.click("#preset-form button[type=submit]")
+        self.wait_page("document.getElementById('preset-result').textContent.startsWith('recorded: ')",
+                       "the preset recorded", timeout=60.0)
+        directory = self.page.inner_text("#preset-result")[len("recorded: "):].strip()
+        self.wait_page("window.consoleCalib.ready()", "the preset's zoom0.jpg on the calibration canvas")
+        width, height = self.page.evaluate("window.consoleCalib.size()")
+        x0, y0, x1, y1 = 0.3 * width, 0.3 * height, 0.6 * width, 0.7 * height
+        self.page.locator("#calib-picture").scroll_into_view_if_needed()
+        self.page.click("#calib-tool-box")
+        self.page.mouse.move(*self.calib_point(x0, y0))
+        self.page.mouse.down()
+        self.page.mouse.move(*self.calib_point(x1, y1), steps=5)
+        self.page.mouse.up()
+        radius = 0.4 * (x1 - x0)
+
+        def needle(angle_deg):   # the picture point the needle points at, angle clockwise from 12 o'clock
+            return self.calib_point((x0 + x1) / 2 + radius * math.sin(math.radians(angle_deg)),
+                                    (y0 + y1) / 2 - radius * math.cos(math.radians(angle_deg)))
+        self.page.click("#calib-tool-zero")   # needle at 7:30 (-135 deg) reads 0, at 4:30 (+135 deg) 1.6
+        self.page.mouse.click(*needle(-135.0))
+        self.page.click("#calib-tool-full")
+        self.page.mouse.click(*needle(135.0))
+        self.page.fill("#calib-name", "console_gauge")
+        self.page.fill("#calib-unit", "MPa")
+        self.page.fill("#calib-zero-value", "0")
+        self.page.fill("#calib-full-value", "1.6")
+        # A lamp without a colour: the robot refuses, the page shows its text, nothing is written.
+        self.page.select_option("#calib-kind", "lamp")
+        self.page.click("#calib-form button[type=submit]")
+        self.wait_page("document.getElementById('calib-result').textContent.startsWith('refused: ')",
+                       "the refusal shown")
+        self.assertIn("calibration refused, nothing written: ", self.page.inner_text("#calib-result"))
+        self.assertFalse(self.calibration(directory)["calibrated"])
+        self.page.select_option("#calib-kind", "pointer")
+        self.page.click("#calib-form button[type=submit]")
+        self.wait_page("document.getElementById('calib-result').textContent.startsWith('applied: ')",
+                       "the calibration applied")
+        got = self.calibration(directory)
+        self.assertTrue(got["calibrated"])
+        (target,) = got["targets"]
+        self.assertEqual((target["kind"], target["name"], target["unit"]), ("pointer", "console_gauge", "MPa"))
+        for value, expected in zip(target["box"], [x0, y0, x1, y0, x1, y1, x0, y1]):
+            self.assertAlmostEqual(value, expected, delta=2.0)
+        self.assertAlmostEqual(target["start_angle"], -135.0, delta=2.0)
+        self.assertAlmostEqual(target["end_angle"], 135.0, delta=2.0)
+        self.assertEqual((target["start_value"], target["end_value"]), (0.0, 1.6))
+        self.assertAlmostEqual(target["aspect"], (x1 - x0) / (y1 - y0), delta=0.02)
+        ConsoleTest.calibrated_preset = directory
+
+    # ------------------------------------------------------------------ patrol and history
+    def task(self, predicate, what, timeout=30.0):
+        return self.task_status.wait(lambda m: predicate(json.loads(m.data)), timeout, what)
+
+    def test_9_patrol_started_paused_cancelled_sent_home_from_the_page(self):
+        self.assertIsNotNone(self.calibrated_preset, "test_8 calibrates the preset this patrol reads")
+        self.ensure_task_mode()
+        self.open_console()
+        self.wait_connected()
+        self.wait_page("document.getElementById('patrol-state').textContent !== 'no task_status yet'",
+                       "task_status on the page")
+        pose = self.status.wait(lambda m: True, 5.0, "robot_status")
+        task_id = "console_%d" % int(time.time() * 1000)
+        preset = os.path.relpath(self.calibrated_preset, os.path.dirname(os.path.dirname(self.calibrated_preset)))
+        task = {"id": task_id, "retries": 0, "stops": [
+            {"name": "here", "pose": {"x": pose.position[0], "y": pose.position[1], "yaw": pose.orientation},
+             "presets": [preset]},
+            {"name": "far", "pose": {"x": FAR_STOP[0], "y": FAR_STOP[1], "yaw": FAR_STOP[2]}, "presets": [preset]}]}
+        self.page.fill("#patrol-task", json.dumps(task))
+        self.page.click("#patrol-form button[type=submit]")
+        self.task(lambda s: s.get("task_id") == task_id and s["state"] == "running", "the patrol running")
+        self.wait_page("document.getElementById('patrol-state').textContent.startsWith('running: %s')" % task_id,
+                       "the running patrol on the page")
+        # Stop 1 inspected, the robot on its way to stop 2: pause from the page.
+        self.task(lambda s: s.get("task_id") == task_id and s["done"] >= 1, "the first preset inspected", 120.0)
+        self.wait_page("document.getElementById('patrol-state').textContent.includes('stop 2 of 2')",
+                       "the progress on the page")
+        self.page.click("#patrol-pause")
+        self.task(lambda s: s.get("task_id") == task_id and s["state"] == "paused" and s["holds"] == ["operator"],
+                  "the patrol paused by the page")
+        self.wait_page("document.getElementById('patrol-state').textContent.startsWith('paused')", "paused shown")
+        # The reading of stop 1 in the history, with its annotated picture fetched through file_control.
+        rospy.wait_for_service("/task_control", 10.0)
+        reply = rospy.ServiceProxy("/task_control", ControlService)(
+            sender="test_console", cmd="query_results", data=json.dumps({"task_id": task_id}))
+        (row,) = json.loads(reply.data)
+        self.wait_page("document.querySelector('#results tbody').textContent.includes('console_gauge')",
+                       "the reading in the history")
+        if row["picture"]:
+            self.wait_page("Array.from(document.querySelectorAll('#results img'))"
+                           ".some((i) => i.src.startsWith('data:image/') && i.naturalWidth > 0)",
+                           "the annotated picture shown")
+        self.page.click("#patrol-cancel")
+        self.task(lambda s: (s.get("last_ended") or {}).get("task_id") == task_id
+                  and s["last_ended"]["state"] == "cancelled", "the patrol cancelled by the page")
+        # A refusal shows the robot's own text: task ids are never reused.
+        self.page.fill("#patrol-task", json.dumps(task))
+        self.page.click("#patrol-form button[type=submit]")
+        self.wait_page("document.getElementById('patrol-result').textContent.includes(\"refused: duplicate task "
+                       "id '%s' (ids are never reused)\")" % task_id, "the refusal shown")
+        self.page.click("#patrol-resume")   # the operator hold outlives the task: release it
+        self.task(lambda s: s["holds"] == [], "the operator hold released")
+        self.task_status.clear()
+        self.page.click("#patrol-home")
+        wait_for(lambda: any(json.loads(m.data)["state"] == "returning_home" for _, m in self.task_status.messages),
+                 10.0, "task_manager returning home")
+        # Home reached: task_manager leaves returning_home (it then shows the last task's end again).
+        status = json.loads(self.task(lambda s: s["state"] != "returning_home", "home reached", 60.0).data)
+        self.assertFalse(status["reason"].startswith("return home failed"), status["reason"])
+        home = self.true_pose.last.pose.pose.position
+        self.assertLess(math.hypot(home.x - 5.0, home.y - 5.0), 0.5)   # config/task_manager.yaml home_pose
 
     # ------------------------------------------------------------------ authentication and a dropped link
     def test_7_token_asked_refused_accepted_and_link_loss_shown(self):

@@ -1,8 +1,10 @@
-// node --test: robot_status decoded into words (web/console/decode.js) without a browser.
+// node --test: robot_status decoded into words, the calibration editor's and the history's arithmetic
+// (web/console/decode.js) without a browser.
 'use strict';
 const test = require('node:test');
 const assert = require('node:assert');
-const { decodeStatus, bits, byteArray } = require('../../web/console/decode.js');
+const { decodeStatus, bits, byteArray, needleAngle, boxQuad, sortReadings, readingText } =
+  require('../../web/console/decode.js');
 
 const quiet = {
   offline_warn: 0, mode: 0, velocity_x: 0, velocity_yaw: 0, position: [1.5, -2.25], orientation: Math.PI / 2,
@@ -42,4 +44,32 @@ test('every bit of the spec tables has words', () => {
   assert.deepStrictEqual(bits('wheel_status', 0xff).length, 8);
   assert.deepStrictEqual(bits('circuit_status', 0xff).length, 8);
   assert.deepStrictEqual(bits('battery_status', 0xff).map((b) => b.words).includes('charging'), true);
+});
+
+test('needle angles: clockwise from 12 o\'clock about the box centre, picture y down', () => {
+  const box = [100, 50, 300, 250];   // centre (200, 150)
+  assert.strictEqual(needleAngle(box, [200, 50]), 0);
+  assert.strictEqual(needleAngle(box, [300, 150]), 90);
+  assert.strictEqual(needleAngle(box, [100, 150]), -90);
+  assert.ok(Math.abs(needleAngle(box, [100, 250]) + 135) < 1e-9);   // 7:30, a gauge's usual zero
+  assert.ok(Math.abs(needleAngle(box, [300, 250]) - 135) < 1e-9);
+});
+
+test('a drawn box as calibration\'s TL, TR, BR, BL quad', () => {
+  assert.deepStrictEqual(boxQuad([10.04, 20.26, 30, 40]), [10, 20.3, 30, 20.3, 30, 40, 10, 40]);
+});
+
+test('readings: alarms first, then failures, newest first within each', () => {
+  const rows = [{ id: 1, alarm: 'normal', time: 5 }, { id: 2, alarm: 'alarm', time: 1 }, { id: 3, alarm: 'failed', time: 9 },
+    { id: 4, alarm: 'alarm', time: 3 }, { id: 5, alarm: 'none', time: 7 }];
+  assert.deepStrictEqual(sortReadings(rows).map((r) => r.id), [4, 2, 3, 1, 5]);
+  assert.deepStrictEqual(rows.map((r) => r.id), [1, 2, 3, 4, 5]);   // not sorted in place
+});
+
+test('a reading in words', () => {
+  assert.strictEqual(readingText({ status: 'read', value: 0.78845570687, unit: 'MPa', low: 0, high: 1.6 }),
+    '0.7885 MPa [0, 1.6]');
+  assert.strictEqual(readingText({ status: 'read', value: 2, unit: '', low: null, high: null }), '2');
+  assert.strictEqual(readingText({ status: 'failed', value: null, reason: 'find_scale failed' }),
+    'failed: find_scale failed');
 });

@@ -113,6 +113,7 @@
     // move_base republishes the virtual layer on every change (whoever made it): then ask for the list.
     topic('virtual_obstacle_map', 'nav_msgs/OccupancyGrid', { compression: 'cbor', queue_length: 1 })
       .subscribe(queryObstacles);
+    topic('task_status', 'inspection_robot/GeneralTopic', { queue_length: 1 }).subscribe(onTaskStatus);
   }
 
   // ------------------------------------------------------------------ status
@@ -686,7 +687,7 @@
     updateObstacleButtons();
   });
   window.addEventListener('keydown', (event) => {   // Enter finishes a polygon
-    if (event.key === 'Enter' && tool === 'draw' && draft.length >= 3) $('obstacle-finish').click();
+    if (event.key === 'Enter' && tool === 'draw' && draft.length >= 3 && !typing(event)) $('obstacle-finish').click();
   });
 
   let moveClient = null;
@@ -735,6 +736,368 @@
     $('preset-result').textContent = ok ? 'recorded: ' + msg.directory : 'failed: ' + msg.directory;
     $('preset-result').className = ok ? '' : 'error';
     log('preset_scale_ack #' + msg.trans_id + ' ' + msg.result + ': ' + msg.directory, !ok);
+    if (ok) loadCalibration(msg.directory);   // the calibration editor opens the new recording
+  }
+
+  // ------------------------------------------------------------------ ControlService calls
+  const services = {};
+  /** One ControlService request; resolves with the reply's data on `success`, rejects with the robot's
+      own failure text otherwise. ``quiet`` keeps bulky successful replies (file chunks) out of the log. */
+  function control(name, cmd, data, quiet) {
+    if (!services[name] || services[name].ros !== state.ros) {
+      services[name] = new ROSLIB.Service({ ros: state.ros, name, serviceType: 'inspection_robot/ControlService' });
+    }
+    const request = Object.assign(header(), { cmd,
+      data: data === undefined ? '' : typeof data === 'string' ? data : JSON.stringify(data) });
+    return new Promise((resolve, reject) => {
+      services[name].callService(new ROSLIB.ServiceRequest(request), (reply) => {
+        const ok = reply.ack === 'success';
+        if (!ok || !quiet) log(name + ' ' + cmd + ' #' + reply.trans_id + ' ' + reply.ack + ': ' + reply.data.slice(0, 300), !ok);
+        if (ok) resolve(reply.data); else reject(new Error(reply.data));
+      }, (error) => {
+        log(name + ' ' + cmd + ': ' + error, true);
+        reject(new Error(String(error)));
+      });
+    });
+  }
+
+  const FILE_CHUNK = 196608;   // bytes per file_control read: a multiple of 3, so the base64 chunks concatenate
+  const MIME = { jpg: 'image/jpeg', jpeg: 'image/jpeg', png: 'image/png' };
+  const pictureCache = new Map();   // path -> Promise of a data: URL, the newest PICTURE_CACHE kept
+  const PICTURE_CACHE = 60;
+
+  /** A picture of the robot's data root as a data: URL, read through file_control in chunks. */
+  function fetchPicture(path) {
+    if (pictureCache.has(path)) return pictureCache.get(path);
+    const mime = MIME[path.split('.').pop().toLowerCase()] || 'application/octet-stream';
+    const parts = [];
+    const next = (offset) => control('file_control', 'read', { path, offset, length: FILE_CHUNK }, true)
+      .then((text) => {
+        const chunk = JSON.parse(text);
+        parts.push(chunk.data);
+        return chunk.eof || !chunk.length ? 'data:' + mime + ';base64,' + parts.join('') : next(offset + chunk.length);
+      });
+    const promise = next(0);
+    promise.catch(() => pictureCache.delete(path));   // a failure is not cached
+    pictureCache.set(path, promise);
+    while (pictureCache.size > PICTURE_CACHE) pictureCache.delete(pictureCache.keys().next().value);
+    return promise;
+  }
+
+  function loadImage(url) {
+    return new Promise((resolve, reject) => {
+      const image = new Image();
+      image.onload = () => resolve(image);
+      image.onerror = () => reject(new Error('the picture cannot be decoded'));
+      image.src = url;
+    });
+  }
+
+  // ------------------------------------------------------------------ calibration (calibration_control)
+  const calib = { preset: '', image: null, targets: [], box: null, zero: null, full: null, tool: null, drag: null };
+  window.consoleCalib = { ready: () => calib.image !== null && !$('calib-picture').classList.contains('empty'),
+    preset: () => calib.preset,
+    size: () => (calib.image ? [calib.image.width, calib.image.height] : null) };
+
+  function calibMessage(text, failed) {
+    $('calib-result').textContent = text;
+    $('calib-result').className = failed ? 'error' : '';
+  }
+
+  function loadCalibration(preset) {
+    calib.preset = '';
+    calib.image = null;
+    calib.box = calib.zero = calib.full = null;
+    calibMessage('loading ' + preset + '…');
+    return control('calibration_control', 'get', { preset }).then((text) => {
+      const answer = JSON.parse(text);
+      calib.targets = answer.targets;
+      $('calib-preset').value = answer.preset;
+      return fetchPicture(answer.preset + '/zoom0.jpg').then(loadImage).then((image) => {
+        calib.image = image;
+        calib.preset = answer.preset;
+        const canvas = $('calib-picture');
+        canvas.width = image.width;
+        canvas.height = image.height;
+        calibMessage(answer.preset + ': ' + (answer.calibrated ? answer.targets.length + ' target(s) calibrated'
+          : 'not calibrated') + ', draft of ' + answer.draft.length + ' target(s)');
+        drawCalib();
+      });
+    }).catch((err) => {
+      calibMessage('cannot load ' + preset + ': ' + err.message, true);
+      drawCalib();   // no stale picture under a failed load
+    });
+  }
+
+  let calibFrame = 0;
+  function drawCalib() {
+    if (!calibFrame) calibFrame = requestAnimationFrame(renderCalib);
+  }
+
+  function renderCalib() {
+    calibFrame = 0;
+    const canvas = $('calib-picture');
+    const ctx = canvas.getContext('2d');
+    canvas.classList.toggle('empty', !calib.image);
+    if (!calib.image) return;
+    ctx.drawImage(calib.image, 0, 0);
+    ctx.lineWidth = 2;
+    ctx.strokeStyle = '#00c853';   // the robot's calibrated targets
+    for (const target of calib.targets) {
+      const b = target.box;
+      ctx.beginPath();
+      for (let i = 0; i < 8; i += 2) ctx.lineTo(b[i], b[i + 1]);
+      ctx.closePath();
+      ctx.stroke();
+    }
+    const parts = [];
+    if (calib.box) {
+      const [x0, y0, x1, y1] = calib.box;
+      ctx.strokeStyle = '#ff6d00';
+      ctx.strokeRect(x0, y0, x1 - x0, y1 - y0);
+      const c = [(x0 + x1) / 2, (y0 + y1) / 2];
+      for (const [name, p, colour] of [['zero', calib.zero, '#2962ff'], ['full scale', calib.full, '#d50000']]) {
+        if (!p) continue;
+        ctx.strokeStyle = colour;
+        ctx.beginPath();
+        ctx.moveTo(c[0], c[1]);
+        ctx.lineTo(p[0], p[1]);
+        ctx.stroke();
+        parts.push(name + ' ' + RobotDecode.needleAngle(calib.box, p).toFixed(1) + '°');
+      }
+      parts.unshift('box ' + Math.round(x1 - x0) + '×' + Math.round(y1 - y0) + ' px');
+    }
+    $('calib-geometry').textContent = parts.join(', ');
+  }
+
+  function setCalibTool(name) {
+    calib.tool = calib.tool === name ? null : name;
+    document.querySelectorAll('.calib-tool').forEach((b) => b.classList.toggle('active', b.id === 'calib-tool-' + calib.tool));
+  }
+  $('calib-tool-box').addEventListener('click', () => setCalibTool('box'));
+  $('calib-tool-zero').addEventListener('click', () => setCalibTool('zero'));
+  $('calib-tool-full').addEventListener('click', () => setCalibTool('full'));
+
+  function picturePoint(event) {
+    const canvas = $('calib-picture');
+    const rect = canvas.getBoundingClientRect();
+    return [(event.clientX - rect.left) * canvas.width / rect.width, (event.clientY - rect.top) * canvas.height / rect.height];
+  }
+  const calibCanvas = $('calib-picture');
+  calibCanvas.addEventListener('pointerdown', (event) => {
+    if (!calib.image) return;
+    const p = picturePoint(event);
+    if (calib.tool === 'box') {
+      calib.drag = p;
+      calib.box = [p[0], p[1], p[0], p[1]];
+      calib.zero = calib.full = null;   // angles are about the box centre: a new box needs new points
+      calibCanvas.setPointerCapture(event.pointerId);
+    } else if ((calib.tool === 'zero' || calib.tool === 'full') && calib.box) {
+      calib[calib.tool] = p;
+    }
+    drawCalib();
+  });
+  calibCanvas.addEventListener('pointermove', (event) => {
+    if (!calib.drag) return;
+    const p = picturePoint(event);
+    const [ax, ay] = calib.drag;
+    calib.box = [Math.min(ax, p[0]), Math.min(ay, p[1]), Math.max(ax, p[0]), Math.max(ay, p[1])];
+    drawCalib();
+  });
+  calibCanvas.addEventListener('pointerup', () => { calib.drag = null; });
+
+  $('calib-load').addEventListener('click', () => loadCalibration($('calib-preset').value.trim()));
+  $('calib-choose').addEventListener('focus', listPresets);
+  $('calib-choose').addEventListener('change', () => {
+    const folder = $('calib-choose').value;
+    if (!folder) return;
+    // The newest recording of that preset id (recordings are named YYYYMMDD_HHMMSS).
+    control('file_control', 'list', { path: folder }, true).then((text) => {
+      const dirs = JSON.parse(text).entries.filter((e) => e.type === 'dir');
+      if (!dirs.length) throw new Error('no recording in ' + folder);
+      return loadCalibration(folder + '/' + dirs[dirs.length - 1].name);
+    }).catch((err) => calibMessage(err.message, true));
+  });
+
+  function listPresets() {
+    control('file_control', 'list', { path: 'presets' }, true).then((text) => {
+      const answer = JSON.parse(text);
+      const select = $('calib-choose');
+      while (select.options.length > 1) select.remove(1);
+      answer.entries.filter((e) => e.type === 'dir').forEach((e) => select.add(new Option(e.name, answer.path + '/' + e.name)));
+    }).catch(() => {});
+  }
+
+  $('calib-form').addEventListener('submit', (event) => {
+    event.preventDefault();
+    if (!calib.preset) {
+      calibMessage('load a preset first', true);
+      return;
+    }
+    if (!calib.box || calib.box[2] - calib.box[0] < 4 || calib.box[3] - calib.box[1] < 4) {
+      calibMessage('draw the meter box on the picture first', true);
+      return;
+    }
+    const kind = $('calib-kind').value;
+    const preset = calib.preset;
+    const target = Number($('calib-target').value);
+    const [x0, y0, x1, y1] = calib.box;
+    const steps = [['mark_box', { box: RobotDecode.boxQuad(calib.box) }], ['set_meter_type', { kind }]];
+    if (kind === 'pointer') {
+      if (!calib.zero || !calib.full) {
+        calibMessage('click the needle\'s zero and full-scale points first', true);
+        return;
+      }
+      const angle = (p) => Math.round(RobotDecode.needleAngle(calib.box, p) * 10) / 10;
+      steps.push(['set_zero', { angle: angle(calib.zero), value: Number($('calib-zero-value').value) }],
+        ['set_full_scale', { angle: angle(calib.full), value: Number($('calib-full-value').value) }],
+        ['set_values', { values: { centre: [0.5, 0.5], aspect: Math.round((x1 - x0) / (y1 - y0) * 1000) / 1000 } }]);
+    }
+    const values = {};
+    if ($('calib-name').value) values.name = $('calib-name').value;
+    if ($('calib-unit').value) values.unit = $('calib-unit').value;
+    if (Object.keys(values).length) steps.push(['set_values', { values }]);
+    calibMessage('applying…');
+    // One edit after the other, then apply: the first refusal stops the chain with the robot's text.
+    steps.reduce((chain, [cmd, fields]) => chain.then(() => control('calibration_control', cmd,
+      Object.assign({ preset, target }, fields))), Promise.resolve())
+      .then(() => control('calibration_control', 'apply', { preset }))
+      .then((text) => {
+        const answer = JSON.parse(text);
+        calibMessage('applied: ' + answer.targets + ' target(s) (' + answer.kinds.join(', ') + ')');
+        return control('calibration_control', 'get', { preset }).then((got) => {
+          calib.targets = JSON.parse(got).targets;
+          drawCalib();
+        });
+      })
+      .catch((err) => calibMessage('refused: ' + err.message, true));
+  });
+
+  // ------------------------------------------------------------------ patrol and history (task_manager)
+  const MAX_RESULT_ROWS = 200;
+  const MAX_RESULT_PICTURES = 30;
+  // ``follow``: the readings follow the running (or last) task until the operator types a task id.
+  const patrol = { status: null, frame: 0, follow: true, resultsKey: '', querying: false, again: false };
+  window.consolePatrol = { status: () => patrol.status };
+
+  function exampleTask() {
+    const stamp = new Date().toISOString().replace(/[-:]/g, '').replace('T', '_').slice(0, 15);
+    return JSON.stringify({ id: 'patrol_' + stamp, priority: 'routine', retries: 1, stops: [
+      { name: 'cabinet_1', pose: { x: 20.0, y: 21.4, yaw: 1.5708 }, precision: 0,
+        presets: [{ preset: 'cabinet_1', alarms: {}, foreign: false }] }] }, null, 2);
+  }
+  $('patrol-task').value = exampleTask();
+
+  function patrolCommand(cmd, data) {
+    $('patrol-result').textContent = cmd + '…';
+    $('patrol-result').className = '';
+    return control('task_control', cmd, data).then(() => {
+      $('patrol-result').textContent = cmd + ': done';
+    }).catch((err) => {
+      $('patrol-result').textContent = cmd + ' refused: ' + err.message;
+      $('patrol-result').className = 'error';
+    });
+  }
+  $('patrol-form').addEventListener('submit', (event) => {
+    event.preventDefault();
+    patrolCommand('submit', $('patrol-task').value).then(() => {
+      if ($('patrol-result').className !== 'error') $('patrol-task').value = exampleTask();   // ids are never reused
+    });
+  });
+  $('patrol-pause').addEventListener('click', () => patrolCommand('pause', ''));
+  $('patrol-resume').addEventListener('click', () => patrolCommand('resume', ''));
+  $('patrol-cancel').addEventListener('click', () => patrolCommand('cancel', ''));
+  $('patrol-home').addEventListener('click', () => patrolCommand('return_home', ''));
+
+  function onTaskStatus(msg) {
+    try {
+      patrol.status = JSON.parse(msg.data);
+    } catch (err) {
+      log('task_status unreadable: ' + err, true);
+      return;
+    }
+    if (!patrol.frame) patrol.frame = requestAnimationFrame(renderPatrol);
+  }
+
+  function renderPatrol() {
+    patrol.frame = 0;
+    const s = patrol.status;
+    const parts = [s.state + (s.task_id ? ': ' + s.task_id + (s.priority ? ' (' + s.priority + ')' : '') : '')];
+    if (s.task_id && s.stops) {
+      parts.push('stop ' + s.stop + ' of ' + s.stops + (s.stop_name ? ' (' + s.stop_name + ')' : ''),
+        'preset ' + s.preset + ' of ' + s.presets, s.done + '/' + s.total + ' presets done',
+        'ETA ' + Math.round(s.eta_s || 0) + ' s');
+    }
+    if (s.holds && s.holds.length) parts.push('held: ' + s.holds.join(', '));
+    if (s.suspended) parts.push('suspended: ' + s.suspended);
+    if (s.reason) parts.push(s.reason);
+    if (s.last_ended) parts.push('last ended: ' + s.last_ended.task_id + ' ' + s.last_ended.state
+      + (s.last_ended.reason ? ' (' + s.last_ended.reason + ')' : ''));
+    $('patrol-state').textContent = parts.join(' · ');
+    $('patrol-state').className = s.holds && s.holds.length ? 'error' : '';
+    $('patrol-progress').max = Math.max(1, s.total || 0);
+    $('patrol-progress').value = s.done || 0;
+    // Follow the running (or last) task's readings unless the operator typed another task id.
+    const task = s.task_id || (s.last_ended && s.last_ended.task_id) || '';
+    const input = $('results-task');
+    if (task && patrol.follow) input.value = task;
+    const key = task + '|' + s.done + '|' + s.state;
+    if (task && patrol.follow && key !== patrol.resultsKey) {
+      patrol.resultsKey = key;
+      queryResults();
+    }
+  }
+
+  $('results-refresh').addEventListener('click', queryResults);
+  $('results-task').addEventListener('input', () => { patrol.follow = $('results-task').value.trim() === ''; });
+
+  function queryResults() {
+    const task = $('results-task').value.trim();
+    if (patrol.querying) {
+      patrol.again = true;   // one more query when this one is back, not one per status
+      return;
+    }
+    patrol.querying = true;
+    control('task_control', 'query_results', task ? { task_id: task, limit: 5000 } : { limit: 500 }, true)
+      .then((text) => renderResults(JSON.parse(text)))
+      .catch((err) => { $('results-count').textContent = 'query refused: ' + err.message; })
+      .then(() => {
+        patrol.querying = false;
+        if (patrol.again) {
+          patrol.again = false;
+          queryResults();
+        }
+      });
+  }
+
+  /** Alarms first, then failures, then the rest; newest first within each (bounded to MAX_RESULT_ROWS). */
+  function renderResults(rows) {
+    const shown = RobotDecode.sortReadings(rows).slice(0, MAX_RESULT_ROWS);
+    const alarms = rows.filter((r) => r.alarm === 'alarm').length;
+    $('results-count').textContent = rows.length + ' reading(s), ' + alarms + ' alarm(s)'
+      + (shown.length < rows.length ? ', first ' + shown.length + ' shown' : '');
+    const body = $('results').tBodies[0];
+    const fresh = document.createElement('tbody');
+    shown.forEach((r, i) => {
+      const tr = fresh.insertRow();
+      tr.className = r.alarm === 'alarm' ? 'alarm' : r.status === 'failed' ? 'failed' : '';
+      tr.insertCell().textContent = r.alarm;
+      tr.insertCell().textContent = r.target_name || r.kind + ' ' + r.target;
+      tr.insertCell().textContent = RobotDecode.readingText(r);
+      tr.insertCell().textContent = r.stop_name || String(r.stop + 1);
+      tr.insertCell().textContent = new Date(r.time * 1000).toLocaleString();
+      const cell = tr.insertCell();
+      if (r.picture && i < MAX_RESULT_PICTURES) {
+        const img = document.createElement('img');
+        img.alt = r.picture;
+        cell.appendChild(img);
+        fetchPicture(r.picture).then((url) => { img.src = url; })
+          .catch((err) => { cell.textContent = 'picture: ' + err.message; });
+      } else if (r.picture) {
+        cell.textContent = r.picture.split('/').pop();
+      }
+    });
+    body.parentNode.replaceChild(fresh, body);
   }
 
   // ------------------------------------------------------------------ start

@@ -1,5 +1,6 @@
 /* robot_status decoded into words: the spec's bit tables (docs/interface.md, "Heartbeat and status",
-   "Motion and safety"), kept apart from the page so node's test runner checks them without a browser. */
+   "Motion and safety"), and the calibration editor's and the history's arithmetic, kept apart from the
+   page so node's test runner checks them without a browser. */
 (function (exports) {
   'use strict';
 
@@ -87,7 +88,39 @@
     return { mode: msg.mode, offline: !!msg.offline_warn, rows, alarms };
   }
 
+  /** The needle angle of picture point ``p`` about the centre of ``box`` [x0, y0, x1, y1] (px, y down):
+      degrees clockwise from 12 o'clock, as calibration_control's set_zero / set_full_scale take it. */
+  function needleAngle(box, p) {
+    const [x0, y0, x1, y1] = box;
+    return Math.atan2(p[0] - (x0 + x1) / 2, (y0 + y1) / 2 - p[1]) * 180 / Math.PI;
+  }
+
+  /** An axis-aligned box [x0, y0, x1, y1] as calibration's 8 numbers TL, TR, BR, BL (0.1 px). */
+  function boxQuad(box) {
+    const [x0, y0, x1, y1] = box;
+    return [x0, y0, x1, y0, x1, y1, x0, y1].map((v) => Math.round(v * 10) / 10);
+  }
+
+  const ALARM_ORDER = { alarm: 0, failed: 1, normal: 2, none: 3 };
+  const alarmRank = (row) => (row.alarm in ALARM_ORDER ? ALARM_ORDER[row.alarm] : 3);
+
+  /** query_results rows, alarms first, then failures, then the rest; newest first within each. */
+  function sortReadings(rows) {
+    return rows.slice().sort((a, b) => alarmRank(a) - alarmRank(b) || b.time - a.time);
+  }
+
+  /** A reading's value in words: "0.788 MPa [0, 1]", or "failed: <reason>". */
+  function readingText(row) {
+    if (row.status === 'failed' || row.value === null) return 'failed: ' + row.reason;
+    const band = row.low !== null && row.low !== undefined ? ' [' + row.low + ', ' + row.high + ']' : '';
+    return Number(row.value.toPrecision(4)) + (row.unit ? ' ' + row.unit : '') + band;
+  }
+
   exports.MODES = MODES;
+  exports.needleAngle = needleAngle;
+  exports.boxQuad = boxQuad;
+  exports.sortReadings = sortReadings;
+  exports.readingText = readingText;
   exports.BITS = BITS;
   exports.bits = bits;
   exports.byteArray = byteArray;
