@@ -164,7 +164,9 @@ class ConsoleTest(unittest.TestCase):
         zero = wait_for(lambda: next((m for _, m in self.move_cmds.messages if m.velocity_x == 0), None), 5.0,
                         "the page's zero move_cmd")
         self.assertEqual((zero.sender, zero.velocity_yaw), ("server", 0))
-        last_drive = max([t for t, m in self.move_cmds.messages if m.velocity_x != 0] or [key_up])
+        # Latest keeps monotonic arrival times; the driver's stamps are wall-clock ROS time.
+        to_wall = rospy.get_time() - time.monotonic()
+        last_drive = max([t + to_wall for t, m in self.move_cmds.messages if m.velocity_x != 0] or [key_up])
         self.assertLess(stop.header.stamp.to_sec(), last_drive + CMD_TIMEOUT)
         rospy.loginfo("key-up -> zero velocity at the driver: %.1f ms (make bench measures it quietly)",
                       (stop.header.stamp.to_sec() - key_up) * 1000.0)

@@ -8,6 +8,7 @@ switches right, thermal max within 1 degC, no foreign object; then the other lam
 a foreign object dropped and removed, a cancelled find, and an arm trajectory stored with a preset."""
 import json
 import math
+import time
 import os
 import subprocess
 import sys
@@ -95,6 +96,23 @@ class TestInspectionAcceptance(unittest.TestCase):
     def nav_pose(self):
         msg = self.nav.last
         return None if msg is None or len(msg.position) < 2 else (msg.position[0], msg.position[1], msg.orientation)
+
+    def settled_pose(self, timeout=10.0):
+        """The nav pose once the robot is at rest: nav_status comes at 10 Hz, so the last one can be a
+        tenth of a second old when a goal ends with the final spin just braking."""
+        seen = []
+
+        def still():
+            now = self.nav_pose()
+            if now is None:
+                return None
+            seen.append((time.monotonic(), now))
+            old = [p for t, p in seen if t <= seen[-1][0] - 0.3]
+            if old and math.hypot(now[0] - old[-1][0], now[1] - old[-1][1]) < 0.001 and \
+                    abs(math.remainder(now[2] - old[-1][2], 2 * math.pi)) < math.radians(0.05):
+                return now
+            return None
+        return wait_for(still, timeout, "the robot at rest", period=0.05)
 
     def wait_nav_at(self, pose, tol=0.02):
         def there():
@@ -230,7 +248,7 @@ class TestInspectionAcceptance(unittest.TestCase):
                 off = (pose[0] + 0.3 * sign * math.sin(pose[2]), pose[1] - 0.3 * sign * math.cos(pose[2]),
                        pose[2] + sign * math.radians(5.0))
                 self.teleport(off)
-            now = self.nav_pose()
+            now = self.settled_pose()
             error = (math.hypot(now[0] - pose[0], now[1] - pose[1]), abs(math.degrees(now[2] - pose[2])))
             rospy.loginfo("%s: pose error %.3f m, %.2f deg" % ((preset_id,) + error))
             self.assertTrue(0.2 < error[0] < 0.4 and 3.5 < error[1] < 6.5, (preset_id, error))
