@@ -213,8 +213,18 @@ class Soak(object):
     def take_control(self):
         self.b.start_heartbeat()
         self.wait(lambda: self.o.offline is False, 30.0, "robot online")
-        self.b.publish("/mode_cmd", {"sender": "server", "cmd": "acquire", "data": "server"})
-        self.wait(lambda: self.mode() == 1, 15.0, "backend mode")
+        # robot_control hears robot_status on its own: it may still take the link as offline for a
+        # moment and refuse (mode_ack "offline: ..."), so ask again each second until granted.
+        asked = [0.0]
+
+        def granted():
+            if self.mode() == 1:
+                return True
+            if time.monotonic() - asked[0] >= 1.0:
+                asked[0] = time.monotonic()
+                self.b.publish("/mode_cmd", {"sender": "server", "cmd": "acquire", "data": "server"})
+            return False
+        self.wait(granted, 15.0, "backend mode")
         self.o.authorise()
 
     def mode(self):
