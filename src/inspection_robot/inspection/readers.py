@@ -30,64 +30,165 @@ def _clip_confidence(value):
     return float(min(max(value, 0.0), 100.0))
 
 
+class ReadFailed(ValueError):
+    """The picture cannot give a reading at all (blank, overexposed, not the gauge); the message says why."""
+
+
+# Pointer colour classes a calibration may name (pointer_colour: the current pointer; ignore_colour:
+# a drag / max pointer or set-point needle to leave alone). "dark"/"light" are relative to the face.
+POINTER_COLOURS = ("dark", "light", "red", "black", "white")
+UNCERTAIN_BELOW = 50.0    # confidence under which a reading is reported "uncertain" with its reason
+
+
 class PointerReader(object):
     """Finds the needle angle on a rectified gauge face by a radial dissimilarity profile.
 
-    For every direction (0.5 deg steps) the face is sampled along the radius between
-    ``inner`` and ``outer`` (fractions of the dial radius); each sample's distance from the
-    local face colour (mean over nearby directions, in Lab) measures "needle-ness". The median along the
-    radius rejects numbers and ticks (which cover only part of the radius); the peak's
-    weighted centroid gives a sub-step angle. Inner and outer halves give two estimates whose
-    agreement, together with the peak contrast, makes the confidence.
+    For every direction (0.5 deg steps) within the scale's sweep plus ``margin_deg`` the face is
+    sampled along the radius between ``inner`` and ``outer`` (fractions of the dial radius); each
+    sample's distance from the local face colour (mean over nearby directions, in Lab) measures
+    "needle-ness". The median along the radius rejects numbers and ticks (which cover only part of
+    the radius); the peak's weighted centroid gives a sub-step angle.
+
+    The pivot is searched around the calibrated centre (``pivot_search`` of the dial radius): a
+    needle is a straight line through its pivot, so the pivot that makes one direction's profile
+    sharpest is the hub. Every local maximum of the profile is a pointer candidate; with a colour
+    hint from the calibration the hinted pointer wins, otherwise the strongest along the whole
+    radius (the most needle-like), and a second candidate nearly as strong makes the reading
+    uncertain ("two pointers"). Inner and outer halves give two estimates whose agreement, with
+    the peak contrast, makes the confidence.
     """
 
-    def __init__(self, size=GAUGE_SIZE, inner=0.22, outer=0.72, step_deg=ANGLE_STEP_DEG, background_deg=12.0):
+    def __init__(self, size=GAUGE_SIZE, inner=0.22, outer=0.72, step_deg=ANGLE_STEP_DEG, background_deg=12.0,
+                 margin_deg=8.0, pivot_search=0.12, uncertain_below=UNCERTAIN_BELOW):
         self.size = size
         self.background_deg = background_deg
         self.inner = inner
         self.outer = outer
         self.step_deg = step_deg
-        self._angles = np.arange(0.0, 360.0, step_deg)
+        self.margin_deg = margin_deg
+        self.pivot_search = pivot_search
+        self.uncertain_below = uncertain_below
         self._radii = np.linspace(inner, outer, 48)
 
-    def _profile(self, face_lab, centre, radius):
-        theta = np.radians(self._angles)[:, None]
+    def _samples(self, face_lab, centre, radius, angles):
+        """Lab samples (angles x radii x 3) along rays from ``centre``; ``angles`` must be contiguous."""
+        theta = np.radians(angles)[:, None]
         r = (self._radii * radius)[None, :]
         # clockwise from 12 o'clock in image coordinates (y down)
         map_x = (centre[0] + r * np.sin(theta)).astype(np.float32)
         map_y = (centre[1] - r * np.cos(theta)).astype(np.float32)
         samples = cv2.remap(face_lab, map_x, map_y, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
-        samples = samples.astype(np.float32)
-        # Deviation from the LOCAL face colour (circular mean over +-background_deg at the same
-        # radius): smooth glare, shading and tinted light cancel, a narrow needle stands out.
-        half = int(round(self.background_deg / self.step_deg))
-        padded = np.concatenate([samples[-half:], samples, samples[:half]], axis=0)
-        csum = np.cumsum(np.concatenate([np.zeros((1,) + samples.shape[1:], np.float32), padded]), axis=0)
-        n = samples.shape[0]
-        background = (csum[2 * half + 1:2 * half + 1 + n] - csum[:n]) / float(2 * half + 1)
-        dist = np.sqrt(((samples - background) ** 2).sum(axis=2))  # angles x radii
-        return dist
+        return samples.astype(np.float32)
 
-    def _peak(self, profile):
+    def _profile(self, face_lab, centre, radius, angles):
+        """Distance of every sample from the LOCAL face colour (mean over +-background_deg at the same
+        radius): smooth glare, shading and tinted light cancel, a narrow needle stands out.
+        Returns (dist angles x radii, samples, background), trimmed of the background padding."""
+        half = int(round(self.background_deg / self.step_deg))
+        step = angles[1] - angles[0]
+        padded_angles = np.concatenate([angles[0] - step * np.arange(half, 0, -1), angles,
+                                        angles[-1] + step * np.arange(1, half + 1)])
+        samples = self._samples(face_lab, centre, radius, padded_angles)
+        csum = np.cumsum(np.concatenate([np.zeros((1,) + samples.shape[1:], np.float32), samples]), axis=0)
+        n = len(angles)
+        background = (csum[2 * half + 1:2 * half + 1 + n] - csum[:n]) / float(2 * half + 1)
+        core = samples[half:half + n]
+        dist = np.sqrt(((core - background) ** 2).sum(axis=2))
+        return dist, core, background
+
+    def _search_angles(self, scale):
+        if scale is None:
+            return np.arange(0.0, 360.0, self.step_deg)
+        span = min(360.0, scale.sweep + 2 * self.margin_deg)
+        start = scale.start_angle - (span - scale.sweep) / 2.0
+        return start + np.arange(0.0, span, self.step_deg)
+
+    def _sharpness(self, lab, centre, rad, angles):
+        full = np.median(self._profile(lab, centre, rad, angles)[0], axis=1)
+        return float(full.max() - np.median(full))
+
+    def _find_pivot(self, lab, centre, rad, angles):
+        """The needle line near ``centre``: a needle is a straight line through its pivot, so rays
+        from a point off that line cross the needle obliquely and its profile blurs. The pivot is
+        moved across the needle found from ``centre`` (within pivot_search * rad) to where the
+        profile is sharpest; a shift along the needle does not change its angle and is not searched."""
+        if self.pivot_search <= 0:
+            return centre
+        full = np.median(self._profile(lab, centre, rad, angles)[0], axis=1)
+        theta = math.radians(angles[int(np.argmax(full))])
+        across = (math.cos(theta), math.sin(theta))    # perpendicular to the needle direction (sin, -cos)
+        window = angles[max(0, int(np.argmax(full)) - 60):int(np.argmax(full)) + 61]
+        best, best_score = centre, self._sharpness(lab, centre, rad, window) * 1.2  # clearly sharper, or the calibration stands
+        reach = self.pivot_search * rad
+        for t in np.linspace(-reach, reach, 13):
+            if t == 0.0:
+                continue
+            c = (centre[0] + t * across[0], centre[1] + t * across[1])
+            score = self._sharpness(lab, c, rad, window)
+            if score > best_score:
+                best, best_score = c, score
+        return best
+
+    def _candidates(self, full, angles):
+        """Local maxima of the profile, strongest first: [(index, height above the median)]."""
+        base = float(np.median(full))
+        sep = max(1, int(round(6.0 / self.step_deg)))
+        order = np.argsort(-full)
+        taken = []
+        for i in order[:200]:
+            if full[i] - base <= 0:
+                break
+            if all(abs(int(i) - j) > sep for j, _ in taken):
+                if 0 < i < len(full) - 1 or len(angles) * self.step_deg >= 360.0:
+                    taken.append((int(i), float(full[i] - base)))
+            if len(taken) >= 3:
+                break
+        return taken, base
+
+    def _peak_angle(self, profile, angles, i):
         n = len(profile)
-        i = int(np.argmax(profile))
         half = max(2, int(round(4.0 / self.step_deg)))
-        idx = np.arange(i - half, i + half + 1) % n
+        idx = np.clip(np.arange(i - half, i + half + 1), 0, n - 1)
         window = profile[idx]
         base = float(np.median(profile))
         weights = np.clip(window - 0.5 * (base + profile[i]), 0.0, None)
         if weights.sum() <= 0:
-            return self._angles[i], float(profile[i]), base
-        offsets = (np.arange(-half, half + 1) * self.step_deg)
-        centroid = float((weights * offsets).sum() / weights.sum())
-        return wrap360(self._angles[i] + centroid), float(profile[i]), base
+            return wrap360(angles[i])
+        offsets = (idx - i) * self.step_deg
+        return wrap360(angles[i] + float((weights * offsets).sum() / weights.sum()))
 
-    def needle_angle(self, image, quad, centre=(0.5, 0.5), radius=0.45, aspect=1.0):
-        """Needle angle (deg clockwise from up) in the face's frontal view, and a confidence.
+    @staticmethod
+    def _colour_class(needle_lab, face_lab):
+        """red | dark | light for a candidate's median colour against the local face colour."""
+        if needle_lab[1] - 128.0 > 20.0 and needle_lab[1] - face_lab[1] > 15.0:
+            return "red"
+        return "dark" if needle_lab[0] < face_lab[0] else "light"
 
-        From the calibration: ``centre`` (pivot as fractions of the box width, height),
-        ``radius`` (dial radius as a fraction of the box width) and ``aspect`` (physical
-        width / height of the box, so the frontal view is not stretched).
+    @staticmethod
+    def _matches(colour, hint):
+        hint = {"black": "dark", "white": "light"}.get(hint, hint)
+        return colour == hint
+
+    @staticmethod
+    def check_face(face):
+        """Raise ReadFailed for a picture that cannot hold a reading: blank, over- or underexposed."""
+        gray = face if face.ndim == 2 else cv2.cvtColor(face, cv2.COLOR_BGR2GRAY)
+        if float(gray.std()) < 4.0:
+            raise ReadFailed("blank picture in the box (no contrast)")
+        if float((gray >= 250).mean()) > 0.5:
+            raise ReadFailed("overexposed picture in the box")
+        if float((gray <= 5).mean()) > 0.7:
+            raise ReadFailed("underexposed picture in the box")
+
+    def needle_angle(self, image, quad, centre=(0.5, 0.5), radius=0.45, aspect=1.0, scale=None,
+                     pointer_colour="", ignore_colour=""):
+        """Needle angle (deg clockwise from up) in the face's frontal view, a confidence and a detail dict
+        (``reason``: why the confidence is low, "" when it is not).
+
+        From the calibration: ``centre`` (pivot as fractions of the box width, height; refined in the
+        picture), ``radius`` (dial radius as a fraction of the box width), ``aspect`` (physical
+        width / height of the box, so the frontal view is not stretched), ``scale`` (the search
+        covers its sweep plus margin_deg; None: all around), colour hints.
         """
         aspect = float(aspect)
         width = self.size if aspect >= 1.0 else max(16, int(round(self.size * aspect)))
@@ -95,28 +196,77 @@ class PointerReader(object):
         face = rectify(image, quad, width, height)
         if face.ndim == 2:
             face = cv2.cvtColor(face, cv2.COLOR_GRAY2BGR)
+        self.check_face(face)
         face = cv2.GaussianBlur(face, (3, 3), 0)
         lab = cv2.cvtColor(face, cv2.COLOR_BGR2LAB)
-        c = (centre[0] * (width - 1), centre[1] * (height - 1))
         rad = radius * (width - 1)
-        dist = self._profile(lab, c, rad)
-        k = dist.shape[1] // 2
+        angles = self._search_angles(scale)
+        c = self._find_pivot(lab, (centre[0] * (width - 1), centre[1] * (height - 1)), rad, angles)
+        dist, samples, background = self._profile(lab, c, rad, angles)
         full = np.median(dist, axis=1)
-        angle, peak, base = self._peak(full)
-        inner_angle, _, _ = self._peak(np.median(dist[:, :k], axis=1))
-        outer_angle, _, _ = self._peak(np.median(dist[:, k:], axis=1))
+        candidates, base = self._candidates(full, angles)
+        detail = {"pivot": (c[0] / (width - 1), c[1] / (height - 1)), "candidates": len(candidates)}
+        if not candidates:
+            detail.update(reason="needle not found", angle=None)
+            return None, 0.0, detail
+        k = dist.shape[1] // 2
+        described = []
+        for i, height_above in candidates:
+            strong = dist[i] > 0.5 * (full[i] + base)
+            colour = self._colour_class(np.median(samples[i][strong], axis=0) if strong.any() else samples[i].mean(0),
+                                        background[i].mean(axis=0))
+            described.append({"index": i, "strength": height_above, "colour": colour,
+                              "coverage": float(strong.mean())})
+        pool = described
+        if pointer_colour:
+            pool = [d for d in described if self._matches(d["colour"], pointer_colour)] or described
+        if ignore_colour:
+            pool = [d for d in pool if not self._matches(d["colour"], ignore_colour)] or pool
+        pool = sorted(pool, key=lambda d: -d["strength"] * (0.5 + d["coverage"]))
+        chosen = pool[0]
+        i = chosen["index"]
+        angle = self._peak_angle(full, angles, i)
+        inner_angle = self._peak_angle(np.median(dist[:, :k], axis=1), angles, i)
+        outer_angle = self._peak_angle(np.median(dist[:, k:], axis=1), angles, i)
         spread = float(np.percentile(full, 90) - base) + 1.0
-        contrast = (peak - base) / max(spread, 1.0)
+        contrast = (full[i] - base) / max(spread, 1.0)
         disagreement = abs(angle_diff(inner_angle, outer_angle))
-        confidence = _clip_confidence(100.0 * min(1.0, contrast / 4.0) * math.exp(-disagreement / 3.0))
-        detail = {"angle": angle, "inner_angle": inner_angle, "outer_angle": outer_angle,
-                  "contrast": float(peak - base)}
-        return angle, confidence, detail
+        confidence = 100.0 * min(1.0, contrast / 4.0) * math.exp(-disagreement / 3.0)
+        reason = ""
+        rivals = [d for d in pool[1:] if d["strength"] * (0.5 + d["coverage"])
+                  > 0.6 * chosen["strength"] * (0.5 + chosen["coverage"])]
+        hinted = bool(pointer_colour or ignore_colour) and any(d["colour"] != chosen["colour"] for d in described)
+        if rivals and not hinted:
+            gap = abs(angle_diff(self._peak_angle(full, angles, rivals[0]["index"]), angle))
+            confidence = min(confidence, self.uncertain_below * 0.8)
+            reason = "two pointers %.0f deg apart (set pointer_colour / ignore_colour in the calibration)" % gap
+        detail.update({"angle": angle, "inner_angle": inner_angle, "outer_angle": outer_angle,
+                       "contrast": float(full[i] - base), "colour": chosen["colour"]})
+        if confidence < self.uncertain_below and not reason:
+            glare = float((cv2.cvtColor(face, cv2.COLOR_BGR2GRAY) >= 245).mean())
+            if glare > 0.05:
+                reason = "glare over %.0f %% of the dial" % (100.0 * glare)
+            elif contrast < 1.5:
+                reason = "needle not found (no clear needle against the face)"
+            else:
+                reason = "inner and outer needle halves disagree by %.1f deg" % disagreement
+        detail["reason"] = reason
+        return angle, _clip_confidence(confidence), detail
 
-    def read(self, image, quad, scale, centre=(0.5, 0.5), radius=0.45, aspect=1.0):
-        angle, confidence, detail = self.needle_angle(image, quad, centre, radius, aspect)
-        if not scale.in_sweep(angle, margin_deg=5.0):
-            confidence *= 0.3  # the needle points into the dead zone: probably not the needle
+    def read(self, image, quad, scale, centre=(0.5, 0.5), radius=0.45, aspect=1.0, pointer_colour="",
+             ignore_colour=""):
+        """Reading of a pointer gauge; detail["reason"] is non-empty when the reading is uncertain
+        (confidence below ``uncertain_below``). Raises ReadFailed when no reading is possible."""
+        angle, confidence, detail = self.needle_angle(image, quad, centre, radius, aspect, scale,
+                                                      pointer_colour, ignore_colour)
+        if angle is None:
+            return Reading(float("nan"), 0.0, detail)
+        if not scale.in_sweep(angle, margin_deg=max(1.5, 0.01 * scale.sweep)):
+            # inside the search margin but beyond an end: report it, do not hide it in the end value
+            confidence = min(confidence, self.uncertain_below * 0.6)
+            detail["reason"] = "needle outside the scale's sweep (%.1f deg beyond the %s)" % (
+                min(scale.offset(angle) - scale.sweep, 360.0 - scale.offset(angle)),
+                "end" if scale.offset(angle) - scale.sweep < 360.0 - scale.offset(angle) else "start")
         return Reading(scale.value(angle), _clip_confidence(confidence), detail)
 
 
@@ -207,6 +357,15 @@ def _edge_signature(gray):
     mag -= mag.mean()
     norm = np.linalg.norm(mag)
     return mag / norm if norm > 0 else mag
+
+
+def face_similarity(image, quad, reference, reference_quad, size=96):
+    """Correlation (-1..1) of the edge structure of two boxes rectified to ``size`` px: a gauge's
+    ticks, numbers and rim outweigh its needle, so the same gauge at another value stays high."""
+    def signature(img, q):
+        patch = rectify(img, q, size)
+        return _edge_signature(patch if patch.ndim == 2 else cv2.cvtColor(patch, cv2.COLOR_BGR2GRAY))
+    return float((signature(image, quad) * signature(reference, reference_quad)).sum())
 
 
 def switch_patch(image, quad):

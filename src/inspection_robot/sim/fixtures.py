@@ -60,7 +60,8 @@ def draw_gauge_face(scale, value, size=400, style="classic", ticks=10):
     by the simulated world's gauge painter in the colours of ``style``."""
     face_bgr, ink, needle, _, _ = GAUGE_STYLES[style]
     img = np.full((size, size, 3), 110, np.uint8)
-    paint_gauge(img, _FixtureDial(scale, value, (face_bgr, ink, needle), ticks))
+    # painted one pixel smaller: the painter puts the pivot at width / 2, rectify() at (size - 1) / 2
+    paint_gauge(img[:size - 1, :size - 1], _FixtureDial(scale, value, (face_bgr, ink, needle), ticks))
     return img
 
 
