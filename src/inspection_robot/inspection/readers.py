@@ -41,60 +41,58 @@ UNCERTAIN_BELOW = 50.0    # confidence under which a reading is reported "uncert
 
 
 class PointerReader(object):
-    """Finds the needle angle on a rectified gauge face by a radial dissimilarity profile.
+    """Finds the needle on a rectified gauge face by a radial dissimilarity profile and a line fit.
 
     For every direction (0.5 deg steps) within the scale's sweep plus ``margin_deg`` the face is
-    sampled along the radius between ``inner`` and ``outer`` (fractions of the dial radius); each
-    sample's distance from the local face colour (mean over nearby directions, in Lab) measures
-    "needle-ness". The median along the radius rejects numbers and ticks (which cover only part of
-    the radius); the peak's weighted centroid gives a sub-step angle.
+    sampled along the radius between ``inner`` and ``outer`` (fractions of the dial radius) from
+    the calibrated pivot; each sample's distance from the local face colour (mean over nearby
+    directions, in Lab) measures "needle-ness". The median along the radius rejects numbers and
+    ticks (which cover only part of the radius). Every local maximum is a pointer candidate; it
+    is ranked by its strength, its coverage of the radius and its reach towards the scale (a
+    pointer's tip reaches the ticks, its counterweight does not). With a colour hint from the
+    calibration the hinted pointer wins; otherwise a second candidate nearly as strong makes the
+    reading uncertain ("two pointers").
 
-    The pivot is searched around the calibrated centre (``pivot_search`` of the dial radius): a
-    needle is a straight line through its pivot, so the pivot that makes one direction's profile
-    sharpest is the hub. Every local maximum of the profile is a pointer candidate; with a colour
-    hint from the calibration the hinted pointer wins, otherwise the strongest along the whole
-    radius (the most needle-like), and a second candidate nearly as strong makes the reading
-    uncertain ("two pointers"). Inner and outer halves give two estimates whose agreement, with
-    the peak contrast, makes the confidence.
+    The pivot is not trusted: the chosen pointer's centre line is fitted to the needle's own
+    pixels (the angular centroid at each radius), so a pivot off the calibrated centre (a
+    temperature indicator, an oblique view) gives the needle's real line. The reading is where
+    that line meets the scale circle, as an angle about the calibrated centre (the calibration's
+    mark angles are measured from there). Lines fitted to the inner and outer halves give the
+    agreement that, with the needle's contrast, makes the confidence.
     """
 
     def __init__(self, size=GAUGE_SIZE, inner=0.22, outer=0.72, step_deg=ANGLE_STEP_DEG, background_deg=12.0,
-                 margin_deg=8.0, pivot_search=0.12, uncertain_below=UNCERTAIN_BELOW):
+                 margin_deg=8.0, reach=(0.72, 0.9), uncertain_below=UNCERTAIN_BELOW):
         self.size = size
         self.background_deg = background_deg
         self.inner = inner
         self.outer = outer
         self.step_deg = step_deg
         self.margin_deg = margin_deg
-        self.pivot_search = pivot_search
         self.uncertain_below = uncertain_below
         self._radii = np.linspace(inner, outer, 48)
+        self._reach_radii = np.linspace(reach[0], reach[1], 12)
 
-    def _samples(self, face_lab, centre, radius, angles):
-        """Lab samples (angles x radii x 3) along rays from ``centre``; ``angles`` must be contiguous."""
-        theta = np.radians(angles)[:, None]
-        r = (self._radii * radius)[None, :]
+    def _profile(self, face_lab, centre, radius, angles, radii):
+        """Distance of every sample from the LOCAL face colour (mean over +-background_deg at the same
+        radius): smooth glare, shading and tinted light cancel, a narrow needle stands out.
+        Returns (dist angles x radii, samples, background); ``angles`` must be evenly spaced."""
+        half = int(round(self.background_deg / self.step_deg))
+        step = angles[1] - angles[0]
+        padded = np.concatenate([angles[0] - step * np.arange(half, 0, -1), angles,
+                                 angles[-1] + step * np.arange(1, half + 1)])
+        theta = np.radians(padded)[:, None]
+        r = (radii * radius)[None, :]
         # clockwise from 12 o'clock in image coordinates (y down)
         map_x = (centre[0] + r * np.sin(theta)).astype(np.float32)
         map_y = (centre[1] - r * np.cos(theta)).astype(np.float32)
         samples = cv2.remap(face_lab, map_x, map_y, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
-        return samples.astype(np.float32)
-
-    def _profile(self, face_lab, centre, radius, angles):
-        """Distance of every sample from the LOCAL face colour (mean over +-background_deg at the same
-        radius): smooth glare, shading and tinted light cancel, a narrow needle stands out.
-        Returns (dist angles x radii, samples, background), trimmed of the background padding."""
-        half = int(round(self.background_deg / self.step_deg))
-        step = angles[1] - angles[0]
-        padded_angles = np.concatenate([angles[0] - step * np.arange(half, 0, -1), angles,
-                                        angles[-1] + step * np.arange(1, half + 1)])
-        samples = self._samples(face_lab, centre, radius, padded_angles)
+        samples = samples.astype(np.float32)
         csum = np.cumsum(np.concatenate([np.zeros((1,) + samples.shape[1:], np.float32), samples]), axis=0)
         n = len(angles)
         background = (csum[2 * half + 1:2 * half + 1 + n] - csum[:n]) / float(2 * half + 1)
         core = samples[half:half + n]
-        dist = np.sqrt(((core - background) ** 2).sum(axis=2))
-        return dist, core, background
+        return np.sqrt(((core - background) ** 2).sum(axis=2)), core, background
 
     def _search_angles(self, scale):
         if scale is None:
@@ -103,59 +101,59 @@ class PointerReader(object):
         start = scale.start_angle - (span - scale.sweep) / 2.0
         return start + np.arange(0.0, span, self.step_deg)
 
-    def _sharpness(self, lab, centre, rad, angles):
-        full = np.median(self._profile(lab, centre, rad, angles)[0], axis=1)
-        return float(full.max() - np.median(full))
-
-    def _find_pivot(self, lab, centre, rad, angles):
-        """The needle line near ``centre``: a needle is a straight line through its pivot, so rays
-        from a point off that line cross the needle obliquely and its profile blurs. The pivot is
-        moved across the needle found from ``centre`` (within pivot_search * rad) to where the
-        profile is sharpest; a shift along the needle does not change its angle and is not searched."""
-        if self.pivot_search <= 0:
-            return centre
-        full = np.median(self._profile(lab, centre, rad, angles)[0], axis=1)
-        theta = math.radians(angles[int(np.argmax(full))])
-        across = (math.cos(theta), math.sin(theta))    # perpendicular to the needle direction (sin, -cos)
-        window = angles[max(0, int(np.argmax(full)) - 60):int(np.argmax(full)) + 61]
-        best, best_score = centre, self._sharpness(lab, centre, rad, window) * 1.2  # clearly sharper, or the calibration stands
-        reach = self.pivot_search * rad
-        for t in np.linspace(-reach, reach, 13):
-            if t == 0.0:
-                continue
-            c = (centre[0] + t * across[0], centre[1] + t * across[1])
-            score = self._sharpness(lab, c, rad, window)
-            if score > best_score:
-                best, best_score = c, score
-        return best
-
     def _candidates(self, full, angles):
         """Local maxima of the profile, strongest first: [(index, height above the median)]."""
         base = float(np.median(full))
         sep = max(1, int(round(6.0 / self.step_deg)))
         order = np.argsort(-full)
         taken = []
-        for i in order[:200]:
+        for i in order[:400]:
             if full[i] - base <= 0:
                 break
             if all(abs(int(i) - j) > sep for j, _ in taken):
-                if 0 < i < len(full) - 1 or len(angles) * self.step_deg >= 360.0:
-                    taken.append((int(i), float(full[i] - base)))
-            if len(taken) >= 3:
+                taken.append((int(i), float(full[i] - base)))
+            if len(taken) >= 4:
                 break
         return taken, base
 
-    def _peak_angle(self, profile, angles, i):
-        n = len(profile)
-        half = max(2, int(round(4.0 / self.step_deg)))
-        idx = np.clip(np.arange(i - half, i + half + 1), 0, n - 1)
-        window = profile[idx]
-        base = float(np.median(profile))
-        weights = np.clip(window - 0.5 * (base + profile[i]), 0.0, None)
-        if weights.sum() <= 0:
-            return wrap360(angles[i])
-        offsets = (idx - i) * self.step_deg
-        return wrap360(angles[i] + float((weights * offsets).sum() / weights.sum()))
+    def _line(self, dist, angles, i, centre, radius, lo, hi):
+        """The needle's centre line near direction index ``i`` from the samples of radii ``lo:hi``:
+        the angular centroid of the needle at each radius gives a point; a weighted least-squares
+        line through them. Returns (point on the line, unit direction outwards) or None."""
+        half = max(2, int(round(6.0 / self.step_deg)))
+        idx = np.arange(max(0, i - half), min(len(angles), i + half + 1))
+        points, weights = [], []
+        for k in range(lo, hi):
+            column = dist[idx, k]
+            w = np.clip(column - 0.5 * (column.max() + np.median(dist[:, k])), 0.0, None)
+            if w.sum() <= 0:
+                continue
+            theta = math.radians(float((w * angles[idx]).sum() / w.sum()))
+            r = self._radii[k] * radius
+            points.append((centre[0] + r * math.sin(theta), centre[1] - r * math.cos(theta)))
+            weights.append(float(w.sum()))
+        if len(points) < 4:
+            return None
+        pts, w = np.array(points), np.array(weights)
+        mean = (pts * w[:, None]).sum(axis=0) / w.sum()
+        d = pts - mean
+        cov = (d * w[:, None]).T.dot(d)
+        _, vectors = np.linalg.eigh(cov)
+        u = vectors[:, -1]
+        if np.dot(u, pts[-1] - pts[0]) < 0:
+            u = -u
+        return mean, u
+
+    @staticmethod
+    def _meets_circle(line, centre, r):
+        """Angle (deg clockwise from up, about ``centre``) where the line leaves the circle of radius r."""
+        p, u = line
+        q = p - np.asarray(centre)
+        b = float(np.dot(q, u))
+        disc = b * b - (float(np.dot(q, q)) - r * r)
+        t = -b + math.sqrt(max(disc, 0.0))
+        x, y = q + t * u
+        return wrap360(math.degrees(math.atan2(x, -y)))
 
     @staticmethod
     def _colour_class(needle_lab, face_lab):
@@ -182,13 +180,13 @@ class PointerReader(object):
 
     def needle_angle(self, image, quad, centre=(0.5, 0.5), radius=0.45, aspect=1.0, scale=None,
                      pointer_colour="", ignore_colour=""):
-        """Needle angle (deg clockwise from up) in the face's frontal view, a confidence and a detail dict
-        (``reason``: why the confidence is low, "" when it is not).
+        """Needle angle (deg clockwise from up, about the calibrated centre) in the face's frontal
+        view, a confidence and a detail dict (``reason``: why the confidence is low, "" when it is not).
 
-        From the calibration: ``centre`` (pivot as fractions of the box width, height; refined in the
-        picture), ``radius`` (dial radius as a fraction of the box width), ``aspect`` (physical
-        width / height of the box, so the frontal view is not stretched), ``scale`` (the search
-        covers its sweep plus margin_deg; None: all around), colour hints.
+        From the calibration: ``centre`` (pivot as fractions of the box width, height), ``radius``
+        (dial radius as a fraction of the box width), ``aspect`` (physical width / height of the
+        box, so the frontal view is not stretched), ``scale`` (the search covers its sweep plus
+        margin_deg; None: all around), colour hints.
         """
         aspect = float(aspect)
         width = self.size if aspect >= 1.0 else max(16, int(round(self.size * aspect)))
@@ -200,48 +198,69 @@ class PointerReader(object):
         face = cv2.GaussianBlur(face, (3, 3), 0)
         lab = cv2.cvtColor(face, cv2.COLOR_BGR2LAB)
         rad = radius * (width - 1)
+        c = (centre[0] * (width - 1), centre[1] * (height - 1))
         angles = self._search_angles(scale)
-        c = self._find_pivot(lab, (centre[0] * (width - 1), centre[1] * (height - 1)), rad, angles)
-        dist, samples, background = self._profile(lab, c, rad, angles)
+        dist, samples, background = self._profile(lab, c, rad, angles, self._radii)
+        reach_dist = self._profile(lab, c, rad, angles, self._reach_radii)[0]
         full = np.median(dist, axis=1)
         candidates, base = self._candidates(full, angles)
-        detail = {"pivot": (c[0] / (width - 1), c[1] / (height - 1)), "candidates": len(candidates)}
+        detail = {"candidates": len(candidates)}
         if not candidates:
             detail.update(reason="needle not found", angle=None)
             return None, 0.0, detail
-        k = dist.shape[1] // 2
         described = []
-        for i, height_above in candidates:
-            strong = dist[i] > 0.5 * (full[i] + base)
+        for i, strength in candidates:
+            level = 0.5 * (full[i] + base)
+            strong = dist[i] > level
             colour = self._colour_class(np.median(samples[i][strong], axis=0) if strong.any() else samples[i].mean(0),
                                         background[i].mean(axis=0))
-            described.append({"index": i, "strength": height_above, "colour": colour,
-                              "coverage": float(strong.mean())})
+            lo, hi = max(0, i - 2), i + 3
+            reach = float((reach_dist[lo:hi].max(axis=0) > level).mean())
+            described.append({"index": i, "strength": strength, "colour": colour, "reach": reach,
+                              "score": strength * (0.5 + float(strong.mean())) * (0.3 + reach)})
         pool = described
         if pointer_colour:
             pool = [d for d in described if self._matches(d["colour"], pointer_colour)] or described
         if ignore_colour:
             pool = [d for d in pool if not self._matches(d["colour"], ignore_colour)] or pool
-        pool = sorted(pool, key=lambda d: -d["strength"] * (0.5 + d["coverage"]))
+        pool = sorted(pool, key=lambda d: -d["score"])
         chosen = pool[0]
         i = chosen["index"]
-        angle = self._peak_angle(full, angles, i)
-        inner_angle = self._peak_angle(np.median(dist[:, :k], axis=1), angles, i)
-        outer_angle = self._peak_angle(np.median(dist[:, k:], axis=1), angles, i)
+        k = len(self._radii) // 2
+        line = self._line(dist, angles, i, c, rad, 0, len(self._radii))
+        inner_line = self._line(dist, angles, i, c, rad, 0, k)
+        outer_line = self._line(dist, angles, i, c, rad, k, len(self._radii))
+        if line is None or inner_line is None or outer_line is None:
+            detail.update(reason="needle not found (no continuous needle along the radius)", angle=None)
+            return None, 0.0, detail
+        ring = rad * self._reach_radii[-1]
+        angle = self._meets_circle(line, c, ring)
+        inner_angle = self._meets_circle(inner_line, c, ring)
+        outer_angle = self._meets_circle(outer_line, c, ring)
+        # the needle's line passes closest to the calibrated centre here: the pivot seen in the picture
+        foot = line[0] + np.dot(np.asarray(c) - line[0], line[1]) * line[1]
         spread = float(np.percentile(full, 90) - base) + 1.0
         contrast = (full[i] - base) / max(spread, 1.0)
         disagreement = abs(angle_diff(inner_angle, outer_angle))
-        confidence = 100.0 * min(1.0, contrast / 4.0) * math.exp(-disagreement / 3.0)
+        confidence = 100.0 * min(1.0, contrast / 2.5) * math.exp(-disagreement / 6.0)
         reason = ""
-        rivals = [d for d in pool[1:] if d["strength"] * (0.5 + d["coverage"])
-                  > 0.6 * chosen["strength"] * (0.5 + chosen["coverage"])]
+        # a rival is another pointer: not the same needle's other edge, nor its counterweight
+        # (opposite, falling short of the scale)
+        rivals = [d for d in pool[1:] if d["score"] > 0.6 * chosen["score"]
+                  and abs(d["index"] - i) * self.step_deg > 2.0 * self.background_deg
+                  and not (abs(abs(angle_diff(angles[d["index"]], angles[i])) - 180.0) < 15.0
+                           and d["reach"] < 0.5 * chosen["reach"])]
         hinted = bool(pointer_colour or ignore_colour) and any(d["colour"] != chosen["colour"] for d in described)
         if rivals and not hinted:
-            gap = abs(angle_diff(self._peak_angle(full, angles, rivals[0]["index"]), angle))
+            gap = abs(angle_diff(angles[rivals[0]["index"]], angles[i]))
             confidence = min(confidence, self.uncertain_below * 0.8)
             reason = "two pointers %.0f deg apart (set pointer_colour / ignore_colour in the calibration)" % gap
+        detail["pointers"] = [(round(float(angles[d["index"]]) % 360.0, 1), round(d["score"], 1), d["reach"], d["colour"])
+                              for d in described]
         detail.update({"angle": angle, "inner_angle": inner_angle, "outer_angle": outer_angle,
-                       "contrast": float(full[i] - base), "colour": chosen["colour"]})
+                       "contrast": float(full[i] - base), "contrast_ratio": float(contrast),
+                       "disagreement": disagreement, "colour": chosen["colour"], "reach": chosen["reach"],
+                       "pivot": (float(foot[0]) / (width - 1), float(foot[1]) / (height - 1))})
         if confidence < self.uncertain_below and not reason:
             glare = float((cv2.cvtColor(face, cv2.COLOR_BGR2GRAY) >= 245).mean())
             if glare > 0.05:
@@ -262,11 +281,12 @@ class PointerReader(object):
         if angle is None:
             return Reading(float("nan"), 0.0, detail)
         if not scale.in_sweep(angle, margin_deg=max(1.5, 0.01 * scale.sweep)):
-            # inside the search margin but beyond an end: report it, do not hide it in the end value
+            # beyond an end (inside the search margin): reported, not hidden in the end value
+            over = scale.offset(angle) - scale.sweep
+            under = 360.0 - scale.offset(angle)
             confidence = min(confidence, self.uncertain_below * 0.6)
             detail["reason"] = "needle outside the scale's sweep (%.1f deg beyond the %s)" % (
-                min(scale.offset(angle) - scale.sweep, 360.0 - scale.offset(angle)),
-                "end" if scale.offset(angle) - scale.sweep < 360.0 - scale.offset(angle) else "start")
+                min(over, under), "end" if over < under else "start")
         return Reading(scale.value(angle), _clip_confidence(confidence), detail)
 
 
