@@ -252,15 +252,16 @@ def report_real(rows):
                           distinct_photos=len([r for r in photos if "augmented_copy" not in r["tags"]]),
                           failed=len(photos) - len(read), uncertain=len(read) - len(confident),
                           gross_unflagged=len([r for r in confident if r["error"] > 10.0]),
-                          mean_label_uncertainty_pct_fs=round(float(np.mean([r["label_uncertainty_pct_fs"]
-                                                                              for r in photos])), 3))))
+                          mean_label_uncertainty_pct_fs=round(
+                              float(np.mean([r["label_uncertainty_pct_fs"] for r in photos])), 3))))
     print(json.dumps(_accuracy("inspection_real_confident", confident)))
     print(json.dumps(_accuracy("inspection_real_not_at_scale_end", [r for r in read if not r["at_end"]])))
     for tag in ("drag_pointer", "broad_tail", "needle_tail", "compound"):
         print(json.dumps(_accuracy("inspection_real_" + tag, [r for r in read if tag in r["tags"]])))
     for low, high in ((0, 25), (25, 50), (50, 75), (75, 90), (90, 101)):
         band = [r for r in read if low <= r["confidence"] < high]
-        print(json.dumps(dict(_accuracy("inspection_real_reliability", band), confidence="%d-%d" % (low, min(high, 100)))))
+        band_name = "%d-%d" % (low, min(high, 100))
+        print(json.dumps(dict(_accuracy("inspection_real_reliability", band), confidence=band_name)))
     negatives = [r for r in rows if r["negative"]]
     print(json.dumps({"bench": "inspection_real_not_a_gauge", "n": len(negatives),
                       "failed": len([r for r in negatives if r["failed"]]),
@@ -294,8 +295,7 @@ def main():
     locator = Locator("orb", max_side=960)
     reader = PointerReader()
     report("inspection_synthetic", [synthetic_case(rng, locator, reader) for _ in range(CASES)])
-    photo_dir = os.environ.get("REAL_GAUGES_DIR") or os.path.join(os.path.expanduser("~"), ".cache",
-                                                                   "inspection_robot", "real_gauges")
+    photo_dir = os.environ.get("REAL_GAUGES_DIR") or os.path.expanduser("~/.cache/inspection_robot/real_gauges")
     if os.path.isdir(photo_dir):
         tmp = tempfile.mkdtemp(prefix="bench_inspection_real_")
         try:
@@ -303,7 +303,8 @@ def main():
         finally:
             shutil.rmtree(tmp, ignore_errors=True)
     else:
-        print(json.dumps({"bench": "inspection_real", "skipped": "no photos in %s (scripts/real_gauges.py)" % photo_dir}))
+        print(json.dumps({"bench": "inspection_real", "skipped": "no photos in %s (run scripts/real_gauges.py)"
+                          % photo_dir}))
     world_count = int(os.environ.get("BENCH_INSPECTION_WORLD_CASES", "40"))
     if world_count > 0:
         tmp = tempfile.mkdtemp(prefix="bench_inspection_")

@@ -255,8 +255,8 @@ class PointerReader(object):
             gap = abs(angle_diff(angles[rivals[0]["index"]], angles[i]))
             confidence = min(confidence, self.uncertain_below * 0.8)
             reason = "two pointers %.0f deg apart (set pointer_colour / ignore_colour in the calibration)" % gap
-        detail["pointers"] = [(round(float(angles[d["index"]]) % 360.0, 1), round(d["score"], 1), d["reach"], d["colour"])
-                              for d in described]
+        detail["pointers"] = [(round(float(angles[d["index"]]) % 360.0, 1), round(d["score"], 1), d["reach"],
+                               d["colour"]) for d in described]
         detail.update({"angle": angle, "inner_angle": inner_angle, "outer_angle": outer_angle,
                        "contrast": float(full[i] - base), "contrast_ratio": float(contrast),
                        "disagreement": disagreement, "colour": chosen["colour"], "reach": chosen["reach"],
