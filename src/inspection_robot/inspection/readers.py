@@ -55,9 +55,9 @@ class PointerReader(object):
 
     The pivot is not trusted: the chosen pointer's centre line is fitted to the needle's own
     pixels (the angular centroid at each radius), so a pivot off the calibrated centre (a
-    temperature indicator, an oblique view) gives the needle's real line. The reading is where
-    that line meets the scale circle, as an angle about the calibrated centre (the calibration's
-    mark angles are measured from there). Lines fitted to the inner and outer halves give the
+    temperature indicator, a calibration that marked the dial's centre) gives the needle's real
+    line, and its direction is the reading (a needle turns about its own pivot; the scale's angles
+    are its directions at the marks). Lines fitted to the inner and outer halves give the
     agreement that, with the needle's contrast, makes the confidence.
     """
 
@@ -145,15 +145,10 @@ class PointerReader(object):
         return mean, u
 
     @staticmethod
-    def _meets_circle(line, centre, r):
-        """Angle (deg clockwise from up, about ``centre``) where the line leaves the circle of radius r."""
-        p, u = line
-        q = p - np.asarray(centre)
-        b = float(np.dot(q, u))
-        disc = b * b - (float(np.dot(q, q)) - r * r)
-        t = -b + math.sqrt(max(disc, 0.0))
-        x, y = q + t * u
-        return wrap360(math.degrees(math.atan2(x, -y)))
+    def _direction(line):
+        """The line's outward direction, degrees clockwise from up."""
+        u = line[1]
+        return wrap360(math.degrees(math.atan2(u[0], -u[1])))
 
     @staticmethod
     def _colour_class(needle_lab, face_lab):
@@ -171,16 +166,16 @@ class PointerReader(object):
     def check_face(face):
         """Raise ReadFailed for a picture that cannot hold a reading: blank, over- or underexposed."""
         gray = face if face.ndim == 2 else cv2.cvtColor(face, cv2.COLOR_BGR2GRAY)
-        if float(gray.std()) < 4.0:
-            raise ReadFailed("blank picture in the box (no contrast)")
         if float((gray >= 250).mean()) > 0.5:
             raise ReadFailed("overexposed picture in the box")
         if float((gray <= 5).mean()) > 0.7:
             raise ReadFailed("underexposed picture in the box")
+        if float(gray.std()) < 4.0:
+            raise ReadFailed("blank picture in the box (no contrast)")
 
     def needle_angle(self, image, quad, centre=(0.5, 0.5), radius=0.45, aspect=1.0, scale=None,
                      pointer_colour="", ignore_colour=""):
-        """Needle angle (deg clockwise from up, about the calibrated centre) in the face's frontal
+        """Needle direction (deg clockwise from up) in the face's frontal
         view, a confidence and a detail dict (``reason``: why the confidence is low, "" when it is not).
 
         From the calibration: ``centre`` (pivot as fractions of the box width, height), ``radius``
@@ -233,10 +228,11 @@ class PointerReader(object):
         if line is None or inner_line is None or outer_line is None:
             detail.update(reason="needle not found (no continuous needle along the radius)", angle=None)
             return None, 0.0, detail
-        ring = rad * self._reach_radii[-1]
-        angle = self._meets_circle(line, c, ring)
-        inner_angle = self._meets_circle(inner_line, c, ring)
-        outer_angle = self._meets_circle(outer_line, c, ring)
+        # the needle turns about its own pivot, so its direction is the reading, wherever the
+        # calibrated centre lies
+        angle = self._direction(line)
+        inner_angle = self._direction(inner_line)
+        outer_angle = self._direction(outer_line)
         # the needle's line passes closest to the calibrated centre here: the pivot seen in the picture
         foot = line[0] + np.dot(np.asarray(c) - line[0], line[1]) * line[1]
         spread = float(np.percentile(full, 90) - base) + 1.0

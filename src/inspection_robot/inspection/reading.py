@@ -232,8 +232,11 @@ class ScaleReader(object):
                       if best[2] in t.boxes]
             exclude = [_grow(q, 1.15) for q in mapped]
             # search the equipment around the targets: farther away, parallax after a pose error
-            # makes one homography a poor alignment of the 3-D scene
+            # makes one homography a poor alignment of the 3-D scene. The equipment is where the
+            # scene agrees with the registration (the inlier matches): the fence and sky behind
+            # it drift with every stop off the preset pose and are left out.
             region = _grow(_bounding_quad(mapped), self.foreign_region) if mapped else None
+            region = _equipment_region(region, best[1].points, image.shape)
             found = detect_foreign(best[0], image, best[1].homography, region=region, exclude=exclude)
             annotated = image.copy()
             for obj in found:
@@ -242,6 +245,22 @@ class ScaleReader(object):
             evidence = max([f.confidence for f in found]) if found else min(100.0, best[1].inliers)
             outcome.foreign_possibility.append(round(float(evidence), 1))
             outcome.foreign_picture_path.append(_save(annotated, out_dir, "%s_foreign_%02d.jpg" % (stamp, j)))
+
+
+def _equipment_region(region, points, shape):
+    """The search region cut down to the grown bounding box of the registration's inlier points
+    (the equipment plane); ``region`` unchanged when there are too few of them."""
+    if points is None or len(points) < 8:
+        return region
+    lo, hi = points.min(axis=0), points.max(axis=0)
+    box = _grow(_bounding_quad([np.array([lo, hi])]), 1.1)
+    if region is None:
+        return box
+    x0, y0 = np.maximum(box.min(axis=0), np.asarray(region).min(axis=0))
+    x1, y1 = np.minimum(box.max(axis=0), np.asarray(region).max(axis=0))
+    if x1 <= x0 or y1 <= y0:
+        return region
+    return np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]])
 
 
 def _grow(quad, factor):
