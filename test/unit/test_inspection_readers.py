@@ -96,7 +96,8 @@ def _with_second_pointer(face, angle_deg, colour=(30, 30, 210)):
     face = face.copy()
     c = (face.shape[1] - 1) / 2.0
     a = np.radians(angle_deg)
-    tip = (int(round(c + 0.8 * 0.45 * face.shape[1] * np.sin(a))), int(round(c - 0.8 * 0.45 * face.shape[1] * np.cos(a))))
+    length = 0.8 * 0.45 * face.shape[1]
+    tip = (int(round(c + length * np.sin(a))), int(round(c - length * np.cos(a))))
     cv2.line(face, (int(round(c)), int(round(c))), tip, colour, 4, cv2.LINE_AA)
     return face
 

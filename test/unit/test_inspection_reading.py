@@ -147,7 +147,8 @@ def test_uncertain_readings_say_why_in_the_result():
     from inspection_robot.inspection.reading import ReadOutcome, result_text
     fine = ReadOutcome([1.0, 0.0], [90.0, 80.0], [], [], [], [], ["", ""])
     assert result_text(fine, "success") == "success"
-    unsure = ReadOutcome([1.0, 0.0, 2.0], [30.0, 80.0, 20.0], [], [], [], [], ["two pointers 40 deg apart", "", "glare"])
+    unsure = ReadOutcome([1.0, 0.0, 2.0], [30.0, 80.0, 20.0], [], [], [], [],
+                         ["two pointers 40 deg apart", "", "glare"])
     assert result_text(unsure, "success") == "uncertain: box 0: two pointers 40 deg apart; box 2: glare"
 
 
