@@ -31,7 +31,7 @@ import numpy as np
 from inspection_robot.sim import fixtures as S
 from inspection_robot.inspection.geometry import quad_iou, transform_quad
 from inspection_robot.inspection.locate import LocateError, Locator
-from inspection_robot.inspection.readers import PointerReader
+from inspection_robot.inspection.readers import PointerReader, ReadFailed
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 W, H = 640, 360
@@ -85,7 +85,10 @@ def synthetic_case(rng, locator, reader):
     t_find = time.perf_counter() - t0
     iou = quad_iou(located.quads[0], true_quad)
     t0 = time.perf_counter()
-    reading = reader.read(new, located.quads[0], scale)
+    try:
+        reading = reader.read(new, located.quads[0], scale)
+    except ReadFailed:
+        return float("nan"), t_find, time.perf_counter() - t0, iou   # refused: no number
     t_read = time.perf_counter() - t0
     return scale.error_percent_fs(reading.value, value), t_find, t_read, iou
 
@@ -271,9 +274,10 @@ def report_real(rows):
 
 
 def report(name, results):
-    errors = np.array([r[0] for r in results if r[0] is not None])
+    refused = len([r for r in results if r[0] is not None and math.isnan(r[0])])
+    errors = np.array([r[0] for r in results if r[0] is not None and not math.isnan(r[0])])
     finds = [r for r in results if r[0] is not None]
-    figures = {"bench": name + "_accuracy", "n": len(results),
+    figures = {"bench": name + "_accuracy", "n": len(results), "read_refused": refused,
                "mean_abs_error_pct_fs": round(float(errors.mean()), 3) if len(errors) else None,
                "within_1pct_fs": round(float((errors <= 1.0).mean()), 4) if len(errors) else None,
                "within_1_5pct_fs": round(float((errors <= 1.5).mean()), 4) if len(errors) else None,
