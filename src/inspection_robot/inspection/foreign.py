@@ -84,10 +84,16 @@ def detect_foreign(reference, picture, homography, region=None, exclude=(), min_
         x, y, w, h, area = stats[i]
         if area < min_area_px:
             continue
-        strength = float(diff[labels == i].mean())
+        values = diff[labels == i]
+        strength = float(values.mean())
         confidence = 100.0 * min(1.0, strength / (2 * threshold)) * min(1.0, area / (2.0 * min_area_px))
         if confidence < min_confidence:
             continue  # faint specks: compression artefacts, slight misalignment
+        # the box holds the object's core: the local-mean normalisation leaves a faint halo around it
+        core = (labels == i) & (diff > 0.5 * float(np.percentile(values, 95)))
+        ys, xs = np.nonzero(core)
+        if len(xs):
+            x, y, w, h = xs.min(), ys.min(), xs.max() - xs.min() + 1, ys.max() - ys.min() + 1
         quad = np.array([[x, y], [x + w, y], [x + w, y + h], [x, y + h]], np.float64) / scale
         found.append(Foreign(quad, float(min(100.0, confidence)), float(area / scale / scale)))
     found.sort(key=lambda f: -f.area)
