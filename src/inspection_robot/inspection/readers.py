@@ -55,10 +55,10 @@ class PointerReader(object):
 
     The pivot is not trusted: the chosen pointer's centre line is fitted to the needle's own
     pixels (the angular centroid at each radius), so a pivot off the calibrated centre (a
-    temperature indicator, a calibration that marked the dial's centre) gives the needle's real
-    line, and its direction is the reading (a needle turns about its own pivot; the scale's angles
-    are its directions at the marks). Lines fitted to the inner and outer halves give the
-    agreement that, with the needle's contrast, makes the confidence.
+    temperature indicator, a calibration that marked the dial's centre) still gives the needle's
+    real line; the reading is where that line meets the scale circle (0.9 of the dial radius about
+    the calibrated centre). Lines fitted to the inner and outer halves give the agreement that,
+    with the needle's contrast, makes the confidence.
     """
 
     def __init__(self, size=GAUGE_SIZE, inner=0.22, outer=0.72, step_deg=ANGLE_STEP_DEG, background_deg=12.0,
@@ -145,10 +145,15 @@ class PointerReader(object):
         return mean, u
 
     @staticmethod
-    def _direction(line):
-        """The line's outward direction, degrees clockwise from up."""
-        u = line[1]
-        return wrap360(math.degrees(math.atan2(u[0], -u[1])))
+    def _meets_circle(line, centre, r):
+        """Angle (deg clockwise from up, about ``centre``) where the line leaves the circle of radius r."""
+        p, u = line
+        q = p - np.asarray(centre)
+        b = float(np.dot(q, u))
+        disc = b * b - (float(np.dot(q, q)) - r * r)
+        t = -b + math.sqrt(max(disc, 0.0))
+        x, y = q + t * u
+        return wrap360(math.degrees(math.atan2(x, -y)))
 
     @staticmethod
     def _colour_class(needle_lab, face_lab):
@@ -175,7 +180,7 @@ class PointerReader(object):
 
     def needle_angle(self, image, quad, centre=(0.5, 0.5), radius=0.45, aspect=1.0, scale=None,
                      pointer_colour="", ignore_colour=""):
-        """Needle direction (deg clockwise from up) in the face's frontal
+        """Needle angle (deg clockwise from up, about the calibrated centre) in the face's frontal
         view, a confidence and a detail dict (``reason``: why the confidence is low, "" when it is not).
 
         From the calibration: ``centre`` (pivot as fractions of the box width, height), ``radius``
@@ -228,11 +233,13 @@ class PointerReader(object):
         if line is None or inner_line is None or outer_line is None:
             detail.update(reason="needle not found (no continuous needle along the radius)", angle=None)
             return None, 0.0, detail
-        # the needle turns about its own pivot, so its direction is the reading, wherever the
-        # calibrated centre lies
-        angle = self._direction(line)
-        inner_angle = self._direction(inner_line)
-        outer_angle = self._direction(outer_line)
+        # where the needle's line meets the scale circle: near the tip, so the line's direction
+        # error (a tapered or shadowed needle) hardly matters, and a pivot off the calibrated
+        # centre moves the reading only by the parallax at the scale, not by a ray's full error
+        ring = rad * self._reach_radii[-1]
+        angle = self._meets_circle(line, c, ring)
+        inner_angle = self._meets_circle(inner_line, c, ring)
+        outer_angle = self._meets_circle(outer_line, c, ring)
         # the needle's line passes closest to the calibrated centre here: the pivot seen in the picture
         foot = line[0] + np.dot(np.asarray(c) - line[0], line[1]) * line[1]
         spread = float(np.percentile(full, 90) - base) + 1.0
