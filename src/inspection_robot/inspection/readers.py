@@ -208,6 +208,11 @@ class PointerReader(object):
         if not candidates:
             detail.update(reason="needle not found", angle=None)
             return None, 0.0, detail
+        # distance from the dial's own colour (median over the sweep at each radius): a pointer
+        # differs from the dial, the bright or dark fringe that the local mean leaves beside a
+        # strong needle does not
+        dial = np.median(samples, axis=0)
+        off_dial = np.median(np.sqrt(((samples - dial[None]) ** 2).sum(axis=2)), axis=1)
         described = []
         for i, strength in candidates:
             level = 0.5 * (full[i] + base)
@@ -217,7 +222,8 @@ class PointerReader(object):
             lo, hi = max(0, i - 2), i + 3
             reach = float((reach_dist[lo:hi].max(axis=0) > level).mean())
             described.append({"index": i, "strength": strength, "colour": colour, "reach": reach,
-                              "score": strength * (0.5 + float(strong.mean())) * (0.3 + reach)})
+                              "score": strength * (0.5 + float(strong.mean())) * (0.3 + reach)
+                              * float(off_dial[i])})
         pool = described
         if pointer_colour:
             pool = [d for d in described if self._matches(d["colour"], pointer_colour)] or described
