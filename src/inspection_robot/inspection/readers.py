@@ -251,7 +251,7 @@ class PointerReader(object):
         spread = float(np.percentile(full, 90) - base) + 1.0
         contrast = (full[i] - base) / max(spread, 1.0)
         disagreement = abs(angle_diff(inner_angle, outer_angle))
-        confidence = 100.0 * min(1.0, contrast / 2.5) * math.exp(-disagreement / 6.0)
+        confidence = 100.0 * min(1.0, contrast / 2.5) * math.exp(-disagreement / 10.0)
         reason = ""
         # a rival is another pointer: not the same needle's other edge, nor its counterweight
         # (opposite, falling short of the scale)
