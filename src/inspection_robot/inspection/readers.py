@@ -231,7 +231,11 @@ class PointerReader(object):
             pool = [d for d in pool if not self._matches(d["colour"], ignore_colour)] or pool
         pool = sorted(pool, key=lambda d: -d["score"])
         chosen = pool[0]
-        i = chosen["index"]
+        # centre on the needle itself: of the peaks within +-8 deg, the one farthest from the dial's
+        # colour (a fringe beside the needle can win the profile)
+        near = np.arange(max(0, chosen["index"] - int(8.0 / self.step_deg)),
+                         min(len(angles), chosen["index"] + int(8.0 / self.step_deg) + 1))
+        i = int(near[np.argmax(off_dial[near] * (full[near] > base))])
         k = len(self._radii) // 2
         line = self._line(dist, angles, i, c, rad, 0, len(self._radii))
         inner_line = self._line(dist, angles, i, c, rad, 0, k)
