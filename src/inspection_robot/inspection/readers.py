@@ -116,15 +116,17 @@ class PointerReader(object):
                 break
         return taken, base
 
-    def _line(self, dist, angles, i, centre, radius, lo, hi):
+    def _line(self, dist, angles, i, centre, radius, lo, hi, like=None):
         """The needle's centre line near direction index ``i`` from the samples of radii ``lo:hi``:
         the angular centroid of the needle at each radius gives a point; a weighted least-squares
-        line through them. Returns (point on the line, unit direction outwards) or None."""
+        line through them. ``like`` (angles x radii, 0..1): how much each sample has the needle's
+        own colour; it scales the weights, so a number or tick of another colour beside the needle
+        does not pull the centroid. Returns (point on the line, unit direction outwards) or None."""
         half = max(2, int(round(6.0 / self.step_deg)))
         idx = np.arange(max(0, i - half), min(len(angles), i + half + 1))
         points, weights = [], []
         for k in range(lo, hi):
-            column = dist[idx, k]
+            column = dist[idx, k] if like is None else dist[idx, k] * like[idx, k]
             w = np.clip(column - 0.5 * (column.max() + np.median(dist[:, k])), 0.0, None)
             if w.sum() <= 0:
                 continue
@@ -143,6 +145,23 @@ class PointerReader(object):
         if np.dot(u, pts[-1] - pts[0]) < 0:
             u = -u
         return mean, u
+
+    @staticmethod
+    def _needle_likeness(dist, samples, background, full, base, i):
+        """How much every sample has the colour of the needle at direction index ``i`` (angles x
+        radii, 0..1): 1 at the needle's median colour, falling linearly to 0 at the needle's
+        contrast from the face. A half-covered pixel at the needle's edge scores about its
+        coverage on both edges alike (no bias); a white number beside a red needle on a black
+        dial scores near 0."""
+        strong = dist[i] > 0.5 * (full[i] + base)
+        if not strong.any():
+            return None
+        needle = np.median(samples[i][strong], axis=0)
+        contrast = float(np.sqrt(((needle - np.median(background[i], axis=0)) ** 2).sum()))
+        if contrast <= 1.0:
+            return None
+        apart = np.sqrt(((samples - needle[None, None]) ** 2).sum(axis=2))
+        return np.clip(1.0 - apart / contrast, 0.0, 1.0)
 
     @staticmethod
     def _meets_circle(line, centre, r):
@@ -236,10 +255,11 @@ class PointerReader(object):
         near = np.arange(max(0, chosen["index"] - int(8.0 / self.step_deg)),
                          min(len(angles), chosen["index"] + int(8.0 / self.step_deg) + 1))
         i = int(near[np.argmax(off_dial[near] * (full[near] > base))])
+        like = self._needle_likeness(dist, samples, background, full, base, i)
         k = len(self._radii) // 2
-        line = self._line(dist, angles, i, c, rad, 0, len(self._radii))
-        inner_line = self._line(dist, angles, i, c, rad, 0, k)
-        outer_line = self._line(dist, angles, i, c, rad, k, len(self._radii))
+        line = self._line(dist, angles, i, c, rad, 0, len(self._radii), like)
+        inner_line = self._line(dist, angles, i, c, rad, 0, k, like)
+        outer_line = self._line(dist, angles, i, c, rad, k, len(self._radii), like)
         if line is None or inner_line is None or outer_line is None:
             detail.update(reason="needle not found (no continuous needle along the radius)", angle=None)
             return None, 0.0, detail
