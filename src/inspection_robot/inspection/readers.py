@@ -54,7 +54,8 @@ class PointerReader(object):
     reading uncertain ("two pointers").
 
     The pivot is not trusted: the chosen pointer's centre line is fitted to the needle's own
-    pixels (the angular centroid at each radius), so a pivot off the calibrated centre (a
+    pixels (the angular centroid at each radius; for a coloured needle only samples of its hue, so
+    a white number beside a red needle does not pull the line), so a pivot off the calibrated centre (a
     temperature indicator, a calibration that marked the dial's centre) still gives the needle's
     real line; the reading is where that line meets the scale circle (0.9 of the dial radius about
     the calibrated centre). Lines fitted to the inner and outer halves give the agreement that,
@@ -147,21 +148,22 @@ class PointerReader(object):
         return mean, u
 
     @staticmethod
-    def _needle_likeness(dist, samples, background, full, base, i):
-        """How much every sample has the colour of the needle at direction index ``i`` (angles x
-        radii, 0..1): 1 at the needle's median colour, falling linearly to 0 at the needle's
-        contrast from the face. A half-covered pixel at the needle's edge scores about its
-        coverage on both edges alike (no bias); a white number beside a red needle on a black
-        dial scores near 0."""
+    def _needle_likeness(dist, samples, background, full, base, i, min_chroma=15.0):
+        """How much every sample has the hue of a coloured needle at direction index ``i`` (angles
+        x radii, 0..1), or None for a needle of the face's own hue (black on white: the numbers
+        and ticks share its ink, colour cannot tell them apart). Only the chroma (Lab a, b) counts,
+        so glare or shade along the needle do not matter: 1 at the needle's median chroma, falling
+        linearly to 0 at the face's. A half-covered pixel at the needle's edge scores about its
+        coverage on both edges alike (no bias); a white number beside a red needle scores near 0."""
         strong = dist[i] > 0.5 * (full[i] + base)
         if not strong.any():
             return None
-        needle = np.median(samples[i][strong], axis=0)
-        contrast = float(np.sqrt(((needle - np.median(background[i], axis=0)) ** 2).sum()))
-        if contrast <= 1.0:
+        needle = np.median(samples[i][strong][:, 1:], axis=0)
+        chroma = float(np.sqrt(((needle - np.median(background[i][:, 1:], axis=0)) ** 2).sum()))
+        if chroma < min_chroma:
             return None
-        apart = np.sqrt(((samples - needle[None, None]) ** 2).sum(axis=2))
-        return np.clip(1.0 - apart / contrast, 0.0, 1.0)
+        apart = np.sqrt(((samples[:, :, 1:] - needle[None, None]) ** 2).sum(axis=2))
+        return np.clip(1.0 - apart / chroma, 0.0, 1.0)
 
     @staticmethod
     def _meets_circle(line, centre, r):
@@ -255,11 +257,15 @@ class PointerReader(object):
         near = np.arange(max(0, chosen["index"] - int(8.0 / self.step_deg)),
                          min(len(angles), chosen["index"] + int(8.0 / self.step_deg) + 1))
         i = int(near[np.argmax(off_dial[near] * (full[near] > base))])
-        like = self._needle_likeness(dist, samples, background, full, base, i)
         k = len(self._radii) // 2
-        line = self._line(dist, angles, i, c, rad, 0, len(self._radii), like)
-        inner_line = self._line(dist, angles, i, c, rad, 0, k, like)
-        outer_line = self._line(dist, angles, i, c, rad, k, len(self._radii), like)
+        # fitted to the samples of the needle's own colour; to all of them where that leaves too
+        # few (a needle hardly apart from the face)
+        for like in (self._needle_likeness(dist, samples, background, full, base, i), None):
+            line = self._line(dist, angles, i, c, rad, 0, len(self._radii), like)
+            inner_line = self._line(dist, angles, i, c, rad, 0, k, like)
+            outer_line = self._line(dist, angles, i, c, rad, k, len(self._radii), like)
+            if line is not None and inner_line is not None and outer_line is not None:
+                break
         if line is None or inner_line is None or outer_line is None:
             detail.update(reason="needle not found (no continuous needle along the radius)", angle=None)
             return None, 0.0, detail
