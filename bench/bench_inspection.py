@@ -8,6 +8,12 @@ located box. World part: the camera team's renderer and ground-truth projection 
 simulated yard's gauges: record a preset, calibrate it from ground truth, come back off by up to
 0.3 m / 5 deg, find with the full finder (heading correction, coarse-to-fine, re-centring), read.
 
+Real part (when the photos are present, see scripts/real_gauges.py): real photographs labelled by
+eye (bench/data/real_gauges.json), each one both the preset's picture and the live picture, read
+through read_scale's core (ScaleReader): accuracy, the share flagged uncertain, gross errors
+(> 10 % FS) not flagged, a reliability curve (accuracy per confidence band), and pictures that
+are not a gauge, which must fail.
+
 Prints one JSON line per figure: mean abs error (% of full scale), share within 1 % and 1.5 %
 FS, find success rate, mean ROI IoU, time per find and per read.
 """
@@ -22,10 +28,10 @@ import time
 import cv2
 import numpy as np
 
-from inspection_robot.inspection import synthetic as S
+from inspection_robot.sim import fixtures as S
 from inspection_robot.inspection.geometry import quad_iou, transform_quad
 from inspection_robot.inspection.locate import LocateError, Locator
-from inspection_robot.inspection.readers import PointerReader
+from inspection_robot.inspection.readers import PointerReader, ReadFailed
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 W, H = 640, 360
@@ -79,7 +85,10 @@ def synthetic_case(rng, locator, reader):
     t_find = time.perf_counter() - t0
     iou = quad_iou(located.quads[0], true_quad)
     t0 = time.perf_counter()
-    reading = reader.read(new, located.quads[0], scale)
+    try:
+        reading = reader.read(new, located.quads[0], scale)
+    except ReadFailed:
+        return float("nan"), t_find, time.perf_counter() - t0, iou   # refused: no number
     t_read = time.perf_counter() - t0
     return scale.error_percent_fs(reading.value, value), t_find, t_read, iou
 
@@ -152,10 +161,123 @@ def world_cases(rng, locator, reader, count, tmp):
     return out
 
 
+def label_spec(label, width, height):
+    """A calibration target spec (calibration.build_targets' format) from a photo's labels: a box
+    1.15 tick radii around the pivot (clipped to the picture), the marks' angles as the scale."""
+    px, py = label["pivot"]
+    half = 1.15 * float(label["radius"])
+    x0, y0 = max(0.0, px - half), max(0.0, py - half)
+    x1, y1 = min(width - 1.0, px + half), min(height - 1.0, py + half)
+    angles = [math.degrees(math.atan2(x - px, -(y - py))) % 360.0 for _, x, y in label["marks"]]
+    values = [float(v) for v, _, _ in label["marks"]]
+    spec = {"kind": "pointer", "name": label["id"], "box": [x0, y0, x1, y0, x1, y1, x0, y1],
+            "centre": ((px - x0) / (x1 - x0), (py - y0) / (y1 - y0)), "radius": float(label["radius"]) / (x1 - x0),
+            "aspect": (x1 - x0) / (y1 - y0), "start_angle": angles[0], "end_angle": angles[-1],
+            "start_value": values[0], "end_value": values[-1], "unit": label.get("unit", "")}
+    if len(values) > 2:
+        spec["scale_table"] = list(zip(values, angles))
+    for key in ("pointer_colour", "ignore_colour"):
+        if label.get(key):
+            spec[key] = label[key]
+    return spec
+
+
+def real_photo_preset(root, label, picture, optics_for):
+    """A one-picture preset of ``picture`` calibrated from ``label``; returns its directory."""
+    from inspection_robot.atomic_file import write_atomic
+    from inspection_robot.inspection.calibration import calibrate
+    from inspection_robot.inspection.preset import PresetDirWriter, PresetInfo
+    image = cv2.imread(picture)
+    height, width = image.shape[:2]
+    with PresetDirWriter(root, label["id"].replace(".", "_"), "20260101_000000") as writer:
+        cv2.imwrite(writer.file("zoom0.jpg"), image, [cv2.IMWRITE_JPEG_QUALITY, 97])
+        info = PresetInfo(label["id"], "visible", False, "20260101_000000", 0.0, 0.0, 1.0, 0x4000,
+                          (0.0, 0.0, 0.0), [1.0], width, height)
+        write_atomic(writer.file("preset.ini"), info.to_ini())
+        calibrate(writer.path, [label_spec(label, width, height)], optics_for(width, height))
+        return writer.commit()
+
+
+def real_cases(photo_dir, tmp):
+    """Score every labelled photo present in ``photo_dir``; returns the result dicts (None when no photo)."""
+    from inspection_robot.inspection.geometry import flat_from_quads
+    from inspection_robot.inspection.preset import load_preset
+    from inspection_robot.inspection.reading import ReadError, ScaleReader
+    with open(os.path.join(ROOT, "bench", "data", "real_gauges.json")) as f:
+        doc = json.load(f)
+    by_id = dict((p["id"], p) for p in doc["photos"])
+    found = dict((os.path.splitext(n)[0], os.path.join(photo_dir, n)) for n in os.listdir(photo_dir))
+    reader = ScaleReader([tmp], [tmp, photo_dir], os.path.join(tmp, "results"))
+    out = []
+    for label in doc["photos"] + doc["negatives"]:
+        picture = found.get(label["id"])
+        if picture is None:
+            continue
+        calibration = by_id[label.get("calibration_of", label["id"])]
+        preset_dir = real_photo_preset(tmp, dict(calibration, id=label["id"]),
+                                       found[calibration["id"]] if "calibration_of" in label else picture,
+                                       S.linear_optics)
+        preset = load_preset(preset_dir)
+        box = flat_from_quads([preset.targets[0].boxes[0]])
+        t0 = time.perf_counter()
+        try:
+            outcome = reader.read(preset_dir, 0, [picture], [], box, [], "20260102_000000")
+        except ReadError as err:
+            out.append({"id": label["id"], "negative": "calibration_of" in label, "failed": str(err),
+                        "t": time.perf_counter() - t0})
+            continue
+        scale = preset.targets[0].scale
+        error = scale.error_percent_fs(outcome.scale[0], label["truth"]) if "truth" in label else None
+        out.append({"id": label["id"], "negative": "calibration_of" in label, "failed": "", "error": error,
+                    "confidence": outcome.possibility[0], "uncertain": outcome.uncertain[0],
+                    "tags": label.get("tags", []), "at_end": label.get("truth") in (scale.start_value, scale.end_value),
+                    "label_uncertainty_pct_fs": 100.0 * label.get("uncertainty", 0.0) / scale.full_scale,
+                    "t": time.perf_counter() - t0})
+    return out
+
+
+def _accuracy(name, rows):
+    errors = np.array([r["error"] for r in rows if r.get("error") is not None and not r["failed"]])
+    if not len(errors):
+        return {"bench": name, "n": 0}
+    return {"bench": name, "n": len(errors), "mean_abs_error_pct_fs": round(float(errors.mean()), 3),
+            "median_pct_fs": round(float(np.median(errors)), 3),
+            "within_1pct_fs": round(float((errors <= 1.0).mean()), 4),
+            "within_2pct_fs": round(float((errors <= 2.0).mean()), 4),
+            "within_5pct_fs": round(float((errors <= 5.0).mean()), 4)}
+
+
+def report_real(rows):
+    photos = [r for r in rows if not r["negative"]]
+    read = [r for r in photos if not r["failed"]]
+    confident = [r for r in read if not r["uncertain"]]
+    print(json.dumps(dict(_accuracy("inspection_real_all", read), photos=len(photos),
+                          distinct_photos=len([r for r in photos if "augmented_copy" not in r["tags"]]),
+                          failed=len(photos) - len(read), uncertain=len(read) - len(confident),
+                          gross_unflagged=len([r for r in confident if r["error"] > 10.0]),
+                          mean_label_uncertainty_pct_fs=round(
+                              float(np.mean([r["label_uncertainty_pct_fs"] for r in photos])), 3))))
+    print(json.dumps(_accuracy("inspection_real_confident", confident)))
+    print(json.dumps(_accuracy("inspection_real_not_at_scale_end", [r for r in read if not r["at_end"]])))
+    for tag in ("drag_pointer", "broad_tail", "needle_tail", "compound"):
+        print(json.dumps(_accuracy("inspection_real_" + tag, [r for r in read if tag in r["tags"]])))
+    for low, high in ((0, 25), (25, 50), (50, 75), (75, 90), (90, 101)):
+        band = [r for r in read if low <= r["confidence"] < high]
+        band_name = "%d-%d" % (low, min(high, 100))
+        print(json.dumps(dict(_accuracy("inspection_real_reliability", band), confidence=band_name)))
+    negatives = [r for r in rows if r["negative"]]
+    print(json.dumps({"bench": "inspection_real_not_a_gauge", "n": len(negatives),
+                      "failed": len([r for r in negatives if r["failed"]]),
+                      "reasons": sorted(set(r["failed"].split(": ", 1)[-1][:60] for r in negatives if r["failed"]))}))
+    print(json.dumps({"bench": "inspection_real_read", "n": len(rows),
+                      "p50_ms": round(1000 * float(np.median([r["t"] for r in rows])), 1)}))
+
+
 def report(name, results):
-    errors = np.array([r[0] for r in results if r[0] is not None])
+    refused = len([r for r in results if r[0] is not None and math.isnan(r[0])])
+    errors = np.array([r[0] for r in results if r[0] is not None and not math.isnan(r[0])])
     finds = [r for r in results if r[0] is not None]
-    figures = {"bench": name + "_accuracy", "n": len(results),
+    figures = {"bench": name + "_accuracy", "n": len(results), "read_refused": refused,
                "mean_abs_error_pct_fs": round(float(errors.mean()), 3) if len(errors) else None,
                "within_1pct_fs": round(float((errors <= 1.0).mean()), 4) if len(errors) else None,
                "within_1_5pct_fs": round(float((errors <= 1.5).mean()), 4) if len(errors) else None,
@@ -177,6 +299,16 @@ def main():
     locator = Locator("orb", max_side=960)
     reader = PointerReader()
     report("inspection_synthetic", [synthetic_case(rng, locator, reader) for _ in range(CASES)])
+    photo_dir = os.environ.get("REAL_GAUGES_DIR") or os.path.expanduser("~/.cache/inspection_robot/real_gauges")
+    if os.path.isdir(photo_dir):
+        tmp = tempfile.mkdtemp(prefix="bench_inspection_real_")
+        try:
+            report_real(real_cases(photo_dir, tmp))
+        finally:
+            shutil.rmtree(tmp, ignore_errors=True)
+    else:
+        print(json.dumps({"bench": "inspection_real", "skipped": "no photos in %s (run scripts/real_gauges.py)"
+                          % photo_dir}))
     world_count = int(os.environ.get("BENCH_INSPECTION_WORLD_CASES", "40"))
     if world_count > 0:
         tmp = tempfile.mkdtemp(prefix="bench_inspection_")

@@ -1,6 +1,8 @@
 #!/usr/bin/env python3
 """rostest, end to end in simulation: record a preset, calibrate it from the world's ground truth,
-change the meters, come back 0.3 m / 5 deg off, find_scale, read_scale; bad goals fail with reasons."""
+change the meters, come back 0.3 m / 5 deg off, find_scale, read_scale; bad goals fail with reasons;
+foreign objects: stops up to 0.4 m and 5 deg off the preset pose raise no false alarm, a real
+object is still found at the worst stop."""
 import json
 import math
 import os
@@ -128,6 +130,57 @@ class TestInspectionSim(unittest.TestCase):
         value = read.scale[names.index(FACE)]
         self.assertLess(abs(value - truth) / (face.range[1] - face.range[0]) * 100.0, 1.0, (value, truth))
         self.assertEqual(list(read.foreign_scale), [0.0])
+
+    def record_calibrated(self, equipment, trans_id, dist=3.5, zoom=2.0):
+        """A preset of ``equipment``'s front seen from ``dist`` m, calibrated from the world; (dir, pose)."""
+        eq = self.world.equipment[equipment]
+        base, normal, _right, _width = eq.side_frame("front")
+        spot = base + normal * dist
+        pose = (float(spot[0]), float(spot[1]), math.atan2(-normal[1], -normal[0]))
+        tilt = math.degrees(math.atan2(self.world.sensor_height - 1.4, dist))
+        self.publish_pose(pose)
+        self.call(self.terrace, "set_angle", "0,%d" % round(tilt * 100))
+        self.call(self.camera, "set_zoom_level", "%.2f" % zoom)
+        self.preset_pub.publish(PresetScaleCmd(sender="server", trans_id=trans_id, preset_id=equipment,
+                                               type="meter"))
+        ack = self.preset_acks.wait(lambda a: a.trans_id == trans_id, timeout=60.0, what="preset_scale_ack")
+        self.assertEqual(ack.result, "success", ack.directory)
+        optics_cfg = rospy.get_param("/find_scale/camera_optics")
+        optics = ZoomOptics(optics_cfg["zoom_hfov_deg"], optics_cfg["width"], optics_cfg["height"])
+        info = load_preset(ack.directory, need_calibration=False).info
+        head = RenderedHead(Renderer(self.world, seed=5), optics, info.pose, self.world.sensor_height,
+                            info.width, info.height)
+        head.set_angles(info.pan_deg, info.tilt_deg)
+        head.set_zoom(info.zoom)
+        calibrate(ack.directory, world_specs(self.world, head, switch_picture_path=os.path.join(
+            self.root, "%s_%s.png")), optics)
+        return ack.directory, pose
+
+    def foreign_count(self, preset_dir, pose, back_m, side_m, yaw_deg, trans_id):
+        fwd = (math.cos(pose[2]), math.sin(pose[2]))
+        stop = (pose[0] - fwd[0] * back_m - fwd[1] * side_m, pose[1] - fwd[1] * back_m + fwd[0] * side_m,
+                pose[2] + math.radians(yaw_deg))
+        self.publish_pose(stop)
+        result = self.goal("find_foreign", json.dumps({"preset_path": preset_dir}))
+        data = json.loads(result.data)
+        self.assertEqual(result.ret_code, "0", data)
+        self.read_pub.publish(ReadScaleCmd(sender="server", trans_id=trans_id, directory=preset_dir,
+                                           foreign_detect=1, foreign_filename=[data["foreign_filename"]]))
+        read = self.read_acks.wait(lambda a: a.trans_id == trans_id, timeout=60.0, what="read_scale_ack")
+        self.assertEqual(read.result, "success", read.foreign_result)
+        return read.foreign_scale[0]
+
+    def test_foreign_objects_survive_an_inexact_stop(self):
+        preset_dir, pose = self.record_calibrated("cabinet_1", 31)
+        stops = [(back, 0.0, yaw) for back in (0.1, 0.2, 0.3, 0.4) for yaw in (-5.0, 0.0, 5.0)] + [(0.4, 0.3, 5.0)]
+        counts = [self.foreign_count(preset_dir, pose, back, side, yaw, 40 + i)
+                  for i, (back, side, yaw) in enumerate(stops)]
+        self.assertEqual(counts, [0.0] * len(stops), list(zip(stops, counts)))
+        self.call(self.set_value, "foreign/nest", "cabinet_1,front,0.1,1.62,0.2,0.15")
+        try:
+            self.assertEqual(self.foreign_count(preset_dir, pose, 0.4, 0.3, 5.0, 60), 1.0)
+        finally:
+            self.call(self.set_value, "foreign/nest", "")
 
     def test_bad_preset_requests_fail_with_reasons(self):
         for trans_id, preset_id, extra, reason in ((21, "", "", "invalid preset_id"),

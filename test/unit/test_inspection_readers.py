@@ -1,8 +1,9 @@
 """Readers on synthetic faces of every style: pointer gauges, lamps, switches, thermal boxes."""
+import cv2
 import numpy as np
 import pytest
 
-from inspection_robot.inspection import synthetic as S
+from inspection_robot.sim import fixtures as S
 from inspection_robot.inspection.gauge import GaugeScale
 from inspection_robot.inspection.readers import LAMP_CODES, PointerReader, read_lamp, read_switch, \
     read_thermal_max, switch_patch
@@ -88,3 +89,64 @@ def test_thermal_max_inside_the_box_only():
     assert reading.confidence > 90
     with pytest.raises(ValueError):
         read_thermal_max(frame, [[500, 500], [510, 500], [510, 510], [500, 510]])
+
+
+def _with_second_pointer(face, angle_deg, colour=(30, 30, 210)):
+    """A drag / set-point pointer painted over a face: a thin line from the pivot at ``angle_deg``."""
+    face = face.copy()
+    c = (face.shape[1] - 1) / 2.0
+    a = np.radians(angle_deg)
+    length = 0.8 * 0.45 * face.shape[1]
+    tip = (int(round(c + length * np.sin(a))), int(round(c - length * np.cos(a))))
+    cv2.line(face, (int(round(c)), int(round(c))), tip, colour, 4, cv2.LINE_AA)
+    return face
+
+
+def test_two_pointers_uncertain_without_a_hint_and_read_with_one():
+    rng = np.random.default_rng(12)
+    scale = S.style_scale("classic")
+    face = _with_second_pointer(S.draw_gauge_face(scale, 0.5, 300), scale.angle(1.3))
+    image, quad = _scene(face, rng)
+    reader = PointerReader()
+    unsure = reader.read(image, quad, scale)
+    assert unsure.confidence < 50 and unsure.detail["reason"].startswith("two pointers")
+    for hint in (dict(ignore_colour="red"), dict(pointer_colour="dark"), dict(pointer_colour="black")):
+        sure = reader.read(image, quad, scale, **hint)
+        assert scale.error_percent_fs(sure.value, 0.5) < 0.5, (hint, sure)
+        assert sure.confidence >= 50 and sure.detail["reason"] == ""
+    red = reader.read(image, quad, scale, pointer_colour="red")
+    assert scale.error_percent_fs(red.value, 1.3) < 1.0
+
+
+def test_pivot_off_the_calibrated_centre_reads_the_needle_line():
+    rng = np.random.default_rng(13)
+    scale = S.style_scale("classic")
+    image, quad = _scene(S.draw_gauge_face(scale, 1.1, 300), rng)
+    reader = PointerReader()
+    for centre in ((0.48, 0.5), (0.5, 0.48), (0.53, 0.47)):
+        # the calibration marks a centre 2-4 % of the box (4-9 % of the dial radius) off the pivot:
+        # the needle's own line is found and read where it meets the scale circle
+        reading = reader.read(image, quad, scale, centre=centre)
+        assert scale.error_percent_fs(reading.value, 1.1) < 1.0, (centre, reading)
+
+
+def test_needle_beyond_the_scale_end_is_uncertain_not_clamped():
+    rng = np.random.default_rng(14)
+    drawn = GaugeScale(225, 135, 0.0, 1.6)
+    image, quad = _scene(S.draw_gauge_face(drawn, 0.0, 300), rng)
+    calibrated = GaugeScale(232, 135, 0.0, 1.6)     # the needle rests 7 deg before the calibrated start
+    reading = PointerReader().read(image, quad, calibrated)
+    assert reading.value == 0.0
+    assert reading.confidence < 50 and "outside the scale's sweep" in reading.detail["reason"]
+    assert "start" in reading.detail["reason"]
+
+
+@pytest.mark.parametrize("picture,reason", [(np.full((300, 300, 3), 128, np.uint8), "blank"),
+                                            (np.full((300, 300, 3), 255, np.uint8), "overexposed"),
+                                            (np.full((300, 300, 3), 2, np.uint8), "underexposed")])
+def test_unreadable_faces_fail(picture, reason):
+    from inspection_robot.inspection.readers import ReadFailed
+    quad = [[50, 50], [250, 50], [250, 250], [50, 250]]
+    with pytest.raises(ReadFailed) as err:
+        PointerReader().read(picture, quad, S.style_scale("classic"))
+    assert reason in str(err.value)

@@ -5,7 +5,7 @@ import cv2
 import numpy as np
 import pytest
 
-from inspection_robot.inspection import synthetic as S
+from inspection_robot.sim import fixtures as S
 from inspection_robot.inspection.geometry import flat_from_quads
 from inspection_robot.inspection.locate import Locator
 from inspection_robot.inspection.preset import load_preset
@@ -63,7 +63,8 @@ def test_foreign_object_present_and_absent(setup):
     clean = reader.read(path, 1, [], [picture], [], [], STAMP)
     assert clean.foreign_scale == [0.0] and clean.scale == []
     dirty_image = cv2.imread(picture)
-    cv2.ellipse(dirty_image, (60, 232), (40, 22), 0, 0, 360, (30, 60, 90), -1)
+    # on the equipment (the plane the registration holds for), beside the targets
+    cv2.ellipse(dirty_image, (360, 60), (40, 22), 0, 0, 360, (30, 60, 90), -1)
     dirty = picture.replace("_01.jpg", "_02.jpg")
     cv2.imwrite(dirty, dirty_image)
     both = reader.read(path, 2, [picture], [dirty], roi, [], STAMP)
@@ -125,3 +126,62 @@ def test_thermal_target(tmp_path):
                       [5, 5, 30, 5, 30, 30, 5, 30], STAMP)
     assert out.scale == [pytest.approx(65.25)]
     assert os.path.isfile(out.picture_path[0])
+
+
+def test_a_box_that_is_not_the_gauge_fails_with_the_reason(setup, tmp_path):
+    reader, path, picture, roi, _scene = setup
+    other = os.path.join(os.path.dirname(picture), "zoom0_20260102_080000_07.jpg")
+    rng = np.random.default_rng(21)
+    cv2.imwrite(other, S.textured_background(480, 270, rng))
+    with pytest.raises(ReadError) as err:
+        reader.read(path, 0, [other], [], roi, [], STAMP)
+    assert "box 0: the box does not show the calibrated gauge" in str(err.value)
+    blank = os.path.join(os.path.dirname(picture), "zoom0_20260102_080000_08.jpg")
+    cv2.imwrite(blank, np.full((270, 480, 3), 255, np.uint8))
+    with pytest.raises(ReadError) as err:
+        reader.read(path, 0, [blank], [], roi, [], STAMP)
+    assert "box 0: overexposed picture in the box" in str(err.value)
+
+
+def test_uncertain_readings_say_why_in_the_result():
+    from inspection_robot.inspection.reading import ReadOutcome, result_text
+    fine = ReadOutcome([1.0, 0.0], [90.0, 80.0], [], [], [], [], ["", ""])
+    assert result_text(fine, "success") == "success"
+    unsure = ReadOutcome([1.0, 0.0, 2.0], [30.0, 80.0, 20.0], [], [], [], [],
+                         ["two pointers 40 deg apart", "", "glare"])
+    assert result_text(unsure, "success") == "uncertain: box 0: two pointers 40 deg apart; box 2: glare"
+
+
+@pytest.mark.parametrize("change,reason", [
+    (dict(start_value=1.0, end_value=1.0), "must differ"),
+    (dict(centre=(1.2, 0.5)), "centre"),
+    (dict(radius=0.0), "radius"),
+    (dict(pointer_colour="purple"), "pointer_colour"),
+])
+def test_bad_pointer_calibrations_are_refused(tmp_path, change, reason):
+    from inspection_robot.inspection.calibration import calibrate
+    from inspection_robot.atomic_file import write_atomic
+    from inspection_robot.inspection.preset import PresetDirWriter, PresetError, PresetInfo
+    spec = {"kind": "pointer", "box": [10, 10, 70, 10, 70, 70, 10, 70], "start_angle": 225, "end_angle": 135,
+            "start_value": 0.0, "end_value": 1.6}
+    spec.update(change)
+    with PresetDirWriter(str(tmp_path), "m", "20260101_000000") as writer:
+        cv2.imwrite(writer.file("zoom0.jpg"), np.zeros((90, 160, 3), np.uint8))
+        info = PresetInfo("m", "visible", False, "20260101_000000", 0, 0, 1.0, 0x4000, (0, 0, 0), [1.0], 160, 90)
+        write_atomic(writer.file("preset.ini"), info.to_ini())
+        with pytest.raises(PresetError) as err:
+            calibrate(writer.path, [spec], S.linear_optics(160, 90))
+    assert reason in str(err.value)
+
+
+def test_colour_hints_round_trip_and_old_calibrations_load(setup):
+    from inspection_robot.inspection.preset import Target
+    _reader, path, _picture, _roi, _scene = setup
+    old = load_preset(path).targets[0]
+    assert old.params["pointer_colour"] == "" and old.params["ignore_colour"] == ""
+    assert "pointer_colour" not in old.section()
+    hinted = Target("pointer", old.boxes, name="x", **dict(old.params, pointer_colour="dark", ignore_colour="red"))
+    section = hinted.section()
+    assert (section["pointer_colour"], section["ignore_colour"]) == ("dark", "red")
+    again = Target.from_section(dict((k, str(v)) for k, v in section.items()), old.boxes)
+    assert again.params["ignore_colour"] == "red"

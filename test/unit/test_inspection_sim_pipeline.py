@@ -4,15 +4,18 @@ import math
 import os
 
 import cv2
+import numpy as np
 import pytest
 import yaml
 
 from inspection_robot.camera.optics import ZoomOptics
 from inspection_robot.inspection.calibration import calibrate
 from inspection_robot.inspection.finder import Cancelled, Finder, FindError, ThermalGeometry
+from inspection_robot.inspection.gauge import GaugeScale
 from inspection_robot.inspection.locate import Locator
 from inspection_robot.inspection.preset import load_preset
 from inspection_robot.inspection.reading import ScaleReader
+from inspection_robot.inspection.readers import PointerReader
 from inspection_robot.inspection.recorder import record_preset, zoom_ladder
 from inspection_robot.sim.inspection_sim import RenderedHead, world_specs
 from inspection_robot.sim.render import Renderer, ThermalRenderer
@@ -124,3 +127,28 @@ def test_find_fails_with_a_reason_when_the_view_is_gone(tmp_path, yard):
     with pytest.raises(Cancelled):
         cancelled.find(load_preset(path), "find_scale", 0.0, "20260102_000001", cv2.imread)
     assert ThermalGeometry(500, 384, 288).width == 384
+
+
+@pytest.mark.parametrize("shift,turn_deg", [(0.0, 0.0), (0.1, 0.0), (-0.1, 3.0)])
+def test_red_needle_beside_a_white_number_reads_its_own_line(yard, shift, turn_deg):
+    # issue 19: winding_temp (black dial, red needle) at 18 % of its scale lies 3 deg from the
+    # white "25": fitted to every pixel unlike the dial, the needle's outer half leaned onto the
+    # number and read 1.1-1.3 % FS low at the e2e preset (3 m, zoom 1.5)
+    world, renderer, _thermal = yard
+    face = world.faces["transformer_1/winding_temp"]
+    state = face.value
+    truth = face.set_value(face.range[0] + 0.18 * (face.range[1] - face.range[0]))
+    try:
+        pose, tilt = _aim(face, 3.0)
+        head = RenderedHead(renderer, _optics(), (pose[0] + shift, pose[1], pose[2] + math.radians(turn_deg)),
+                            1.2, WIDTH, HEIGHT)
+        head.set_angles(0.0, tilt)
+        head.set_zoom(1.5)
+        spec = [s for s in world_specs(world, head) if s["name"] == face.id][0]
+        scale = GaugeScale(spec["start_angle"], spec["end_angle"], spec["start_value"], spec["end_value"])
+        reading = PointerReader().read(renderer.render(head.camera()), np.reshape(spec["box"], (4, 2)), scale,
+                                       spec["centre"], spec["radius"], spec["aspect"])
+    finally:
+        face.set_value(state)
+    assert scale.error_percent_fs(reading.value, truth) < 0.5, reading
+    assert reading.confidence >= 80, reading

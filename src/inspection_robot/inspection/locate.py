@@ -15,7 +15,8 @@ import numpy as np
 from inspection_robot.inspection.geometry import quad_center, quad_is_convex, transform_quad
 
 Features = namedtuple("Features", "keypoints descriptors scale shape")
-Located = namedtuple("Located", "quads homography inliers matches confidence")
+# points: the inlier matches in the new picture (where the scene agrees with the homography)
+Located = namedtuple("Located", "quads homography inliers matches confidence points")
 
 
 class LocateError(Exception):
@@ -64,12 +65,12 @@ class Locator(object):
 
     def _homography(self, src, dst):
         if len(src) < max(4, self.min_inliers):
-            return None, 0
+            return None, 0, None
         matrix, mask = cv2.findHomography(src, dst, cv2.RANSAC, self.ransac_px / 1.0, maxIters=2000,
                                           confidence=0.995)
         if matrix is None:
-            return None, 0
-        return matrix, int(mask.sum())
+            return None, 0, None
+        return matrix, int(mask.sum()), dst[mask.ravel() > 0]
 
     def locate(self, ref, new, quads):
         """Map ``quads`` (boxes in the reference picture) into the new picture.
@@ -81,7 +82,7 @@ class Locator(object):
         if not isinstance(new, Features):
             new = self.features(new)
         src, dst = self._matches(ref, new)
-        matrix, inliers = self._homography(src, dst)
+        matrix, inliers, points = self._homography(src, dst)
         if matrix is None or inliers < self.min_inliers:
             raise LocateError("too few feature matches with the reference (%d inliers, %d needed)"
                               % (inliers, self.min_inliers))
@@ -95,7 +96,7 @@ class Locator(object):
                 raise LocateError("target box maps to a degenerate shape")
             out.append(mapped)
             confidences.append(min(100.0, 100.0 * box_inliers / (4.0 * self.min_inliers)))
-        return Located(out, matrix, inliers, len(src), confidences)
+        return Located(out, matrix, inliers, len(src), confidences, points)
 
     def _refine(self, quad, src, dst, matrix, inliers):
         """The box through the global homography, shifted by the median residual of the matches near it.

@@ -25,7 +25,7 @@ import numpy as np
 
 from inspection_robot.files import write_atomic
 from inspection_robot.inspection.gauge import GaugeScale
-from inspection_robot.inspection.readers import LAMP_COLOURS
+from inspection_robot.inspection.readers import LAMP_COLOURS, POINTER_COLOURS
 
 PRESET_INI = "preset.ini"
 CALIB_INI = "preset_calib_info.ini"
@@ -177,8 +177,12 @@ class Target(object):
         self.boxes = dict((int(k), np.asarray(v, np.float64).reshape(4, 2)) for k, v in boxes.items())
         self.params = params
         if kind == "pointer":
-            self.scale = GaugeScale(params["start_angle"], params["end_angle"], params["start_value"],
-                                    params["end_value"], params.get("scale_table") or None)
+            try:
+                self.scale = GaugeScale(params["start_angle"], params["end_angle"], params["start_value"],
+                                        params["end_value"], params.get("scale_table") or None)
+            except ValueError as err:
+                raise PresetError("pointer: %s" % err)
+            _check_pointer_geometry(params)
         elif kind == "lamp" and params.get("colour") not in LAMP_COLOURS:
             raise PresetError("lamp colour must be one of %s" % "|".join(LAMP_COLOURS))
         elif kind == "lamp" and bool(params.get("on_reference")) != bool(params.get("off_reference")):
@@ -198,6 +202,9 @@ class Target(object):
                         "start_value": "%g" % p["start_value"], "end_value": "%g" % p["end_value"],
                         "unit": p.get("unit", ""),
                         "scale_table": ";".join("%g:%g" % (v, a) for v, a in (p.get("scale_table") or []))})
+            for key in ("pointer_colour", "ignore_colour"):
+                if p.get(key):
+                    out[key] = p[key]
         elif self.kind == "lamp":
             out["colour"] = p["colour"]
             if p.get("on_reference") and p.get("off_reference"):
@@ -218,7 +225,9 @@ class Target(object):
                       "aspect": float(section.get("aspect", "1")),
                       "start_angle": float(section["start_angle"]), "end_angle": float(section["end_angle"]),
                       "start_value": float(section["start_value"]), "end_value": float(section["end_value"]),
-                      "unit": section.get("unit", ""), "scale_table": _table(section.get("scale_table", ""))}
+                      "unit": section.get("unit", ""), "scale_table": _table(section.get("scale_table", "")),
+                      "pointer_colour": section.get("pointer_colour", ""),
+                      "ignore_colour": section.get("ignore_colour", "")}
         elif kind == "lamp":
             params = {"colour": section.get("colour", "")}
             if section.get("on_reference") or section.get("off_reference"):
@@ -230,6 +239,22 @@ class Target(object):
         elif kind == "thermal":
             params = {"thermal_box": _floats(section["thermal_box"], 8)}
         return cls(kind, boxes, name=section.get("name", ""), **params)
+
+
+def _check_pointer_geometry(params):
+    """The pivot must lie inside the box, the dial radius be positive, the colour hints known."""
+    centre = params.get("centre", (0.5, 0.5))
+    radius = float(params.get("radius", 0.45))
+    aspect = float(params.get("aspect", 1.0))
+    if len(centre) != 2 or not all(0.0 <= float(c) <= 1.0 for c in centre):
+        raise PresetError("pointer: centre %s lies outside the box (fractions 0..1 expected)" % (list(centre),))
+    if not 0.0 < radius <= 1.5:
+        raise PresetError("pointer: radius must be in (0, 1.5] of the box width, got %g" % radius)
+    if not 0.05 <= aspect <= 20.0:
+        raise PresetError("pointer: aspect must be in [0.05, 20], got %g" % aspect)
+    for key in ("pointer_colour", "ignore_colour"):
+        if params.get(key) and params[key] not in POINTER_COLOURS:
+            raise PresetError("pointer: %s must be one of %s, got '%s'" % (key, "|".join(POINTER_COLOURS), params[key]))
 
 
 def _floats(text, count):

@@ -30,64 +30,184 @@ def _clip_confidence(value):
     return float(min(max(value, 0.0), 100.0))
 
 
-class PointerReader(object):
-    """Finds the needle angle on a rectified gauge face by a radial dissimilarity profile.
+class ReadFailed(ValueError):
+    """The picture cannot give a reading at all (blank, overexposed, not the gauge); the message says why."""
 
-    For every direction (0.5 deg steps) the face is sampled along the radius between
-    ``inner`` and ``outer`` (fractions of the dial radius); each sample's distance from the
-    local face colour (mean over nearby directions, in Lab) measures "needle-ness". The median along the
-    radius rejects numbers and ticks (which cover only part of the radius); the peak's
-    weighted centroid gives a sub-step angle. Inner and outer halves give two estimates whose
-    agreement, together with the peak contrast, makes the confidence.
+
+# Pointer colour classes a calibration may name (pointer_colour: the current pointer; ignore_colour:
+# a drag / max pointer or set-point needle to leave alone). "dark"/"light" are relative to the face.
+POINTER_COLOURS = ("dark", "light", "red", "black", "white")
+UNCERTAIN_BELOW = 50.0    # confidence under which a reading is reported "uncertain" with its reason
+
+
+class PointerReader(object):
+    """Finds the needle on a rectified gauge face by a radial dissimilarity profile and a line fit.
+
+    For every direction (0.5 deg steps) within the scale's sweep plus ``margin_deg`` the face is
+    sampled along the radius between ``inner`` and ``outer`` (fractions of the dial radius) from
+    the calibrated pivot; each sample's distance from the local face colour (mean over nearby
+    directions, in Lab) measures "needle-ness". The median along the radius rejects numbers and
+    ticks (which cover only part of the radius). Every local maximum is a pointer candidate; it
+    is ranked by its strength, its coverage of the radius and its reach towards the scale (a
+    pointer's tip reaches the ticks, its counterweight does not). With a colour hint from the
+    calibration the hinted pointer wins; otherwise a second candidate nearly as strong makes the
+    reading uncertain ("two pointers").
+
+    The pivot is not trusted: the chosen pointer's centre line is fitted to the needle's own
+    pixels (the angular centroid at each radius; for a coloured needle only samples of its hue, so
+    a white number beside a red needle does not pull the line), so a pivot off the calibrated centre (a
+    temperature indicator, a calibration that marked the dial's centre) still gives the needle's
+    real line; the reading is where that line meets the scale circle (0.9 of the dial radius about
+    the calibrated centre). Lines fitted to the inner and outer halves give the agreement that,
+    with the needle's contrast, makes the confidence.
     """
 
-    def __init__(self, size=GAUGE_SIZE, inner=0.22, outer=0.72, step_deg=ANGLE_STEP_DEG, background_deg=12.0):
+    def __init__(self, size=GAUGE_SIZE, inner=0.22, outer=0.72, step_deg=ANGLE_STEP_DEG, background_deg=12.0,
+                 margin_deg=8.0, reach=(0.72, 0.9), uncertain_below=UNCERTAIN_BELOW):
         self.size = size
         self.background_deg = background_deg
         self.inner = inner
         self.outer = outer
         self.step_deg = step_deg
-        self._angles = np.arange(0.0, 360.0, step_deg)
+        self.margin_deg = margin_deg
+        self.uncertain_below = uncertain_below
         self._radii = np.linspace(inner, outer, 48)
+        self._reach_radii = np.linspace(reach[0], reach[1], 12)
 
-    def _profile(self, face_lab, centre, radius):
-        theta = np.radians(self._angles)[:, None]
-        r = (self._radii * radius)[None, :]
+    def _profile(self, face_lab, centre, radius, angles, radii):
+        """Distance of every sample from the LOCAL face colour (mean over +-background_deg at the same
+        radius): smooth glare, shading and tinted light cancel, a narrow needle stands out.
+        Returns (dist angles x radii, samples, background); ``angles`` must be evenly spaced."""
+        half = int(round(self.background_deg / self.step_deg))
+        step = angles[1] - angles[0]
+        padded = np.concatenate([angles[0] - step * np.arange(half, 0, -1), angles,
+                                 angles[-1] + step * np.arange(1, half + 1)])
+        theta = np.radians(padded)[:, None]
+        r = (radii * radius)[None, :]
         # clockwise from 12 o'clock in image coordinates (y down)
         map_x = (centre[0] + r * np.sin(theta)).astype(np.float32)
         map_y = (centre[1] - r * np.cos(theta)).astype(np.float32)
         samples = cv2.remap(face_lab, map_x, map_y, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
         samples = samples.astype(np.float32)
-        # Deviation from the LOCAL face colour (circular mean over +-background_deg at the same
-        # radius): smooth glare, shading and tinted light cancel, a narrow needle stands out.
-        half = int(round(self.background_deg / self.step_deg))
-        padded = np.concatenate([samples[-half:], samples, samples[:half]], axis=0)
-        csum = np.cumsum(np.concatenate([np.zeros((1,) + samples.shape[1:], np.float32), padded]), axis=0)
-        n = samples.shape[0]
+        csum = np.cumsum(np.concatenate([np.zeros((1,) + samples.shape[1:], np.float32), samples]), axis=0)
+        n = len(angles)
         background = (csum[2 * half + 1:2 * half + 1 + n] - csum[:n]) / float(2 * half + 1)
-        dist = np.sqrt(((samples - background) ** 2).sum(axis=2))  # angles x radii
-        return dist
+        core = samples[half:half + n]
+        return np.sqrt(((core - background) ** 2).sum(axis=2)), core, background
 
-    def _peak(self, profile):
-        n = len(profile)
-        i = int(np.argmax(profile))
-        half = max(2, int(round(4.0 / self.step_deg)))
-        idx = np.arange(i - half, i + half + 1) % n
-        window = profile[idx]
-        base = float(np.median(profile))
-        weights = np.clip(window - 0.5 * (base + profile[i]), 0.0, None)
-        if weights.sum() <= 0:
-            return self._angles[i], float(profile[i]), base
-        offsets = (np.arange(-half, half + 1) * self.step_deg)
-        centroid = float((weights * offsets).sum() / weights.sum())
-        return wrap360(self._angles[i] + centroid), float(profile[i]), base
+    def _search_angles(self, scale):
+        if scale is None:
+            return np.arange(0.0, 360.0, self.step_deg)
+        span = min(360.0, scale.sweep + 2 * self.margin_deg)
+        start = scale.start_angle - (span - scale.sweep) / 2.0
+        return start + np.arange(0.0, span, self.step_deg)
 
-    def needle_angle(self, image, quad, centre=(0.5, 0.5), radius=0.45, aspect=1.0):
-        """Needle angle (deg clockwise from up) in the face's frontal view, and a confidence.
+    def _candidates(self, full, angles):
+        """Local maxima of the profile, strongest first: [(index, height above the median)]."""
+        base = float(np.median(full))
+        sep = max(1, int(round(6.0 / self.step_deg)))
+        order = np.argsort(-full)
+        taken = []
+        for i in order[:400]:
+            if full[i] - base <= 0:
+                break
+            if all(abs(int(i) - j) > sep for j, _ in taken):
+                taken.append((int(i), float(full[i] - base)))
+            if len(taken) >= 4:
+                break
+        return taken, base
 
-        From the calibration: ``centre`` (pivot as fractions of the box width, height),
-        ``radius`` (dial radius as a fraction of the box width) and ``aspect`` (physical
-        width / height of the box, so the frontal view is not stretched).
+    def _line(self, dist, angles, i, centre, radius, lo, hi, like=None):
+        """The needle's centre line near direction index ``i`` from the samples of radii ``lo:hi``:
+        the angular centroid of the needle at each radius gives a point; a weighted least-squares
+        line through them. ``like`` (angles x radii, 0..1): how much each sample has the needle's
+        own colour; it scales the weights, so a number or tick of another colour beside the needle
+        does not pull the centroid. Returns (point on the line, unit direction outwards) or None."""
+        half = max(2, int(round(6.0 / self.step_deg)))
+        idx = np.arange(max(0, i - half), min(len(angles), i + half + 1))
+        points, weights = [], []
+        for k in range(lo, hi):
+            column = dist[idx, k] if like is None else dist[idx, k] * like[idx, k]
+            w = np.clip(column - 0.5 * (column.max() + np.median(dist[:, k])), 0.0, None)
+            if w.sum() <= 0:
+                continue
+            theta = math.radians(float((w * angles[idx]).sum() / w.sum()))
+            r = self._radii[k] * radius
+            points.append((centre[0] + r * math.sin(theta), centre[1] - r * math.cos(theta)))
+            weights.append(float(w.sum()))
+        if len(points) < 4:
+            return None
+        pts, w = np.array(points), np.array(weights)
+        mean = (pts * w[:, None]).sum(axis=0) / w.sum()
+        d = pts - mean
+        cov = (d * w[:, None]).T.dot(d)
+        _, vectors = np.linalg.eigh(cov)
+        u = vectors[:, -1]
+        if np.dot(u, pts[-1] - pts[0]) < 0:
+            u = -u
+        return mean, u
+
+    @staticmethod
+    def _needle_likeness(dist, samples, background, full, base, i, min_chroma=15.0):
+        """How much every sample has the hue of a coloured needle at direction index ``i`` (angles
+        x radii, 0..1), or None for a needle of the face's own hue (black on white: the numbers
+        and ticks share its ink, colour cannot tell them apart). Only the chroma (Lab a, b) counts,
+        so glare or shade along the needle do not matter: 1 at the needle's median chroma, falling
+        linearly to 0 at the face's. A half-covered pixel at the needle's edge scores about its
+        coverage on both edges alike (no bias); a white number beside a red needle scores near 0."""
+        strong = dist[i] > 0.5 * (full[i] + base)
+        if not strong.any():
+            return None
+        needle = np.median(samples[i][strong][:, 1:], axis=0)
+        chroma = float(np.sqrt(((needle - np.median(background[i][:, 1:], axis=0)) ** 2).sum()))
+        if chroma < min_chroma:
+            return None
+        apart = np.sqrt(((samples[:, :, 1:] - needle[None, None]) ** 2).sum(axis=2))
+        return np.clip(1.0 - apart / chroma, 0.0, 1.0)
+
+    @staticmethod
+    def _meets_circle(line, centre, r):
+        """Angle (deg clockwise from up, about ``centre``) where the line leaves the circle of radius r."""
+        p, u = line
+        q = p - np.asarray(centre)
+        b = float(np.dot(q, u))
+        disc = b * b - (float(np.dot(q, q)) - r * r)
+        t = -b + math.sqrt(max(disc, 0.0))
+        x, y = q + t * u
+        return wrap360(math.degrees(math.atan2(x, -y)))
+
+    @staticmethod
+    def _colour_class(needle_lab, face_lab):
+        """red | dark | light for a candidate's median colour against the local face colour."""
+        if needle_lab[1] - 128.0 > 20.0 and needle_lab[1] - face_lab[1] > 15.0:
+            return "red"
+        return "dark" if needle_lab[0] < face_lab[0] else "light"
+
+    @staticmethod
+    def _matches(colour, hint):
+        hint = {"black": "dark", "white": "light"}.get(hint, hint)
+        return colour == hint
+
+    @staticmethod
+    def check_face(face):
+        """Raise ReadFailed for a picture that cannot hold a reading: blank, over- or underexposed."""
+        gray = face if face.ndim == 2 else cv2.cvtColor(face, cv2.COLOR_BGR2GRAY)
+        if float((gray >= 250).mean()) > 0.95:   # a saturated dial with a visible needle still reads
+            raise ReadFailed("overexposed picture in the box")
+        if float((gray <= 5).mean()) > 0.95:
+            raise ReadFailed("underexposed picture in the box")
+        if float(gray.std()) < 4.0:
+            raise ReadFailed("blank picture in the box (no contrast)")
+
+    def needle_angle(self, image, quad, centre=(0.5, 0.5), radius=0.45, aspect=1.0, scale=None,
+                     pointer_colour="", ignore_colour=""):
+        """Needle angle (deg clockwise from up, about the calibrated centre) in the face's frontal
+        view, a confidence and a detail dict (``reason``: why the confidence is low, "" when it is not).
+
+        From the calibration: ``centre`` (pivot as fractions of the box width, height), ``radius``
+        (dial radius as a fraction of the box width), ``aspect`` (physical width / height of the
+        box, so the frontal view is not stretched), ``scale`` (the search covers its sweep plus
+        margin_deg; None: all around), colour hints.
         """
         aspect = float(aspect)
         width = self.size if aspect >= 1.0 else max(16, int(round(self.size * aspect)))
@@ -95,28 +215,117 @@ class PointerReader(object):
         face = rectify(image, quad, width, height)
         if face.ndim == 2:
             face = cv2.cvtColor(face, cv2.COLOR_GRAY2BGR)
+        self.check_face(face)
         face = cv2.GaussianBlur(face, (3, 3), 0)
         lab = cv2.cvtColor(face, cv2.COLOR_BGR2LAB)
-        c = (centre[0] * (width - 1), centre[1] * (height - 1))
         rad = radius * (width - 1)
-        dist = self._profile(lab, c, rad)
-        k = dist.shape[1] // 2
+        c = (centre[0] * (width - 1), centre[1] * (height - 1))
+        angles = self._search_angles(scale)
+        dist, samples, background = self._profile(lab, c, rad, angles, self._radii)
+        reach_dist = self._profile(lab, c, rad, angles, self._reach_radii)[0]
         full = np.median(dist, axis=1)
-        angle, peak, base = self._peak(full)
-        inner_angle, _, _ = self._peak(np.median(dist[:, :k], axis=1))
-        outer_angle, _, _ = self._peak(np.median(dist[:, k:], axis=1))
+        candidates, base = self._candidates(full, angles)
+        detail = {"candidates": len(candidates)}
+        if not candidates:
+            detail.update(reason="needle not found", angle=None)
+            return None, 0.0, detail
+        # distance from the dial's own colour (median over the sweep at each radius): a pointer
+        # differs from the dial, the bright or dark fringe that the local mean leaves beside a
+        # strong needle does not
+        dial = np.median(samples, axis=0)
+        off_dial = np.median(np.sqrt(((samples - dial[None]) ** 2).sum(axis=2)), axis=1)
+        described = []
+        for i, strength in candidates:
+            level = 0.5 * (full[i] + base)
+            strong = dist[i] > level
+            colour = self._colour_class(np.median(samples[i][strong], axis=0) if strong.any() else samples[i].mean(0),
+                                        background[i].mean(axis=0))
+            lo, hi = max(0, i - 2), i + 3
+            reach = float((reach_dist[lo:hi].max(axis=0) > level).mean())
+            described.append({"index": i, "strength": strength, "colour": colour, "reach": reach,
+                              "score": strength * (0.5 + float(strong.mean())) * (0.3 + reach)
+                              * float(off_dial[i])})
+        pool = described
+        if pointer_colour:
+            pool = [d for d in described if self._matches(d["colour"], pointer_colour)] or described
+        if ignore_colour:
+            pool = [d for d in pool if not self._matches(d["colour"], ignore_colour)] or pool
+        pool = sorted(pool, key=lambda d: -d["score"])
+        chosen = pool[0]
+        # centre on the needle itself: of the peaks within +-8 deg, the one farthest from the dial's
+        # colour (a fringe beside the needle can win the profile)
+        near = np.arange(max(0, chosen["index"] - int(8.0 / self.step_deg)),
+                         min(len(angles), chosen["index"] + int(8.0 / self.step_deg) + 1))
+        i = int(near[np.argmax(off_dial[near] * (full[near] > base))])
+        k = len(self._radii) // 2
+        # fitted to the samples of the needle's own colour; to all of them where that leaves too
+        # few (a needle hardly apart from the face)
+        for like in (self._needle_likeness(dist, samples, background, full, base, i), None):
+            line = self._line(dist, angles, i, c, rad, 0, len(self._radii), like)
+            inner_line = self._line(dist, angles, i, c, rad, 0, k, like)
+            outer_line = self._line(dist, angles, i, c, rad, k, len(self._radii), like)
+            if line is not None and inner_line is not None and outer_line is not None:
+                break
+        if line is None or inner_line is None or outer_line is None:
+            detail.update(reason="needle not found (no continuous needle along the radius)", angle=None)
+            return None, 0.0, detail
+        # where the needle's line meets the scale circle: near the tip, so the line's direction
+        # error (a tapered or shadowed needle) hardly matters, and a pivot off the calibrated
+        # centre moves the reading only by the parallax at the scale, not by a ray's full error
+        ring = rad * self._reach_radii[-1]
+        angle = self._meets_circle(line, c, ring)
+        inner_angle = self._meets_circle(inner_line, c, ring)
+        outer_angle = self._meets_circle(outer_line, c, ring)
+        # the needle's line passes closest to the calibrated centre here: the pivot seen in the picture
+        foot = line[0] + np.dot(np.asarray(c) - line[0], line[1]) * line[1]
         spread = float(np.percentile(full, 90) - base) + 1.0
-        contrast = (peak - base) / max(spread, 1.0)
+        contrast = (full[i] - base) / max(spread, 1.0)
         disagreement = abs(angle_diff(inner_angle, outer_angle))
-        confidence = _clip_confidence(100.0 * min(1.0, contrast / 4.0) * math.exp(-disagreement / 3.0))
-        detail = {"angle": angle, "inner_angle": inner_angle, "outer_angle": outer_angle,
-                  "contrast": float(peak - base)}
-        return angle, confidence, detail
+        confidence = 100.0 * min(1.0, contrast / 2.5) * math.exp(-disagreement / 10.0)
+        reason = ""
+        # a rival is another pointer: not the same needle's other edge, nor its counterweight
+        # (opposite, falling short of the scale)
+        rivals = [d for d in pool[1:] if d["score"] > 0.6 * chosen["score"]
+                  and abs(d["index"] - i) * self.step_deg > 2.0 * self.background_deg
+                  and not (abs(abs(angle_diff(angles[d["index"]], angles[i])) - 180.0) < 15.0
+                           and d["reach"] < 0.5 * chosen["reach"])]
+        hinted = bool(pointer_colour or ignore_colour) and any(d["colour"] != chosen["colour"] for d in described)
+        if rivals and not hinted:
+            gap = abs(angle_diff(angles[rivals[0]["index"]], angles[i]))
+            confidence = min(confidence, self.uncertain_below * 0.8)
+            reason = "two pointers %.0f deg apart (set pointer_colour / ignore_colour in the calibration)" % gap
+        detail["pointers"] = [(round(float(angles[d["index"]]) % 360.0, 1), round(d["score"], 1), d["reach"],
+                               d["colour"]) for d in described]
+        detail.update({"angle": angle, "inner_angle": inner_angle, "outer_angle": outer_angle,
+                       "contrast": float(full[i] - base), "contrast_ratio": float(contrast),
+                       "disagreement": disagreement, "colour": chosen["colour"], "reach": chosen["reach"],
+                       "pivot": (float(foot[0]) / (width - 1), float(foot[1]) / (height - 1))})
+        if confidence < self.uncertain_below and not reason:
+            glare = float((cv2.cvtColor(face, cv2.COLOR_BGR2GRAY) >= 245).mean())
+            if glare > 0.05:
+                reason = "glare over %.0f %% of the dial" % (100.0 * glare)
+            elif contrast < 1.5:
+                reason = "needle not found (no clear needle against the face)"
+            else:
+                reason = "inner and outer needle halves disagree by %.1f deg" % disagreement
+        detail["reason"] = reason
+        return angle, _clip_confidence(confidence), detail
 
-    def read(self, image, quad, scale, centre=(0.5, 0.5), radius=0.45, aspect=1.0):
-        angle, confidence, detail = self.needle_angle(image, quad, centre, radius, aspect)
-        if not scale.in_sweep(angle, margin_deg=5.0):
-            confidence *= 0.3  # the needle points into the dead zone: probably not the needle
+    def read(self, image, quad, scale, centre=(0.5, 0.5), radius=0.45, aspect=1.0, pointer_colour="",
+             ignore_colour=""):
+        """Reading of a pointer gauge; detail["reason"] is non-empty when the reading is uncertain
+        (confidence below ``uncertain_below``). Raises ReadFailed when no reading is possible."""
+        angle, confidence, detail = self.needle_angle(image, quad, centre, radius, aspect, scale,
+                                                      pointer_colour, ignore_colour)
+        if angle is None:
+            return Reading(float("nan"), 0.0, detail)
+        if not scale.in_sweep(angle, margin_deg=max(1.5, 0.01 * scale.sweep)):
+            # beyond an end (inside the search margin): reported, not hidden in the end value
+            over = scale.offset(angle) - scale.sweep
+            under = 360.0 - scale.offset(angle)
+            confidence = min(confidence, self.uncertain_below * 0.6)
+            detail["reason"] = "needle outside the scale's sweep (%.1f deg beyond the %s)" % (
+                min(over, under), "end" if over < under else "start")
         return Reading(scale.value(angle), _clip_confidence(confidence), detail)
 
 
@@ -207,6 +416,15 @@ def _edge_signature(gray):
     mag -= mag.mean()
     norm = np.linalg.norm(mag)
     return mag / norm if norm > 0 else mag
+
+
+def face_similarity(image, quad, reference, reference_quad, size=96):
+    """Correlation (-1..1) of the edge structure of two boxes rectified to ``size`` px: a gauge's
+    ticks, numbers and rim outweigh its needle, so the same gauge at another value stays high."""
+    def signature(img, q):
+        patch = rectify(img, q, size)
+        return _edge_signature(patch if patch.ndim == 2 else cv2.cvtColor(patch, cv2.COLOR_BGR2GRAY))
+    return float((signature(image, quad) * signature(reference, reference_quad)).sum())
 
 
 def switch_patch(image, quad):

@@ -17,14 +17,26 @@ import numpy as np
 from inspection_robot.files import FileError, confine_path, write_atomic
 from inspection_robot.command import CommandError
 from inspection_robot.inspection.foreign import detect_foreign
-from inspection_robot.inspection.geometry import quad_inside, quad_is_convex, quads_from_flat, transform_quad
+from inspection_robot.inspection.geometry import quad_inside, quad_is_convex, quads_from_flat, rectify, \
+    transform_quad
 from inspection_robot.inspection.locate import LocateError, Locator
 from inspection_robot.inspection.preset import PresetError, load_preset, zoom_picture_name
-from inspection_robot.inspection.readers import PointerReader, read_lamp, read_switch, read_thermal_max
+from inspection_robot.inspection.readers import PointerReader, ReadFailed, face_similarity, read_lamp, read_switch, \
+    read_thermal_max
 from inspection_robot.interface import FOREIGN_DETECT_BOTH, FOREIGN_DETECT_FOREIGN, FOREIGN_DETECT_READ
 
 ReadOutcome = namedtuple("ReadOutcome", "scale possibility picture_path foreign_scale foreign_possibility "
-                                        "foreign_picture_path")
+                                        "foreign_picture_path uncertain")
+
+RESULT_UNCERTAIN = "uncertain"
+MIN_FACE_SIMILARITY = 0.2   # below: the box does not show the calibrated gauge
+
+
+def result_text(outcome, success):
+    """ReadScaleAck.result for a served request: ``success``, or ``uncertain: box <i>: <why>; ...``
+    when a reading's confidence is under the reader's threshold."""
+    reasons = ["box %d: %s" % (i, why) for i, why in enumerate(outcome.uncertain) if why]
+    return "%s: %s" % (RESULT_UNCERTAIN, "; ".join(reasons)) if reasons else success
 
 
 class ReadError(Exception):
@@ -91,7 +103,7 @@ class ScaleReader(object):
         except PresetError as err:
             raise ReadError(str(err))
         out_dir = os.path.join(self.picture_root, preset.preset_id)
-        outcome = ReadOutcome([], [], [], [], [], [])
+        outcome = ReadOutcome([], [], [], [], [], [], [])
         if foreign_detect in (FOREIGN_DETECT_READ, FOREIGN_DETECT_BOTH):
             self._read_boxes(preset, filenames, roi_vertex, roi_vertex_thermal, out_dir, stamp, outcome)
         if foreign_detect in (FOREIGN_DETECT_FOREIGN, FOREIGN_DETECT_BOTH):
@@ -142,20 +154,26 @@ class ScaleReader(object):
                     images[path] = self._image(path)
                 image = images[path]
                 _check_quad(quad, image.shape, "box %d" % i)
-                reading = self._read_one(preset, target, image, quad)
+                try:
+                    reading = self._read_one(preset, target, image, quad)
+                except ReadFailed as err:
+                    raise ReadError("box %d: %s" % (i, err))
                 annotated = image.copy()
                 draw_quad = quad
             outcome.scale.append(float(reading.value))
             outcome.possibility.append(round(float(reading.confidence), 1))
-            _annotate(annotated, draw_quad, "%s %s %.4g (%d%%)" % (target.kind, target.name, reading.value,
-                                                                   reading.confidence))
+            why = reading.detail.get("reason", "") if target.kind == "pointer" else ""
+            outcome.uncertain.append(why)
+            _annotate(annotated, draw_quad, "%s %s %.4g (%d%%)%s" % (target.kind, target.name, reading.value,
+                                                                     reading.confidence, " uncertain" if why else ""))
             outcome.picture_path.append(_save(annotated, out_dir, "%s_read_%02d.jpg" % (stamp, i)))
 
     def _read_one(self, preset, target, image, quad):
         p = target.params
         if target.kind == "pointer":
+            self._check_same_gauge(preset, target, image, quad)
             return self.pointer.read(image, quad, target.scale, p.get("centre", (0.5, 0.5)), p.get("radius", 0.45),
-                                     p.get("aspect", 1.0))
+                                     p.get("aspect", 1.0), p.get("pointer_colour", ""), p.get("ignore_colour", ""))
         if target.kind == "lamp":
             refs = None
             if p.get("on_reference"):
@@ -165,6 +183,19 @@ class ScaleReader(object):
         refs = [self._reference_patch(preset, p[key], cv2.IMREAD_GRAYSCALE, "switch")
                 for key in ("open_reference", "closed_reference")]
         return read_switch(image, quad, refs[0], refs[1])
+
+    @staticmethod
+    def _check_same_gauge(preset, target, image, quad):
+        """A box that shows something else than the calibrated gauge (a wrong picture, the head
+        pointing elsewhere, a covered meter) fails rather than giving a number."""
+        reference = cv2.imread(preset.picture(0), cv2.IMREAD_COLOR) if 0 in target.boxes else None
+        if reference is None:
+            return
+        PointerReader.check_face(rectify(image, quad, 128))
+        similarity = face_similarity(image, quad, reference, target.boxes[0])
+        if similarity < MIN_FACE_SIMILARITY:
+            raise ReadFailed("the box does not show the calibrated gauge (similarity %.2f to the preset's "
+                             "picture, %.2f needed)" % (similarity, MIN_FACE_SIMILARITY))
 
     @staticmethod
     def _reference_patch(preset, name, flags, kind):
@@ -201,8 +232,11 @@ class ScaleReader(object):
                       if best[2] in t.boxes]
             exclude = [_grow(q, 1.15) for q in mapped]
             # search the equipment around the targets: farther away, parallax after a pose error
-            # makes one homography a poor alignment of the 3-D scene
+            # makes one homography a poor alignment of the 3-D scene. The equipment is where the
+            # scene agrees with the registration (the inlier matches): the fence and sky behind
+            # it drift with every stop off the preset pose and are left out.
             region = _grow(_bounding_quad(mapped), self.foreign_region) if mapped else None
+            region = _equipment_region(region, best[1].points, image.shape)
             found = detect_foreign(best[0], image, best[1].homography, region=region, exclude=exclude)
             annotated = image.copy()
             for obj in found:
@@ -211,6 +245,22 @@ class ScaleReader(object):
             evidence = max([f.confidence for f in found]) if found else min(100.0, best[1].inliers)
             outcome.foreign_possibility.append(round(float(evidence), 1))
             outcome.foreign_picture_path.append(_save(annotated, out_dir, "%s_foreign_%02d.jpg" % (stamp, j)))
+
+
+def _equipment_region(region, points, shape):
+    """The search region cut down to the grown bounding box of the registration's inlier points
+    (the equipment plane); ``region`` unchanged when there are too few of them."""
+    if points is None or len(points) < 8:
+        return region
+    lo, hi = points.min(axis=0), points.max(axis=0)
+    box = _grow(_bounding_quad([np.array([lo, hi])]), 1.1)
+    if region is None:
+        return box
+    x0, y0 = np.maximum(box.min(axis=0), np.asarray(region).min(axis=0))
+    x1, y1 = np.minimum(box.max(axis=0), np.asarray(region).max(axis=0))
+    if x1 <= x0 or y1 <= y0:
+        return region
+    return np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]])
 
 
 def _grow(quad, factor):

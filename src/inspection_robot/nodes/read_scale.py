@@ -1,7 +1,8 @@
 """read_scale: reads the meters of a found preset (INTERFACE.md section 4, "Meter reading").
 
 Subscribes:  read_scale_cmd (ReadScaleCmd)
-Publishes:   read_scale_ack (ReadScaleAck): result success|failed; on failure foreign_result holds
+Publishes:   read_scale_ack (ReadScaleAck): result success | "uncertain: box <i>: <why>; ..." (a
+             pointer reading under the confidence threshold) | failed; on failure foreign_result holds
              the reason. scale/possibility/picture_path aligned with the calibrated targets,
              foreign_* aligned with foreign_filename.
 Parameters:  data_root (namespace); under it unless absolute: ~preset_root (str, presets): holds <preset_id>/<stamp>/
@@ -18,7 +19,7 @@ import traceback
 import rospy
 
 from inspection_robot.inspection.locate import Locator
-from inspection_robot.inspection.reading import ReadError, ScaleReader
+from inspection_robot.inspection.reading import ReadError, ScaleReader, result_text
 from inspection_robot.interface import ACK_FAILED, ACK_SUCCESS
 from inspection_robot.msg import ReadScaleAck, ReadScaleCmd
 from inspection_robot.ros.worker import RequestWorker
@@ -50,7 +51,7 @@ class ReadScaleNode(object):
             rospy.logerr("read_scale: trans_id %d raised %s\n%s" % (msg.trans_id, err, traceback.format_exc()))
             return self._failed(msg, "internal error: %s" % (err,))
         ack = self._ack(msg)
-        ack.result = ACK_SUCCESS
+        ack.result = result_text(outcome, ACK_SUCCESS)
         ack.foreign_result = ACK_SUCCESS if outcome.foreign_picture_path else ""
         ack.scale, ack.possibility, ack.picture_path = outcome.scale, outcome.possibility, outcome.picture_path
         ack.foreign_scale = outcome.foreign_scale

@@ -46,7 +46,7 @@ def paint_face(face, longest_px):
     border = max(1, int(round(0.03 * min(width, height))))
     cv2.rectangle(img, (0, 0), (width - 1, height - 1), (70, 70, 70), border)
     if face.type == "gauge":
-        _paint_gauge(img, face)
+        paint_gauge(img, face)
     elif face.type == "lamp":
         _paint_lamp(img, face)
     else:
@@ -54,19 +54,27 @@ def paint_face(face, longest_px):
     return img
 
 
-def _paint_gauge(img, face):
+def paint_gauge(img, face):
+    """Paint a pointer gauge into ``img`` (the whole face). ``face`` gives the geometry like
+    ``sim.world.Face``: quad.width (m), dial_layout(), style, range, zones, needle_angle_deg(),
+    start_angle, end_angle, major_ticks, minor_ticks, unit, needle_length_m(); an optional
+    ``colours`` (dial, ink, needle BGR) overrides the style's colours (test fixtures)."""
     height, width = img.shape[:2]
     px_per_m = width / face.quad.width
     fx, fy, radius_m = face.dial_layout()
     cx, cy, radius = fx * width, fy * height, radius_m * px_per_m
     dark_dial = face.style == "round_black"
     ink = (245, 245, 245) if dark_dial else (15, 15, 15)
+    colours = getattr(face, "colours", None)
+    dial_colour = (25, 25, 25) if dark_dial else (240, 240, 236)
+    if colours is not None:
+        dial_colour, ink = colours[0], colours[1]
     if face.style == "panel_arc":
         cv2.rectangle(img, (int(0.06 * width), int(0.06 * height)),
                       (int(0.94 * width), int(0.94 * height)), (240, 240, 236), -1)
     else:
         _circle(img, (cx, cy), radius * 1.08, (60, 60, 60))           # bezel
-        _circle(img, (cx, cy), radius, (25, 25, 25) if dark_dial else (240, 240, 236))
+        _circle(img, (cx, cy), radius, dial_colour)
     low, high = face.range
     tick_outer = radius * 0.95
     # coloured zones: a band just inside the tick tips
@@ -116,6 +124,8 @@ def _paint_gauge(img, face):
     needle_colour = (30, 30, 200) if dark_dial else (20, 20, 20)
     if dark_dial:
         needle_colour = (40, 60, 230)
+    if colours is not None:
+        needle_colour = colours[2]
     poly = np.array([_pt(cx + sx * length, cy + sy * length),
                      _pt(cx - sx * tail + nx * half_base, cy - sy * tail + ny * half_base),
                      _pt(cx - sx * tail - nx * half_base, cy - sy * tail - ny * half_base)], np.int32)

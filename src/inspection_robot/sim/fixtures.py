@@ -1,8 +1,9 @@
-"""Synthetic gauge faces and scenes with known truth, for unit tests and the accuracy benchmark.
+"""Test and benchmark fixtures: single faces and planar scenes with known truth.
 
-The camera team's renderer draws the simulated world; this module draws single faces (pointer
-gauges of several styles, lamps, switches) into a textured scene through a known homography, so
-tests know the exact box and value of every target without the world.
+The renderer draws the simulated world; this module puts single faces (pointer gauges of several
+styles, painted by the world's own gauge painter ``sim.faces.paint_gauge``, lamps, switches) into a
+textured scene through a known homography, so tests know the exact box and value of every target
+without the world.
 """
 import math
 import os
@@ -11,6 +12,7 @@ import cv2
 import numpy as np
 
 from inspection_robot.inspection.gauge import GaugeScale
+from inspection_robot.sim.faces import paint_gauge
 
 GAUGE_STYLES = {
     # face BGR, ink BGR, needle BGR, start, end angle (deg cw from up)
@@ -21,43 +23,45 @@ GAUGE_STYLES = {
 }
 
 
-def draw_gauge_face(scale, value, size=400, style="classic", ticks=10, label=True):
-    """A frontal gauge face ``size`` px square, dial radius 0.45 * size around the centre."""
+class _FixtureDial(object):
+    """The geometry ``sim.faces.paint_gauge`` asks of a world face, for a frontal test face: a
+    square 1 m wide, the dial radius 0.45 of it around the centre."""
+
+    class _Quad(object):
+        width = height = 1.0
+
+    quad = _Quad()
+
+    def __init__(self, scale, value, colours, ticks):
+        self._scale = scale
+        self.value = float(value)
+        self.colours = colours
+        start = scale.start_angle - 360.0 if scale.start_angle >= scale.end_angle else scale.start_angle
+        self.start_angle, self.end_angle = start, start + scale.sweep
+        self.range = (min(scale.start_value, scale.end_value), max(scale.start_value, scale.end_value))
+        self.style = "round_white"
+        self.zones = []
+        self.major_ticks, self.minor_ticks = ticks + 1, 4
+        self.unit = ""
+
+    def needle_angle_deg(self, value=None):
+        angle = self._scale.angle(self.value if value is None else value)
+        return angle - 360.0 if angle > self.end_angle else angle
+
+    def dial_layout(self):
+        return 0.5, 0.5, 0.45
+
+    def needle_length_m(self):
+        return 0.85 * 0.45
+
+
+def draw_gauge_face(scale, value, size=400, style="classic", ticks=10):
+    """A frontal gauge face ``size`` px square, dial radius 0.45 * size around the centre, painted
+    by the simulated world's gauge painter in the colours of ``style``."""
     face_bgr, ink, needle, _, _ = GAUGE_STYLES[style]
     img = np.full((size, size, 3), 110, np.uint8)
-    c = (size - 1) / 2.0  # pixel-centre convention, as rectify() maps corners to 0..size-1
-    rad = 0.45 * size
-    cv2.circle(img, _pt((c, c)), int(rad), face_bgr, -1, cv2.LINE_AA)
-    cv2.circle(img, (int(c), int(c)), int(rad), (60, 60, 60), max(2, size // 60), cv2.LINE_AA)
-
-    def polar(angle_deg, r):
-        a = math.radians(angle_deg)
-        return (c + r * math.sin(a), c - r * math.cos(a))
-
-    for i in range(ticks * 5 + 1):
-        v = scale.start_value + (scale.end_value - scale.start_value) * i / (ticks * 5.0)
-        a = scale.angle(v)
-        major = i % 5 == 0
-        p0 = polar(a, rad * (0.80 if major else 0.86))
-        p1 = polar(a, rad * 0.93)
-        cv2.line(img, _pt(p0), _pt(p1), ink, max(1, size // (100 if major else 200)), cv2.LINE_AA)
-        if major and label:
-            p = polar(a, rad * 0.68)
-            text = "%g" % round(v, 2)
-            fs = size / 900.0
-            (tw, th), _ = cv2.getTextSize(text, cv2.FONT_HERSHEY_SIMPLEX, fs, 1)
-            cv2.putText(img, text, (int(p[0] - tw / 2), int(p[1] + th / 2)), cv2.FONT_HERSHEY_SIMPLEX,
-                        fs, ink, max(1, size // 300), cv2.LINE_AA)
-    a = scale.angle(value)
-    tip = polar(a, rad * 0.82)
-    tail = polar(a + 180.0, rad * 0.12)
-    perp = polar(a + 90.0, size * 0.012)
-    base_dx, base_dy = perp[0] - c, perp[1] - c
-    poly = np.array([[tip[0], tip[1]],
-                     [tail[0] + base_dx, tail[1] + base_dy],
-                     [tail[0] - base_dx, tail[1] - base_dy]], np.float32)
-    cv2.fillConvexPoly(img, np.round(poly * 16).astype(np.int32), needle, cv2.LINE_AA, shift=4)
-    cv2.circle(img, (int(c), int(c)), max(3, size // 25), needle, -1, cv2.LINE_AA)
+    # painted one pixel smaller: the painter puts the pivot at width / 2, rectify() at (size - 1) / 2
+    paint_gauge(img[:size - 1, :size - 1], _FixtureDial(scale, value, (face_bgr, ink, needle), ticks))
     return img
 
 
@@ -153,10 +157,6 @@ def degrade(img, rng, noise=3.0, blur=0.0, gain=1.0, offset=0.0, glare=None, occ
 def style_scale(style, start_value=0.0, end_value=1.6):
     _, _, _, start, end = GAUGE_STYLES[style]
     return GaugeScale(start, end, start_value, end_value)
-
-
-def _pt(p):
-    return (int(round(p[0])), int(round(p[1])))
 
 
 class PlanarScene(object):

@@ -1,0 +1,90 @@
+#!/usr/bin/env python3
+"""Prepare the real-photo gauge set that bench/bench_inspection.py scores.
+
+The labels (calibration points, true reading by eye, uncertainty, source repository, commit and
+path) are in bench/data/real_gauges.json; the photographs are not in git. This copies each one
+into the cache directory (default ~/.cache/inspection_robot/real_gauges, or $REAL_GAUGES_DIR)
+as <id><ext>, taking it from a local git copy of its repository at the labelled commit:
+
+    scripts/real_gauges.py [--mirror DIR ...] [--clone] [--cache DIR]
+
+``--mirror DIR``: a directory holding repositories as DIR/<owner>+<name>/repo (the layout of the
+code-search mirror) or DIR/<owner>/<name>; ``--clone``: clone missing repositories from GitHub
+(needs network). Prints how many photos are ready and which are missing, exit 1 when none is.
+"""
+import argparse
+import json
+import os
+import subprocess
+import sys
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+LABELS = os.path.join(ROOT, "bench", "data", "real_gauges.json")
+
+
+def default_cache():
+    return os.environ.get("REAL_GAUGES_DIR") or os.path.join(os.path.expanduser("~"), ".cache", "inspection_robot",
+                                                             "real_gauges")
+
+
+def _git_dir(mirrors, repo):
+    owner, name = repo.split("/")
+    for base in mirrors:
+        for candidate in (os.path.join(base, "%s+%s" % (owner, name), "repo"), os.path.join(base, owner, name)):
+            for git_dir in (os.path.join(candidate, ".git"), candidate):
+                if os.path.isdir(os.path.join(git_dir, "objects")):
+                    return git_dir
+    return None
+
+
+def _clone(cache, repo):
+    target = os.path.join(cache, "_repos", repo.replace("/", "+"))
+    if not os.path.isdir(target):
+        subprocess.check_call(["git", "clone", "--quiet", "--bare", "https://github.com/%s.git" % repo, target])
+    return target
+
+
+def prepare(cache, mirrors, clone):
+    with open(LABELS) as f:
+        doc = json.load(f)
+    os.makedirs(cache, exist_ok=True)
+    ready, missing = 0, []
+    for entry in doc["photos"] + doc["negatives"]:
+        out = os.path.join(cache, entry["id"] + os.path.splitext(entry["path"])[1].lower())
+        if os.path.isfile(out):
+            ready += 1
+            continue
+        git_dir = _git_dir(mirrors, entry["repo"])
+        if git_dir is None and clone:
+            git_dir = _clone(cache, entry["repo"])
+        if git_dir is None:
+            missing.append(entry["id"])
+            continue
+        try:
+            data = subprocess.check_output(["git", "--git-dir", git_dir, "show",
+                                            "%s:%s" % (entry["commit"], entry["path"])], stderr=subprocess.PIPE)
+        except subprocess.CalledProcessError as err:
+            missing.append("%s (%s)" % (entry["id"], err.stderr.decode(errors="replace").strip()))
+            continue
+        with open(out + ".tmp", "wb") as f:
+            f.write(data)
+        os.replace(out + ".tmp", out)
+        ready += 1
+    return ready, missing
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--mirror", action="append", default=[], help="directory of local repository copies")
+    parser.add_argument("--clone", action="store_true", help="clone missing repositories from GitHub")
+    parser.add_argument("--cache", default=default_cache(), help="where the photos go")
+    args = parser.parse_args(argv)
+    ready, missing = prepare(args.cache, args.mirror or ["/work/.mirror"], args.clone)
+    print("%d photos ready in %s" % (ready, args.cache))
+    for item in missing:
+        print("missing: %s" % item)
+    return 0 if ready else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
