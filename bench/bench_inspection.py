@@ -184,7 +184,7 @@ def label_spec(label, width, height):
 
 def real_photo_preset(root, label, picture, optics_for):
     """A one-picture preset of ``picture`` calibrated from ``label``; returns its directory."""
-    from inspection_robot.atomic_file import write_atomic
+    from inspection_robot.files import write_atomic
     from inspection_robot.inspection.calibration import calibrate
     from inspection_robot.inspection.preset import PresetDirWriter, PresetInfo
     image = cv2.imread(picture)

@@ -160,7 +160,7 @@ def test_uncertain_readings_say_why_in_the_result():
 ])
 def test_bad_pointer_calibrations_are_refused(tmp_path, change, reason):
     from inspection_robot.inspection.calibration import calibrate
-    from inspection_robot.atomic_file import write_atomic
+    from inspection_robot.files import write_atomic
     from inspection_robot.inspection.preset import PresetDirWriter, PresetError, PresetInfo
     spec = {"kind": "pointer", "box": [10, 10, 70, 10, 70, 70, 10, 70], "start_angle": 225, "end_angle": 135,
             "start_value": 0.0, "end_value": 1.6}
