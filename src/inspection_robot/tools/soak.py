@@ -242,7 +242,7 @@ class Soak(object):
         target = "%d,%d" % (self.rng.randrange(-17000, 17000, 100), self.rng.randrange(-3000, 3000, 100))
         self.check(lambda: self.b.call("/terrace_control", "set_angle", target)[0] == "success"
                    and self.b.call("/terrace_control", "get_angle") == ("success", target), "PTZ set/get angle")
-        picture = "/tmp/inspection_robot/soak_%d.jpg" % (self.loops % 20)
+        picture = "soak/soak_%d.jpg" % (self.loops % 20)   # relative: under the data root's captures/
         self.check(lambda: self.b.call("/camera_control", "capture_picture", picture)[0] == "success",
                    "camera capture")
         self.check(lambda: self.b.call("/infrared_control", "get_max_temperature")[0] == "success",
@@ -270,7 +270,7 @@ class Soak(object):
         for tilt in (-2000, 0, 2000):
             for pan in range(-18000, 18000, 3000):
                 self.b.call("/terrace_control", "set_angle", "%d,%d" % (pan, tilt))
-                self.b.call("/camera_control", "capture_picture", "/tmp/inspection_robot/soak_warmup.jpg")
+                self.b.call("/camera_control", "capture_picture", "soak/soak_warmup.jpg")
 
     # --- the faults ---------------------------------------------------------------------------
     def fault(self):
