@@ -254,7 +254,11 @@ class ChargeControlTest(unittest.TestCase):
         self.assertEqual(self.relay_commands(), [])
 
     def test_6_waits_while_the_backend_holds_control(self):
-        self.sim_cmd("set_pose", "8.0,5.0,0.0")  # away from the dock: the approach takes a while
+        # away from the dock: the approach takes a while. The simulator refuses set_pose while the
+        # chassis still moves (the previous test may have just backed off the dock): ask until at rest.
+        replies = []
+        wait_for(lambda: replies.append(self.sim(sender="rostest", cmd="set_pose", data="8.0,5.0,0.0"))
+                 or replies[-1].ack == "success", 10.0, "set_pose accepted", period=0.1)
         heartbeat = rospy.Publisher("server_status", GeneralTopic, queue_size=10)
         mode_cmd = rospy.Publisher("mode_cmd", GeneralCmd, queue_size=10)
         beat = rospy.Timer(rospy.Duration(0.2), lambda _e: heartbeat.publish(GeneralTopic(sender="server")))
