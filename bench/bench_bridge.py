@@ -88,7 +88,8 @@ def start_echo_server():
     return ready.result(5)
 
 
-def raw_rtt(client, topic, n):
+def loopback_ready(client, topic):
+    """Subscribe and advertise ``topic`` through the bridge; return once a publish comes back."""
     client.send({"op": "subscribe", "topic": topic, "type": "std_msgs/String"})
     client.send({"op": "advertise", "topic": topic, "type": "std_msgs/String"})
     deadline = time.monotonic() + 10
@@ -101,6 +102,10 @@ def raw_rtt(client, topic, n):
             if time.monotonic() > deadline:
                 raise
     drain(client)
+
+
+def raw_rtt(client, topic, n):
+    loopback_ready(client, topic)
     samples = []
     for i in range(n):
         t0 = time.perf_counter()
@@ -189,18 +194,7 @@ def burst(url, topic, n, bridge_pid=None, timeout=120.0):
     """
     from inspection_robot.bridge.client import RawClient
     client = RawClient(url)
-    client.send({"op": "subscribe", "topic": topic, "type": "std_msgs/String"})
-    client.send({"op": "advertise", "topic": topic, "type": "std_msgs/String"})
-    deadline = time.monotonic() + 10
-    while True:  # until the ROS loopback connection is up
-        client.send({"op": "publish", "topic": topic, "msg": {"data": "warmup"}})
-        try:
-            client.recv_message(lambda m: m.get("op") == "publish", timeout=0.2)
-            break
-        except queue.Empty:
-            if time.monotonic() > deadline:
-                raise
-    drain(client)
+    loopback_ready(client, topic)
     pad = "x" * 24
     cpu0 = cpu_seconds(bridge_pid) if bridge_pid else None
     t0 = time.perf_counter()
