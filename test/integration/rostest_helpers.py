@@ -65,6 +65,17 @@ class Latest(object):
                     raise AssertionError("no reply on %s within %.1f s" % (self._sub.name, timeout))
 
 
+def set_pose_when_at_rest(inject, pose, sender="rostest", timeout=10.0):
+    """Teleport the simulated chassis with ``sim/inject_fault set_pose`` (``inject`` is its service proxy).
+
+    robot_control refuses set_pose while the chassis still moves (a goal, or a back-off from the
+    dock, may just have ended), so the request is repeated until it is accepted.
+    """
+    replies = []
+    wait_for(lambda: replies.append(inject(sender=sender, cmd="set_pose", data="%.4f,%.4f,%.5f" % tuple(pose)))
+             or replies[-1].ack == "success", timeout, "set_pose %s accepted" % (tuple(pose),), period=0.1)
+
+
 def wait_subscribed(publisher, timeout=5.0):
     wait_for(lambda: publisher.get_num_connections() > 0, timeout, "subscriber of " + publisher.name)
 

@@ -17,7 +17,7 @@ import rostest
 from inspection_robot.interface import BATTERY_CHARGING, LIGHT_CHARGE_RELAY
 from inspection_robot.msg import GeneralAck, GeneralCmd, GeneralTopic, RobotStatus, VoiceCmd
 from inspection_robot.srv import ControlService, ControlServiceResponse
-from rostest_helpers import Latest, TwinClient, wait_for, wait_subscribed
+from rostest_helpers import Latest, TwinClient, set_pose_when_at_rest, wait_for, wait_subscribed
 
 DOCK = (2.2, 5.0)
 APPROACH = (3.7, 5.0)
@@ -254,11 +254,8 @@ class ChargeControlTest(unittest.TestCase):
         self.assertEqual(self.relay_commands(), [])
 
     def test_6_waits_while_the_backend_holds_control(self):
-        # away from the dock: the approach takes a while. The simulator refuses set_pose while the
-        # chassis still moves (the previous test may have just backed off the dock): ask until at rest.
-        replies = []
-        wait_for(lambda: replies.append(self.sim(sender="rostest", cmd="set_pose", data="8.0,5.0,0.0"))
-                 or replies[-1].ack == "success", 10.0, "set_pose accepted", period=0.1)
+        # away from the dock: the approach takes a while (the previous test may have just backed off)
+        set_pose_when_at_rest(self.sim, (8.0, 5.0, 0.0))
         heartbeat = rospy.Publisher("server_status", GeneralTopic, queue_size=10)
         mode_cmd = rospy.Publisher("mode_cmd", GeneralCmd, queue_size=10)
         beat = rospy.Timer(rospy.Duration(0.2), lambda _e: heartbeat.publish(GeneralTopic(sender="server")))

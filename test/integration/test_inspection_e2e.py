@@ -27,7 +27,7 @@ from inspection_robot.msg import (GeneralAction, GeneralGoal, NavStatus, PresetS
 from inspection_robot.srv import ControlService
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from rostest_helpers import Latest, wait_for, wait_subscribed  # noqa: E402
+from rostest_helpers import Latest, set_pose_when_at_rest, wait_for, wait_subscribed  # noqa: E402
 
 HALF_PI = math.pi / 2.0
 # preset id, robot pose (x, y, yaw), height aimed at (m), distance to the side (m), zoom, infrared
@@ -122,10 +122,7 @@ class TestInspectionAcceptance(unittest.TestCase):
         wait_for(there, 10.0, "nav_status at %s" % (pose,))
 
     def teleport(self, pose):
-        # robot_control refuses set_pose while the chassis still moves (e.g. just after a goal)
-        replies = []
-        wait_for(lambda: replies.append(self.inject(sender="test", cmd="set_pose", data="%.4f,%.4f,%.5f" % pose))
-                 or replies[-1].ack == "success", 10.0, "set_pose %s accepted" % (pose,), period=0.1)
+        set_pose_when_at_rest(self.inject, pose, sender="test")
         self.wait_nav_at(pose)
 
     def drive(self, x, y, yaw, precision=0):
