@@ -42,9 +42,17 @@ def test_report_of_the_fixture(tmp_path, capsys):
     code, out, err = report(capsys, FIXTURE, "--out", png)
     assert code == 0, err
     for needle in ("duration: 0:00:40", "distance: 13.6 m", "max speed 0.80 m/s", "battery 80 % -> 79 %",
-                   "modes: task 30 s, server 10 s", "goals: 1", "stops: 3", "readings: 1", "read_scale: 0.42",
-                   "alarms: 2", "soft e-stop", "backend link lost (offline_warn)", "faults: 1",
-                   "control_ack failed: unknown command 'foo'", "3-D obstacles: 1", "picture: " + png):
+                   "modes: task 30 s, server 10 s", "goals: 1", "stops: 3", "readings: 5 (1 alarm, 1 failed)",
+                   "backend: read_scale = 0.42 (no band)",
+                   "fixture_patrol stop 1: transformer_1/oil_temp = 118.2 C (alarm)",
+                   "fixture_patrol stop 1: cabinet_1/ammeter = 231.5 A (normal)",
+                   "fixture_patrol stop 1: cabinet_1/lamp_run = 2 (no band)",
+                   "fixture_patrol stop 1: bay_1/switch_2 = failed (find_scale ended with 1: meter not found)",
+                   "tasks: 1\n  fixture_patrol done",
+                   "alarms: 3", "reading alarm: transformer_1/oil_temp 118.2 C", "soft e-stop",
+                   "backend link lost (offline_warn)", "faults: 2", "control_ack failed: unknown command 'foo'",
+                   "reading failed: bay_1/switch_2: find_scale ended with 1: meter not found",
+                   "3-D obstacles: 1", "picture: " + png):
         assert needle in out, needle
     with open(png, "rb") as f:
         assert f.read(8) == b"\x89PNG\r\n\x1a\n"
@@ -60,6 +68,11 @@ def test_summary_times_are_the_fixture_script(capsys):
     assert abs(since_start + offline - make_bag_fixture.FIXTURE_OFFLINE_AT) < 0.15
     assert abs(since_start + alarms["soft e-stop"] - make_bag_fixture.FIXTURE_ESTOP[0]) < 0.15
     assert [(g.x, g.y) for g in summary.goals] == [make_bag_fixture.FIXTURE_GOAL]
+    # each patrol reading once (task_status repeats last_result every second), at its bag time and stop
+    task = [(round(since_start + r.t, 1), r.target, r.value, r.alarm) for r in summary.readings if r.task]
+    assert task == [(at, r["target"], r["value"], r["alarm"]) for at, result in make_bag_fixture.FIXTURE_RESULTS
+                    for r in result["readings"]]
+    assert all((r.x, r.y) == make_bag_fixture.FIXTURE_GOAL for r in summary.readings)
 
 
 def test_missing_bag(capsys, tmp_path):

@@ -20,9 +20,9 @@ import sys
 import genpy
 import rosbag
 
-from inspection_robot.msg import (GeneralAck, GeneralActionGoal, GeneralActionResult, ObstacleStatus,
+from inspection_robot.msg import (GeneralAck, GeneralActionGoal, GeneralActionResult, GeneralTopic, ObstacleStatus,
                                   ReadScaleAck, RobotStatus)
-from inspection_robot.recording.summary import RunAnalyzer, format_summary
+from inspection_robot.recording.summary import READING_ALARM, RunAnalyzer, format_summary, reading_text
 
 STATUS_FIELDS = ("offline_warn", "mode", "velocity_x", "velocity_yaw", "position", "orientation", "nav_status",
                  "sensor_status", "wheel_status", "light_status", "stop_status", "circuit_status", "other_status",
@@ -36,9 +36,13 @@ TYPED_TOPICS = {
     "move_action/result": GeneralActionResult,
     "find_scale_action/result": GeneralActionResult,
     "read_scale_ack": ReadScaleAck,
+    "task_status": GeneralTopic,
     "map": "nav_msgs/OccupancyGrid",
     "virtual_obstacle_map": "nav_msgs/OccupancyGrid",
 }
+TASK_MANAGER = "task_manager"   # its read_scale_acks are the task readings of task_status
+MAX_WARNINGS = 20
+MAX_LISTED = 14   # readings listed (and numbered R<i> on the map) in the picture
 BAG_ERRORS = (rosbag.ROSBagException, genpy.DeserializationError, struct.error, OSError, ValueError)
 
 
@@ -127,6 +131,7 @@ def read_run(paths, namespace=None):
 
 
 def _feed(analyzer, grids, warnings, name, msg, t):
+    problem = None
     if name == "robot_status":
         analyzer.add_status(t, status_fields(msg))
     elif name in grids:
@@ -135,14 +140,17 @@ def _feed(analyzer, grids, warnings, name, msg, t):
         analyzer.add_obstacle(t, msg.obstacle)
     elif name == "move_action/goal":
         problem = analyzer.add_goal(t, msg.goal.data)
-        if problem and len(warnings) < 20:
-            warnings.append(problem)
+    elif name == "task_status":
+        problem = analyzer.add_task_status(t, msg.data)
     elif name.endswith("_action/result"):
         analyzer.add_action_result(t, name[:-len("/result")], msg.result.ret_code, msg.result.data)
     elif name == "read_scale_ack":
-        analyzer.add_reading(t, "read_scale", list(msg.scale) + list(msg.foreign_scale))
+        if msg.receiver != TASK_MANAGER:
+            analyzer.add_reading(t, "read_scale", list(msg.scale) + list(msg.foreign_scale))
     elif name.endswith("_ack") and getattr(msg, "_type", "") == GeneralAck._type:
         analyzer.add_ack(t, name, msg.ack, msg.data)
+    if problem and len(warnings) < MAX_WARNINGS:
+        warnings.append("%.1f s: %s" % (t, problem))
 
 
 def grid_image(grid):
@@ -163,9 +171,9 @@ def plot_run(summary, grid, virtual, out_path, title):
     import numpy as np
     from inspection_robot.interface import MODE_NAMES
 
-    fig = plt.figure(figsize=(15, 8.5), dpi=100)
-    spec = fig.add_gridspec(3, 2, width_ratios=(1.35, 1), hspace=0.35, wspace=0.18)
-    ax = fig.add_subplot(spec[:, 0])
+    fig = plt.figure(figsize=(15, 12), dpi=100)
+    spec = fig.add_gridspec(4, 2, width_ratios=(1.35, 1), height_ratios=(1, 1, 1, 1.1), hspace=0.35, wspace=0.18)
+    ax = fig.add_subplot(spec[:3, 0])
     xs, ys = np.asarray(summary.x, float), np.asarray(summary.y, float)
     if grid is not None:
         shade, extent = grid_image(grid)
@@ -189,6 +197,9 @@ def plot_run(summary, grid, virtual, out_path, title):
                     mec="black" if marker != "x" else color, label="%s (%d)" % (label, len(events)))
     for i, stop in enumerate(summary.stops[:30]):
         ax.annotate("S%d" % (i + 1), (stop.x, stop.y), xytext=(6, 6), textcoords="offset points", fontsize=9)
+    for label, x, y, alarm in _reading_labels(summary.readings[:MAX_LISTED]):   # R<i>: line i of the list below
+        ax.annotate(label, (x, y), xytext=(-8, 8), textcoords="offset points", ha="right", fontsize=8,
+                    color="darkred" if alarm else "teal")
     placed = []
     for alarm in summary.alarms[:12]:   # labels at the same spot are stacked, not drawn over each other
         below = sum(1 for p in placed if abs(p[0] - alarm.x) < 0.5 and abs(p[1] - alarm.y) < 0.5)
@@ -204,6 +215,7 @@ def plot_run(summary, grid, virtual, out_path, title):
 
     t = np.asarray(summary.t, float)
     axes = [fig.add_subplot(spec[i, 1]) for i in range(3)]
+    _lists(fig.add_subplot(spec[3, :]), summary)
     axes[0].plot(t, summary.speed, color="tab:blue")
     axes[0].set_ylabel("speed (m/s)")
     axes[1].plot(t, summary.battery, color="tab:green")
@@ -221,6 +233,45 @@ def plot_run(summary, grid, virtual, out_path, title):
     axes[0].set_title("speed, battery and mode (red lines: alarms)", fontsize=10)
     fig.savefig(out_path, bbox_inches="tight")
     plt.close(fig)
+
+
+def _reading_labels(readings, near_m=0.5):
+    """(label, x, y, any alarm) per spot: the readings taken at one spot share a label ``R2-R5``."""
+    spots = []   # [x, y, [numbers], alarm]
+    for i, r in enumerate(readings):
+        if r.x != r.x:   # no pose yet
+            continue
+        spot = next((s for s in spots if abs(s[0] - r.x) < near_m and abs(s[1] - r.y) < near_m), None)
+        if spot is None:
+            spot = [r.x, r.y, [], False]
+            spots.append(spot)
+        spot[2].append(i + 1)
+        spot[3] = spot[3] or r.alarm == READING_ALARM
+    return [("R%d" % n[0] if len(n) == 1 else "R%d-R%d" % (n[0], n[-1]) if n[-1] - n[0] == len(n) - 1
+             else "R" + ",".join(str(k) for k in n), x, y, alarm) for x, y, n, alarm in spots]
+
+
+def _clip(text, width):
+    return text if len(text) <= width else text[:width - 3] + "..."
+
+
+def _lists(ax, summary):
+    """The readings (value, unit, alarm state) and the alarms and faults, as text under the plots."""
+    ax.axis("off")
+    readings = ["readings: %d (%d alarm, %d failed)" % (
+        len(summary.readings), sum(1 for r in summary.readings if r.alarm == READING_ALARM),
+        sum(1 for r in summary.readings if r.status == "failed"))]
+    readings += [_clip("R%-3d %5.0f s  %s" % (i + 1, r.t, reading_text(r)), 120)
+                 for i, r in enumerate(summary.readings[:MAX_LISTED])]
+    events = ["alarms: %d" % len(summary.alarms)] + [_clip("%5.0f s  %s" % (e.t, e.text), 80) for e in summary.alarms[:8]]
+    events += ["faults: %d" % len(summary.faults)] + [_clip("%5.0f s  %s" % (e.t, e.text), 80)
+                                                      for e in summary.faults[:6]]
+    if len(summary.readings) > MAX_LISTED:
+        readings.append("... and %d more (text summary)" % (len(summary.readings) - MAX_LISTED))
+    ax.text(0.0, 1.0, "\n".join(readings), va="top", ha="left", family="monospace", fontsize=8,
+            transform=ax.transAxes)
+    ax.text(0.63, 1.0, "\n".join(events), va="top", ha="left", family="monospace", fontsize=8, color="darkred",
+            transform=ax.transAxes)
 
 
 def _zoom(ax, xs, ys, summary):
