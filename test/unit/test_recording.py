@@ -30,7 +30,8 @@ def test_record_command_matches_the_interface_topics_in_the_namespace(ns, prefix
     wanted = ["robot_status", "control_status", "nav_status", "robot_odom", "tf", "server_status", "plan",
               "map", "virtual_obstacle_map", "obstacle_status", "move_action/goal", "move_action/feedback",
               "find_scale_action/result", "control_cmd", "control_ack", "virtual_obstacle_cmd", "mode_cmd",
-              "move_cmd", "task_status", "task_cmd", "task_ack", "task_action/goal", "task_action/result",
+              "move_cmd", "task_status", "task_cmd", "task_ack", "read_scale_cmd", "read_scale_ack",
+              "virtual_obstacles", "virtual_obstacle_ack",
               "charge_status", "charge_cmd", "charge_ack", "diagnostics"]
     for topic in wanted:
         assert regex.match(prefix + topic), topic
