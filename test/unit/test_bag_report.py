@@ -10,6 +10,7 @@ import pytest
 
 rosbag = pytest.importorskip("rosbag")
 
+import rospy  # noqa: E402
 from std_msgs.msg import String  # noqa: E402
 
 from inspection_robot.msg import RobotStatus  # noqa: E402
@@ -113,6 +114,26 @@ def test_wrong_type_on_a_known_topic(capsys, tmp_path):
     code, _out, err = report(capsys, path)
     assert code == 1
     assert "topic /obstacle_status has type std_msgs/String, expected inspection_robot/ObstacleStatus" in err
+
+
+def test_a_type_unknown_to_this_build(capsys, tmp_path):
+    from inspection_robot.msg import GeneralTopic
+    path = str(tmp_path / "vendor.bag")
+    with rosbag.Bag(path, "w") as bag:
+        bag.write("/robot_status", RobotStatus(position=[0, 0]), rospy.Time(1))
+        weird = {"topic": "/vendor_topic", "type": "vendor_msgs/Weird", "md5sum": String._md5sum,
+                 "message_definition": "string data\nvendor_msgs/Missing inner\n"}
+        bag.write("/vendor_topic", String(data="x"), rospy.Time(2), connection_header=weird)
+    code, out, err = report(capsys, path, "--no-plot")   # a topic bag_report does not read: ignored
+    assert code == 0 and "robot_status messages: 1" in out, err
+    with rosbag.Bag(path, "a") as bag:
+        garbled = {"topic": "/task_status", "type": GeneralTopic._type, "md5sum": GeneralTopic._md5sum,
+                   "message_definition": "string data\nvendor_msgs/Missing inner\n"}
+        bag.write("/task_status", GeneralTopic(data="{}"), rospy.Time(3), connection_header=garbled)
+    code, _out, err = report(capsys, path, "--no-plot")
+    assert code == 1 and err.count("\n") == 1
+    assert err.startswith("bag_report: error: %s: topic /task_status: type inspection_robot/GeneralTopic cannot be "
+                          "read from the bag's definition of it: Cannot locate message [Missing]" % path)
 
 
 def test_several_robots_need_ns(capsys, tmp_path):

@@ -17,7 +17,10 @@ import os
 import struct
 import sys
 
+import genmsg
+import genmsg.msg_loader
 import genpy
+import genpy.dynamic
 import rosbag
 
 from inspection_robot.msg import (GeneralAck, GeneralActionGoal, GeneralActionResult, GeneralTopic, ObstacleStatus,
@@ -43,6 +46,9 @@ TYPED_TOPICS = {
 TASK_MANAGER = "task_manager"   # its read_scale_acks are the task readings of task_status
 MAX_WARNINGS = 20
 MAX_LISTED = 14   # readings listed (and numbered R<i> on the map) in the picture
+# what building a message class from a bag's own definition raises (an unknown or garbled type)
+TYPE_ERRORS = (genmsg.MsgGenerationException, genmsg.InvalidMsgSpec, genmsg.msg_loader.MsgNotFound, ValueError,
+               KeyError, SyntaxError)
 BAG_ERRORS = (rosbag.ROSBagException, genpy.DeserializationError, struct.error, OSError, ValueError)
 
 
@@ -87,21 +93,36 @@ def find_namespace(bags, namespace):
     return prefix, topics
 
 
+def _read(name, datatype):
+    """Is topic ``name`` (relative to the namespace) one that bag_report reads?"""
+    return (name in TYPED_TOPICS or (name.endswith("_ack") and datatype == GeneralAck._type)
+            or (name.endswith("_action/result") and datatype == GeneralActionResult._type))
+
+
 def check_types(bags, prefix):
-    """Every topic of TYPED_TOPICS that the bags hold must carry the expected type (same definition)."""
+    """The topics to read (absolute names). Each must carry the expected type (TYPED_TOPICS, same
+    definition) and its definition in the bag must build a message class; other topics are not read."""
+    topics, built = set(), set()
     for path, bag in bags:
         for conn in bag._get_connections():
-            if not conn.topic.startswith(prefix):
+            if not conn.topic.startswith(prefix) or not _read(conn.topic[len(prefix):], conn.datatype):
                 continue
             expected = TYPED_TOPICS.get(conn.topic[len(prefix):])
-            if expected is None:
-                continue
-            name = expected if isinstance(expected, str) else expected._type
-            if conn.datatype != name:
+            name = expected if isinstance(expected, str) or expected is None else expected._type
+            if expected is not None and conn.datatype != name:
                 raise ReportError("%s: topic %s has type %s, expected %s" % (path, conn.topic, conn.datatype, name))
-            if not isinstance(expected, str) and conn.md5sum != expected._md5sum:
+            if not isinstance(expected, str) and expected is not None and conn.md5sum != expected._md5sum:
                 raise ReportError("%s: topic %s: type %s in the bag differs from this build's definition "
                                   "(md5 %s, expected %s)" % (path, conn.topic, name, conn.md5sum, expected._md5sum))
+            if (conn.datatype, conn.md5sum) not in built:
+                try:
+                    genpy.dynamic.generate_dynamic(conn.datatype, conn.msg_def)
+                except TYPE_ERRORS as exc:
+                    raise ReportError("%s: topic %s: type %s cannot be read from the bag's definition of it: %s"
+                                      % (path, conn.topic, conn.datatype, exc))
+                built.add((conn.datatype, conn.md5sum))
+            topics.add(conn.topic)
+    return sorted(topics)
 
 
 def read_run(paths, namespace=None):
@@ -109,13 +130,13 @@ def read_run(paths, namespace=None):
     bags = [(p, _open(p)) for p in paths]
     try:
         prefix, _topics = find_namespace(bags, namespace)
-        check_types(bags, prefix)
+        topics = check_types(bags, prefix)
         analyzer = RunAnalyzer()
         grids = {"map": None, "virtual_obstacle_map": None}
         warnings = []
         for path, bag in sorted(bags, key=lambda pb: pb[1].get_start_time() if pb[1].get_message_count() else 0):
             try:
-                for topic, msg, stamp in bag.read_messages():
+                for topic, msg, stamp in bag.read_messages(topics=topics):
                     if topic.startswith(prefix):
                         _feed(analyzer, grids, warnings, topic[len(prefix):], msg, stamp.to_sec())
             except BAG_ERRORS as exc:
