@@ -136,6 +136,26 @@ def test_a_type_unknown_to_this_build(capsys, tmp_path):
                           "read from the bag's definition of it: Cannot locate message [Missing]" % path)
 
 
+def test_check_says_whether_replay_launch_can_play_a_bag(capsys, tmp_path):
+    code, out, err = report(capsys, "--check", "--ns", "/", FIXTURE, "__name:=replay_check", "__log:=/tmp/x.log")
+    assert code == 0 and out == "bag_report: %s: replayable: 40.0 s of namespace / (control_status, nav_status, " \
+        "robot_odom, server_status)\n" % FIXTURE, err
+    code, _out, err = report(capsys, "--check", str(tmp_path / "nope.bag"))
+    assert code == 1 and "no such bag file" in err
+    path = str(tmp_path / "status_only.bag")
+    with rosbag.Bag(path, "w") as bag:
+        bag.write("/robot_status", RobotStatus(position=[0, 0]))
+        bag.write("/nav_status", String(data="x"))
+    code, _out, err = report(capsys, "--check", path)
+    assert code == 1 and err == "bag_report: error: %s: no /control_status, /robot_odom, /server_status in the bag: " \
+        "status_control cannot rebuild robot_status from it\n" % path
+    with rosbag.Bag(path, "a") as bag:
+        for topic in ("/control_status", "/robot_odom", "/server_status"):
+            bag.write(topic, String(data="x"))
+    code, _out, err = report(capsys, "--check", path)
+    assert code == 1 and "topic /nav_status has type std_msgs/String, expected inspection_robot/NavStatus" in err
+
+
 def test_several_robots_need_ns(capsys, tmp_path):
     path = str(tmp_path / "two.bag")
     with rosbag.Bag(path, "w") as bag:

@@ -308,7 +308,8 @@ def format_summary(summary, bag_name=""):
     readings[0] += " (%d alarm, %d failed)" % (alarmed, failed)
     lines += readings
     lines.append("tasks: %d" % len(s.tasks))
-    lines += ["  %s %s%s" % (task, state, (": " + reason) if reason else "") for task, (state, reason) in s.tasks.items()]
+    lines += ["  %s %s%s" % (task, state, (": " + reason) if reason else "")
+              for task, (state, reason) in s.tasks.items()]
     lines += _events("alarms", s.alarms)
     lines += _events("faults", s.faults)
     lines += _events("3-D obstacles", s.obstacles, limit=5)

@@ -1,6 +1,10 @@
 """bag_report: turn a recorded run (rosbag) into a picture and a short text summary.
 
     bag_report BAG [BAG ...] [--out PNG] [--ns NAMESPACE] [--no-plot]
+    bag_report --check BAG [BAG ...] [--ns NAMESPACE]
+
+``--check`` only says whether the bags can be replayed (replay.launch runs it first): readable and
+indexed, robot_status of one robot, and status_control's inputs (REPLAY_INPUTS) of the right types.
 
 Reads the bags (rosbag Python API; several splits of one run are read in time order), feeds
 recording.summary.RunAnalyzer and prints its summary (duration, distance, stops, readings,
@@ -23,8 +27,8 @@ import genpy
 import genpy.dynamic
 import rosbag
 
-from inspection_robot.msg import (GeneralAck, GeneralActionGoal, GeneralActionResult, GeneralTopic, ObstacleStatus,
-                                  ReadScaleAck, RobotStatus)
+from inspection_robot.msg import (ControlStatus, GeneralAck, GeneralActionGoal, GeneralActionResult, GeneralTopic,
+                                  NavStatus, ObstacleStatus, ReadScaleAck, RobotStatus)
 from inspection_robot.recording.summary import READING_ALARM, RunAnalyzer, format_summary, reading_text
 
 STATUS_FIELDS = ("offline_warn", "mode", "velocity_x", "velocity_yaw", "position", "orientation", "nav_status",
@@ -43,6 +47,9 @@ TYPED_TOPICS = {
     "map": "nav_msgs/OccupancyGrid",
     "virtual_obstacle_map": "nav_msgs/OccupancyGrid",
 }
+# what status_control rebuilds robot_status from during a replay (replay.launch)
+REPLAY_INPUTS = {"control_status": ControlStatus, "nav_status": NavStatus, "robot_odom": "nav_msgs/Odometry",
+                 "server_status": GeneralTopic}
 TASK_MANAGER = "task_manager"   # its read_scale_acks are the task readings of task_status
 MAX_WARNINGS = 20
 MAX_LISTED = 14   # readings listed (and numbered R<i> on the map) in the picture
@@ -99,21 +106,30 @@ def _read(name, datatype):
             or (name.endswith("_action/result") and datatype == GeneralActionResult._type))
 
 
-def check_types(bags, prefix):
+def _check_type(path, conn, expected):
+    """ReportError unless connection ``conn`` carries ``expected`` (a message class: same definition too)."""
+    name = expected if isinstance(expected, str) else expected._type
+    if conn.datatype != name:
+        raise ReportError("%s: topic %s has type %s, expected %s" % (path, conn.topic, conn.datatype, name))
+    if not isinstance(expected, str) and conn.md5sum != expected._md5sum:
+        raise ReportError("%s: topic %s: type %s in the bag differs from this build's definition "
+                          "(md5 %s, expected %s)" % (path, conn.topic, name, conn.md5sum, expected._md5sum))
+
+
+def check_types(bags, prefix, expected_types=None):
     """The topics to read (absolute names). Each must carry the expected type (TYPED_TOPICS, same
-    definition) and its definition in the bag must build a message class; other topics are not read."""
+    definition) and its definition in the bag must build a message class; other topics are not read.
+    ``expected_types`` (name -> type) are checked as well, and not read."""
     topics, built = set(), set()
     for path, bag in bags:
         for conn in bag._get_connections():
-            if not conn.topic.startswith(prefix) or not _read(conn.topic[len(prefix):], conn.datatype):
+            name = conn.topic[len(prefix):] if conn.topic.startswith(prefix) else None
+            if name in (expected_types or {}):
+                _check_type(path, conn, expected_types[name])
+            if name is None or not _read(name, conn.datatype):
                 continue
-            expected = TYPED_TOPICS.get(conn.topic[len(prefix):])
-            name = expected if isinstance(expected, str) or expected is None else expected._type
-            if expected is not None and conn.datatype != name:
-                raise ReportError("%s: topic %s has type %s, expected %s" % (path, conn.topic, conn.datatype, name))
-            if not isinstance(expected, str) and expected is not None and conn.md5sum != expected._md5sum:
-                raise ReportError("%s: topic %s: type %s in the bag differs from this build's definition "
-                                  "(md5 %s, expected %s)" % (path, conn.topic, name, conn.md5sum, expected._md5sum))
+            if name in TYPED_TOPICS:
+                _check_type(path, conn, TYPED_TOPICS[name])
             if (conn.datatype, conn.md5sum) not in built:
                 try:
                     genpy.dynamic.generate_dynamic(conn.datatype, conn.msg_def)
@@ -123,6 +139,24 @@ def check_types(bags, prefix):
                 built.add((conn.datatype, conn.md5sum))
             topics.add(conn.topic)
     return sorted(topics)
+
+
+def check_replayable(paths, namespace=None):
+    """A one-line description of bags that replay.launch can play; ReportError naming what is wrong."""
+    bags = [(p, _open(p)) for p in paths]
+    try:
+        prefix, topics = find_namespace(bags, namespace)
+        missing = [prefix + name for name in sorted(REPLAY_INPUTS) if prefix + name not in topics]
+        if missing:
+            raise ReportError("%s: no %s in the bag: status_control cannot rebuild robot_status from it"
+                              % (paths[0], ", ".join(missing)))
+        check_types(bags, prefix, REPLAY_INPUTS)
+        duration = sum(bag.get_end_time() - bag.get_start_time() for _p, bag in bags if bag.get_message_count())
+    finally:
+        for _path, bag in bags:
+            bag.close()
+    return "%s: replayable: %.1f s of namespace %s (%s)" % (
+        paths[0], duration, prefix, ", ".join(sorted(REPLAY_INPUTS)))
 
 
 def read_run(paths, namespace=None):
@@ -284,7 +318,8 @@ def _lists(ax, summary):
         sum(1 for r in summary.readings if r.status == "failed"))]
     readings += [_clip("R%-3d %5.0f s  %s" % (i + 1, r.t, reading_text(r)), 120)
                  for i, r in enumerate(summary.readings[:MAX_LISTED])]
-    events = ["alarms: %d" % len(summary.alarms)] + [_clip("%5.0f s  %s" % (e.t, e.text), 80) for e in summary.alarms[:8]]
+    events = ["alarms: %d" % len(summary.alarms)] + [_clip("%5.0f s  %s" % (e.t, e.text), 80)
+                                                     for e in summary.alarms[:8]]
     events += ["faults: %d" % len(summary.faults)] + [_clip("%5.0f s  %s" % (e.t, e.text), 80)
                                                       for e in summary.faults[:6]]
     if len(summary.readings) > MAX_LISTED:
@@ -315,8 +350,13 @@ def run(argv=None):
     parser.add_argument("--out", help="PNG path (default: <first bag>.png)")
     parser.add_argument("--ns", help="robot namespace when the bag holds several robots")
     parser.add_argument("--no-plot", action="store_true", help="print the summary only")
-    args = parser.parse_args(argv)
+    parser.add_argument("--check", action="store_true", help="only check that replay.launch can play the bags")
+    # roslaunch appends __name:=... and __log:=... when it runs this as a node (replay.launch)
+    args = parser.parse_args([a for a in (sys.argv[1:] if argv is None else argv) if ":=" not in a])
     try:
+        if args.check:
+            print("bag_report: %s" % check_replayable(args.bags, args.ns))
+            return 0
         summary, grid, virtual, warnings = read_run(args.bags, args.ns)
     except ReportError as exc:
         print("bag_report: error: %s" % exc, file=sys.stderr)
