@@ -5,13 +5,18 @@
 
 The inputs of status_control (control_status 10 Hz, nav_status 10 Hz, robot_odom 20 Hz,
 server_status 5 Hz) and the robot_status that status_control's logic (status.merge, default
-timeouts) makes of them at 10 Hz, the latched map and virtual_obstacle_map, obstacle_status, one move_action
-goal and result, one read_scale_ack and one failed control_ack, with a script a reader can follow
-(FIXTURE_* below, which the tests import):
+timeouts) makes of them at 10 Hz, the latched map, virtual_obstacle_map and virtual_obstacles,
+obstacle_status, one move_action goal and result, a patrol's task_status (1 Hz, latched) with its
+read_scale_acks, a backend's read_scale_ack, a backend's virtual obstacle query and its ack, and one
+failed control_ack, with a script a reader can follow (FIXTURE_* below, which the tests import):
 - 0-10 s task mode at rest; 5-15 s drive along x from (0, 0) to (8, 0) at 0.8 m/s (a goal);
 - 10-20 s backend (server) mode; 22-25 s soft e-stop engaged; 25-32 s drive along y to (8, 5.6);
 - server_status stops after 27.8 s and resumes at 34 s: offline_warn rises at 30.8 s (3 s timeout);
-- a 3-D obstacle from 26 to 27 s; a reading 0.42 at 17 s; a failed control_ack at 21 s.
+- a 3-D obstacle from 26 to 27 s; a backend's reading 0.42 at 17 s; a failed control_ack at 21 s;
+- task fixture_patrol (one stop, three presets) runs from 0.5 s, is paused by server mode 10-20 s,
+  records oil_temp 118.2 C (alarm) at 20.5 s, the cabinet (ammeter 231.5 A normal, lamp 2 without
+  a band) at 21.5 s, a failed switch preset at 21.9 s, and is done; task_status every second;
+- a backend's virtual obstacle query (trans_id 99) at 3 s and move_base's answer.
 Deterministic: the same file every time (fixed start time, no randomness). About 250 kB (lz4).
 """
 import json
@@ -25,7 +30,8 @@ from diagnostic_msgs.msg import DiagnosticArray
 from nav_msgs.msg import OccupancyGrid, Odometry
 
 from inspection_robot.interface import LIGHT_SOFT_ESTOP, MODE_SERVER, MODE_TASK
-from inspection_robot.msg import (ControlStatus, GeneralAck, GeneralActionGoal, GeneralActionResult, GeneralTopic,
+from inspection_robot.msg import (ControlStatus, GeneralAck, GeneralActionGoal, GeneralActionResult, GeneralCmd,
+                                  GeneralTopic,
                                   NavStatus, ObstacleStatus, ReadScaleAck, RobotStatus)
 from inspection_robot.status.merge import CONTROL_FIELDS, Heartbeat, StatusMerger
 
@@ -38,6 +44,23 @@ FIXTURE_OFFLINE_AT = 30.8          # last beat (27.8 s, 5 Hz) + status_control's
 FIXTURE_SERVER_MODE = (10.0, 20.0)
 FIXTURE_ESTOP = (22.0, 25.0)
 FIXTURE_GOAL = (8.0, 0.0)
+FIXTURE_TASK = "fixture_patrol"
+FIXTURE_VIRTUAL_OBSTACLES = [{"id": "fixture_wall", "points": [[10.0, -1.0], [11.0, -1.0], [11.0, 3.0], [10.0, 3.0]],
+                              "closed": True}]
+FIXTURE_QUERY_TRANS_ID = 99
+OIL = {"target": "transformer_1/oil_temp", "value": 118.2, "unit": "C", "alarm": "alarm", "status": "read"}
+AMMETER = {"target": "cabinet_1/ammeter", "value": 231.5, "unit": "A", "alarm": "normal", "status": "read"}
+LAMP = {"target": "cabinet_1/lamp_run", "value": 2.0, "unit": "", "alarm": "none", "status": "read"}
+SWITCH = {"target": "bay_1/switch_2", "value": None, "unit": "", "alarm": "failed", "status": "failed"}
+# (bag time, last_result) of the patrol's readings (task_status.last_result, docs/interface.md "Patrol")
+FIXTURE_RESULTS = (
+    (20.5, {"stop": 1, "preset": "/presets/transformer_1/20261123_075412", "readings": [OIL], "alarms": 1,
+            "failed": 0, "reason": ""}),
+    (21.5, {"stop": 1, "preset": "/presets/cabinet_1/20261123_075501", "readings": [AMMETER, LAMP], "alarms": 0,
+            "failed": 0, "reason": ""}),
+    (21.9, {"stop": 1, "preset": "/presets/switch_2/20261123_075530", "readings": [SWITCH], "alarms": 0,
+            "failed": 1, "reason": "find_scale ended with 1: meter not found"}),
+)
 
 
 def pose_at(t):
@@ -106,6 +129,21 @@ def latched(topic, msg):
             "latching": "1", "callerid": "/move_base"}
 
 
+def task_status(t):
+    """The patrol's task_status dict at ``t`` (running, paused by server mode, done after its last reading)."""
+    done = [result for at, result in FIXTURE_RESULTS if at <= t]
+    status = {"task_id": FIXTURE_TASK, "priority": "routine", "state": "running", "holds": [], "stop": 1,
+              "stops": 1, "stop_name": "bay_1", "preset": len(done) + 1, "presets": 3, "done": len(done), "total": 3,
+              "last_result": done[-1] if done else None, "eta_s": 10.0 * (3 - len(done)), "suspended": "",
+              "reason": "", "last_ended": None, "overhead_s": 0.01, "store": "/tmp/fixture/results.sqlite"}
+    if len(done) == len(FIXTURE_RESULTS):
+        status.update(state="done", stop=0, stops=0, stop_name="", preset=0, presets=0, done=0, total=0, eta_s=0.0,
+                      last_ended={"task_id": FIXTURE_TASK, "state": "done", "reason": ""})
+    elif FIXTURE_SERVER_MODE[0] <= t < FIXTURE_SERVER_MODE[1]:
+        status.update(state="paused", holds=["mode"])
+    return status
+
+
 def write_fixture(path):
     os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
     t0 = FIXTURE_START
@@ -115,6 +153,9 @@ def write_fixture(path):
         for topic, msg in (("/map", yard_map()), ("/virtual_obstacle_map", virtual_map())):
             msg.header.stamp = stamp(0.0)
             bag.write(topic, msg, stamp(0.0), connection_header=latched(topic, msg))
+        listing = GeneralTopic(sender="move_base", data=json.dumps(FIXTURE_VIRTUAL_OBSTACLES))
+        listing.header.stamp = stamp(0.0)
+        bag.write("/virtual_obstacles", listing, stamp(0.0), connection_header=latched("/virtual_obstacles", listing))
         obstacle = ObstacleStatus(sender="obstacle_detector", obstacle=False)
         bag.write("/obstacle_status", obstacle, stamp(0.0), connection_header=latched("/obstacle_status", obstacle))
         for i in range(int(FIXTURE_DURATION * 20)):
@@ -167,6 +208,22 @@ def write_fixture(path):
             msg = ObstacleStatus(sender="obstacle_detector", obstacle=flag)
             msg.header.stamp = stamp(t)
             bag.write("/obstacle_status", msg, stamp(t), connection_header=latched("/obstacle_status", msg))
+        for t in sorted(set([0.5 + k for k in range(int(FIXTURE_DURATION))] + [at for at, _r in FIXTURE_RESULTS])):
+            msg = GeneralTopic(sender="task_manager", data=json.dumps(task_status(t)))
+            msg.header.stamp = stamp(t)
+            bag.write("/task_status", msg, stamp(t), connection_header=latched("/task_status", msg))
+        for t, result in FIXTURE_RESULTS[:2]:   # read_scale's answers to task_manager, just before the results
+            ack = ReadScaleAck(sender="read_scale", receiver="task_manager", result="success",
+                               scale=[r["value"] for r in result["readings"]])
+            ack.header.stamp = stamp(t - 0.1)
+            bag.write("/read_scale_ack", ack, stamp(t - 0.1))
+        query = GeneralCmd(sender="server", trans_id=FIXTURE_QUERY_TRANS_ID, cmd="query", data="")
+        query.header.stamp = stamp(3.0)
+        bag.write("/virtual_obstacle_cmd", query, stamp(3.0))
+        answer = GeneralAck(sender="move_base", receiver="server", trans_id=FIXTURE_QUERY_TRANS_ID, ack="success",
+                            data=json.dumps(FIXTURE_VIRTUAL_OBSTACLES))
+        answer.header.stamp = stamp(3.01)
+        bag.write("/virtual_obstacle_ack", answer, stamp(3.01))
         bag.write("/diagnostics", DiagnosticArray(), stamp(1.0))
     return path
 

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """rostest (bag_recorder.test): split bags under a disk budget (the oldest closed bag goes, never the
-one being written), images recorded as JPEG, and a full disk that stops recording with a
-diagnostics error."""
+one being written), images recorded as JPEG, a full disk that stops recording with a
+diagnostics error, and a bag folder that cannot be created (a diagnostics error, no crash)."""
 import os
 import unittest
 
@@ -45,6 +45,14 @@ class BagRecorderTest(unittest.TestCase):
         self.assertIn("disk full", status.message)
         self.assertIn("recording stopped", status.message)
         self.assertEqual(list_bags(self.full), [])
+
+    def test_1_a_folder_that_cannot_be_created_is_a_diagnostics_error_not_a_crash(self):
+        status = wait_for(lambda: diagnostic(self.diagnostics, "nodir_recorder"), 20.0, "nodir_recorder diagnostics")
+        self.assertEqual(status.level, DiagnosticStatus.ERROR)
+        self.assertEqual(status.message, "cannot create the bag directory /dev/null/bags: Not a directory; "
+                                         "not recording")
+        self.diagnostics.clear()   # still alive: it reports again at the next check
+        wait_for(lambda: diagnostic(self.diagnostics, "nodir_recorder"), 20.0, "nodir_recorder diagnostics again")
 
     def test_2_images_are_recorded_as_jpeg(self):
         wait_subscribed(self.image, 20.0)

@@ -1,6 +1,8 @@
 #!/usr/bin/env python3
 """rostest (record_replay.test): record a short simulated run with sim.launch record:=true (driving
-under backend control, a navigation goal, a soft e-stop, a heartbeat loss), close the bag, replay
+under backend control, a navigation goal, a virtual obstacle added, a soft e-stop, a heartbeat
+loss; task_manager's task_status is latched from the start), close the bag, check that it holds
+the task and virtual obstacle topics, replay
 it with replay.launch in a second ROS master (use_sim_time, its own status_control), capture the
 replayed robot_status with rosbag record, and compare: field by field with the live robot_status
 the bag holds, and the heartbeat loss raising offline_warn at the same bag time."""
@@ -21,14 +23,17 @@ import rospy
 import rostest
 
 from inspection_robot.interface import LIGHT_SOFT_ESTOP, MODE_SERVER, MODE_TASK
-from inspection_robot.msg import GeneralAction, GeneralCmd, GeneralGoal, GeneralTopic, MoveCmd, RobotStatus
+from inspection_robot.msg import GeneralAck, GeneralAction, GeneralCmd, GeneralGoal, GeneralTopic, MoveCmd, RobotStatus
 from inspection_robot.recording.compare import compare_runs, rising_edges
 from inspection_robot.tools.bag_report import status_fields
 from rostest_helpers import Latest, wait_for, wait_subscribed
 
+WALL = {"id": "record_test_wall", "points": [[30.0, 30.0], [31.0, 30.0]], "closed": False}   # far from the drive
+
 HEARTBEAT_TIMEOUT = 3.0   # config/status_control.yaml
 TIME_TOL = 0.5            # s: sim time lags under load, see test_replay_fixture.py (played at 1x here)
 POS_TOL = 0.1             # m
+STATUS_INPUTS = ["/control_status", "/nav_status", "/robot_odom", "/server_status"]
 
 
 def free_port():
@@ -40,6 +45,20 @@ def free_port():
 def bag_stream(path, topic):
     with rosbag.Bag(path) as bag:
         return [(m.header.stamp.to_sec(), status_fields(m)) for _t, m, _s in bag.read_messages(topics=[topic])]
+
+
+def inputs_start(path):
+    """Bag time from which the bag holds every input of status_control: rosbag record subscribes to each
+    topic when it discovers it (regex mode), so one input (e.g. nav_status of a move_base that is
+    still loading its map) may start later than the recorded robot_status; before that a replay
+    cannot rebuild it."""
+    first = {}
+    with rosbag.Bag(path) as bag:
+        for topic, _msg, t in bag.read_messages(topics=STATUS_INPUTS):
+            first.setdefault(topic, t.to_sec())
+            if len(first) == len(STATUS_INPUTS):
+                return max(first.values())
+    raise AssertionError("the bag lacks %s" % sorted(set(STATUS_INPUTS) - set(first)))
 
 
 def goal_data(x, y, velocity_x=0.5):
@@ -57,9 +76,11 @@ class RecordReplayTest(unittest.TestCase):
         cls.mode_cmd = rospy.Publisher("mode_cmd", GeneralCmd, queue_size=10)
         cls.control = rospy.Publisher("control_cmd", GeneralCmd, queue_size=10)
         cls.move = rospy.Publisher("move_cmd", MoveCmd, queue_size=10)
+        cls.vo_cmd = rospy.Publisher("virtual_obstacle_cmd", GeneralCmd, queue_size=10)
+        cls.vo_ack = Latest("virtual_obstacle_ack", GeneralAck, queue_size=10)
         cls.client = actionlib.SimpleActionClient("move_action", GeneralAction)
         assert cls.client.wait_for_server(rospy.Duration(60.0)), "move_action server"
-        for pub in (cls.server, cls.mode_cmd, cls.control, cls.move):
+        for pub in (cls.server, cls.mode_cmd, cls.control, cls.move, cls.vo_cmd):
             wait_subscribed(pub, 30.0)
         cls.beating = threading.Event()
         cls.beating.set()
@@ -96,6 +117,10 @@ class RecordReplayTest(unittest.TestCase):
         cls.client.send_goal(GeneralGoal(sender="task_manager", type="move", data=goal_data(x0 - 1.5, y0)))
         assert cls.client.wait_for_result(rospy.Duration(60.0)), "goal result"
         cls.goal_result = cls.client.get_result()
+        # a virtual obstacle: move_base republishes its list (recorded, for a replay's query)
+        cls.vo_ack.handshake(lambda: cls.vo_cmd.publish(GeneralCmd(sender="server", trans_id=77, cmd="add",
+                                                                   data=json.dumps(WALL))),
+                             lambda m: m.trans_id == 77, timeout=20.0)
         # soft e-stop on and off
         cls.control.publish(GeneralCmd(sender="server", cmd="enable_stop"))
         cls.status.wait(lambda m: m.light_status & LIGHT_SOFT_ESTOP, 5.0, "soft e-stop")
@@ -172,8 +197,22 @@ class RecordReplayTest(unittest.TestCase):
         self.assertTrue(any(f["light_status"] & LIGHT_SOFT_ESTOP for _t, f in live))
         self.assertGreater(max(f["velocity_x"] for _t, f in live), 0.2)
 
+    def test_the_bag_holds_the_task_and_virtual_obstacle_topics(self):
+        with rosbag.Bag(self.bag) as bag:
+            topics = bag.get_type_and_topic_info().topics
+            self.assertEqual(topics["/task_status"].msg_type, "inspection_robot/GeneralTopic")
+            status = [json.loads(m.data) for _t, m, _s in bag.read_messages(topics=["/task_status"])]
+            listings = [json.loads(m.data) for _t, m, _s in bag.read_messages(topics=["/virtual_obstacles"])]
+            acks = [m for _t, m, _s in bag.read_messages(topics=["/virtual_obstacle_ack"])]
+        self.assertIn("state", status[0])
+        self.assertIn(WALL, listings[-1])
+        self.assertNotIn(WALL, listings[0])   # the list before the add, latched from move_base's start
+        self.assertIn((77, "success"), [(a.trans_id, a.ack) for a in acks])
+
     def test_replayed_robot_status_matches_the_live_one_field_by_field(self):
+        start = inputs_start(self.bag)
         live, replayed = bag_stream(self.bag, "/robot_status"), bag_stream(self.replayed_bag, "/robot_status")
+        live, replayed = [s for s in live if s[0] >= start], [s for s in replayed if s[0] >= start]
         checked, mismatches = compare_runs(live, replayed, time_tol=TIME_TOL, pos_tol=POS_TOL)
         self.assertGreater(checked, 0.5 * len(live), "replayed %d of %d live statuses" % (checked, len(live)))
         self.assertEqual(mismatches[:5], [], "%d of %d replayed statuses differ" % (len(mismatches), checked))

@@ -13,7 +13,7 @@ from inspection_robot.nav.gridmap import GridMap, MapError, load_map, save_map
 from inspection_robot.angles import quaternion_from_yaw
 from inspection_robot.nav.goal import move_goal_data, parse_move_goal
 from inspection_robot.nav.localization import LocalizationMonitor
-from inspection_robot.nav.virtual_obstacles import VirtualObstacles
+from inspection_robot.nav.virtual_obstacles import NOT_REPLAYED, REPLAY_REFUSAL, VirtualObstacles, replay_table
 from inspection_robot.sim.nav_yard import occupancy_map
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
@@ -108,6 +108,32 @@ def goal_json(**over):
 
 def parse(data, goal_type="move"):
     return parse_move_goal(goal_type, data, 0.5, 0.5, 1.0, 1.0)
+
+
+def test_a_replay_answers_query_from_the_recorded_list_and_refuses_changes(tmp_path):
+    recorded = [{"id": "b", "points": [[0.0, 0.0], [1.0, 0.0]], "closed": False},
+                {"id": "a", "points": [[2.0, 2.0], [3.0, 2.0], [3.0, 3.0]], "closed": True}]
+    obstacles, known = VirtualObstacles(""), []
+    table = replay_table(obstacles, lambda: bool(known))
+    assert (table.dispatch("query", "").ack, table.dispatch("query", "").data) == ("failed", NOT_REPLAYED)
+    obstacles.replace(recorded, "the bag")
+    known.append(True)
+    reply = table.dispatch("query", "")
+    assert reply.ack == "success" and [o["id"] for o in json.loads(reply.data)] == ["a", "b"]
+    assert json.loads(table.dispatch("query", '{"id": "a"}').data) == [recorded[1]]
+    assert table.dispatch("query", '{"id": "zz"}').data == "no virtual obstacle with id 'zz'"
+    assert table.dispatch("query", "{").data.startswith("data is not valid JSON")
+    for cmd, data in (("add", '{"id": "c", "points": [[0, 0]]}'), ("modify", json.dumps(recorded[0])),
+                      ("delete", '{"id": "a"}'), ("clear", "")):
+        assert (table.dispatch(cmd, data).ack, table.dispatch(cmd, data).data) == ("failed", REPLAY_REFUSAL)
+    assert REPLAY_REFUSAL.startswith("not_allowed: replay")
+    assert table.dispatch("frobnicate", "").data == "unknown command 'frobnicate'"
+    assert [o["id"] for o in json.loads(table.dispatch("query", "{}").data)] == ["a", "b"]   # nothing changed
+    with pytest.raises(ValueError, match="the bag: points"):
+        obstacles.replace([{"id": "x", "points": []}], "the bag")
+    assert len(json.loads(table.dispatch("query", "").data)) == 2   # a bad list changes nothing
+    with pytest.raises(ValueError, match="expected a JSON list"):
+        obstacles.replace({"id": "x"}, "the bag")
 
 
 def test_goal_parsing():

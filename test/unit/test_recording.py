@@ -12,7 +12,7 @@ from inspection_robot.interface import LIGHT_SOFT_ESTOP, MODE_SERVER, MODE_TASK,
 from inspection_robot.recording.compare import compare_runs, rising_edges, status_difference
 from inspection_robot.recording.recorder import (RecorderError, bags_to_delete, compress_image, disk_verdict,
                                                  enforce_budget, list_bags, record_command)
-from inspection_robot.recording.summary import OFFLINE_ALARM, RunAnalyzer, format_summary, mode_time
+from inspection_robot.recording.summary import OFFLINE_ALARM, RunAnalyzer, format_summary, mode_time, reading_text
 
 
 def pattern_of(argv):
@@ -30,7 +30,8 @@ def test_record_command_matches_the_interface_topics_in_the_namespace(ns, prefix
     wanted = ["robot_status", "control_status", "nav_status", "robot_odom", "tf", "server_status", "plan",
               "map", "virtual_obstacle_map", "obstacle_status", "move_action/goal", "move_action/feedback",
               "find_scale_action/result", "control_cmd", "control_ack", "virtual_obstacle_cmd", "mode_cmd",
-              "move_cmd", "task_status", "task_cmd", "task_ack", "task_action/goal", "task_action/result",
+              "move_cmd", "task_status", "task_cmd", "task_ack", "read_scale_cmd", "read_scale_ack",
+              "virtual_obstacles", "virtual_obstacle_ack",
               "charge_status", "charge_cmd", "charge_ack", "diagnostics"]
     for topic in wanted:
         assert regex.match(prefix + topic), topic
@@ -166,7 +167,8 @@ def test_run_summary_of_a_made_up_run():
     assert [(round(a.t, 1), a.text) for a in s.alarms] == [(6.0, "3-D obstacle"), (9.0, "soft e-stop"),
                                                            (11.0, OFFLINE_ALARM)]
     assert [(g.t, g.x, g.y) for g in s.goals] == [(-1.0, 5.0, 0.0)]   # sent 1 s before the first status
-    assert [r.text for r in s.readings] == ["read_scale: 0.5, 1.25"] and s.readings[0].x == pytest.approx(2.0)
+    assert [reading_text(r) for r in s.readings] == ["backend: read_scale = 0.5, 1.25 (no band)"]
+    assert s.readings[0].x == pytest.approx(2.0)
     assert [f.text for f in s.faults] == ["control_ack failed: unknown command 'x'",
                                           "move_action ended with 3: obstacle"]
     assert len(s.obstacles) == 1
@@ -174,7 +176,47 @@ def test_run_summary_of_a_made_up_run():
     assert spent["task"] == pytest.approx(13.9) and spent["server"] == pytest.approx(2.0)
     text = format_summary(s, "run_0.bag")
     for needle in ("run run_0.bag", "duration: 0:00:16 (15.9 s)", "distance: 5.0 m", "battery 80 % -> 79 %",
-                   "stops: 2", "readings: 1", "alarms: 3", "faults: 2", "goals: 1", "server 2 s"):
+                   "stops: 2", "readings: 1 (0 alarm, 0 failed)", "alarms: 3", "faults: 2", "goals: 1", "server 2 s"):
+        assert needle in text, needle
+
+
+def task_status(task_id, state, result=None, reason=""):
+    import json
+    return json.dumps({"task_id": task_id, "state": state, "reason": reason, "last_result": result})
+
+
+def test_task_readings_alarms_and_failures_from_task_status():
+    oil = {"stop": 2, "preset": "/p/oil/1", "reason": "",
+           "readings": [{"target": "t1/oil_temp", "value": 118.2, "unit": "C", "alarm": "alarm", "status": "read"}]}
+    cab = {"stop": 3, "preset": "/p/cab/1", "reason": "find_scale ended with 1: meter not found",
+           "readings": [{"target": "c1/ammeter", "value": None, "unit": "A", "alarm": "failed", "status": "failed"},
+                        {"target": "c1/lamp", "value": None, "unit": "", "alarm": "failed", "status": "failed"}]}
+    analyzer = RunAnalyzer()
+    assert analyzer.add_task_status(99.0, task_status("p1", "running")) is None   # before the first status
+    for t, fields in made_up_run():
+        analyzer.add_status(t, fields)
+        # task_status comes every second and again at the start of each split: one result counts once
+        if abs(t - 103.0) < 1e-6 or abs(t - 104.0) < 1e-6:
+            analyzer.add_task_status(t, task_status("p1", "running", oil))
+        if abs(t - 106.0) < 1e-6 or abs(t - 107.0) < 1e-6:
+            analyzer.add_task_status(t, task_status("p1", "failed", cab, reason="every preset failed"))
+    assert "task_status" in analyzer.add_task_status(110.0, "{not json")
+    assert "task_status" in analyzer.add_task_status(110.0, task_status("p1", "failed", dict(
+        oil, readings=[dict(oil["readings"][0], value="hot")])))
+    s = analyzer.finish()
+    assert [(round(r.t), r.task, r.stop, r.target, r.value, r.unit, r.alarm, r.status) for r in s.readings] == [
+        (3, "p1", 2, "t1/oil_temp", 118.2, "C", "alarm", "read"),
+        (6, "p1", 3, "c1/ammeter", None, "A", "failed", "failed"),
+        (6, "p1", 3, "c1/lamp", None, "", "failed", "failed")]
+    assert reading_text(s.readings[0]) == "p1 stop 2: t1/oil_temp = 118.2 C (alarm)"
+    assert reading_text(s.readings[1]) == "p1 stop 3: c1/ammeter = failed (find_scale ended with 1: meter not found)"
+    assert "reading alarm: t1/oil_temp 118.2 C" in [a.text for a in s.alarms]
+    assert [f.text for f in s.faults] == ["reading failed: c1/ammeter: find_scale ended with 1: meter not found",
+                                          "reading failed: c1/lamp: find_scale ended with 1: meter not found",
+                                          "task p1 failed: every preset failed"]
+    assert dict(s.tasks) == {"p1": ("failed", "every preset failed")}
+    text = format_summary(s)
+    for needle in ("readings: 3 (1 alarm, 2 failed)", "tasks: 1", "p1 failed: every preset failed", "alarms: 4"):
         assert needle in text, needle
 
 

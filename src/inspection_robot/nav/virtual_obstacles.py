@@ -9,6 +9,10 @@ Commands (virtual_obstacle_cmd, INTERFACE.md section 4), data JSON
   data is a JSON list of ``{"id", "points", "closed"}`` objects, sorted by id.
 
 Every change is saved atomically before it is acknowledged; ``on_change`` then gets the list.
+
+During a replay (docs/interface.md "Recording and replay") the list comes from the bag (move_base's
+latched ``virtual_obstacles`` topic, the ``query`` answer) through :meth:`VirtualObstacles.replace`,
+and ``replay_table`` answers ``query`` from it and refuses every change with REPLAY_REFUSAL.
 """
 import json
 import math
@@ -24,6 +28,9 @@ MAX_ID_LENGTH = 128
 # |x|, |y| at most 100 km: a substation map is far smaller, and larger values (a unit error, mm for
 # m) would overflow the costmap's fixed-point rasteriser, which then drew the wall the wrong way.
 MAX_COORDINATE_M = 1.0e5
+REPLAY_REFUSAL = "not_allowed: replay (the virtual obstacles of a recorded run cannot be changed)"
+NOT_REPLAYED = "unavailable: the replayed bag has given no virtual obstacle list yet (topic virtual_obstacles)"
+CHANGING_COMMANDS = ("add", "modify", "delete", "clear")
 
 
 def parse_obstacle(data, need_points=True):
@@ -74,14 +81,19 @@ class VirtualObstacles(object):
         stored = read_json(self.path)
         if stored is None:
             return
-        if not isinstance(stored, list):
-            raise ValueError("%s: expected a JSON list" % self.path)
+        self.replace(stored, self.path)
+
+    def replace(self, entries, source):
+        """Take ``entries`` (a list as ``query`` answers it) as the whole set, without saving it or
+        calling on_change; ValueError naming ``source`` when an entry is malformed (nothing changes)."""
+        if not isinstance(entries, list):
+            raise ValueError("%s: expected a JSON list" % source)
         items = {}
-        for entry in stored:
+        for entry in entries:
             try:
                 ident, points, closed = parse_obstacle(json.dumps(entry))
             except CommandError as err:
-                raise ValueError("%s: %s" % (self.path, err))
+                raise ValueError("%s: %s" % (source, err))
             items[ident] = {"id": ident, "points": points, "closed": closed}
         self._items = items
 
@@ -136,3 +148,18 @@ class VirtualObstacles(object):
 
     def _clear(self, _data):
         self._commit({})
+
+
+def replay_table(obstacles, known):
+    """The virtual_obstacle_cmd table of a replay: ``query`` answered from ``obstacles`` (once
+    ``known()`` says the bag gave the list, else NOT_REPLAYED), every change refused."""
+    def query(data):
+        if not known():
+            raise CommandError(NOT_REPLAYED)
+        return obstacles.table.dispatch("query", data)
+
+    def refuse(_data):
+        raise CommandError(REPLAY_REFUSAL)
+    handlers = {name: refuse for name in CHANGING_COMMANDS}
+    handlers["query"] = query
+    return CommandTable(handlers)

@@ -22,6 +22,7 @@ import os
 import shutil
 import signal
 import subprocess
+import threading
 
 import roslib.packages
 import rospy
@@ -73,17 +74,21 @@ class BagRecorder(object):
         self._child = None
         self._disk_full = None   # reason while stopped for lack of space
         self._problem = None
+        self._lock = threading.Lock()   # a check (timer thread) and the shutdown never interleave
+        self._closed = False
         self._timer = rospy.Timer(rospy.Duration(check_period), self._on_timer)
 
     def begin(self):
-        """Check the budget and the disk, then record unless the disk is already full."""
-        os.makedirs(self._dir, exist_ok=True)
+        """Check the folder, the budget and the disk, then record unless the disk is already full."""
         self.check()
-        if self._disk_full is None:
-            self.start()
+
+    def close(self):
+        """Node shutdown: stop the recorder (bag closed and indexed); no later check starts it again."""
+        with self._lock:
+            self._closed = True
+            self.stop()
 
     def start(self):
-        os.makedirs(self._dir, exist_ok=True)
         rospy.loginfo("bag_recorder: recording into %s", self._dir)
         self._child = subprocess.Popen(self._argv, start_new_session=True)
 
@@ -107,6 +112,19 @@ class BagRecorder(object):
             rospy.logerr_throttle(30.0, "bag_recorder: check failed: %r" % (exc,))
 
     def check(self):
+        with self._lock:
+            if not self._closed:
+                self._check()
+
+    def _check(self):
+        try:
+            os.makedirs(self._dir, exist_ok=True)
+        except OSError as exc:   # e.g. a read-only or unmounted data disk: report, try again next check
+            reason = "cannot create the bag directory %s: %s; not recording" % (self._dir, exc.strerror or exc)
+            rospy.logerr_throttle(60.0, "bag_recorder: %s" % reason)
+            self.stop()
+            self._diag.publish(False, reason, [("directory", self._dir)])
+            return
         deleted, errors = enforce_budget(self._dir, self._budget)
         for path in deleted:
             rospy.loginfo("bag_recorder: budget %.0f MB reached, deleted %s", self._budget / MB, path)
@@ -127,7 +145,9 @@ class BagRecorder(object):
             rospy.loginfo("bag_recorder: %.0f MB free again on %s; recording resumes", free / MB, self._dir)
             self._disk_full = None
             self.start()
-        elif not self._disk_full and self._child is not None and self._child.poll() is not None:
+        elif not self._disk_full and self._child is None:
+            self.start()
+        elif not self._disk_full and self._child.poll() is not None:
             self._problem = "recorder exited with status %s; restarted" % self._child.returncode
             rospy.logerr("bag_recorder: %s", self._problem)
             self.start()
@@ -180,6 +200,6 @@ def main():
         ImageCompressor(rospy.resolve_name(topic), image_rate, quality)
     recorder = BagRecorder(argv, directory, budget_mb * MB, min_free_mb * MB, check_period,
                            DeviceDiagnostics("bag recorder", HARDWARE_ID))
-    rospy.on_shutdown(recorder.stop)
+    rospy.on_shutdown(recorder.close)
     recorder.begin()
     rospy.spin()

@@ -8,6 +8,8 @@ Subscribes:  <~pose_topic> (geometry_msgs/PoseWithCovarianceStamped) robot pose 
              virtual_obstacle_cmd (GeneralCmd): add | modify | delete | query | clear (JSON data)
 Publishes:   map (nav_msgs/OccupancyGrid, latched) the static map, never holding virtual obstacles
              virtual_obstacle_map (nav_msgs/OccupancyGrid, latched) the virtual layer, for RViz
+             virtual_obstacles (GeneralTopic, latched) the obstacle list as query answers it (JSON), on
+             start and every change: recorded in bags, answers queries during a replay
              plan (nav_msgs/Path, latched) the current global plan
              move_cmd (MoveCmd, sender "move_base") at ~control_rate while a goal runs
              nav_status (NavStatus) at ~status_rate; virtual_obstacle_ack (GeneralAck)
@@ -49,7 +51,7 @@ from inspection_robot.interface import (MODE_TASK,
                                         NAV_LOCALIZATION_LOST, NAV_OBSTACLE_3D, NAV_OFF_TRACK, SENDER_MOVE_BASE,
                                         WHEEL_STRAIGHT)
 from inspection_robot.msg import (ControlStatus, GeneralAction, GeneralCmd, GeneralFeedback, GeneralResult,
-                                  MoveCmd, NavStatus, ObstacleStatus)
+                                  GeneralTopic, MoveCmd, NavStatus, ObstacleStatus)
 from inspection_robot.nav.costmap import Costmap
 from inspection_robot.nav.follower import DONE, FollowerParams, PathFollower
 from inspection_robot.nav.goal import parse_move_goal
@@ -105,6 +107,7 @@ class MoveBase(object):
         self._map_pub = rospy.Publisher("map", OccupancyGrid, queue_size=1, latch=True)
         self._map_pub.publish(grid_message(grid, grid.occupancy, stamp))
         self._virtual_pub = rospy.Publisher("virtual_obstacle_map", OccupancyGrid, queue_size=1, latch=True)
+        self._listing_pub = rospy.Publisher("virtual_obstacles", GeneralTopic, queue_size=1, latch=True)
         self._plan_pub = rospy.Publisher("plan", Path, queue_size=1, latch=True)
         self._cmd_pub = rospy.Publisher("move_cmd", MoveCmd, queue_size=10)
         self._status_pub = rospy.Publisher("nav_status", NavStatus, queue_size=10)
@@ -177,8 +180,12 @@ class MoveBase(object):
 
     # --- outputs -------------------------------------------------------------------------------
     def _publish_virtual(self):
+        stamp = rospy.Time.now()
         occupancy = (self.costmap.virtual * 100).astype("int8")
-        self._virtual_pub.publish(grid_message(self.grid, occupancy, rospy.Time.now()))
+        self._virtual_pub.publish(grid_message(self.grid, occupancy, stamp))
+        listing = GeneralTopic(sender=SENDER_MOVE_BASE, data=json.dumps(self.obstacles.listing()))
+        listing.header.stamp = stamp
+        self._listing_pub.publish(listing)
 
     def _publish_plan(self, points):
         path = Path()

@@ -13,7 +13,8 @@ import re
 INTERFACE_TOPICS = (
     "robot_status", "control_status", "nav_status", "robot_odom", "odom", "tf", "tf_static",
     "server_status", "diagnostics", "obstacle_status", "plan", "map", "virtual_obstacle_map",
-    "move_action/.*", "find_scale_action/.*", "task_action/.*",
+    "virtual_obstacles",
+    "move_action/.*", "find_scale_action/.*",
     "[A-Za-z0-9_]+_cmd", "[A-Za-z0-9_]+_ack",
     "task_status", "charge_status",
     "terrace_state", "camera_zoom", "client_count",

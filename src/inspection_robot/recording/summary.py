@@ -12,8 +12,14 @@ Definitions (docs/operations.md "bag_report"):
 - stop: the robot stood still (|velocity_x| and |velocity_yaw| under the thresholds) for at least
   ``min_stop_s``;
 - alarm: the rising edge of an alarm bit of robot_status (ALARM_BITS) or of offline_warn;
-- fault: a ``*_ack`` answered ``failed``, an action result other than "0", a motor_status fault;
-- reading: a value of read_scale_ack (``scale`` and ``foreign_scale``) or a task result.
+- alarm also: a patrol reading whose alarm state is ``alarm`` (outside its band);
+- fault: a ``*_ack`` answered ``failed``, an action result other than "0", a motor_status fault, a
+  patrol reading that failed, a patrol task that ended ``failed``;
+- reading: each reading of task_status ``last_result`` (a new last_result is one that differs from
+  the previous task_status's: task_status is republished every second and repeated at the start of
+  every split), with its target, value, unit and alarm state; and a read_scale_ack's values
+  (``scale`` and ``foreign_scale``) of a reading that a backend asked for (task_manager's own
+  read_scale_acks are the task readings already).
 """
 import collections
 import json
@@ -55,6 +61,11 @@ ALARM_BITS = (
 OFFLINE_ALARM = "backend link lost (offline_warn)"
 
 Event = collections.namedtuple("Event", "t x y text")
+# One meter reading: ``task`` the task id ("" for a backend's read_scale), ``value`` None when it failed.
+Reading = collections.namedtuple("Reading", "t x y task stop target value unit alarm status reason")
+TASK_ENDED = ("done", "failed", "cancelled")
+READING_ALARM = "alarm"   # task_status alarm state of a value outside its band
+ALARM_TEXT = {"none": "no band"}
 Stop = collections.namedtuple("Stop", "t x y duration")
 
 
@@ -68,8 +79,9 @@ class RunSummary(object):
         self.max_speed = 0.0
         self.status_count = 0
         self.t, self.x, self.y, self.speed, self.battery, self.mode = [], [], [], [], [], []
-        self.stops, self.goals, self.readings = [], [], []
+        self.stops, self.goals, self.readings = [], [], []   # readings: Reading tuples
         self.alarms, self.faults, self.obstacles = [], [], []
+        self.tasks = collections.OrderedDict()   # task id -> last state seen (and reason)
 
 
 class RunAnalyzer(object):
@@ -82,6 +94,7 @@ class RunAnalyzer(object):
         self._last = None            # previous robot_status fields
         self._still_since = None     # (t, x, y) when the robot last came to rest
         self._pending = []           # events before the first robot_status: placed once it is known
+        self._last_result = None     # task_status last_result of the previous task_status (JSON text)
 
     # -- input, one call per message; t: absolute bag time in seconds -------------------------
     def add_status(self, t, status):
@@ -138,10 +151,49 @@ class RunAnalyzer(object):
             self._at(t, lambda rel, x, y: self._s.obstacles.append(Event(rel, x, y, "3-D obstacle")))
 
     def add_reading(self, t, source, values):
-        """``values``: the numbers one reading message carries (read_scale_ack scale + foreign_scale)."""
-        values = list(values)
+        """``values``: the numbers of a read_scale_ack that a backend asked for (scale + foreign_scale)."""
+        values = [float(v) for v in values]
         self._at(t, lambda rel, x, y: self._s.readings.append(
-            Event(rel, x, y, "%s: %s" % (source, ", ".join("%g" % v for v in values) or "no value"))))
+            Reading(rel, x, y, "", 0, source, values or None, "", "none", "read" if values else "failed",
+                    "" if values else "no value")))
+
+    def add_task_status(self, t, data):
+        """One task_status message's JSON ``data``; returns a problem text or None (bad ones are skipped)."""
+        try:
+            status = json.loads(data)
+            task_id, state = str(status["task_id"]), str(status["state"])
+            result = status.get("last_result")
+            readings = [] if result is None else [
+                (str(r["target"]), r.get("value"), str(r.get("unit", "")), str(r.get("alarm", "")),
+                 str(r.get("status", "")), str(result.get("reason", ""))) for r in result["readings"]]
+            stop = int(result["stop"]) if result is not None else 0
+            if not all(r[1] is None or (isinstance(r[1], (int, float)) and not isinstance(r[1], bool))
+                       for r in readings):
+                raise TypeError("a reading value is not a number")
+        except (ValueError, KeyError, TypeError, AttributeError) as exc:
+            return "task_status without a readable task_id, state or last_result (%s)" % (exc.__class__.__name__,)
+        key = json.dumps(result, sort_keys=True)
+        if result is not None and key != self._last_result:
+            # task_id is the task the result was recorded for: the running one, or the one that just ended
+            for fields in readings:
+                self._at(t, lambda rel, x, y, f=fields: self._task_reading(Reading(rel, x, y, task_id, stop, *f)))
+        self._last_result = key
+        if task_id:
+            before = self._s.tasks.get(task_id)
+            self._s.tasks[task_id] = (state, str(status.get("reason", "")))
+            if state == "failed" and (before is None or before[0] != "failed"):
+                self._at(t, lambda rel, x, y: self._s.faults.append(
+                    Event(rel, x, y, "task %s failed: %s" % (task_id, status.get("reason", "")))))
+        return None
+
+    def _task_reading(self, reading):
+        s = self._s
+        s.readings.append(reading)
+        where = (reading.t, reading.x, reading.y)
+        if reading.alarm == READING_ALARM:
+            s.alarms.append(Event(*where, text="reading alarm: %s %s" % (reading.target, value_text(reading))))
+        if reading.status == "failed":
+            s.faults.append(Event(*where, text="reading failed: %s: %s" % (reading.target, reading.reason or "?")))
 
     def add_ack(self, t, topic, ack, data):
         if ack == "failed":
@@ -198,6 +250,22 @@ class RunAnalyzer(object):
             self._s.stops.append(Stop(since, x, y, rel - since))
 
 
+def value_text(reading):
+    """``118.2 C``, ``0.5, 1.25`` (several values of one read), or ``failed``."""
+    if reading.status == "failed" or reading.value is None:
+        return "failed"
+    if isinstance(reading.value, list):
+        return ", ".join("%g" % v for v in reading.value)
+    return ("%g %s" % (reading.value, reading.unit)).strip()
+
+
+def reading_text(reading):
+    """One line of the summary and of the picture: where it was asked, what, the value and its state."""
+    source = ("%s stop %d" % (reading.task, reading.stop)) if reading.task else "backend"
+    state = reading.reason if reading.status == "failed" else ALARM_TEXT.get(reading.alarm, reading.alarm)
+    return "%s: %s = %s (%s)" % (source, reading.target, value_text(reading), state or "?")
+
+
 def _clock(seconds):
     seconds = max(0, int(round(seconds)))
     return "%d:%02d:%02d" % (seconds // 3600, seconds // 60 % 60, seconds % 60)
@@ -234,7 +302,14 @@ def format_summary(summary, bag_name=""):
         lines.append("  %s  %.0f s at (%.1f, %.1f)" % (_clock(stop.t), stop.duration, stop.x, stop.y))
     if len(s.stops) > 10:
         lines.append("  ... and %d more" % (len(s.stops) - 10))
-    lines += _events("readings", s.readings)
+    alarmed = sum(1 for r in s.readings if r.alarm == READING_ALARM)
+    failed = sum(1 for r in s.readings if r.status == "failed")
+    readings = _events("readings", [Event(r.t, r.x, r.y, reading_text(r)) for r in s.readings], limit=40)
+    readings[0] += " (%d alarm, %d failed)" % (alarmed, failed)
+    lines += readings
+    lines.append("tasks: %d" % len(s.tasks))
+    lines += ["  %s %s%s" % (task, state, (": " + reason) if reason else "")
+              for task, (state, reason) in s.tasks.items()]
     lines += _events("alarms", s.alarms)
     lines += _events("faults", s.faults)
     lines += _events("3-D obstacles", s.obstacles, limit=5)

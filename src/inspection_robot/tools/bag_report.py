@@ -1,6 +1,10 @@
 """bag_report: turn a recorded run (rosbag) into a picture and a short text summary.
 
     bag_report BAG [BAG ...] [--out PNG] [--ns NAMESPACE] [--no-plot]
+    bag_report --check BAG [BAG ...] [--ns NAMESPACE]
+
+``--check`` only says whether the bags can be replayed (replay.launch runs it first): readable and
+indexed, robot_status of one robot, and status_control's inputs (REPLAY_INPUTS) of the right types.
 
 Reads the bags (rosbag Python API; several splits of one run are read in time order), feeds
 recording.summary.RunAnalyzer and prints its summary (duration, distance, stops, readings,
@@ -17,12 +21,15 @@ import os
 import struct
 import sys
 
+import genmsg
+import genmsg.msg_loader
 import genpy
+import genpy.dynamic
 import rosbag
 
-from inspection_robot.msg import (GeneralAck, GeneralActionGoal, GeneralActionResult, ObstacleStatus,
-                                  ReadScaleAck, RobotStatus)
-from inspection_robot.recording.summary import RunAnalyzer, format_summary
+from inspection_robot.msg import (ControlStatus, GeneralAck, GeneralActionGoal, GeneralActionResult, GeneralTopic,
+                                  NavStatus, ObstacleStatus, ReadScaleAck, RobotStatus)
+from inspection_robot.recording.summary import READING_ALARM, RunAnalyzer, format_summary, reading_text
 
 STATUS_FIELDS = ("offline_warn", "mode", "velocity_x", "velocity_yaw", "position", "orientation", "nav_status",
                  "sensor_status", "wheel_status", "light_status", "stop_status", "circuit_status", "other_status",
@@ -36,9 +43,19 @@ TYPED_TOPICS = {
     "move_action/result": GeneralActionResult,
     "find_scale_action/result": GeneralActionResult,
     "read_scale_ack": ReadScaleAck,
+    "task_status": GeneralTopic,
     "map": "nav_msgs/OccupancyGrid",
     "virtual_obstacle_map": "nav_msgs/OccupancyGrid",
 }
+# what status_control rebuilds robot_status from during a replay (replay.launch)
+REPLAY_INPUTS = {"control_status": ControlStatus, "nav_status": NavStatus, "robot_odom": "nav_msgs/Odometry",
+                 "server_status": GeneralTopic}
+TASK_MANAGER = "task_manager"   # its read_scale_acks are the task readings of task_status
+MAX_WARNINGS = 20
+MAX_LISTED = 14   # readings listed (and numbered R<i> on the map) in the picture
+# what building a message class from a bag's own definition raises (an unknown or garbled type)
+TYPE_ERRORS = (genmsg.MsgGenerationException, genmsg.InvalidMsgSpec, genmsg.msg_loader.MsgNotFound, ValueError,
+               KeyError, SyntaxError)
 BAG_ERRORS = (rosbag.ROSBagException, genpy.DeserializationError, struct.error, OSError, ValueError)
 
 
@@ -83,21 +100,63 @@ def find_namespace(bags, namespace):
     return prefix, topics
 
 
-def check_types(bags, prefix):
-    """Every topic of TYPED_TOPICS that the bags hold must carry the expected type (same definition)."""
+def _read(name, datatype):
+    """Is topic ``name`` (relative to the namespace) one that bag_report reads?"""
+    return (name in TYPED_TOPICS or (name.endswith("_ack") and datatype == GeneralAck._type)
+            or (name.endswith("_action/result") and datatype == GeneralActionResult._type))
+
+
+def _check_type(path, conn, expected):
+    """ReportError unless connection ``conn`` carries ``expected`` (a message class: same definition too)."""
+    name = expected if isinstance(expected, str) else expected._type
+    if conn.datatype != name:
+        raise ReportError("%s: topic %s has type %s, expected %s" % (path, conn.topic, conn.datatype, name))
+    if not isinstance(expected, str) and conn.md5sum != expected._md5sum:
+        raise ReportError("%s: topic %s: type %s in the bag differs from this build's definition "
+                          "(md5 %s, expected %s)" % (path, conn.topic, name, conn.md5sum, expected._md5sum))
+
+
+def check_types(bags, prefix, expected_types=None):
+    """The topics to read (absolute names). Each must carry the expected type (TYPED_TOPICS, same
+    definition) and its definition in the bag must build a message class; other topics are not read.
+    ``expected_types`` (name -> type) are checked as well, and not read."""
+    topics, built = set(), set()
     for path, bag in bags:
         for conn in bag._get_connections():
-            if not conn.topic.startswith(prefix):
+            name = conn.topic[len(prefix):] if conn.topic.startswith(prefix) else None
+            if name in (expected_types or {}):
+                _check_type(path, conn, expected_types[name])
+            if name is None or not _read(name, conn.datatype):
                 continue
-            expected = TYPED_TOPICS.get(conn.topic[len(prefix):])
-            if expected is None:
-                continue
-            name = expected if isinstance(expected, str) else expected._type
-            if conn.datatype != name:
-                raise ReportError("%s: topic %s has type %s, expected %s" % (path, conn.topic, conn.datatype, name))
-            if not isinstance(expected, str) and conn.md5sum != expected._md5sum:
-                raise ReportError("%s: topic %s: type %s in the bag differs from this build's definition "
-                                  "(md5 %s, expected %s)" % (path, conn.topic, name, conn.md5sum, expected._md5sum))
+            if name in TYPED_TOPICS:
+                _check_type(path, conn, TYPED_TOPICS[name])
+            if (conn.datatype, conn.md5sum) not in built:
+                try:
+                    genpy.dynamic.generate_dynamic(conn.datatype, conn.msg_def)
+                except TYPE_ERRORS as exc:
+                    raise ReportError("%s: topic %s: type %s cannot be read from the bag's definition of it: %s"
+                                      % (path, conn.topic, conn.datatype, exc))
+                built.add((conn.datatype, conn.md5sum))
+            topics.add(conn.topic)
+    return sorted(topics)
+
+
+def check_replayable(paths, namespace=None):
+    """A one-line description of bags that replay.launch can play; ReportError naming what is wrong."""
+    bags = [(p, _open(p)) for p in paths]
+    try:
+        prefix, topics = find_namespace(bags, namespace)
+        missing = [prefix + name for name in sorted(REPLAY_INPUTS) if prefix + name not in topics]
+        if missing:
+            raise ReportError("%s: no %s in the bag: status_control cannot rebuild robot_status from it"
+                              % (paths[0], ", ".join(missing)))
+        check_types(bags, prefix, REPLAY_INPUTS)
+        duration = sum(bag.get_end_time() - bag.get_start_time() for _p, bag in bags if bag.get_message_count())
+    finally:
+        for _path, bag in bags:
+            bag.close()
+    return "%s: replayable: %.1f s of namespace %s (%s)" % (
+        paths[0], duration, prefix, ", ".join(sorted(REPLAY_INPUTS)))
 
 
 def read_run(paths, namespace=None):
@@ -105,13 +164,13 @@ def read_run(paths, namespace=None):
     bags = [(p, _open(p)) for p in paths]
     try:
         prefix, _topics = find_namespace(bags, namespace)
-        check_types(bags, prefix)
+        topics = check_types(bags, prefix)
         analyzer = RunAnalyzer()
         grids = {"map": None, "virtual_obstacle_map": None}
         warnings = []
         for path, bag in sorted(bags, key=lambda pb: pb[1].get_start_time() if pb[1].get_message_count() else 0):
             try:
-                for topic, msg, stamp in bag.read_messages():
+                for topic, msg, stamp in bag.read_messages(topics=topics):
                     if topic.startswith(prefix):
                         _feed(analyzer, grids, warnings, topic[len(prefix):], msg, stamp.to_sec())
             except BAG_ERRORS as exc:
@@ -127,6 +186,7 @@ def read_run(paths, namespace=None):
 
 
 def _feed(analyzer, grids, warnings, name, msg, t):
+    problem = None
     if name == "robot_status":
         analyzer.add_status(t, status_fields(msg))
     elif name in grids:
@@ -135,14 +195,17 @@ def _feed(analyzer, grids, warnings, name, msg, t):
         analyzer.add_obstacle(t, msg.obstacle)
     elif name == "move_action/goal":
         problem = analyzer.add_goal(t, msg.goal.data)
-        if problem and len(warnings) < 20:
-            warnings.append(problem)
+    elif name == "task_status":
+        problem = analyzer.add_task_status(t, msg.data)
     elif name.endswith("_action/result"):
         analyzer.add_action_result(t, name[:-len("/result")], msg.result.ret_code, msg.result.data)
     elif name == "read_scale_ack":
-        analyzer.add_reading(t, "read_scale", list(msg.scale) + list(msg.foreign_scale))
+        if msg.receiver != TASK_MANAGER:
+            analyzer.add_reading(t, "read_scale", list(msg.scale) + list(msg.foreign_scale))
     elif name.endswith("_ack") and getattr(msg, "_type", "") == GeneralAck._type:
         analyzer.add_ack(t, name, msg.ack, msg.data)
+    if problem and len(warnings) < MAX_WARNINGS:
+        warnings.append("%.1f s: %s" % (t, problem))
 
 
 def grid_image(grid):
@@ -163,9 +226,9 @@ def plot_run(summary, grid, virtual, out_path, title):
     import numpy as np
     from inspection_robot.interface import MODE_NAMES
 
-    fig = plt.figure(figsize=(15, 8.5), dpi=100)
-    spec = fig.add_gridspec(3, 2, width_ratios=(1.35, 1), hspace=0.35, wspace=0.18)
-    ax = fig.add_subplot(spec[:, 0])
+    fig = plt.figure(figsize=(15, 12), dpi=100)
+    spec = fig.add_gridspec(4, 2, width_ratios=(1.35, 1), height_ratios=(1, 1, 1, 1.1), hspace=0.35, wspace=0.18)
+    ax = fig.add_subplot(spec[:3, 0])
     xs, ys = np.asarray(summary.x, float), np.asarray(summary.y, float)
     if grid is not None:
         shade, extent = grid_image(grid)
@@ -189,6 +252,9 @@ def plot_run(summary, grid, virtual, out_path, title):
                     mec="black" if marker != "x" else color, label="%s (%d)" % (label, len(events)))
     for i, stop in enumerate(summary.stops[:30]):
         ax.annotate("S%d" % (i + 1), (stop.x, stop.y), xytext=(6, 6), textcoords="offset points", fontsize=9)
+    for label, x, y, alarm in _reading_labels(summary.readings[:MAX_LISTED]):   # R<i>: line i of the list below
+        ax.annotate(label, (x, y), xytext=(-8, 8), textcoords="offset points", ha="right", fontsize=8,
+                    color="darkred" if alarm else "teal")
     placed = []
     for alarm in summary.alarms[:12]:   # labels at the same spot are stacked, not drawn over each other
         below = sum(1 for p in placed if abs(p[0] - alarm.x) < 0.5 and abs(p[1] - alarm.y) < 0.5)
@@ -204,6 +270,7 @@ def plot_run(summary, grid, virtual, out_path, title):
 
     t = np.asarray(summary.t, float)
     axes = [fig.add_subplot(spec[i, 1]) for i in range(3)]
+    _lists(fig.add_subplot(spec[3, :]), summary)
     axes[0].plot(t, summary.speed, color="tab:blue")
     axes[0].set_ylabel("speed (m/s)")
     axes[1].plot(t, summary.battery, color="tab:green")
@@ -221,6 +288,46 @@ def plot_run(summary, grid, virtual, out_path, title):
     axes[0].set_title("speed, battery and mode (red lines: alarms)", fontsize=10)
     fig.savefig(out_path, bbox_inches="tight")
     plt.close(fig)
+
+
+def _reading_labels(readings, near_m=0.5):
+    """(label, x, y, any alarm) per spot: the readings taken at one spot share a label ``R2-R5``."""
+    spots = []   # [x, y, [numbers], alarm]
+    for i, r in enumerate(readings):
+        if r.x != r.x:   # no pose yet
+            continue
+        spot = next((s for s in spots if abs(s[0] - r.x) < near_m and abs(s[1] - r.y) < near_m), None)
+        if spot is None:
+            spot = [r.x, r.y, [], False]
+            spots.append(spot)
+        spot[2].append(i + 1)
+        spot[3] = spot[3] or r.alarm == READING_ALARM
+    return [("R%d" % n[0] if len(n) == 1 else "R%d-R%d" % (n[0], n[-1]) if n[-1] - n[0] == len(n) - 1
+             else "R" + ",".join(str(k) for k in n), x, y, alarm) for x, y, n, alarm in spots]
+
+
+def _clip(text, width):
+    return text if len(text) <= width else text[:width - 3] + "..."
+
+
+def _lists(ax, summary):
+    """The readings (value, unit, alarm state) and the alarms and faults, as text under the plots."""
+    ax.axis("off")
+    readings = ["readings: %d (%d alarm, %d failed)" % (
+        len(summary.readings), sum(1 for r in summary.readings if r.alarm == READING_ALARM),
+        sum(1 for r in summary.readings if r.status == "failed"))]
+    readings += [_clip("R%-3d %5.0f s  %s" % (i + 1, r.t, reading_text(r)), 120)
+                 for i, r in enumerate(summary.readings[:MAX_LISTED])]
+    events = ["alarms: %d" % len(summary.alarms)] + [_clip("%5.0f s  %s" % (e.t, e.text), 80)
+                                                     for e in summary.alarms[:8]]
+    events += ["faults: %d" % len(summary.faults)] + [_clip("%5.0f s  %s" % (e.t, e.text), 80)
+                                                      for e in summary.faults[:6]]
+    if len(summary.readings) > MAX_LISTED:
+        readings.append("... and %d more (text summary)" % (len(summary.readings) - MAX_LISTED))
+    ax.text(0.0, 1.0, "\n".join(readings), va="top", ha="left", family="monospace", fontsize=8,
+            transform=ax.transAxes)
+    ax.text(0.63, 1.0, "\n".join(events), va="top", ha="left", family="monospace", fontsize=8, color="darkred",
+            transform=ax.transAxes)
 
 
 def _zoom(ax, xs, ys, summary):
@@ -243,8 +350,13 @@ def run(argv=None):
     parser.add_argument("--out", help="PNG path (default: <first bag>.png)")
     parser.add_argument("--ns", help="robot namespace when the bag holds several robots")
     parser.add_argument("--no-plot", action="store_true", help="print the summary only")
-    args = parser.parse_args(argv)
+    parser.add_argument("--check", action="store_true", help="only check that replay.launch can play the bags")
+    # roslaunch appends __name:=... and __log:=... when it runs this as a node (replay.launch)
+    args = parser.parse_args([a for a in (sys.argv[1:] if argv is None else argv) if ":=" not in a])
     try:
+        if args.check:
+            print("bag_report: %s" % check_replayable(args.bags, args.ns))
+            return 0
         summary, grid, virtual, warnings = read_run(args.bags, args.ns)
     except ReportError as exc:
         print("bag_report: error: %s" % exc, file=sys.stderr)
