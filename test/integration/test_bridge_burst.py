@@ -10,6 +10,7 @@ import json
 import queue
 import struct
 import threading
+import time
 import unittest
 
 import roslibpy
@@ -28,16 +29,41 @@ def connect_loopback(client, topic, seen):
     """Advertise and subscribe on ``topic``; publish until one message came back through ROS."""
     client.send({"op": "subscribe", "topic": topic, "type": "std_msgs/String"})
     client.send({"op": "advertise", "topic": topic, "type": "std_msgs/String"})
+    warm_until(client, topic, heard_by(client, topic), "loopback on %s" % topic)
+    drain(client, seen)
 
-    def round_trip():
-        client.send({"op": "publish", "topic": topic, "msg": {"data": "warmup"}})
+
+def heard_by(listener, topic):
+    """A probe for warm_until: did ``listener`` get a message on ``topic`` within the timeout?"""
+    def probe(timeout):
         try:
-            client.recv_message(lambda m: m.get("op") == "publish", timeout=0.3)
+            listener.recv_message(lambda m: m.get("op") == "publish" and m.get("topic") == topic, timeout=timeout)
             return True
         except queue.Empty:
             return False
-    wait_for(round_trip, 15.0, "loopback on %s" % topic, period=0.0)
-    drain(client, seen)
+    return probe
+
+
+def received_into(messages):
+    """A probe for warm_until: did anything arrive in ``messages`` (filled by a callback) in time?"""
+    def probe(timeout):
+        deadline = time.monotonic() + timeout
+        while not messages and time.monotonic() < deadline:
+            time.sleep(0.01)
+        return bool(messages)
+    return probe
+
+
+def warm_until(publisher, topic, probe, what):
+    """Publish "warmup" on ``topic`` until ``probe(timeout)`` hears it.
+
+    Frames of two connections are not ordered: a subscribe sent on one may be processed after a
+    publish sent on another, so one warm-up message can pass before the listener is in place.
+    """
+    def round_trip():
+        publisher.send({"op": "publish", "topic": topic, "msg": {"data": "warmup"}})
+        return probe(0.3)
+    wait_for(round_trip, 15.0, what, period=0.0)
 
 
 def drain(client, seen):
@@ -108,9 +134,9 @@ class BridgeBurstTest(unittest.TestCase):
         self.addCleanup(ros.terminate)
         via_roslibpy = []
         roslibpy.Topic(ros, "/burst/a", "std_msgs/String").subscribe(lambda m: via_roslibpy.append(m["data"]))
-        for client in publishers.values():  # both listeners see the loopback before the burst starts
-            client.send({"op": "publish", "topic": "/burst/a", "msg": {"data": "warmup"}})
-        wait_for(lambda: via_roslibpy, 10.0, "roslibpy subscription")
+        for topic, client in publishers.items():  # every reader hears both topics before the bursts start
+            warm_until(client, topic, heard_by(listener, topic), "listener on %s" % topic)
+        warm_until(publishers["/burst/a"], "/burst/a", received_into(via_roslibpy), "roslibpy on /burst/a")
         drain(listener, [])
         for client in publishers.values():
             drain(client, [])
@@ -131,8 +157,7 @@ class BridgeBurstTest(unittest.TestCase):
         connect_loopback(publisher, topic, [])
         listener = self.raw()
         listener.send({"op": "subscribe", "topic": topic, "type": "std_msgs/String"})
-        publisher.send({"op": "publish", "topic": topic, "msg": {"data": "warmup"}})
-        listener.recv_message(lambda m: m.get("op") == "publish", timeout=10.0)
+        warm_until(publisher, topic, heard_by(listener, topic), "listener on %s" % topic)
         drain(listener, [])
         publish_burst(publisher, topic, n)
         publisher.close()  # gone while the burst is still being read
@@ -149,8 +174,7 @@ class BridgeBurstTest(unittest.TestCase):
         publisher, listener = self.raw(), self.raw()
         connect_loopback(publisher, topic, [])
         listener.send({"op": "subscribe", "topic": topic, "type": "std_msgs/String"})
-        publisher.send({"op": "publish", "topic": topic, "msg": {"data": "warmup"}})
-        listener.recv_message(lambda m: m.get("op") == "publish", timeout=10.0)
+        warm_until(publisher, topic, heard_by(listener, topic), "listener on %s" % topic)
         drain(publisher, [])
         drain(listener, [])
         closed = threading.Event()
