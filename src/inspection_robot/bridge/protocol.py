@@ -176,6 +176,20 @@ class Outgoing(object):
             self._png = compact_json({"op": "png", "data": png_encode(self.json_text())})
         return self._png
 
+    def encoded(self, compression):
+        """The message as a subscription with ``compression`` receives it: text (JSON, PNG) or bytes (CBOR).
+
+        Any thread may call it (the ROS side does, for the compressions its subscribers use, so the
+        event loop only writes); two threads encoding at once both get the same result.
+        """
+        if compression == "cbor":
+            return self.cbor_frame()
+        if compression == "cbor-raw":
+            return self.cbor_raw_frame()
+        if compression == "png":
+            return self.png_text()
+        return self.json_text()
+
 
 class _Subscription(object):
     """A client's subscriptions to one topic (by id), merged as rosbridge merges them."""
@@ -373,6 +387,11 @@ class Session(object):
             mid = "fragment:%s:%d" % (self.client_id, self._request_counter)
         return [compact_json(f) for f in fragments(text, fragment_size, mid)]
 
+    def compression(self, topic):
+        """The compression of this client's subscription to ``topic`` (None if none); any thread."""
+        sub = self._subscriptions.get(topic)
+        return sub.compression if sub is not None else None
+
     def deliver(self, outgoing):
         """A ROS message arrived on a topic this client subscribes to (event-loop thread)."""
         sub = self._subscriptions.get(outgoing.topic)
@@ -405,14 +424,8 @@ class Session(object):
             sub.timer = self._call_later(sub.throttle_ms / 1000.0, lambda: self._flush(topic))
 
     def _emit(self, sub, outgoing):
-        if sub.compression == "cbor":
-            frames = [outgoing.cbor_frame()]
-        elif sub.compression == "cbor-raw":
-            frames = [outgoing.cbor_raw_frame()]
-        elif sub.compression == "png":
-            frames = self._fragmented(outgoing.png_text(), sub.fragment_size, None)
-        else:
-            frames = self._fragmented(outgoing.json_text(), sub.fragment_size, None)
+        data = outgoing.encoded(sub.compression)
+        frames = [data] if isinstance(data, bytes) else self._fragmented(data, sub.fragment_size, None)
         self._send(frames, outgoing.topic, sub.queue_length or None, True)
 
     # ------------------------------------------------------------------ topics

@@ -299,9 +299,15 @@ class RosBackend(object):
         return now.secs, now.nsecs
 
     def _on_message(self, msg, topic):
+        entry = self._subscribers.get(topic)
+        # the encodings the topic's clients use, computed once each here, in rospy's thread, so the
+        # event loop only writes (a 1080p image's PNG takes tens of ms; zlib runs without the GIL)
+        compressions = set(session.compression(topic) for session in list(entry.sessions)) if entry else set()
+        compressions.discard(None)
         try:
             outgoing = Outgoing(topic, msg, self._codec, self._stamp())
-            outgoing.json_text()  # the common encoding, computed once outside the event loop
+            for compression in sorted(compressions) or ["none"]:
+                outgoing.encoded(compression)
         except Exception as exc:  # boundary: a message we cannot convert is logged and skipped
             rospy.logwarn_throttle(5.0, "bridge: cannot convert a message on %s: %r" % (topic, exc))
             return
