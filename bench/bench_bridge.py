@@ -218,6 +218,7 @@ def publish_images(seconds, rate_hz, subscribers):
     ``seconds`` (header.seq 0, 1, ...; header.stamp = wall-clock time of the publish) and prints
     one JSON line: frames published, the wall-clock time of the first, and how late the latest
     publish started (rospy's queue is large enough that none of these frames can be dropped).
+    Then stays alive (rospy still writes queued frames) until its stdin is closed.
     """
     import rospy
     from sensor_msgs.msg import Image
@@ -239,12 +240,12 @@ def publish_images(seconds, rate_hz, subscribers):
         image.header.stamp = rospy.Time.from_sec(now)
         pub.publish(image)
         published += 1
-    time.sleep(1.0)  # rospy's connection thread still writes the last frames
     print(json.dumps({"published": published, "t0": t0, "late_p99_ms": round(percentile(late_ms, 0.99), 1)}),
           flush=True)
+    sys.stdin.read()  # rospy's connection thread may still be writing queued frames: live until told
 
 
-def image_client(url, kind, quiet_s=3.0, limit_s=60.0):
+def image_client(url, kind, quiet_s=5.0, limit_s=120.0):
     """One image line client, run in a process of its own (the clients must not share one GIL).
 
     Subscribes with compression ``kind``, prints "ready", then records (header.seq, latency ms from
@@ -295,18 +296,20 @@ def image_client(url, kind, quiet_s=3.0, limit_s=60.0):
         except (ValueError, KeyError, AttributeError, TypeError) as exc:  # a bug: reported, not fatal
             error = error or repr(exc)[:200] + " in " + repr(frame[:100])
             continue
-        frames.append((seq, round((arrived - stamp) * 1000.0, 2)))
+        frames.append((seq, round((arrived - stamp) * 1000.0, 2), arrived))
     client.close()
     print(json.dumps({"frames": frames, "status": statuses[:3], "error": error}), flush=True)
 
 
-def image_line(url, seconds=10.0, rate_hz=10.0):
+def image_line(url, bridge_pid, seconds=10.0, rate_hz=10.0):
     """A 1080p rgb8 image at rate_hz from a ROS publisher process to three client processes
     (JSON, CBOR, PNG compression).
 
-    Per client: frames published, received, lost (sequence numbers that never arrived), received
-    per second and latency p50/p99 from the publish (header.stamp) to the frame's arrival at the
-    client (before it is decoded, so a slow decoder does not count).
+    Per client: frames published, received, lost (sequence numbers that never arrived), delivered
+    per second (received / time from the first publish to the last arrival), latency p50/p99 from
+    the publish (header.stamp) to the frame's arrival at the client (before it is decoded, so a
+    slow decoder does not count), and the bridge's CPU time per frame published (all three
+    encodings; does not depend on the machine's load).
     """
     kinds = ("none", "cbor", "png")
     clients = {}
@@ -317,25 +320,32 @@ def image_line(url, seconds=10.0, rate_hz=10.0):
         for proc in clients.values():
             if proc.stdout.readline().strip() != "ready":
                 raise RuntimeError("an image client did not start")
-        publisher = subprocess.run(
+        cpu0 = cpu_seconds(bridge_pid)
+        publisher = clients["publisher"] = subprocess.Popen(
             [sys.executable, os.path.abspath(__file__), "--publish-images", "%g,%g" % (seconds, rate_hz)],
-            stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, universal_newlines=True, timeout=seconds + 60)
-        published = json.loads(publisher.stdout.strip().splitlines()[-1])
-        results = {kind: json.loads(proc.communicate(timeout=120)[0].strip().splitlines()[-1])
-                   for kind, proc in clients.items()}
+            stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, universal_newlines=True)
+        published = json.loads(publisher.stdout.readline())
+        results = {kind: json.loads(clients[kind].communicate(timeout=180)[0].strip().splitlines()[-1])
+                   for kind in kinds}
+        cpu_ms = (cpu_seconds(bridge_pid) - cpu0) * 1000.0
+        publisher.stdin.close()
     finally:
         for proc in clients.values():
             if proc.poll() is None:
                 proc.kill()
                 proc.wait(10)
     for kind in kinds:
-        seqs = set(seq for seq, _ in results[kind]["frames"])
-        latencies = [ms for _, ms in results[kind]["frames"]]
+        frames = results[kind]["frames"]
+        seqs = set(seq for seq, _, _ in frames)
+        latencies = [ms for _, ms, _ in frames]
+        span = max([arrived for _, _, arrived in frames] + [published["t0"] + seconds]) - published["t0"]
         report(bench="bridge_image", compression=kind, published=published["published"], received=len(seqs),
-               lost=published["published"] - len(seqs), frames_s=round(len(seqs) / seconds, 1), rate_hz=rate_hz,
+               lost=published["published"] - len(seqs), rate_hz=rate_hz,
+               delivered_frames_s=round(len(seqs) / span, 1),  # from the first publish to the last arrival
                p50_ms=round(percentile(latencies, 0.5), 1) if latencies else None,
                p99_ms=round(percentile(latencies, 0.99), 1) if latencies else None,
-               publisher_late_p99_ms=published["late_p99_ms"], status=results[kind]["status"],
+               publisher_late_p99_ms=published["late_p99_ms"], bridge_cpu_ms_per_frame=round(
+                   cpu_ms / max(1, published["published"]), 1), status=results[kind]["status"],
                error=results[kind]["error"], load_avg_1min=round(os.getloadavg()[0], 1),
                path="ROS publisher process->bridge->3 client processes, 1920x1080 rgb8 sensor_msgs/Image")
 
@@ -497,7 +507,7 @@ def main():
                        load_avg_1min=round(os.getloadavg()[0], 1))
                 failed = failed or lost > 0 or disordered > 0
         if "image" in only:
-            image_line(bridge_url, args.image_seconds)
+            image_line(bridge_url, procs[-1].pid, args.image_seconds)
     finally:
         for proc in reversed(procs):
             proc.terminate()
