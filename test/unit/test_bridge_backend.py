@@ -3,6 +3,7 @@ import socket
 import threading
 import time
 
+import pytest
 from rospy.impl.tcpros_pubsub import QueuedConnection
 
 from inspection_robot.ros.bridge_backend import write_direct
@@ -53,64 +54,53 @@ def recv_exactly(sock, n):
     return data
 
 
-def make():
+@pytest.fixture
+def idle():
+    """A QueuedConnection on one end of a socket pair, its thread waiting for data; and the peer."""
     ours, peer = socket.socketpair()
     transport = FakeTransport(ours)
-    return QueuedConnection(transport, 0), transport, peer
+    connection = QueuedConnection(transport, 0)
+    wait_for(lambda: thread_idle(connection))
+    yield connection, transport, peer
+    transport.gate.set()
+    transport.close()
 
 
-def test_idle_thread_the_caller_sends_itself():
-    connection, transport, peer = make()
-    try:
-        wait_for(lambda: thread_idle(connection))
-        assert write_direct(connection, b"hello")
-        assert recv_exactly(peer, 5) == b"hello"
-        assert transport.written == [] and transport.stat_bytes == 5
-    finally:
-        transport.close()
+def test_idle_thread_the_caller_sends_itself(idle):
+    connection, transport, peer = idle
+    assert write_direct(connection, b"hello")
+    assert recv_exactly(peer, 5) == b"hello"
+    assert transport.written == [] and transport.stat_bytes == 5
 
 
-def test_busy_thread_keeps_the_write_so_nothing_overtakes_it():
-    connection, transport, peer = make()
-    try:
-        wait_for(lambda: thread_idle(connection))
-        transport.gate.clear()
-        connection.write_data(b"first")
-        wait_for(lambda: not connection._queue)  # the thread took it and is stuck in its write
-        assert not write_direct(connection, b"second")  # queue empty, but the thread is not idle
-        connection.write_data(b"second")
-        transport.gate.set()
-        assert recv_exactly(peer, 11) == b"firstsecond"
-    finally:
-        transport.gate.set()
-        transport.close()
+def test_busy_thread_keeps_the_write_so_nothing_overtakes_it(idle):
+    connection, transport, peer = idle
+    transport.gate.clear()
+    connection.write_data(b"first")
+    wait_for(lambda: not connection._queue)  # the thread took it and is stuck in its write
+    assert not write_direct(connection, b"second")  # queue empty, but the thread is not idle
+    connection.write_data(b"second")
+    transport.gate.set()
+    assert recv_exactly(peer, 11) == b"firstsecond"
 
 
-def test_what_a_full_socket_does_not_take_is_queued_for_the_thread_in_order():
-    connection, transport, peer = make()
-    try:
-        transport.socket.setsockopt(socket.SOL_SOCKET, socket.SO_SNDBUF, 4096)
-        wait_for(lambda: thread_idle(connection))
-        data = bytes(bytearray(i % 251 for i in range(60000)))
-        assert write_direct(connection, data)  # never blocks: the rest goes to the thread
-        assert recv_exactly(peer, len(data)) == data
-        wait_for(lambda: transport.stat_bytes == len(data))
-        (rest,) = transport.written  # the thread sent only the tail the socket refused
-        assert 0 < len(rest) < len(data) and data.endswith(rest)
-        wait_for(lambda: thread_idle(connection))
-        assert write_direct(connection, b"next")
-        assert recv_exactly(peer, 4) == b"next"
-    finally:
-        transport.close()
+def test_what_a_full_socket_does_not_take_is_queued_for_the_thread_in_order(idle):
+    connection, transport, peer = idle
+    transport.socket.setsockopt(socket.SOL_SOCKET, socket.SO_SNDBUF, 4096)
+    data = bytes(bytearray(i % 251 for i in range(60000)))
+    assert write_direct(connection, data)  # never blocks: the rest goes to the thread
+    assert recv_exactly(peer, len(data)) == data
+    wait_for(lambda: transport.stat_bytes == len(data))
+    (rest,) = transport.written  # the thread sent only the tail the socket refused
+    assert 0 < len(rest) < len(data) and data.endswith(rest)
+    wait_for(lambda: thread_idle(connection))
+    assert write_direct(connection, b"next")
+    assert recv_exactly(peer, 4) == b"next"
 
 
-def test_too_large_or_closed_goes_the_usual_way():
-    connection, transport, peer = make()
-    try:
-        wait_for(lambda: thread_idle(connection))
-        assert not write_direct(connection, b"x" * 70000)
-        transport.done = True
-        assert not write_direct(connection, b"x")
-        assert not write_direct(object(), b"x")
-    finally:
-        transport.close()
+def test_too_large_or_closed_goes_the_usual_way(idle):
+    connection, transport, peer = idle
+    assert not write_direct(connection, b"x" * 70000)
+    transport.done = True
+    assert not write_direct(connection, b"x")
+    assert not write_direct(object(), b"x")
