@@ -1,8 +1,10 @@
 """The ROS side of the bridge: shared publishers/subscribers, service calls and servers, graph.
 
 :class:`RosBackend` implements what protocol.Session needs. One rospy.Subscriber per topic
-serves every client; each ROS message is converted to JSON once, in rospy's thread, and handed
-to the event loop (``post``) for fan-out. Service calls and rosapi requests run on a thread
+serves every client; each ROS message is encoded once per compression its clients use, in
+rospy's thread, and handed to the event loop (``post``) for fan-out. Messages clients publish
+reach rospy in batches (:func:`publish_batch`), sent from the event loop itself while a
+connection's writer thread is idle (:func:`write_direct`). Service calls and rosapi requests run on a thread
 pool; their results come back through ``post``. Services a client advertises are rospy.Services
 whose handler forwards the request to that client and waits (bounded) for its service_response.
 With message_types.py, the bridge's ROS side; both live in the ROS wing.
