@@ -12,10 +12,12 @@ Burst mode (``bridge_burst``): one client subscribes to a topic and publishes N 
 32-byte strings on it through the same connection as fast as it can (no window), then counts what
 comes back: delivered, lost, out of order, and the delivered rate (messages / time from the first
 send to the last arrival). Any loss or reordering makes the bench exit non-zero.
-Image line (``bridge_image``): a 1080p rgb8 sensor_msgs/Image published by ROS at 10 Hz to three
-clients (JSON, CBOR, PNG compression): frames per second each client received and the latency
-from the ROS publish to the client having decoded the frame.
-``--only burst,image,classic`` runs a subset; ``--bursts 10000,100000`` sets the burst sizes.
+Image line (``bridge_image``): a 1080p rgb8 sensor_msgs/Image published at 10 Hz by a ROS node in a
+process of its own (header.seq numbered) to three client processes (JSON, CBOR, PNG compression): per
+client frames published, received, lost, received per second, and the latency from the publish
+(header.stamp) to the frame's arrival at the client.
+``--only burst,image,classic`` runs a subset; ``--bursts 10000,100000`` sets the burst sizes;
+``--image-seconds`` the image line's length.
 """
 import argparse
 import asyncio
@@ -24,33 +26,17 @@ import json
 import os
 import queue
 import re
-import socket
 import subprocess
 import sys
 import threading
 import time
 
+from benchlib import free_port, percentile, report
+
 N_RTT = 1000
 N_THROUGHPUT = 5000
 N_CALLS = 300
 WINDOW = 200
-
-
-def free_port():
-    sock = socket.socket()
-    sock.bind(("127.0.0.1", 0))
-    port = sock.getsockname()[1]
-    sock.close()
-    return port
-
-
-def percentile(values, q):
-    ordered = sorted(values)
-    return ordered[min(len(ordered) - 1, int(round(q * (len(ordered) - 1))))]
-
-
-def report(**fields):
-    print(json.dumps(fields), flush=True)
 
 
 def start_echo_server():
@@ -221,84 +207,148 @@ def burst(url, topic, n, bridge_pid=None, timeout=120.0):
     return len(seqs) / max(t_last - t0, 1e-9), lost, disordered, len(seqs), statuses, cpu_us
 
 
-STAMP = re.compile(r'"stamp":\{"secs":(\d+),"nsecs":(\d+)\}')
+HEADER = re.compile(r'"header":\{"seq":(\d+),"stamp":\{"secs":(\d+),"nsecs":(\d+)\}')
+IMAGE_TOPIC = "/bench/image"
 
 
-def image_line(url, seconds=5.0, rate_hz=10.0):
-    """A 1080p rgb8 image at rate_hz from ROS to three clients (JSON, CBOR, PNG): frames/s and latency."""
+def publish_images(seconds, rate_hz, subscribers):
+    """The image line's publisher, run in a process of its own so nothing of the bench delays it.
+
+    Waits for ``subscribers`` connections, then publishes a 1080p rgb8 image every 1/rate_hz s for
+    ``seconds`` (header.seq 0, 1, ...; header.stamp = wall-clock time of the publish) and prints
+    one JSON line: frames published, the wall-clock time of the first, and how late the latest
+    publish started (rospy's queue is large enough that none of these frames can be dropped).
+    Then stays alive (rospy still writes queued frames) until its stdin is closed.
+    """
     import rospy
     from sensor_msgs.msg import Image
+    rospy.init_node("bench_image_publisher", disable_signals=True)
+    pub = rospy.Publisher(IMAGE_TOPIC, Image, queue_size=int(seconds * rate_hz) + 10)
+    deadline = time.monotonic() + 20
+    while pub.get_num_connections() < subscribers and time.monotonic() < deadline:
+        time.sleep(0.05)
+    time.sleep(0.5)  # the bridge's subscriber connection is up; let its clients' subscriptions settle
+    pixels = bytes(bytearray(i % 251 for i in range(1920 * 3))) * 1080
+    image = Image(height=1080, width=1920, encoding="rgb8", step=1920 * 3, data=pixels)
+    published, late_ms, t0 = 0, [], time.time()
+    while published < int(seconds * rate_hz):
+        due = t0 + published / rate_hz
+        time.sleep(max(0.0, due - time.time()))
+        now = time.time()
+        late_ms.append((now - due) * 1000.0)
+        image.header.seq = published
+        image.header.stamp = rospy.Time.from_sec(now)
+        pub.publish(image)
+        published += 1
+    print(json.dumps({"published": published, "t0": t0, "late_p99_ms": round(percentile(late_ms, 0.99), 1)}),
+          flush=True)
+    sys.stdin.read()  # rospy's connection thread may still be writing queued frames: live until told
 
+
+def image_client(url, kind, quiet_s=10.0, limit_s=150.0):
+    """One image line client, run in a process of its own (the clients must not share one GIL).
+
+    Subscribes with compression ``kind``, prints "ready", then records (header.seq, latency ms from
+    header.stamp to the frame's arrival on the websocket thread, before decoding) until no frame
+    came for ``quiet_s`` after the first; prints them as one JSON line.
+    """
     from inspection_robot.bridge import cbor
     from inspection_robot.bridge.client import CLOSED, RawClient
     from inspection_robot.bridge.compression import png_decode
-    topic = "/bench/image"
-    pub = rospy.Publisher(topic, Image, queue_size=2)
-    kinds = ("none", "cbor", "png")
-    clients = {kind: RawClient(url) for kind in kinds}
-    for kind, client in clients.items():
-        client.send({"op": "subscribe", "topic": topic, "type": "sensor_msgs/Image", "compression": kind})
-    results = {kind: [] for kind in kinds}
-    errors = {}
 
-    def stamp_of(kind, frame):
+    class TimedClient(RawClient):
+        def __init__(self, url):
+            self.arrivals = queue.Queue()
+            RawClient.__init__(self, url)
+
+        def _on_message(self, message):
+            if message is not None:
+                self.arrivals.put(time.time())
+            RawClient._on_message(self, message)
+
+    def header_of(frame):
         if kind == "cbor":
-            stamp = cbor.loads(frame)["msg"]["header"]["stamp"]
-            return stamp["secs"] + stamp["nsecs"] * 1e-9
+            header = cbor.loads(frame)["msg"]["header"]
+            return header["seq"], header["stamp"]["secs"] + header["stamp"]["nsecs"] * 1e-9
         text = frame if kind == "none" else png_decode(json.loads(frame)["data"])
-        secs, nsecs = STAMP.search(text[:300]).groups()
-        return int(secs) + int(nsecs) * 1e-9
+        seq, secs, nsecs = HEADER.search(text[:300]).groups()
+        return int(seq), int(secs) + int(nsecs) * 1e-9
 
-    def reader(kind, client, stop):
-        while not stop.is_set():
-            try:
-                frame = client.recv(0.5)
-            except queue.Empty:
-                continue
-            if frame is CLOSED:
-                return
-            arrived = time.time()
-            try:
-                results[kind].append((arrived, stamp_of(kind, frame)))
-            except (ValueError, KeyError, AttributeError, TypeError) as exc:  # a status message, or a bug
-                errors[kind] = errors.get(kind) or repr(exc)[:200] + " in " + repr(frame[:100])
+    client = TimedClient(url)
+    client.send({"op": "subscribe", "topic": IMAGE_TOPIC, "type": "sensor_msgs/Image", "compression": kind})
+    print("ready", flush=True)
+    frames, statuses, error = [], [], None
+    end = time.monotonic() + limit_s
+    while time.monotonic() < end:
+        try:
+            frame = client.recv(quiet_s if frames else limit_s)
+        except queue.Empty:
+            break
+        if frame is CLOSED:
+            error = "closed by the bridge: %s %s" % (client.close_code, client.close_reason)
+            break
+        arrived = client.arrivals.get()
+        if isinstance(frame, str) and '"status"' in frame[:20]:  # {"op": "status", ...}
+            statuses.append(json.loads(frame)["msg"])
+            continue
+        try:
+            seq, stamp = header_of(frame)
+        except (ValueError, KeyError, AttributeError, TypeError) as exc:  # a bug: reported, not fatal
+            error = error or repr(exc)[:200] + " in " + repr(frame[:100])
+            continue
+        frames.append((seq, round((arrived - stamp) * 1000.0, 2), arrived))
+    client.close()
+    print(json.dumps({"frames": frames, "status": statuses[:3], "error": error}), flush=True)
 
-    stop = threading.Event()
-    threads = [threading.Thread(target=reader, args=(kind, client, stop)) for kind, client in clients.items()]
-    for thread in threads:
-        thread.start()
-    deadline = time.monotonic() + 10
-    while pub.get_num_connections() < 1 and time.monotonic() < deadline:
-        time.sleep(0.05)
-    pixels = bytes(bytearray(i % 251 for i in range(1920 * 3))) * 1080
-    image = Image(height=1080, width=1920, encoding="rgb8", step=1920 * 3, data=pixels)
-    sent = 0
-    t0 = time.time()
-    while time.time() - t0 < seconds:
-        image.header.stamp = rospy.Time.from_sec(time.time())
-        image.header.seq = sent
-        pub.publish(image)
-        sent += 1
-        time.sleep(max(0.0, t0 + sent / rate_hz - time.time()))
-    quiet_since = time.time()  # wait until every client had 3 s without a frame (at most 20 s)
-    counts = None
-    while time.time() - quiet_since < 3.0 and time.time() - t0 < seconds + 20.0:
-        now_counts = [len(r) for r in results.values()]
-        if now_counts != counts:
-            counts, quiet_since = now_counts, time.time()
-        time.sleep(0.1)
-    stop.set()
-    for thread in threads:
-        thread.join(5)
-    for kind, client in clients.items():
-        client.close()
-        samples = [(arrived - stamp) * 1000.0 for arrived, stamp in results[kind] if stamp >= t0]
-        report(bench="bridge_image", compression=kind, sent=sent, received=len(samples),
-               frames_s=round(len(samples) / seconds, 1), rate_hz=rate_hz,
-               p50_ms=round(percentile(samples, 0.5), 1) if samples else None,
-               p99_ms=round(percentile(samples, 0.99), 1) if samples else None, error=errors.get(kind),
-               load_avg_1min=round(os.getloadavg()[0], 1),
-               path="ROS publisher->bridge->3 clients, 1920x1080 rgb8 sensor_msgs/Image")
+
+def image_line(url, bridge_pid, seconds=10.0, rate_hz=10.0):
+    """A 1080p rgb8 image at rate_hz from a ROS publisher process to three client processes
+    (JSON, CBOR, PNG compression).
+
+    Per client: frames published, received, lost (sequence numbers that never arrived), delivered
+    per second (received / time from the first publish to the last arrival), latency p50/p99 from
+    the publish (header.stamp) to the frame's arrival at the client (before it is decoded, so a
+    slow decoder does not count), and the bridge's CPU time per frame it sent (all three
+    encodings; does not depend on the machine's load).
+    """
+    kinds = ("none", "cbor", "png")
+    clients = {}
+    for kind in kinds:
+        clients[kind] = subprocess.Popen([sys.executable, os.path.abspath(__file__), "--image-client", kind, url],
+                                         stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, universal_newlines=True)
+    try:
+        for proc in clients.values():
+            if proc.stdout.readline().strip() != "ready":
+                raise RuntimeError("an image client did not start")
+        cpu0 = cpu_seconds(bridge_pid)
+        publisher = clients["publisher"] = subprocess.Popen(
+            [sys.executable, os.path.abspath(__file__), "--publish-images", "%g,%g" % (seconds, rate_hz)],
+            stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, universal_newlines=True)
+        published = json.loads(publisher.stdout.readline())
+        results = {kind: json.loads(clients[kind].communicate(timeout=180)[0].strip().splitlines()[-1])
+                   for kind in kinds}
+        cpu_ms = (cpu_seconds(bridge_pid) - cpu0) * 1000.0
+        publisher.stdin.close()
+    finally:
+        for proc in clients.values():
+            if proc.poll() is None:
+                proc.kill()
+                proc.wait(10)
+    handled = max(len(results[kind]["frames"]) for kind in kinds)  # frames the bridge encoded and sent
+    for kind in kinds:
+        frames = results[kind]["frames"]
+        seqs = set(seq for seq, _, _ in frames)
+        latencies = [ms for _, ms, _ in frames]
+        span = max([arrived for _, _, arrived in frames] + [published["t0"] + seconds]) - published["t0"]
+        report(bench="bridge_image", compression=kind, published=published["published"], received=len(seqs),
+               lost=published["published"] - len(seqs), rate_hz=rate_hz,
+               delivered_frames_s=round(len(seqs) / span, 1),  # from the first publish to the last arrival
+               p50_ms=round(percentile(latencies, 0.5), 1) if latencies else None,
+               p99_ms=round(percentile(latencies, 0.99), 1) if latencies else None,
+               publisher_late_p99_ms=published["late_p99_ms"],
+               bridge_cpu_ms_per_frame=round(cpu_ms / max(1, handled), 1), status=results[kind]["status"],
+               error=results[kind]["error"], load_avg_1min=round(os.getloadavg()[0], 1),
+               path="ROS publisher process->bridge->3 client processes, 1920x1080 rgb8 sensor_msgs/Image")
 
 
 def latency_line(name, bridge, echo, **extra):
@@ -398,7 +448,17 @@ def main():
     parser.add_argument("--only", default="classic,burst,image", help="comma-separated: classic, burst, image")
     parser.add_argument("--bursts", default="10000,100000", help="comma-separated burst sizes")
     parser.add_argument("--bridge-log", help="file for the bridge's output (default: discarded)")
+    parser.add_argument("--image-seconds", type=float, default=10.0, help="length of the image line (s)")
+    parser.add_argument("--publish-images", help=argparse.SUPPRESS)  # "seconds,rate": the image publisher process
+    parser.add_argument("--image-client", nargs=2, help=argparse.SUPPRESS)  # compression url: one image client
     args = parser.parse_args()
+    if args.image_client:
+        image_client(args.image_client[1], args.image_client[0])
+        return
+    if args.publish_images:
+        seconds, rate_hz = (float(x) for x in args.publish_images.split(","))
+        publish_images(seconds, rate_hz, 1)
+        return
     only = set(args.only.split(","))
     failed = False
     bridge_log = open(args.bridge_log, "w") if args.bridge_log else subprocess.DEVNULL
@@ -448,7 +508,7 @@ def main():
                        load_avg_1min=round(os.getloadavg()[0], 1))
                 failed = failed or lost > 0 or disordered > 0
         if "image" in only:
-            image_line(bridge_url)
+            image_line(bridge_url, procs[-1].pid, args.image_seconds)
     finally:
         for proc in reversed(procs):
             proc.terminate()

@@ -314,3 +314,15 @@ def test_protocol_errors_are_logged_at_most_once_per_period_per_client():
     h.now += LOG_PERIOD
     h.send({"op": "nope"})
     assert len(h.logged) == 2 and h.logged[1].endswith("(+49 more since the last line)")
+
+
+def test_compression_per_topic_and_each_encoding_made_once():
+    h = Harness()
+    h.send({"op": "subscribe", "topic": "/known", "type": "std_msgs/String", "compression": "cbor"})
+    assert h.session.compression("/known") == "cbor" and h.session.compression("/other") is None
+    outgoing = Outgoing("/known", h.backend.types.message_class("std_msgs/String")(data="x"), h.backend.codec)
+    frame = outgoing.encoded("cbor")  # what the ROS side computes ahead, in its own thread
+    assert isinstance(frame, bytes) and outgoing.encoded("cbor") is frame
+    assert outgoing.encoded("none") == '{"op":"publish","topic":"/known","msg":{"data":"x"}}'
+    h.session.deliver(outgoing)
+    assert h.sent[-1] == [frame]  # the very bytes computed ahead

@@ -123,7 +123,8 @@ class SocketClient(object):
     """A websocket client on a plain blocking socket that reads only when asked (or never).
 
     Models a slow or stuck backend: ``rcvbuf`` shrinks the kernel's receive buffer so the
-    server's writes back up quickly. ``send(dict)`` sends one masked text frame (< 126 bytes);
+    server's writes back up quickly. ``send(dict)`` sends one masked text frame (< 126 bytes),
+``send_many`` several in one write;
     ``frames()`` yields the server's frames as (opcode, payload) up to its close frame.
     """
 
@@ -143,11 +144,18 @@ class SocketClient(object):
         assert b"101" in head.split(b"\r\n")[0]
 
     def send(self, message):
-        payload = json.dumps(message).encode()
-        mask = os.urandom(4)
-        assert len(payload) < 126
-        self.sock.sendall(struct.pack("!BB", 0x81, 0x80 | len(payload)) + mask
-                          + bytes(b ^ mask[i % 4] for i, b in enumerate(payload)))
+        self.send_many([message])
+
+    def send_many(self, messages):
+        """Several frames in one socket write (the server finds them buffered together)."""
+        data = b""
+        for message in messages:
+            payload = json.dumps(message).encode()
+            mask = os.urandom(4)
+            assert len(payload) < 126
+            data += struct.pack("!BB", 0x81, 0x80 | len(payload)) + mask + bytes(
+                b ^ mask[i % 4] for i, b in enumerate(payload))
+        self.sock.sendall(data)
 
     def _take(self, n):
         while len(self.buffer) < n:

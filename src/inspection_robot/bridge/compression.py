@@ -12,6 +12,10 @@ import struct
 import zlib
 
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
+# zlib level of outgoing PNGs: JSON text (base64 blobs, repeated keys) compresses within 1-2 % of
+# level 6 (rosbridge's, via PIL) at 1/2-1/3 of the CPU, which on a 1080p image at 10 Hz is the
+# difference between keeping up or not. Any zlib level decodes the same.
+PNG_LEVEL = 1
 
 
 def _chunk(kind, payload):
@@ -27,10 +31,14 @@ def png_encode(text):
     height = int(math.ceil(pixels / float(width)))
     raw += b"\n" * (width * height * 3 - len(raw))
     stride = width * 3
-    rows = b"".join(b"\x00" + raw[y * stride:(y + 1) * stride] for y in range(height))
+    rows = bytearray(height * (stride + 1))  # each row: filter byte 0, then the row's pixels
+    view = memoryview(raw)
+    for y in range(height):
+        start = y * (stride + 1) + 1
+        rows[start:start + stride] = view[y * stride:(y + 1) * stride]
     png = (PNG_SIGNATURE
            + _chunk(b"IHDR", struct.pack(">IIBBBBB", width, height, 8, 2, 0, 0, 0))
-           + _chunk(b"IDAT", zlib.compress(rows, 6))
+           + _chunk(b"IDAT", zlib.compress(rows, PNG_LEVEL))
            + _chunk(b"IEND", b""))
     return base64.standard_b64encode(png).decode("ascii")
 

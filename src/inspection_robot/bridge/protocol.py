@@ -176,6 +176,20 @@ class Outgoing(object):
             self._png = compact_json({"op": "png", "data": png_encode(self.json_text())})
         return self._png
 
+    def encoded(self, compression):
+        """The message as a subscription with ``compression`` receives it: text (JSON, PNG) or bytes (CBOR).
+
+        Any thread may call it (the ROS side does, for the compressions its subscribers use, so the
+        event loop only writes); two threads encoding at once both get the same result.
+        """
+        if compression == "cbor":
+            return self.cbor_frame()
+        if compression == "cbor-raw":
+            return self.cbor_raw_frame()
+        if compression == "png":
+            return self.png_text()
+        return self.json_text()
+
 
 class _Subscription(object):
     """A client's subscriptions to one topic (by id), merged as rosbridge merges them."""
@@ -240,6 +254,7 @@ class Session(object):
         self._request_counter = 0
         self._closed = False
         self._last_published = None  # topic of the latest publish (for ros_backlogged)
+        self._more_input = False  # the frame being handled is not the last one the transport holds
         self._log_after = None  # clock time before which protocol errors are counted, not logged
         self._unlogged = 0
         # op name -> handler; every entry of OPS has one (checked by the unit tests)
@@ -259,10 +274,15 @@ class Session(object):
         }
 
     # ------------------------------------------------------------------ incoming frames
-    def on_frame(self, frame):
-        """Handle one websocket frame (str: JSON, bytes: CBOR). Never raises."""
+    def on_frame(self, frame, more_input=False):
+        """Handle one websocket frame (str: JSON, bytes: CBOR). Never raises.
+
+        ``more_input``: the transport already holds further frames of this client; a publish may
+        then wait for them to reach ROS in one batch (it goes out at once otherwise).
+        """
         if self._closed:
             return
+        self._more_input = more_input
         try:
             if isinstance(frame, (bytes, bytearray)):
                 msg = cbor.loads(frame)
@@ -367,6 +387,11 @@ class Session(object):
             mid = "fragment:%s:%d" % (self.client_id, self._request_counter)
         return [compact_json(f) for f in fragments(text, fragment_size, mid)]
 
+    def compression(self, topic):
+        """The compression of this client's subscription to ``topic`` (None if none); any thread."""
+        sub = self._subscriptions.get(topic)
+        return sub.compression if sub is not None else None
+
     def deliver(self, outgoing):
         """A ROS message arrived on a topic this client subscribes to (event-loop thread)."""
         sub = self._subscriptions.get(outgoing.topic)
@@ -399,14 +424,8 @@ class Session(object):
             sub.timer = self._call_later(sub.throttle_ms / 1000.0, lambda: self._flush(topic))
 
     def _emit(self, sub, outgoing):
-        if sub.compression == "cbor":
-            frames = [outgoing.cbor_frame()]
-        elif sub.compression == "cbor-raw":
-            frames = [outgoing.cbor_raw_frame()]
-        elif sub.compression == "png":
-            frames = self._fragmented(outgoing.png_text(), sub.fragment_size, None)
-        else:
-            frames = self._fragmented(outgoing.json_text(), sub.fragment_size, None)
+        data = outgoing.encoded(sub.compression)
+        frames = [data] if isinstance(data, bytes) else self._fragmented(data, sub.fragment_size, None)
         self._send(frames, outgoing.topic, sub.queue_length or None, True)
 
     # ------------------------------------------------------------------ topics
@@ -438,7 +457,7 @@ class Session(object):
                 raise BridgeError("Cannot infer topic type for topic %s as it is not yet advertised" % topic)
             self._backend.advertise(self, topic, topic_type, args["latch"], 100)
             self._advertised[topic] = {None}
-        self._backend.publish(topic, args["msg"] or {})
+        self._backend.publish(topic, args["msg"] or {}, batch=self._more_input)
         self._last_published = topic
 
     def _op_subscribe(self, args, mid):

@@ -271,7 +271,7 @@ class BridgeHandler(tornado.websocket.WebSocketHandler):
         self.last_heard = time.monotonic()
         if self.session is None:
             return None
-        self.session.on_frame(message)
+        self.session.on_frame(message, self._more_input())
         if self.session.ros_backlogged():
             self._unread = 0
             return self._wait_for_ros()
@@ -282,6 +282,12 @@ class BridgeHandler(tornado.websocket.WebSocketHandler):
             self._unread = 0
             return asyncio.sleep(0)
         return None
+
+    def _more_input(self):
+        # bytes of the client's next frames already read from the socket (tornado keeps no public count)
+        connection = self.ws_connection
+        stream = getattr(connection, "stream", None)
+        return bool(getattr(stream, "_read_buffer_size", 0))
 
     async def _wait_for_ros(self):
         # not reading the socket while rospy's queue is full: TCP slows the client down
@@ -331,7 +337,7 @@ class BridgeHandler(tornado.websocket.WebSocketHandler):
             return
         if not self._writing:
             self._writing = True
-            tornado.ioloop.IOLoop.current().add_callback(self._drain)
+            tornado.ioloop.IOLoop.current().add_callback(self._flush)
 
     def _dropped(self, topic):
         self._server.dropped(self, topic)
@@ -354,33 +360,60 @@ class BridgeHandler(tornado.websocket.WebSocketHandler):
         if not self._writing:
             self.close()
 
-    async def _drain(self):
-        # Queued frames go out in writes of up to BATCH_BYTES; the next write waits until the
-        # socket took this one, so the bytes held in tornado's buffer stay within the budget.
+    def _flush(self):
+        # Runs on the loop once per pass after send(): what was queued meanwhile goes out in writes
+        # of up to BATCH_BYTES, written to the socket at once (tornado tries the send right away).
+        # Only when the socket did not take a batch does the next one wait for it (_written), so the
+        # bytes held in tornado's buffer stay within the budget. No coroutine: its first step would
+        # cost one more loop pass per write, which is most of an echo's time in the bridge.
         try:
             while True:
-                chunks, size = [], 0
-                frames = self.queue.pop()
-                while frames is not None:
-                    chunks.extend(ws_frame(frame) for frame in frames)
-                    size += _size(frames)
-                    if size >= BATCH_BYTES:
-                        break
-                    frames = self.queue.pop()
-                if not chunks:
+                batch = self._next_batch()
+                if batch is None:
                     break
-                try:
-                    future = self._write_raw(b"".join(chunks) if len(chunks) > 1 else chunks[0])
-                    if not future.done():
-                        await future
-                finally:
-                    self.queue.written(size)
+                future, size = batch
+                if not future.done():
+                    tornado.ioloop.IOLoop.current().add_future(future, lambda done: self._written(done, size))
+                    return
+                self._written(future, size, then_flush=False)
         except (tornado.websocket.WebSocketClosedError, StreamClosedError):
             pass
-        finally:
-            self._writing = False
+        self._done_writing()
+
+    def _done_writing(self):
+        self._writing = False
         if self._closing and self.close_reason_sent is None:
             self.close()
+
+    def _next_batch(self):
+        """Hand the next queued frames (up to BATCH_BYTES) to the socket: (write future, bytes) or None."""
+        chunks, size = [], 0
+        frames = self.queue.pop()
+        while frames is not None:
+            chunks.extend(ws_frame(frame) for frame in frames)
+            size += _size(frames)
+            if size >= BATCH_BYTES:
+                break
+            frames = self.queue.pop()
+        if not chunks:
+            return None
+        try:
+            return self._write_raw(b"".join(chunks) if len(chunks) > 1 else chunks[0]), size
+        except (tornado.websocket.WebSocketClosedError, StreamClosedError):
+            self.queue.written(size)
+            raise
+
+    def _written(self, future, size, then_flush=True):
+        self.queue.written(size)
+        try:
+            future.result()
+        except (tornado.websocket.WebSocketClosedError, StreamClosedError):
+            if then_flush:
+                self._done_writing()
+                return
+            raise
+        if then_flush:
+            self._flush()
 
     def _write_raw(self, data):
         connection = self.ws_connection

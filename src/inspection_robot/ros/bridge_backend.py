@@ -1,14 +1,17 @@
 """The ROS side of the bridge: shared publishers/subscribers, service calls and servers, graph.
 
 :class:`RosBackend` implements what protocol.Session needs. One rospy.Subscriber per topic
-serves every client; each ROS message is converted to JSON once, in rospy's thread, and handed
-to the event loop (``post``) for fan-out. Service calls and rosapi requests run on a thread
+serves every client; each ROS message is encoded once per compression its clients use, in
+rospy's thread, and handed to the event loop (``post``) for fan-out. Messages clients publish
+reach rospy in batches (:func:`publish_batch`), sent from the event loop itself while a
+connection's writer thread is idle (:func:`write_direct`). Service calls and rosapi requests run on a thread
 pool; their results come back through ``post``. Services a client advertises are rospy.Services
 whose handler forwards the request to that client and waits (bounded) for its service_response.
 With message_types.py, the bridge's ROS side; both live in the ROS wing.
 """
 import concurrent.futures
 import io
+import socket
 import threading
 import time
 
@@ -19,8 +22,8 @@ import rosservice
 from inspection_robot.bridge.protocol import BridgeError, Outgoing
 
 
-ALONE_GAP = 0.001  # s: a message this long after the last one published alone goes out at once
 MAX_BATCH = 256  # messages converted for one topic before the client's socket waits for a flush
+DIRECT_WRITE_BYTES = 65536  # largest write sent straight from the caller's thread (write_direct)
 
 
 def type_conflict(topic, wanted, established):
@@ -29,7 +32,7 @@ def type_conflict(topic, wanted, established):
 
 
 class _Topic(object):
-    __slots__ = ("handle", "type_name", "sessions", "early", "high_water", "pending", "last_alone")
+    __slots__ = ("handle", "type_name", "sessions", "early", "high_water", "pending")
 
     def __init__(self, handle, type_name, early=None, high_water=None):
         self.handle = handle
@@ -38,7 +41,6 @@ class _Topic(object):
         self.early = early
         self.high_water = high_water
         self.pending = []  # messages converted, not yet handed to rospy (flushed once per loop pass)
-        self.last_alone = 0.0  # monotonic time of the last message published at once, alone
 
 
 def publish_batch(publisher, messages):
@@ -66,7 +68,8 @@ def publish_batch(publisher, messages):
         data = buff.getvalue()
         for connection in list(impl.connections):
             try:
-                connection.write_data(data)
+                if not write_direct(connection, data):
+                    connection.write_data(data)
             except Exception:  # boundary, as rospy: a broken subscriber connection is dropped
                 try:
                     connection.close()
@@ -75,6 +78,40 @@ def publish_batch(publisher, messages):
         impl.message_data_sent += len(data)
     finally:
         impl.release()
+
+
+def write_direct(connection, data):
+    """Send ``data`` on a rospy QueuedConnection's socket from this thread while its writer thread idles.
+
+    QueuedConnection.write_data hands every write to the connection's own thread (a notify and a
+    thread switch: on a loaded machine the largest part of an echo's time in the bridge, and of
+    its tail). When that thread is waiting for data (it is among the condition's waiters and its
+    queue is empty), nothing of its is in flight, so the caller may send itself, holding the
+    connection's lock so the thread cannot start meanwhile. The send never blocks: what the socket
+    does not take at once is queued for the thread, in order. Returns False (nothing sent) when
+    the fast path does not apply; the caller then uses write_data. Private rospy attributes
+    (Noetic's rospy is frozen); anything unexpected means False.
+    """
+    lock = getattr(connection, "_lock", None)
+    cond = getattr(connection, "_cond_data_available", None)
+    transport = getattr(connection, "_connection", None)
+    sock = getattr(transport, "socket", None)
+    if lock is None or cond is None or sock is None or len(data) > DIRECT_WRITE_BYTES:
+        return False
+    with lock:
+        if connection._queue or connection._error or transport.done or not getattr(cond, "_waiters", None):
+            return False
+        try:
+            sent = sock.send(data, socket.MSG_DONTWAIT)
+        except (BlockingIOError, InterruptedError):
+            sent = 0
+        except OSError:
+            return False  # the writer thread meets the same error and closes the connection
+        transport.stat_bytes += sent
+        if sent < len(data):
+            connection._queue.append(data[sent:])
+            cond.notify()
+    return True
 
 
 def publisher_queue_depth(publisher):
@@ -195,20 +232,22 @@ class RosBackend(object):
                 self._flush(topic, entry)
             entry.handle.unregister()
 
-    def publish(self, topic, values):
-        """Convert now (errors go to the client); hand to rospy at once, or in a burst with the others
-        of this loop pass."""
+    def publish(self, topic, values, batch=False):
+        """Convert now (errors go to the client) and hand to rospy. ``batch`` (more frames of the
+        client are already buffered): wait for them, up to the end of this loop pass, so a burst
+        reaches rospy in few writes; otherwise this and any waiting messages go out at once."""
         entry = self._publishers[topic]
         msg = self._codec.from_json(entry.handle.data_class, values)
         entry.early.record(msg)
-        now = time.monotonic()
-        if not entry.pending and now - entry.last_alone >= ALONE_GAP:  # not in a burst: no wait
-            entry.last_alone = now
+        if batch:
+            if not entry.pending:
+                self._post(self._flush, topic, entry)
+            entry.pending.append(msg)
+        elif entry.pending:
+            entry.pending.append(msg)
+            self._flush(topic, entry)
+        else:
             publish_batch(entry.handle, [msg])
-            return
-        if not entry.pending:
-            self._post(self._flush, topic, entry)
-        entry.pending.append(msg)
 
     def _flush(self, topic, entry):
         messages, entry.pending = entry.pending, []
@@ -262,9 +301,15 @@ class RosBackend(object):
         return now.secs, now.nsecs
 
     def _on_message(self, msg, topic):
+        entry = self._subscribers.get(topic)
+        # the encodings the topic's clients use, computed once each here, in rospy's thread, so the
+        # event loop only writes (a 1080p image's PNG takes tens of ms; zlib runs without the GIL)
+        compressions = set(session.compression(topic) for session in list(entry.sessions)) if entry else set()
+        compressions.discard(None)
         try:
             outgoing = Outgoing(topic, msg, self._codec, self._stamp())
-            outgoing.json_text()  # the common encoding, computed once outside the event loop
+            for compression in sorted(compressions) or ["none"]:
+                outgoing.encoded(compression)
         except Exception as exc:  # boundary: a message we cannot convert is logged and skipped
             rospy.logwarn_throttle(5.0, "bridge: cannot convert a message on %s: %r" % (topic, exc))
             return

@@ -1,0 +1,25 @@
+"""Helpers shared by the benchmarks: a free TCP port, percentiles, one JSON line per figure."""
+import json
+import socket
+
+
+def free_port():
+    """A TCP port on 127.0.0.1 that was free a moment ago (for a roscore or server to bind)."""
+    sock = socket.socket()
+    sock.bind(("127.0.0.1", 0))
+    port = sock.getsockname()[1]
+    sock.close()
+    return port
+
+
+def percentile(values, q):
+    """The nearest-rank ``q`` quantile (0..1) of ``values``; None when there are none."""
+    if not values:
+        return None
+    ordered = sorted(values)
+    return ordered[min(len(ordered) - 1, int(round(q * (len(ordered) - 1))))]
+
+
+def report(**fields):
+    """Print one figure as one JSON line (the format every bench/bench_*.py prints)."""
+    print(json.dumps(fields), flush=True)
