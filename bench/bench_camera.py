@@ -2,13 +2,11 @@
 
 Prints one JSON line per figure.
 """
-import json
 import math
 import os
 import time
 
 import cv2
-import numpy as np
 import yaml
 
 from inspection_robot.camera.optics import ZoomOptics
@@ -16,13 +14,13 @@ from inspection_robot.camera.optics import focal_for_hfov
 from inspection_robot.sim.render import PinholeCamera, Renderer, ThermalRenderer
 from inspection_robot.sim.world import World
 
+from benchlib import latency_figures, report
+
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 
-def report(name, samples):
-    ms = np.array(samples) * 1000.0
-    print(json.dumps({"bench": name, "p50_ms": round(float(np.percentile(ms, 50)), 2),
-                      "p99_ms": round(float(np.percentile(ms, 99)), 2), "n": len(samples)}))
+def report_latencies(name, samples):
+    report(bench=name, **latency_figures(samples, digits=2))
 
 
 def main():
@@ -48,8 +46,8 @@ def main():
         t2 = time.perf_counter()
         render.append(t1 - t0)
         total.append(t2 - t0)
-    report("camera_render_1080p", render)
-    report("camera_render_jpeg_1080p", total)
+    report_latencies("camera_render_1080p", render)
+    report_latencies("camera_render_jpeg_1080p", total)
     thermal = ThermalRenderer(world, seed=1)
     cams = [PinholeCamera.from_pose(p, pan, tilt, world.sensor_height, focal_for_hfov(384, 25.0), 384, 288)
             for p, pan, tilt, _ in views]
@@ -58,7 +56,7 @@ def main():
         t0 = time.perf_counter()
         thermal.render(cams[i % len(cams)])
         samples.append(time.perf_counter() - t0)
-    report("thermal_frame_384x288", samples)
+    report_latencies("thermal_frame_384x288", samples)
 
 
 if __name__ == "__main__":

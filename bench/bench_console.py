@@ -8,34 +8,17 @@ driver over repeated presses; and the page's JS heap and DOM size over a long ru
 minutes, BENCH_CONSOLE_MINUTES to change) — "growth" compares the end with the level after a
 one-minute warm-up.
 """
-import json
 import os
-import socket
 import subprocess
 import sys
 import time
+
+from benchlib import free_port, percentile, report  # noqa: E402
 
 MINUTES = float(os.environ.get("BENCH_CONSOLE_MINUTES", "10"))
 PRESSES = 20
 CHROMIUM_ARGS = ["--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run", "--enable-precise-memory-info",
                  "--disable-background-networking", "--disable-component-update", "--disable-sync"]
-
-
-def free_port():
-    sock = socket.socket()
-    sock.bind(("127.0.0.1", 0))
-    port = sock.getsockname()[1]
-    sock.close()
-    return port
-
-
-def report(**fields):
-    print(json.dumps(fields), flush=True)
-
-
-def percentile(values, q):
-    ordered = sorted(values)
-    return ordered[min(len(ordered) - 1, int(round(q * (len(ordered) - 1))))]
 
 
 def wait(condition, timeout, what):

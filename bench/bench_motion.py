@@ -9,34 +9,21 @@
 
 Starts its own roscore (free port) and robot_control; runs in ~30 s. Run inside scripts/rosenv.
 """
-import json
 import os
-import socket
 import subprocess
 import sys
 import threading
 import time
+
+from benchlib import free_port, latency_figures, report  # noqa: E402
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 EVENTS = 1000
 CPU_WINDOW = 5.0  # s
 
 
-def free_port():
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
-def percentile(values, q):
-    values = sorted(values)
-    return values[min(len(values) - 1, int(round(q / 100.0 * (len(values) - 1))))]
-
-
-def report(name, latencies_s):
-    ms = [v * 1000.0 for v in latencies_s]
-    print(json.dumps({"bench": name, "p50_ms": round(percentile(ms, 50), 3), "p99_ms": round(percentile(ms, 99), 3),
-                      "max_ms": round(max(ms), 3), "n": len(ms)}), flush=True)
+def report_latencies(name, latencies_s):
+    report(bench=name, **latency_figures(latencies_s))
 
 
 def cpu_seconds(pid):
@@ -143,7 +130,7 @@ def run(pid):
         msg = echo.wait()
         if msg is not None:
             latencies.append(msg.header.stamp.to_sec() - sent)
-    report("move_cmd_to_driver", latencies)
+    report_latencies("move_cmd_to_driver", latencies)
 
     # obstacle -> zero velocity at the driver
     stops = []
@@ -163,7 +150,7 @@ def run(pid):
         obstacle.publish(ObstacleStatus(obstacle=False))
         with status_cond:
             status_cond.wait_for(lambda: status["stop"] == 0, 1.0)
-    report("safety_stop", stops)
+    report_latencies("safety_stop", stops)
 
     # CPU at a 50 Hz move_cmd stream
     rate = rospy.Rate(50)
@@ -172,8 +159,8 @@ def run(pid):
         move.publish(MoveCmd(sender="move_base", velocity_x=300))
         rate.sleep()
     busy = (cpu_seconds(pid) - c0) / (time.monotonic() - t0)
-    print(json.dumps({"bench": "robot_control_cpu_idle", "cpu_percent": round(idle * 100, 1)}), flush=True)
-    print(json.dumps({"bench": "robot_control_cpu_50hz", "cpu_percent": round(busy * 100, 1)}), flush=True)
+    report(bench="robot_control_cpu_idle", cpu_percent=round(idle * 100, 1))
+    report(bench="robot_control_cpu_50hz", cpu_percent=round(busy * 100, 1))
     rospy.signal_shutdown("done")
 
 

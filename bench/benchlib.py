@@ -20,6 +20,13 @@ def percentile(values, q):
     return ordered[min(len(ordered) - 1, int(round(q * (len(ordered) - 1))))]
 
 
+def latency_figures(samples_s, digits=3):
+    """p50 / p99 / max in ms and the count of latencies given in seconds (nearest rank)."""
+    ms = [value * 1000.0 for value in samples_s]
+    return {"p50_ms": round(percentile(ms, 0.5), digits), "p99_ms": round(percentile(ms, 0.99), digits),
+            "max_ms": round(max(ms), digits), "n": len(ms)}
+
+
 def report(**fields):
     """Print one figure as one JSON line (the format every bench/bench_*.py prints)."""
     print(json.dumps(fields), flush=True)
