@@ -10,6 +10,8 @@ reachability check against move_base's virtual obstacles (task_action.test).
 3. Over the websocket (roslibpy): a routine goal is pre-empted by a special goal sent over ROS and
    stays active (feedback "suspended", who pre-empted it); the special goal ends; the routine
    resumes; cancelling its goal cancels the task (ret_code "2", goal preempted).
+4. return_home: task_status shows the cancelled task's end in last_ended while returning_home,
+   then idle (task id "") once the robot is home.
 """
 import json
 import os
@@ -193,6 +195,22 @@ class TaskActionTest(unittest.TestCase):
         wait_for(lambda: goal.status is not None and goal.status["status"] == GoalStatus.PREEMPTED, 10.0,
                  "goal preempted")
         self.status.wait(lambda m: json.loads(m.data)["state"] == "cancelled", 10.0, "task_status cancelled")
+
+    # --- 4 --------------------------------------------------------------------------------------
+    def test_4_return_home_then_idle(self):
+        self.wait_idle()
+        self.assertEqual(self.tasks.call("submit", task("far", FAR_STOPS)).ack, "success")
+        self.status.wait(lambda m: json.loads(m.data)["task_id"] == "far" and json.loads(m.data)["state"] == "running",
+                         30.0, "far task running")
+        reply = self.tasks.call("return_home")
+        self.assertEqual((reply.ack, json.loads(reply.data)["state"]), ("success", "returning_home"))
+        ended = {"task_id": "far", "state": "cancelled", "reason": "return home"}
+        self.assertEqual(json.loads(reply.data)["last_ended"], ended)
+        home = self.status.wait(lambda m: json.loads(m.data)["state"] == "idle", 120.0, "idle at home")
+        status = json.loads(home.data)
+        self.assertEqual((status["task_id"], status["reason"], status["last_ended"]), ("", "", ended))
+        position = self.robot.last.position
+        self.assertLess(abs(position[0] - 5.0) + abs(position[1] - 5.0), 0.5, position)   # ~home_pose
 
 
 if __name__ == "__main__":
