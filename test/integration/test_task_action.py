@@ -87,19 +87,22 @@ class TaskActionTest(unittest.TestCase):
         ack = self.vo_acks.wait(lambda m: m.trans_id == trans_id, 10.0, "virtual_obstacle_ack")
         self.assertEqual(ack.ack, "success", ack.data)
 
-    def submit_until(self, data, predicate, what):
-        """Submit ``data`` until the answer satisfies ``predicate``: move_base republishes its virtual
-        layer after acknowledging the change, and task_manager hears it a moment later."""
+    def wait_virtual(self, reason, what):
+        """Wait until task_manager checks stops against the changed virtual layer (move_base
+        republishes it after acknowledging the change; task_manager hears it a moment later).
+        The probe can never be accepted: its second stop is outside the map, so the answer names
+        the fenced stop while the obstacle is known and the second stop once it is not."""
+        probe = task("probe", [(20.0, 21.4), (500.0, 5.0)])
         replies = []
 
         def answered():
-            replies.append(self.tasks.call("submit", data))
-            return predicate(replies[-1])
+            replies.append(self.tasks.call("submit", probe))
+            self.assertEqual(replies[-1].ack, "failed", replies[-1].data)
+            return reason in replies[-1].data
         try:
-            wait_for(answered, 15.0, what, period=0.3)
+            wait_for(answered, 15.0, what, period=0.2)
         except AssertionError:
-            self.fail("%s; last answer %s %s" % (what, replies[-1].ack, replies[-1].data))
-        return replies[-1]
+            self.fail("%s; last answer %s" % (what, replies[-1].data if replies else None))
 
     def wait_idle(self):
         self.status.wait(lambda m: json.loads(m.data)["state"] in ("idle", "done", "failed", "cancelled"), 60.0,
@@ -111,30 +114,28 @@ class TaskActionTest(unittest.TestCase):
         start = list(self.robot.last.position)
         fence = {"id": "fence", "points": [[18.5, 20.0], [21.5, 20.0], [21.5, 23.0], [18.5, 23.0]], "closed": True}
         self.virtual("add", fence)
-        reply = self.submit_until(task("fenced", [(20.0, 21.4)]), lambda r: r.ack == "failed",
-                                  "a fenced stop refused")
-        self.assertEqual(reply.data, "stop 1 (s0): pose (20.00, 21.40) is unreachable: "
-                                     "cut off from the home pose by virtual obstacles")
+        self.wait_virtual("stop 1 (s0): pose (20.00, 21.40) is unreachable: cut off", "the fence known")
+        reply = self.tasks.call("submit", task("fenced", [(20.0, 21.4)]))
+        self.assertEqual((reply.ack, reply.data), ("failed", "stop 1 (s0): pose (20.00, 21.40) is unreachable: "
+                                                             "cut off from the home pose by virtual obstacles"))
         self.virtual("modify", {"id": "fence", "points": [[19.0, 21.4], [21.0, 21.4]], "closed": False})
-        reply = self.submit_until(task("covered", [(20.0, 21.4)]), lambda r: "inside a virtual" in r.data,
-                                  "a covered stop refused")
+        self.wait_virtual("stop 1 (s0): pose (20.00, 21.40) is unreachable: inside", "the wall known")
+        reply = self.tasks.call("submit", task("covered", [(20.0, 21.4)]))
         self.assertEqual((reply.ack, reply.data), ("failed", "stop 1 (s0): pose (20.00, 21.40) is unreachable: "
                                                              "inside a virtual obstacle or too close to one"))
         position = self.robot.last.position
         self.assertLess(abs(position[0] - start[0]) + abs(position[1] - start[1]), 0.05, "the robot moved")
         self.assertEqual(self.tasks.call("query_tasks").data, "[]")   # nothing was stored either
         self.virtual("delete", {"id": "fence"})
-        reply = self.submit_until(task("free_again", [(20.0, 21.4)]), lambda r: r.ack == "success",
-                                  "the stop accepted once the obstacle is gone")
-        self.assertEqual(json.loads(reply.data)["task_id"], "free_again")
+        self.wait_virtual("stop 2 (s1): pose (500.00, 5.00) is unreachable: outside the map", "the wall gone")
+        reply = self.tasks.call("submit", task("free_again", [(20.0, 21.4)]))
+        self.assertEqual((reply.ack, json.loads(reply.data)["task_id"]), ("success", "free_again"))
         self.assertEqual(self.tasks.call("cancel", "free_again").ack, "success")
 
     # --- 2 --------------------------------------------------------------------------------------
     def test_2_a_task_as_an_action_over_ros_feedback_and_result(self):
         self.wait_idle()
-        rejected = []
-        bad = self.action.send_goal(GeneralGoal(sender="rostest", type="patrol", data=task("bad", [(500.0, 5.0)])),
-                                    transition_cb=rejected.append)
+        bad = self.action.send_goal(GeneralGoal(sender="rostest", type="patrol", data=task("bad", [(500.0, 5.0)])))
         wait_for(lambda: bad.get_comm_state() == actionlib.CommState.DONE, 10.0, "bad goal done")
         self.assertEqual(bad.get_goal_status(), GoalStatus.REJECTED)
         self.assertEqual((bad.get_result().ret_code, json.loads(bad.get_result().data)), (
@@ -184,8 +185,12 @@ class TaskActionTest(unittest.TestCase):
         wait_for(lambda: special.get_comm_state() == actionlib.CommState.DONE, 90.0, "special task done")
         self.assertEqual(special.get_result().ret_code, "1")
         self.assertTrue(goal.is_active, goal.status)   # the routine goal stayed active all along
-        count = len(feedback)
-        wait_for(lambda: any(d["state"] == "running" for _c, d in feedback[count:]), 30.0, "routine resumed")
+
+        def resumed():
+            codes = [c for c, _d in feedback]
+            last_suspended = len(codes) - 1 - codes[::-1].index("2")
+            return any(d["state"] == "running" for _c, d in feedback[last_suspended:])
+        wait_for(resumed, 30.0, "routine resumed")
 
         goal.cancel()
         result = goal.wait(30)

@@ -88,6 +88,8 @@ class TaskManager(object):
                                               auto_start=False)
         self._action.start()
         self._publish_status(force=True)
+        # also while a step runs (a drive may take minutes): the patrol loop is blocked in it then
+        self._status_timer = rospy.Timer(rospy.Duration(status_period / 2.0), self._on_status_timer)
 
     # --- inputs --------------------------------------------------------------------------------
     def _on_robot_status(self, msg):
@@ -245,6 +247,10 @@ class TaskManager(object):
             status["report"] = os.path.join(self._reports_dir, status["task_id"], "report.html")
         return json.dumps(status, sort_keys=True)
 
+    def _on_status_timer(self, _event):
+        with self._lock:
+            self._publish_status()
+
     def _publish_status(self, force=False):
         text = self._status_json()
         now = time.monotonic()
@@ -332,8 +338,11 @@ def main():
                 "read": float(rospy.get_param("~read_timeout_s", 60.0))}
     velocity = (float(rospy.get_param("~velocity_x", 0.8)), float(rospy.get_param("~velocity_yaw", 0.8)))
     store = ResultStore(os.path.join(tasks_dir, "results.sqlite"))
+    status_period = float(rospy.get_param("~status_period", 1.0))
+    if status_period <= 0:
+        raise ValueError("~status_period must be positive, got %r" % status_period)
     manager = TaskManager(store, os.path.join(tasks_dir, "reports"), config, preset_root, reachable,
                           lambda pose: StepRunner(NODE_NAME, velocity[0], velocity[1], timeouts, pose), retries,
-                          float(rospy.get_param("~status_period", 1.0)))
+                          status_period)
     rospy.loginfo("%s: results in %s" % (NODE_NAME, store.path))
     manager.spin()
