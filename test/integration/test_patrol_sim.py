@@ -224,6 +224,8 @@ class PatrolSimTest(unittest.TestCase):
         resumed = self.status_where(lambda s: s["state"] == "running" and s["holds"] == [], 600.0,
                                     "patrol resumed after charging")
         self.assertEqual((resumed["task_id"], resumed["stop"]), (paused["task_id"], paused["stop"]))
+        # charge_control goes idle only after task_manager answered its resume: wait for it
+        wait_for(lambda: charge and charge[-1]["state"] == "idle", 30.0, "charge_control idle after resuming")
         states = [c["state"] for c in charge]
         for state in ("to_approach", "docking", "charging", "relay_off", "backing_off", "idle"):
             self.assertIn(state, states)

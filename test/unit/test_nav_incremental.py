@@ -110,3 +110,26 @@ def test_walls_that_split_and_join_free_space_across_label_blocks():
     with pytest.raises(PlanningError, match="not reachable"):
         costmap.set_virtual([wall])
         planner.plan((5.0, 20.0), (35.0, 20.0))
+
+
+@pytest.mark.parametrize("seed", [5, 6])
+def test_a_layer_given_as_cells_equals_the_same_layer_given_as_polylines(seed):
+    """task_manager feeds move_base's published virtual cells (virtual_obstacle_map) to its costmap:
+    the inflated cost and the free-space partition equal move_base's own from the polylines."""
+    rng = np.random.default_rng(seed)
+    grid = yard(rng)
+    from_cells = Costmap(grid, robot_radius=0.45, safety_margin=0.3)
+    layer = []
+    for _step in range(6):
+        if layer and rng.random() < 0.3:
+            layer.pop(int(rng.integers(0, len(layer))))
+        else:
+            layer.append(random_polyline(rng))
+        reference = Costmap(grid, robot_radius=0.45, safety_margin=0.3)
+        reference.set_virtual(layer)
+        from_cells.set_virtual_cells(reference.virtual.copy())
+        np.testing.assert_array_equal(from_cells.cost, reference.cost)
+        assert_same_partition(from_cells.component_image(), reference.component_image())
+    assert from_cells.set_virtual_cells(from_cells.virtual.copy()) is None   # unchanged: no work
+    with pytest.raises(ValueError, match="virtual layer of shape"):
+        from_cells.set_virtual_cells(np.zeros((3, 3), dtype=bool))

@@ -292,8 +292,31 @@ def test_return_home_cancels_tasks_and_drives_home(env):
     assert patrol.status()["state"] == "returning_home"
     step = patrol.next_step(clock())
     assert (step.kind, step.x, step.y) == (STEP_HOME, 5.0, 5.0)
+    assert patrol.status()["last_ended"]["state"] == "cancelled"
     patrol.step_done(step, OUTCOME_OK, "", clock(), clock())
-    assert patrol.status()["state"] == "idle" or patrol.status()["task_id"] == "r"
+    status = patrol.status()
+    assert (status["state"], status["task_id"], status["reason"]) == ("idle", "", "")
+    assert status["last_ended"] == {"task_id": "r", "state": "cancelled", "reason": "return home"}
+    patrol.submit(task("n", stops=1), clock())   # the next task shows again, and so does its end
+    patrol.cancel("n", clock())
+    assert (patrol.status()["state"], patrol.status()["task_id"]) == ("cancelled", "n")
+
+
+def test_a_task_ending_without_return_home_keeps_its_end_state(env):
+    store, clock, patrol, finished = env
+    patrol.submit(task("t", stops=1), clock())
+    for _ in range(3):
+        run_step(patrol, clock)
+    status = patrol.status()
+    assert (status["state"], status["task_id"]) == ("done", "t")
+
+
+def test_failed_return_home_says_why_and_is_idle(env):
+    store, clock, patrol, finished = env
+    patrol.return_home(clock())
+    run_step(patrol, clock, OUTCOME_FAILED)
+    status = patrol.status()
+    assert (status["state"], status["reason"]) == ("idle", "return home failed: it broke")
 
 
 def test_restart_resumes_the_interrupted_task_without_repeating_a_reading(env, tmp_path):

@@ -112,6 +112,34 @@ def test_reachability_on_the_shipped_map():
     assert reachable(500.0, 5.0) == "outside the map"
 
 
+def test_reachability_with_move_base_virtual_obstacles():
+    """Stops inside a virtual obstacle, or fenced off from home by one, are refused; the layer is
+    move_base's (its rasterised cells), and a check without one waits, then says so."""
+    import os
+    from inspection_robot.nav.costmap import Costmap
+    from inspection_robot.task.checks import Reachability
+    root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+    map_file = os.path.join(root, "config", "maps", "substation.yaml")
+    reachable = Reachability(map_file, 0.45, (5.0, 5.0), virtual_wait_s=0.01)
+    assert reachable(20.0, 21.4) == "virtual obstacles not known (no virtual_obstacle_map from move_base yet)"
+    move_base = Costmap(reachable.costmap.grid, 0.45, 0.3)   # as move_base rasterises them
+
+    def publish(polylines):
+        move_base.set_virtual(polylines)
+        reachable.set_virtual(move_base.virtual.copy())
+
+    publish([])
+    assert reachable(20.0, 21.4) is None
+    publish([([[19.0, 21.4], [21.0, 21.4]], False)])   # a wall through the stop
+    assert reachable(20.0, 21.4) == "inside a virtual obstacle or too close to one"
+    publish([([[18.5, 20.0], [21.5, 20.0], [21.5, 23.0], [18.5, 23.0]], True)])   # a fence around it
+    assert reachable(20.0, 21.4) == "cut off from the home pose by virtual obstacles"
+    assert reachable(20.0, 10.0) == "inside an obstacle or too close to one"   # the map's reason first
+    assert reachable(10.0, 5.0) is None
+    publish([])   # removed again
+    assert reachable(20.0, 21.4) is None
+
+
 def test_unknown_or_outside_preset_directories_are_refused(tmp_path):
     from inspection_robot.task.checks import resolve_preset
     with pytest.raises(CommandError, match="unknown preset directory 'nope': preset directory not found"):

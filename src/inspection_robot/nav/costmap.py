@@ -193,6 +193,26 @@ class Costmap(object):
             if p.bounds.overlaps(window):
                 _draw(mask, p.poly, p.closed, window.r0, window.c0)
         self.virtual[window.slices()] = mask.astype(bool)
+        return self._virtual_changed(window)
+
+    def set_virtual_cells(self, mask):
+        """Replace the virtual layer with one already rasterised (a boolean array of the map's
+        shape, e.g. move_base's virtual_obstacle_map) and re-inflate only the window that changed.
+        Returns that window (None: nothing changed). Feed a costmap either cells or polylines."""
+        mask = np.asarray(mask, dtype=bool)
+        if mask.shape != self.shape:
+            raise ValueError("virtual layer of shape %s for a map of shape %s" % (mask.shape, self.shape))
+        changed = mask != self.virtual
+        if not changed.any():
+            return None
+        rows, cols = np.flatnonzero(changed.any(axis=1)), np.flatnonzero(changed.any(axis=0))
+        window = Window(rows[0], rows[-1] + 1, cols[0], cols[-1] + 1)
+        self._polylines = []
+        self.virtual[window.slices()] = mask[window.slices()]
+        return self._virtual_changed(window)
+
+    def _virtual_changed(self, window):
+        """The virtual cells of ``window`` changed: re-inflate and relabel around it."""
         touched = window.grown(self._reach, self.shape)
         self._inflate(touched)
         self._label(touched)

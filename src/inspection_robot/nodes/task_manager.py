@@ -4,16 +4,19 @@ Services:    task_control (ControlService): submit, pause, resume, cancel, retur
              query_tasks, query_results, report (same table as task_cmd)
 Subscribes:  task_cmd (GeneralCmd), robot_status (RobotStatus: mode, pose)
              read_scale_ack (ReadScaleAck)
+             virtual_obstacle_map (nav_msgs/OccupancyGrid, latched by move_base): reachability at submission
 Publishes:   task_ack (GeneralAck), task_status (GeneralTopic, latched, JSON), read_scale_cmd (ReadScaleCmd)
-Actions:     move_action, find_scale_action (GeneralAction), client
+Actions:     task_action (GeneralAction), server: goal type "patrol" = submit, feedback = progress
+             move_action, find_scale_action (GeneralAction), client
 Parameters:  data_root (namespace: the robot's state directory): store and reports under
              <data_root>/tasks/; ~preset_root (str, presets: relative to data_root unless absolute);
              ~map_file (str): the navigation map, for reachability; ~robot_radius (m, 0.45);
              ~home_pose ([x, y, yaw], [5, 5, 0]); ~retries (int, 1); ~retry_delay_s (s, 3.0);
              ~velocity_x (m/s, 0.8), ~velocity_yaw (rad/s, 0.8); ~move_timeout_s (300),
              ~find_timeout_s (90), ~read_timeout_s (60); ~move_estimate_s (20), ~preset_estimate_s (10):
-             ETA before anything was measured; ~status_period (s, 1.0): task_status republished
-             at least this often while a task runs (at once on every change)
+             ETA before anything was measured; ~status_period (s, 1.0): task_status (and task_action
+             feedback) republished at least this often while a task runs (at once on every change);
+             ~virtual_wait_s (s, 5.0): a submission waits this long for move_base's virtual obstacles
 """
 import json
 import os
@@ -21,15 +24,21 @@ import threading
 import time
 import traceback
 
+import actionlib
+import numpy as np
 import rospy
+from nav_msgs.msg import OccupancyGrid
 
 from inspection_robot.command import CommandError, CommandTable, no_data, parse_json
-from inspection_robot.msg import GeneralTopic, RobotStatus
+from inspection_robot.msg import GeneralAction, GeneralFeedback, GeneralResult, GeneralTopic, RobotStatus
 from inspection_robot.ros.task_steps import StepRunner
 from inspection_robot.ros.twin import CommandTwin
+from inspection_robot.ros.worker import RequestWorker
+from inspection_robot.task.action import END_CANCELED, END_SUCCEEDED, check_goal_type, goal_end, goal_feedback, \
+    goal_refused
 from inspection_robot.task.checks import Reachability, resolve_preset
 from inspection_robot.task.patrol import Patrol, PatrolConfig
-from inspection_robot.task.report import write_reports
+from inspection_robot.task.report import summary, write_reports
 from inspection_robot.task.spec import parse_task
 from inspection_robot.task.store import ResultStore, StoreError
 from inspection_robot.ros.data_root import data_root, path_param
@@ -55,6 +64,7 @@ class TaskManager(object):
         self._status_pub = rospy.Publisher("task_status", GeneralTopic, queue_size=5, latch=True)
         self._last_status = None
         self._last_status_time = 0.0
+        self._goals = {}   # task id -> task_action goal handle (only tasks submitted as an action)
         self.patrol = Patrol(store, patrol_config, time.time(), on_finished=self._on_finished)
         self._runner = runner_factory(lambda: self._pose)
         table = CommandTable({
@@ -67,7 +77,19 @@ class TaskManager(object):
         })
         self._twin = CommandTwin(table, "task_control", "task_cmd", "task_ack", NODE_NAME, busy_when_joystick=False)
         self._status_sub = rospy.Subscriber("robot_status", RobotStatus, self._on_robot_status, queue_size=1)
+        self._virtual_sub = rospy.Subscriber("virtual_obstacle_map", OccupancyGrid, self._on_virtual_map,
+                                             queue_size=1)
+        # actionlib calls back under its own lock, and this node publishes feedback under self._lock:
+        # the callbacks only queue the request, one worker runs it (one lock order, no deadlock)
+        self._action_worker = RequestWorker("task_action", self._action_request, self._action_refused, 20)
+        self._action = actionlib.ActionServer("task_action", GeneralAction,
+                                              lambda goal: self._action_worker.submit(("goal", goal)),
+                                              lambda goal: self._action_worker.submit(("cancel", goal)),
+                                              auto_start=False)
+        self._action.start()
         self._publish_status(force=True)
+        # also while a step runs (a drive may take minutes): the patrol loop is blocked in it then
+        self._status_timer = rospy.Timer(rospy.Duration(status_period / 2.0), self._on_status_timer)
 
     # --- inputs --------------------------------------------------------------------------------
     def _on_robot_status(self, msg):
@@ -77,6 +99,18 @@ class TaskManager(object):
             if msg.mode != self.patrol.mode:
                 self.patrol.set_mode(msg.mode)
                 self._changed()
+
+    def _on_virtual_map(self, msg):
+        cells = np.asarray(msg.data, dtype=np.int8)
+        grid = self._reachable.costmap.grid
+        if (msg.info.height, msg.info.width) != (grid.height, grid.width) or cells.size != grid.height * grid.width \
+                or abs(msg.info.resolution - grid.resolution) > 1e-9:
+            rospy.logerr_throttle(30.0, "%s: virtual_obstacle_map is %dx%d at %.3f m, the map %dx%d at %.3f m: "
+                                  "ignored (task_manager and move_base must load the same map)"
+                                  % (NODE_NAME, msg.info.width, msg.info.height, msg.info.resolution, grid.width,
+                                     grid.height, grid.resolution))
+            return
+        self._reachable.set_virtual(cells.reshape(grid.height, grid.width) > 0)
 
     def _changed(self):
         self._publish_status()
@@ -93,13 +127,72 @@ class TaskManager(object):
                 return self._status_json()
         return handler
 
-    def _submit(self, data):
+    def _submit(self, data, goal=None):
+        """Check and start a task; ``goal``: its task_action goal handle, accepted with it."""
         with self._lock:
             known = self.store.task_ids()
         # parsed outside the lock: checking presets and the map must not stall the patrol loop
         task = parse_task(data, lambda name: resolve_preset(self._preset_root, name), self._reachable,
                           self._default_retries, known)
-        return self._changing(lambda _data: self.patrol.submit(task, time.time()))(data)
+        with self._lock:
+            self.patrol.submit(task, time.time())
+            if goal is not None:
+                goal.set_accepted()
+                self._goals[task.task_id] = goal
+            self._changed()
+            return self._status_json()
+
+    # --- task_action -----------------------------------------------------------------------------
+    def _action_request(self, request):
+        kind, goal = request
+        if kind == "goal":
+            self._on_goal(goal)
+        else:
+            self._on_cancel(goal)
+
+    def _action_refused(self, request):
+        kind, goal = request
+        if kind == "goal":
+            reason = "busy: too many task_action requests waiting"
+            ret_code, data = goal_refused(reason)
+            goal.set_rejected(GeneralResult(ret_code=ret_code, data=data), reason)
+
+    def _on_goal(self, goal):
+        request = goal.get_goal()
+        try:
+            check_goal_type(request.type)
+            self._submit(request.data, goal)
+        except CommandError as err:
+            ret_code, data = goal_refused(str(err))
+            goal.set_rejected(GeneralResult(ret_code=ret_code, data=data), str(err))
+            rospy.logwarn("%s: task_action goal from %s refused: %s" % (NODE_NAME, request.sender or "?", err))
+        except Exception as err:  # boundary: a bug refuses this goal, the node lives on
+            rospy.logerr("%s: task_action goal raised %s\n%s" % (NODE_NAME, err, traceback.format_exc()))
+            ret_code, data = goal_refused("internal error: %s" % (err,))
+            goal.set_rejected(GeneralResult(ret_code=ret_code, data=data), "internal error")
+
+    def _on_cancel(self, goal):
+        with self._lock:
+            task_id = next((t for t, g in self._goals.items() if g.get_goal_id().id == goal.get_goal_id().id), None)
+            if task_id is None or task_id not in self.patrol.runs:
+                return
+            self.patrol.cancel(task_id, time.time(), "cancelled by the action client")
+            self._changed()
+
+    def _end_goal(self, task_id, report_path):
+        goal = self._goals.pop(task_id, None)
+        if goal is None:
+            return
+        row = self.store.task(task_id)
+        end, ret_code, data = goal_end(summary(row, self.store.readings(task_id=task_id, limit=10 ** 9), ()),
+                                       report_path)
+        result = GeneralResult(ret_code=ret_code, data=data)
+        if end == END_SUCCEEDED:
+            goal.set_succeeded(result, row["state"])
+        elif end == END_CANCELED:
+            goal.set_canceled(result, row["reason"])
+        else:
+            goal.set_aborted(result, row["reason"])
 
     def _query_tasks(self, _data):
         return json.dumps([{"task_id": t["task_id"], "priority": t["priority"], "state": t["state"],
@@ -135,12 +228,15 @@ class TaskManager(object):
                              self.store.readings(task_id=task_id, limit=10 ** 9), self.store.steps(task_id))
 
     def _on_finished(self, task_id):
-        """A task ended: its report is written at once (a failure is logged, the patrol goes on)."""
+        """A task ended: its report is written at once (a failure is logged, the patrol goes on),
+        then its task_action goal, if any, ends."""
+        report = ""
         try:
-            paths = self._write_report(task_id)
-            rospy.loginfo("%s: task %s ended, report %s" % (NODE_NAME, task_id, paths["report.html"]))
+            report = self._write_report(task_id)["report.html"]
+            rospy.loginfo("%s: task %s ended, report %s" % (NODE_NAME, task_id, report))
         except (OSError, StoreError) as err:
             rospy.logerr("%s: cannot write the report of %s: %s" % (NODE_NAME, task_id, err))
+        self._end_goal(task_id, report)
 
     # --- status --------------------------------------------------------------------------------
     def _status_json(self):
@@ -151,6 +247,10 @@ class TaskManager(object):
             status["report"] = os.path.join(self._reports_dir, status["task_id"], "report.html")
         return json.dumps(status, sort_keys=True)
 
+    def _on_status_timer(self, _event):
+        with self._lock:
+            self._publish_status()
+
     def _publish_status(self, force=False):
         text = self._status_json()
         now = time.monotonic()
@@ -159,6 +259,11 @@ class TaskManager(object):
             msg.header.stamp = rospy.Time.now()
             self._status_pub.publish(msg)
             self._last_status, self._last_status_time = text, now
+            for task_id, goal in self._goals.items():
+                progress = self.patrol.task_progress(task_id)
+                if progress is not None:
+                    code, data = goal_feedback(progress)
+                    goal.publish_feedback(GeneralFeedback(event_code=code, data=data))
 
     # --- the patrol loop -----------------------------------------------------------------------
     def spin(self):
@@ -226,14 +331,18 @@ def main():
                           preset_estimate_s=float(rospy.get_param("~preset_estimate_s", 10.0)))
     retries = int(rospy.get_param("~retries", 1))
     reachable = Reachability(os.path.expanduser(rospy.get_param("~map_file")),
-                             float(rospy.get_param("~robot_radius", 0.45)), home_pose[:2])
+                             float(rospy.get_param("~robot_radius", 0.45)), home_pose[:2],
+                             float(rospy.get_param("~virtual_wait_s", 5.0)))
     timeouts = {"move": float(rospy.get_param("~move_timeout_s", 300.0)),
                 "find": float(rospy.get_param("~find_timeout_s", 90.0)),
                 "read": float(rospy.get_param("~read_timeout_s", 60.0))}
     velocity = (float(rospy.get_param("~velocity_x", 0.8)), float(rospy.get_param("~velocity_yaw", 0.8)))
     store = ResultStore(os.path.join(tasks_dir, "results.sqlite"))
+    status_period = float(rospy.get_param("~status_period", 1.0))
+    if status_period <= 0:
+        raise ValueError("~status_period must be positive, got %r" % status_period)
     manager = TaskManager(store, os.path.join(tasks_dir, "reports"), config, preset_root, reachable,
                           lambda pose: StepRunner(NODE_NAME, velocity[0], velocity[1], timeouts, pose), retries,
-                          float(rospy.get_param("~status_period", 1.0)))
+                          status_period)
     rospy.loginfo("%s: results in %s" % (NODE_NAME, store.path))
     manager.spin()

@@ -2,6 +2,9 @@
 and can a stop be reached on the map. Used by task_manager at submission, before anything moves."""
 import configparser
 import os
+import threading
+
+import numpy as np
 
 from inspection_robot.command import CommandError
 from inspection_robot.files import confine_path
@@ -50,22 +53,52 @@ def preset_bands(path, targets):
 
 
 class Reachability(object):
-    """A stop is reachable when its cell is free of the (inflated) static map and connected to the
-    home pose's cell. Virtual obstacles are not considered (they may change before the robot gets there)."""
+    """A stop is reachable when its cell is free of the map and the virtual obstacles, both inflated
+    by the robot's radius, and connected to the home pose's cell.
 
-    def __init__(self, map_file, robot_radius, home_xy):
+    The virtual layer is move_base's own: the cells it publishes on virtual_obstacle_map, handed to
+    ``set_virtual`` (no second copy of the obstacles or of their rasterising). Until a layer came,
+    a check waits up to ``virtual_wait_s`` for one and then answers that the obstacles are not
+    known (None: no virtual layer is expected, for tools). Thread-safe: the layer changes in a
+    subscriber thread while a submission is checked in a service thread.
+    """
+
+    def __init__(self, map_file, robot_radius, home_xy, virtual_wait_s=None):
         try:
             self.costmap = Costmap(load_map(map_file), robot_radius, 0.0)
         except (MapError, OSError, ValueError) as err:
             raise CommandError("cannot load the map %s: %s" % (map_file, err))
         self.home = self.costmap.grid.world_to_cell(*home_xy)
+        # the static map alone, to tell a virtual obstacle's refusal from the map's
+        self._static_free = np.isfinite(self.costmap.cost)
+        self._static_home = None
+        if self.costmap.free(*self.home):
+            self._static_home = self.costmap.component_image() == self.costmap.component(*self.home)
+        self._virtual_wait_s = virtual_wait_s
+        self._virtual_known = threading.Event()
+        if virtual_wait_s is None:
+            self._virtual_known.set()
+        self._lock = threading.Lock()
+
+    def set_virtual(self, cells):
+        """The current virtual layer: a boolean array of the map's shape (ValueError otherwise)."""
+        with self._lock:
+            self.costmap.set_virtual_cells(cells)
+        self._virtual_known.set()
 
     def __call__(self, x, y):
-        cell = self.costmap.grid.world_to_cell(x, y)
-        if not self.costmap.grid.contains(*cell):
-            return "outside the map"
-        if not self.costmap.free(*cell):
-            return "inside an obstacle or too close to one"
-        if self.costmap.free(*self.home) and not self.costmap.connected(self.home, cell):
-            return "no path from the home pose"
+        if not self._virtual_known.wait(self._virtual_wait_s):
+            return "virtual obstacles not known (no virtual_obstacle_map from move_base yet)"
+        with self._lock:
+            cell = self.costmap.grid.world_to_cell(x, y)
+            if not self.costmap.grid.contains(*cell):
+                return "outside the map"
+            if not self._static_free[cell]:
+                return "inside an obstacle or too close to one"
+            if not self.costmap.free(*cell):
+                return "inside a virtual obstacle or too close to one"
+            if self.costmap.free(*self.home) and not self.costmap.connected(self.home, cell):
+                if self._static_home is not None and self._static_home[cell]:
+                    return "cut off from the home pose by virtual obstacles"
+                return "no path from the home pose"
         return None

@@ -82,6 +82,7 @@ class TaskRun(object):
         self.at_stop = None
         self.attempts = {}
         self.retry_at = None
+        self.last_result = None     # result_summary of this task's last recorded preset
 
     def remaining(self):
         return [k for k in self.task.preset_keys() if k not in self.done]
@@ -107,6 +108,7 @@ class Patrol(object):
         self.home_error = ""
         self.last_result = None
         self.last_task = None       # (task id, state, reason) of the last finished task
+        self.home_reached = False   # return_home arrived after last_task ended: task_status is idle
         self._durations = {STEP_MOVE: [], STEP_INSPECT: []}
         self._recover(now)
 
@@ -285,6 +287,7 @@ class Patrol(object):
     def _home_done(self, outcome, reason):
         if outcome == OUTCOME_OK:
             self.returning_home = False
+            self.home_reached = True
         elif outcome == OUTCOME_FAILED and not (HOLD_MODE in self.holds or HOLD_CHARGE in self.holds):
             self.returning_home = False
             self.home_error = reason
@@ -295,7 +298,7 @@ class Patrol(object):
                             inspection, reason, now)
         self.store.add_readings(rows)   # committed before it is announced
         run.done.add((stop_index, preset_index))
-        self.last_result = result_summary(rows)
+        self.last_result = run.last_result = result_summary(rows)
 
     def _advance(self, now):
         run = self.active
@@ -318,6 +321,7 @@ class Patrol(object):
                 self.active.at_stop = None
                 self.store.set_task_state(self.active.task.task_id, STATE_RUNNING)
         self.last_task = (task_id, state, reason)
+        self.home_reached = False
         self._on_finished(task_id)
         self._advance(now)
 
@@ -333,21 +337,40 @@ class Patrol(object):
         if self.returning_home:
             out["state"] = STATE_RETURNING_HOME
             return out
-        run = self.active
-        if run is None:
-            if self.last_task is not None:
+        if self.active is None:
+            if self.last_task is not None and not self.home_reached:
                 out["task_id"], out["state"], out["reason"] = self.last_task
             elif self.home_error:
                 out["reason"] = "return home failed: %s" % self.home_error
             return out
+        out.update(self._progress(self.active))
+        out["last_result"] = self.last_result
+        return out
+
+    def task_progress(self, task_id):
+        """The task_status fields of one running or suspended task (its own last_result; ``reason``
+        says who pre-empted a suspended one), or None when it is neither."""
+        run = self.runs.get(task_id)
+        if run is None:
+            return None
+        out = {"holds": sorted(self.holds), "reason": ""}
+        out.update(self._progress(run))
+        if run is self.suspended:
+            out["state"] = STATE_SUSPENDED
+            if self.active is not None:
+                out["reason"] = "pre-empted by special task '%s'" % self.active.task.task_id
+                out["eta_s"] = round(out["eta_s"] + self._eta(self.active), 1)
+        return out
+
+    def _progress(self, run):
         keys = run.task.preset_keys()
         key = run.next_key() or keys[-1]
         stop = run.task.stops[key[0]]
-        out.update(task_id=run.task.task_id, priority=run.task.priority,
-                   state=STATE_PAUSED if self.holds and self.running is None else STATE_RUNNING,
-                   stop=key[0] + 1, stops=len(run.task.stops), stop_name=stop["name"], preset=key[1] + 1,
-                   presets=len(stop["presets"]), done=len(run.done), total=len(keys), eta_s=round(self._eta(run), 1))
-        return out
+        return {"task_id": run.task.task_id, "priority": run.task.priority,
+                "state": STATE_PAUSED if self.holds and self.running is None else STATE_RUNNING,
+                "stop": key[0] + 1, "stops": len(run.task.stops), "stop_name": stop["name"], "preset": key[1] + 1,
+                "presets": len(stop["presets"]), "done": len(run.done), "total": len(keys),
+                "last_result": run.last_result, "eta_s": round(self._eta(run), 1)}
 
     def _eta(self, run):
         remaining = run.remaining()
