@@ -29,7 +29,8 @@ def test_record_command_matches_the_interface_topics_in_the_namespace(ns, prefix
     regex = pattern_of(argv)
     wanted = ["robot_status", "control_status", "nav_status", "robot_odom", "tf", "server_status", "plan",
               "map", "virtual_obstacle_map", "obstacle_status", "move_action/goal", "move_action/feedback",
-              "find_scale_action/result", "control_cmd", "control_ack", "virtual_obstacle_cmd", "mode_cmd",
+              "find_scale_action/result", "task_action/goal", "task_action/feedback",
+              "control_cmd", "control_ack", "virtual_obstacle_cmd", "mode_cmd",
               "move_cmd", "task_status", "task_cmd", "task_ack", "read_scale_cmd", "read_scale_ack",
               "virtual_obstacles", "virtual_obstacle_ack",
               "charge_status", "charge_cmd", "charge_ack", "diagnostics"]

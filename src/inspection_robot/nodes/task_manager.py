@@ -10,7 +10,9 @@ Actions:     task_action (GeneralAction), server: goal type "patrol" = submit, f
              move_action, find_scale_action (GeneralAction), client
 Parameters:  data_root (namespace: the robot's state directory): store and reports under
              <data_root>/tasks/; ~preset_root (str, presets: relative to data_root unless absolute);
-             ~map_file (str): the navigation map, for reachability; ~robot_radius (m, 0.45);
+             map_file, robot_radius: move_base's own (move_base/map_file, move_base/robot_radius) so
+             reachability uses the map and inflation move_base plans with (~map_file and
+             ~robot_radius override them where task_manager runs without move_base);
              ~home_pose ([x, y, yaw], [5, 5, 0]); ~retries (int, 1); ~retry_delay_s (s, 3.0);
              ~velocity_x (m/s, 0.8), ~velocity_yaw (rad/s, 0.8); ~move_timeout_s (300),
              ~find_timeout_s (90), ~read_timeout_s (60); ~move_estimate_s (20), ~preset_estimate_s (10):
@@ -317,6 +319,17 @@ class TaskManager(object):
             return self.patrol.interrupt_wanted(step)
 
 
+def move_base_param(name):
+    """move_base's own ``name`` (the planner's map and inflation), unless task_manager has ``~name``."""
+    private = "~" + name
+    if rospy.has_param(private):
+        return rospy.get_param(private)
+    if not rospy.has_param("move_base/" + name):
+        raise ValueError("neither ~%s nor move_base/%s is set: task_manager checks reachability on move_base's map"
+                         % (name, name))
+    return rospy.get_param("move_base/" + name)
+
+
 def main():
     rospy.init_node(NODE_NAME)
     root = data_root()
@@ -330,8 +343,8 @@ def main():
                           move_estimate_s=float(rospy.get_param("~move_estimate_s", 20.0)),
                           preset_estimate_s=float(rospy.get_param("~preset_estimate_s", 10.0)))
     retries = int(rospy.get_param("~retries", 1))
-    reachable = Reachability(os.path.expanduser(rospy.get_param("~map_file")),
-                             float(rospy.get_param("~robot_radius", 0.45)), home_pose[:2],
+    reachable = Reachability(os.path.expanduser(move_base_param("map_file")),
+                             float(move_base_param("robot_radius")), home_pose[:2],
                              float(rospy.get_param("~virtual_wait_s", 5.0)))
     timeouts = {"move": float(rospy.get_param("~move_timeout_s", 300.0)),
                 "find": float(rospy.get_param("~find_timeout_s", 90.0)),

@@ -14,7 +14,7 @@ INTERFACE_TOPICS = (
     "robot_status", "control_status", "nav_status", "robot_odom", "odom", "tf", "tf_static",
     "server_status", "diagnostics", "obstacle_status", "plan", "map", "virtual_obstacle_map",
     "virtual_obstacles",
-    "move_action/.*", "find_scale_action/.*",
+    "move_action/.*", "find_scale_action/.*", "task_action/.*",
     "[A-Za-z0-9_]+_cmd", "[A-Za-z0-9_]+_ack",
     "task_status", "charge_status",
     "terrace_state", "camera_zoom", "client_count",
