@@ -252,15 +252,15 @@ def report_real(rows):
     read = [r for r in photos if not r["failed"]]
     confident = [r for r in read if not r["uncertain"]]
     print(json.dumps(dict(_accuracy("inspection_real_all", read), photos=len(photos),
-                          distinct_photos=len([r for r in photos if "augmented_copy" not in r["tags"]]),
+                          distinct_photos=len([r for r in photos if not {"augmented_copy", "second_dial"} & set(r["tags"])]),
                           failed=len(photos) - len(read), uncertain=len(read) - len(confident),
                           gross_unflagged=len([r for r in confident if r["error"] > 10.0]),
                           mean_label_uncertainty_pct_fs=round(
                               float(np.mean([r["label_uncertainty_pct_fs"] for r in photos])), 3))))
     print(json.dumps(_accuracy("inspection_real_confident", confident)))
     print(json.dumps(_accuracy("inspection_real_not_at_scale_end", [r for r in read if not r["at_end"]])))
-    for tag in ("drag_pointer", "broad_tail", "needle_tail", "compound", "substation", "hidden_hub", "off_centre_pivot",
-                "thermometer"):
+    for tag in ("drag_pointer", "broad_tail", "needle_tail", "compound", "nonlinear", "substation", "hidden_hub",
+                "off_centre_pivot", "oblique", "thermometer"):
         print(json.dumps(_accuracy("inspection_real_" + tag, [r for r in read if tag in r["tags"]])))
     for low, high in ((0, 25), (25, 50), (50, 75), (75, 90), (90, 101)):
         band = [r for r in read if low <= r["confidence"] < high]
