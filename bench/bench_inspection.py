@@ -229,6 +229,7 @@ def real_cases(photo_dir, tmp):
         scale = preset.targets[0].scale
         error = scale.error_percent_fs(outcome.scale[0], label["truth"]) if "truth" in label else None
         out.append({"id": label["id"], "negative": "calibration_of" in label, "failed": "", "error": error,
+                    "value": outcome.scale[0], "truth": label.get("truth"),
                     "confidence": outcome.possibility[0], "uncertain": outcome.uncertain[0],
                     "tags": label.get("tags", []), "at_end": label.get("truth") in (scale.start_value, scale.end_value),
                     "label_uncertainty_pct_fs": 100.0 * label.get("uncertainty", 0.0) / scale.full_scale,

@@ -64,8 +64,8 @@ class PointerReader(object):
     A needle whose inner part is hidden (a plate or an inner arc over the hub, as on SF6 density
     meters) or whose pivot lies below the visible window (panel meters) shows only near the
     scale: when the reading in the inner band is uncertain, the same search runs again in the
-    outer band ``outer_band`` (fractions of the dial radius) and the more confident reading wins
-    (detail["band"] says which).
+    outer band ``outer_band`` (fractions of the dial radius), whose reading replaces it only when
+    it is confident itself (detail["band"] says which band read).
     """
 
     def __init__(self, size=GAUGE_SIZE, inner=0.22, outer=0.72, step_deg=ANGLE_STEP_DEG, background_deg=12.0,
@@ -331,7 +331,7 @@ class PointerReader(object):
         if reading.confidence < self.uncertain_below and self._outer_reader is not None:
             outer = self._outer_reader._read_band(image, quad, scale, centre, radius, aspect, pointer_colour,
                                                   ignore_colour)
-            if outer.confidence > reading.confidence:
+            if outer.confidence >= self.uncertain_below:
                 outer.detail["band"] = "outer"
                 return outer
         return reading
