@@ -257,7 +257,7 @@ def report_real(rows):
     photos = [r for r in rows if not r["negative"]]
     read = [r for r in photos if not r["failed"]]
     confident = [r for r in read if not r["uncertain"]]
-    copies = {"augmented_copy", "second_dial"}     # a noise-added copy; the second dial of a picture
+    copies = {"augmented_copy", "warped_copy", "second_dial"}     # derived copies; the second dial of a picture
     print(json.dumps(dict(_accuracy("inspection_real_all", read), photos=len(photos),
                           distinct_photos=len([r for r in photos if not copies & set(r["tags"])]),
                           failed=len(photos) - len(read), uncertain=len(read) - len(confident),
