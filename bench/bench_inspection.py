@@ -163,16 +163,21 @@ def world_cases(rng, locator, reader, count, tmp):
 
 def label_spec(label, width, height):
     """A calibration target spec (calibration.build_targets' format) from a photo's labels: a box
-    1.15 tick radii around the pivot (clipped to the picture), the marks' angles as the scale."""
+    1.15 tick radii around the pivot (clipped to the picture), the marks' angles as the scale.
+    ``dial_axes`` [sx, sy] (an oblique view: the round dial seen as an ellipse sx·R wide, sy·R
+    high) makes the box that ellipse's bounding box with the physical aspect of a square, so the
+    reader's rectification (the same one that undoes the finder's homography) sees a round dial;
+    the marks' angles are taken in that frontal frame."""
     px, py = label["pivot"]
-    half = 1.15 * float(label["radius"])
-    x0, y0 = max(0.0, px - half), max(0.0, py - half)
-    x1, y1 = min(width - 1.0, px + half), min(height - 1.0, py + half)
-    angles = [math.degrees(math.atan2(x - px, -(y - py))) % 360.0 for _, x, y in label["marks"]]
+    sx, sy = label.get("dial_axes", (1.0, 1.0))
+    r = float(label["radius"])
+    x0, y0 = max(0.0, px - 1.15 * r * sx), max(0.0, py - 1.15 * r * sy)
+    x1, y1 = min(width - 1.0, px + 1.15 * r * sx), min(height - 1.0, py + 1.15 * r * sy)
+    angles = [math.degrees(math.atan2((x - px) / sx, -(y - py) / sy)) % 360.0 for _, x, y in label["marks"]]
     values = [float(v) for v, _, _ in label["marks"]]
     spec = {"kind": "pointer", "name": label["id"], "box": [x0, y0, x1, y0, x1, y1, x0, y1],
-            "centre": ((px - x0) / (x1 - x0), (py - y0) / (y1 - y0)), "radius": float(label["radius"]) / (x1 - x0),
-            "aspect": (x1 - x0) / (y1 - y0), "start_angle": angles[0], "end_angle": angles[-1],
+            "centre": ((px - x0) / (x1 - x0), (py - y0) / (y1 - y0)), "radius": r * sx / (x1 - x0),
+            "aspect": ((x1 - x0) / sx) / ((y1 - y0) / sy), "start_angle": angles[0], "end_angle": angles[-1],
             "start_value": values[0], "end_value": values[-1], "unit": label.get("unit", "")}
     if len(values) > 2:
         spec["scale_table"] = list(zip(values, angles))
@@ -229,6 +234,7 @@ def real_cases(photo_dir, tmp):
         scale = preset.targets[0].scale
         error = scale.error_percent_fs(outcome.scale[0], label["truth"]) if "truth" in label else None
         out.append({"id": label["id"], "negative": "calibration_of" in label, "failed": "", "error": error,
+                    "value": outcome.scale[0], "truth": label.get("truth"),
                     "confidence": outcome.possibility[0], "uncertain": outcome.uncertain[0],
                     "tags": label.get("tags", []), "at_end": label.get("truth") in (scale.start_value, scale.end_value),
                     "label_uncertainty_pct_fs": 100.0 * label.get("uncertainty", 0.0) / scale.full_scale,
@@ -251,15 +257,17 @@ def report_real(rows):
     photos = [r for r in rows if not r["negative"]]
     read = [r for r in photos if not r["failed"]]
     confident = [r for r in read if not r["uncertain"]]
+    copies = {"augmented_copy", "warped_copy", "second_dial"}     # derived copies; the second dial of a picture
     print(json.dumps(dict(_accuracy("inspection_real_all", read), photos=len(photos),
-                          distinct_photos=len([r for r in photos if "augmented_copy" not in r["tags"]]),
+                          distinct_photos=len([r for r in photos if not copies & set(r["tags"])]),
                           failed=len(photos) - len(read), uncertain=len(read) - len(confident),
                           gross_unflagged=len([r for r in confident if r["error"] > 10.0]),
                           mean_label_uncertainty_pct_fs=round(
                               float(np.mean([r["label_uncertainty_pct_fs"] for r in photos])), 3))))
     print(json.dumps(_accuracy("inspection_real_confident", confident)))
     print(json.dumps(_accuracy("inspection_real_not_at_scale_end", [r for r in read if not r["at_end"]])))
-    for tag in ("drag_pointer", "broad_tail", "needle_tail", "compound"):
+    for tag in ("drag_pointer", "broad_tail", "needle_tail", "compound", "nonlinear", "substation", "hidden_hub",
+                "off_centre_pivot", "oblique", "thermometer", "hand_held"):
         print(json.dumps(_accuracy("inspection_real_" + tag, [r for r in read if tag in r["tags"]])))
     for low, high in ((0, 25), (25, 50), (50, 75), (75, 90), (90, 101)):
         band = [r for r in read if low <= r["confidence"] < high]

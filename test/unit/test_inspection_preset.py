@@ -108,10 +108,11 @@ def test_cli_calibrates_and_rejects_bad_boxes(tmp_path, capsys):
     good.write_text(yaml.safe_dump({"targets": [
         {"kind": "lamp", "colour": "green", "box": [10, 10, 40, 10, 40, 40, 10, 40]},
         {"kind": "pointer", "box": [100, 50, 200, 50, 200, 150, 100, 150], "start_angle": 225, "end_angle": 135,
-         "start_value": 0, "end_value": 10, "unit": "bar", "scale_table": [[0, 225], [5, 0], [10, 135]]}]}))
+         "start_value": 0, "end_value": 10, "unit": "%RH", "scale_table": [[0, 225], [5, 0], [10, 135]]}]}))
     assert calibrate_cli([path, str(good), "--optics", str(optics_file)]) == 0
     preset = load_preset(path)
     assert preset.targets[1].scale.value(0) == pytest.approx(5)
+    assert preset.targets[1].params["unit"] == "%RH"     # a percent sign is text, not ini interpolation
     outside = tmp_path / "outside.yaml"
     outside.write_text(yaml.safe_dump(
         {"targets": [{"kind": "lamp", "colour": "red", "box": [470, 10, 500, 10, 500, 40, 470, 40]}]}))

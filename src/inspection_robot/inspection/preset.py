@@ -113,7 +113,7 @@ class PresetInfo(object):
         self.arm_trajectory = arm_trajectory
 
     def to_ini(self):
-        c = configparser.ConfigParser()
+        c = configparser.ConfigParser(interpolation=None)
         c["preset"] = {"preset_id": self.preset_id, "type": self.preset_type,
                        "infrared": "1" if self.infrared else "0", "created": self.created,
                        "extra_data": self.extra_data}
@@ -134,7 +134,7 @@ class PresetInfo(object):
 
     @classmethod
     def from_ini(cls, text):
-        c = configparser.ConfigParser()
+        c = configparser.ConfigParser(interpolation=None)
         try:
             c.read_string(text)
             count = c.getint("pictures", "count")
@@ -297,7 +297,7 @@ def boxes_from_xml(text):
 
 def write_calibration(preset_dir, targets, info):
     """Write preset_calib_info.ini and zoom<k>.xml for every zoom picture of the preset."""
-    c = configparser.ConfigParser()
+    c = configparser.ConfigParser(interpolation=None)
     c["calibration"] = {"version": str(CALIB_VERSION), "reference": zoom_picture_name(0),
                         "target_count": str(len(targets))}
     for i, target in enumerate(targets):
@@ -346,7 +346,7 @@ def load_preset(path, need_calibration=True):
         if need_calibration:
             raise PresetError("preset not calibrated: %s missing in %s" % (CALIB_INI, path))
         return Preset(path, info, targets)
-    c = configparser.ConfigParser()
+    c = configparser.ConfigParser(interpolation=None)
     try:
         c.read(calib)
         count = c.getint("calibration", "target_count")

@@ -60,11 +60,22 @@ class PointerReader(object):
     real line; the reading is where that line meets the scale circle (0.9 of the dial radius about
     the calibrated centre). Lines fitted to the inner and outer halves give the agreement that,
     with the needle's contrast, makes the confidence.
+
+    A needle whose inner part is hidden (a plate or an inner arc over the hub, as on SF6 density
+    meters) or whose pivot lies below the visible window (panel meters) shows only near the
+    scale: when the reading in the inner band is uncertain, the same search runs again in the
+    outer band ``outer_band`` (fractions of the dial radius), whose reading replaces it only when
+    it is confident itself (detail["band"] says which band read).
     """
 
     def __init__(self, size=GAUGE_SIZE, inner=0.22, outer=0.72, step_deg=ANGLE_STEP_DEG, background_deg=12.0,
-                 margin_deg=8.0, reach=(0.72, 0.9), uncertain_below=UNCERTAIN_BELOW):
+                 margin_deg=8.0, reach=(0.72, 0.9), uncertain_below=UNCERTAIN_BELOW, outer_band=(0.6, 0.95)):
         self.size = size
+        self._outer_reader = None
+        if outer_band:
+            self._outer_reader = PointerReader(size, outer_band[0], outer_band[1], step_deg, background_deg,
+                                               margin_deg, (outer_band[1] - 0.05, outer_band[1] + 0.05),
+                                               uncertain_below, outer_band=None)
         self.background_deg = background_deg
         self.inner = inner
         self.outer = outer
@@ -315,6 +326,17 @@ class PointerReader(object):
              ignore_colour=""):
         """Reading of a pointer gauge; detail["reason"] is non-empty when the reading is uncertain
         (confidence below ``uncertain_below``). Raises ReadFailed when no reading is possible."""
+        reading = self._read_band(image, quad, scale, centre, radius, aspect, pointer_colour, ignore_colour)
+        reading.detail["band"] = "inner"
+        if reading.confidence < self.uncertain_below and self._outer_reader is not None:
+            outer = self._outer_reader._read_band(image, quad, scale, centre, radius, aspect, pointer_colour,
+                                                  ignore_colour)
+            if outer.confidence >= self.uncertain_below:
+                outer.detail["band"] = "outer"
+                return outer
+        return reading
+
+    def _read_band(self, image, quad, scale, centre, radius, aspect, pointer_colour, ignore_colour):
         angle, confidence, detail = self.needle_angle(image, quad, centre, radius, aspect, scale,
                                                       pointer_colour, ignore_colour)
         if angle is None:
