@@ -69,13 +69,16 @@ class PointerReader(object):
     """
 
     def __init__(self, size=GAUGE_SIZE, inner=0.22, outer=0.72, step_deg=ANGLE_STEP_DEG, background_deg=12.0,
-                 margin_deg=8.0, reach=(0.72, 0.9), uncertain_below=UNCERTAIN_BELOW, outer_band=(0.6, 0.95)):
+                 margin_deg=8.0, reach=(0.72, 0.9), uncertain_below=UNCERTAIN_BELOW, outer_band=(0.6, 0.95),
+                 hub_steps=2, hub_move=0.06):
         self.size = size
+        self.hub_steps = hub_steps
+        self.hub_move = hub_move
         self._outer_reader = None
         if outer_band:
             self._outer_reader = PointerReader(size, outer_band[0], outer_band[1], step_deg, background_deg,
                                                margin_deg, (outer_band[1] - 0.05, outer_band[1] + 0.05),
-                                               uncertain_below, outer_band=None)
+                                               uncertain_below, outer_band=None, hub_steps=0)
         self.background_deg = background_deg
         self.inner = inner
         self.outer = outer
@@ -106,11 +109,22 @@ class PointerReader(object):
         core = samples[half:half + n]
         return np.sqrt(((core - background) ** 2).sum(axis=2)), core, background
 
-    def _search_angles(self, scale):
+    def _search_angles(self, scale, centre=None, hub=None, ring=None):
+        """Directions (deg clockwise from up) that cover the scale's sweep plus margin_deg, seen from
+        ``hub``: the sweep's ends are the points of the ring (radius ``ring`` about the calibrated
+        ``centre``) at the scale's end angles. All around without a scale."""
         if scale is None:
             return np.arange(0.0, 360.0, self.step_deg)
-        span = min(360.0, scale.sweep + 2 * self.margin_deg)
-        start = scale.start_angle - (span - scale.sweep) / 2.0
+        start, sweep = scale.start_angle, scale.sweep
+        if hub is not None and sweep < 300.0 and (hub[0] != centre[0] or hub[1] != centre[1]):
+            ends = []
+            for a in (scale.start_angle, scale.end_angle):
+                x = centre[0] + ring * math.sin(math.radians(a)) - hub[0]
+                y = centre[1] - ring * math.cos(math.radians(a)) - hub[1]
+                ends.append(math.degrees(math.atan2(x, -y)))
+            start, sweep = wrap360(ends[0]), wrap360(ends[1] - ends[0])
+        span = min(360.0, sweep + 2 * self.margin_deg)
+        start = start - (span - sweep) / 2.0
         return start + np.arange(0.0, span, self.step_deg)
 
     def _candidates(self, full, angles):
@@ -211,7 +225,7 @@ class PointerReader(object):
             raise ReadFailed("blank picture in the box (no contrast)")
 
     def needle_angle(self, image, quad, centre=(0.5, 0.5), radius=0.45, aspect=1.0, scale=None,
-                     pointer_colour="", ignore_colour=""):
+                     pointer_colour="", ignore_colour="", hub=None):
         """Needle angle (deg clockwise from up, about the calibrated centre) in the face's frontal
         view, a confidence and a detail dict (``reason``: why the confidence is low, "" when it is not).
 
@@ -231,9 +245,13 @@ class PointerReader(object):
         lab = cv2.cvtColor(face, cv2.COLOR_BGR2LAB)
         rad = radius * (width - 1)
         c = (centre[0] * (width - 1), centre[1] * (height - 1))
-        angles = self._search_angles(scale)
-        dist, samples, background = self._profile(lab, c, rad, angles, self._radii)
-        reach_dist = self._profile(lab, c, rad, angles, self._reach_radii)[0]
+        ring = rad * self._reach_radii[-1]
+        # the needle is searched along rays from ``hub`` (the calibrated centre unless given) and read
+        # where its line meets the scale circle about the calibrated centre
+        hub = c if hub is None else (hub[0] * (width - 1), hub[1] * (height - 1))
+        angles = self._search_angles(scale, c, hub, ring)
+        dist, samples, background = self._profile(lab, hub, rad, angles, self._radii)
+        reach_dist = self._profile(lab, hub, rad, angles, self._reach_radii)[0]
         full = np.median(dist, axis=1)
         candidates, base = self._candidates(full, angles)
         detail = {"candidates": len(candidates)}
@@ -272,9 +290,9 @@ class PointerReader(object):
         # fitted to the samples of the needle's own colour; to all of them where that leaves too
         # few (a needle hardly apart from the face)
         for like in (self._needle_likeness(dist, samples, background, full, base, i), None):
-            line = self._line(dist, angles, i, c, rad, 0, len(self._radii), like)
-            inner_line = self._line(dist, angles, i, c, rad, 0, k, like)
-            outer_line = self._line(dist, angles, i, c, rad, k, len(self._radii), like)
+            line = self._line(dist, angles, i, hub, rad, 0, len(self._radii), like)
+            inner_line = self._line(dist, angles, i, hub, rad, 0, k, like)
+            outer_line = self._line(dist, angles, i, hub, rad, k, len(self._radii), like)
             if line is not None and inner_line is not None and outer_line is not None:
                 break
         if line is None or inner_line is None or outer_line is None:
@@ -283,7 +301,6 @@ class PointerReader(object):
         # where the needle's line meets the scale circle: near the tip, so the line's direction
         # error (a tapered or shadowed needle) hardly matters, and a pivot off the calibrated
         # centre moves the reading only by the parallax at the scale, not by a ray's full error
-        ring = rad * self._reach_radii[-1]
         angle = self._meets_circle(line, c, ring)
         inner_angle = self._meets_circle(inner_line, c, ring)
         outer_angle = self._meets_circle(outer_line, c, ring)
@@ -339,6 +356,18 @@ class PointerReader(object):
     def _read_band(self, image, quad, scale, centre, radius, aspect, pointer_colour, ignore_colour):
         angle, confidence, detail = self.needle_angle(image, quad, centre, radius, aspect, scale,
                                                       pointer_colour, ignore_colour)
+        for _ in range(self.hub_steps):
+            # the hub lies on the needle's line: when a confidently found line passes well away
+            # from the calibrated centre, search again along rays from its point nearest the centre
+            if angle is None or confidence < self.uncertain_below or math.hypot(detail["pivot"][0] - centre[0],
+                                           (detail["pivot"][1] - centre[1]) / float(aspect)) < self.hub_move * radius:
+                break
+            again = self.needle_angle(image, quad, centre, radius, aspect, scale, pointer_colour, ignore_colour,
+                                      hub=detail["pivot"])
+            if again[0] is None or again[1] < 0.8 * confidence:
+                break
+            angle, confidence, detail = again
+            detail["hub"] = detail["pivot"]
         if angle is None:
             return Reading(float("nan"), 0.0, detail)
         if not scale.in_sweep(angle, margin_deg=max(1.5, 0.01 * scale.sweep)):
