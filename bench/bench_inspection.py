@@ -267,7 +267,7 @@ def report_real(rows):
     print(json.dumps(_accuracy("inspection_real_confident", confident)))
     print(json.dumps(_accuracy("inspection_real_not_at_scale_end", [r for r in read if not r["at_end"]])))
     for tag in ("drag_pointer", "broad_tail", "needle_tail", "compound", "nonlinear", "substation", "hidden_hub",
-                "off_centre_pivot", "oblique", "thermometer", "hand_held"):
+                "off_centre_pivot", "oblique", "thermometer", "hand_held", "reversed_scale", "vacuum"):
         print(json.dumps(_accuracy("inspection_real_" + tag, [r for r in read if tag in r["tags"]])))
     for low, high in ((0, 25), (25, 50), (50, 75), (75, 90), (90, 101)):
         band = [r for r in read if low <= r["confidence"] < high]
