@@ -70,8 +70,11 @@ class PointerReader(object):
 
     def __init__(self, size=GAUGE_SIZE, inner=0.22, outer=0.72, step_deg=ANGLE_STEP_DEG, background_deg=12.0,
                  margin_deg=8.0, reach=(0.72, 0.9), uncertain_below=UNCERTAIN_BELOW, outer_band=(0.6, 0.95),
-                 hub_steps=2, hub_move=0.06):
+                 hub_steps=2, hub_move=0.06, hub_axis=(0.1, 0.2, 0.3, 0.4),
+                 hub_axis_confidence=75.0):
         self.size = size
+        self.hub_axis_confidence = hub_axis_confidence
+        self.hub_axis = hub_axis
         self.hub_steps = hub_steps
         self.hub_move = hub_move
         self._outer_reader = None
@@ -351,12 +354,27 @@ class PointerReader(object):
             if outer.confidence >= self.uncertain_below:
                 outer.detail["band"] = "outer"
                 return outer
+        if reading.confidence < self.uncertain_below and self.hub_axis and scale is not None and scale.sweep < 300.0:
+            # still uncertain: the pivot may lie nearer the scale than calibrated (a panel meter seen
+            # from below its window, whose marks' circle is flattened): search along the scale's
+            # symmetry axis for the hub from which the needle reads most confidently
+            mid = math.radians(scale.start_angle + scale.sweep / 2.0)
+            best = None
+            for d in self.hub_axis:
+                hub = (centre[0] + d * radius * math.sin(mid), centre[1] - d * radius * math.cos(mid) * float(aspect))
+                found = self._read_band(image, quad, scale, centre, radius, aspect, pointer_colour, ignore_colour,
+                                        hub=hub)
+                if best is None or found.confidence > best.confidence:
+                    best = found
+            if best.confidence >= self.hub_axis_confidence:
+                best.detail["band"] = "axis"
+                return best
         return reading
 
-    def _read_band(self, image, quad, scale, centre, radius, aspect, pointer_colour, ignore_colour):
+    def _read_band(self, image, quad, scale, centre, radius, aspect, pointer_colour, ignore_colour, hub=None):
         angle, confidence, detail = self.needle_angle(image, quad, centre, radius, aspect, scale,
-                                                      pointer_colour, ignore_colour)
-        for _ in range(self.hub_steps):
+                                                      pointer_colour, ignore_colour, hub=hub)
+        for _ in range(self.hub_steps if hub is None else 0):
             # the hub lies on the needle's line: when a confidently found line passes well away
             # from the calibrated centre, search again along rays from its point nearest the centre
             if angle is None or confidence < self.uncertain_below or math.hypot(detail["pivot"][0] - centre[0],
