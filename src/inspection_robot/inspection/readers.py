@@ -377,8 +377,10 @@ class PointerReader(object):
         for _ in range(self.hub_steps if hub is None else 0):
             # the hub lies on the needle's line: when a confidently found line passes well away
             # from the calibrated centre, search again along rays from its point nearest the centre
-            if angle is None or confidence < self.uncertain_below or math.hypot(detail["pivot"][0] - centre[0],
-                                           (detail["pivot"][1] - centre[1]) / float(aspect)) < self.hub_move * radius:
+            if angle is None or confidence < self.uncertain_below:
+                break
+            off = math.hypot(detail["pivot"][0] - centre[0], (detail["pivot"][1] - centre[1]) / float(aspect))
+            if off < self.hub_move * radius:
                 break
             again = self.needle_angle(image, quad, centre, radius, aspect, scale, pointer_colour, ignore_colour,
                                       hub=detail["pivot"])
