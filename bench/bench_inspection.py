@@ -35,7 +35,11 @@ from inspection_robot.inspection.readers import PointerReader, ReadFailed
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 W, H = 640, 360
-CASES = int(os.environ.get("BENCH_INSPECTION_CASES", "320"))
+CASES = int(os.environ.get("BENCH_INSPECTION_CASES", "320"))   # 0: no synthetic part
+# 0: ignore the hand-fitted dial ellipses (``dial_axes``) of oblique photos, as a field calibration would
+USE_DIAL_AXES = os.environ.get("BENCH_REAL_DIAL_AXES", "1") != "0"
+# 0: calibrate without the marks' positions (no ellipse fit: the reader's calibrated frame only)
+USE_MARKS = os.environ.get("BENCH_REAL_MARKS", "1") != "0"
 
 
 def synthetic_case(rng, locator, reader):
@@ -169,7 +173,7 @@ def label_spec(label, width, height):
     reader's rectification (the same one that undoes the finder's homography) sees a round dial;
     the marks' angles are taken in that frontal frame."""
     px, py = label["pivot"]
-    sx, sy = label.get("dial_axes", (1.0, 1.0))
+    sx, sy = label.get("dial_axes", (1.0, 1.0)) if USE_DIAL_AXES else (1.0, 1.0)
     r = float(label["radius"])
     x0, y0 = max(0.0, px - 1.15 * r * sx), max(0.0, py - 1.15 * r * sy)
     x1, y1 = min(width - 1.0, px + 1.15 * r * sx), min(height - 1.0, py + 1.15 * r * sy)
@@ -181,6 +185,8 @@ def label_spec(label, width, height):
             "start_value": values[0], "end_value": values[-1], "unit": label.get("unit", "")}
     if len(values) > 2:
         spec["scale_table"] = list(zip(values, angles))
+    if USE_MARKS:
+        spec["marks"] = [(float(v), (x - x0) / (x1 - x0), (y - y0) / (y1 - y0)) for v, x, y in label["marks"]]
     for key in ("pointer_colour", "ignore_colour"):
         if label.get(key):
             spec[key] = label[key]
@@ -254,6 +260,9 @@ def _accuracy(name, rows):
 
 
 def report_real(rows):
+    if os.environ.get("BENCH_REAL_VERBOSE"):
+        for r in rows:
+            print(json.dumps(dict((k, v) for k, v in r.items() if k not in ("t",))))
     photos = [r for r in rows if not r["negative"]]
     read = [r for r in photos if not r["failed"]]
     confident = [r for r in read if not r["uncertain"]]
@@ -306,7 +315,8 @@ def main():
     rng = np.random.default_rng(2024)
     locator = Locator("orb", max_side=960)
     reader = PointerReader()
-    report("inspection_synthetic", [synthetic_case(rng, locator, reader) for _ in range(CASES)])
+    if CASES > 0:
+        report("inspection_synthetic", [synthetic_case(rng, locator, reader) for _ in range(CASES)])
     photo_dir = os.environ.get("REAL_GAUGES_DIR") or os.path.expanduser("~/.cache/inspection_robot/real_gauges")
     if os.path.isdir(photo_dir):
         tmp = tempfile.mkdtemp(prefix="bench_inspection_real_")

@@ -16,6 +16,7 @@ failure never leaves half a preset; single files are written to a temporary name
 """
 import configparser
 import io
+import math
 import os
 import shutil
 import tempfile
@@ -163,7 +164,9 @@ class Target(object):
     ``boxes``: {zoom index: 4x2 array TL, TR, BR, BL}. Pointer parameters: centre (pivot as
     fractions of the box), radius (dial radius as a fraction of the box width), aspect (physical
     width / height of the box), start/end angle (deg clockwise from up) and
-    value, unit, optional scale_table [(value, angle)]. Lamp: colour, optional on_reference and
+    value, unit, optional scale_table [(value, angle)], optional marks [(value, u, v)] (the scale
+    marks' positions as fractions of the box: the reader fits their ellipse to undo an oblique
+    view and find the pivot, see readers.dial_from_marks). Lamp: colour, optional on_reference and
     off_reference (patch file names). Switch: open_reference,
     closed_reference (patch file names in the preset directory). Thermal: thermal_box (4x2 in the
     thermal picture).
@@ -202,6 +205,8 @@ class Target(object):
                         "start_value": "%g" % p["start_value"], "end_value": "%g" % p["end_value"],
                         "unit": p.get("unit", ""),
                         "scale_table": ";".join("%g:%g" % (v, a) for v, a in (p.get("scale_table") or []))})
+            if p.get("marks"):
+                out["marks"] = ";".join("%g:%g,%g" % tuple(m) for m in p["marks"])
             for key in ("pointer_colour", "ignore_colour"):
                 if p.get(key):
                     out[key] = p[key]
@@ -227,7 +232,8 @@ class Target(object):
                       "start_value": float(section["start_value"]), "end_value": float(section["end_value"]),
                       "unit": section.get("unit", ""), "scale_table": _table(section.get("scale_table", "")),
                       "pointer_colour": section.get("pointer_colour", ""),
-                      "ignore_colour": section.get("ignore_colour", "")}
+                      "ignore_colour": section.get("ignore_colour", ""),
+                      "marks": _marks(section.get("marks", ""))}
         elif kind == "lamp":
             params = {"colour": section.get("colour", "")}
             if section.get("on_reference") or section.get("off_reference"):
@@ -252,6 +258,13 @@ def _check_pointer_geometry(params):
         raise PresetError("pointer: radius must be in (0, 1.5] of the box width, got %g" % radius)
     if not 0.05 <= aspect <= 20.0:
         raise PresetError("pointer: aspect must be in [0.05, 20], got %g" % aspect)
+    marks = params.get("marks") or []
+    try:
+        params["marks"] = [tuple(float(x) for x in m) for m in marks]
+    except (TypeError, ValueError):
+        raise PresetError("pointer: marks must be [value, u, v] triples (fractions of the box), got %r" % (marks,))
+    if any(len(m) != 3 or not all(math.isfinite(x) for x in m) for m in params["marks"]):
+        raise PresetError("pointer: marks must be [value, u, v] triples of finite numbers, got %r" % (marks,))
     for key in ("pointer_colour", "ignore_colour"):
         if params.get(key) and params[key] not in POINTER_COLOURS:
             raise PresetError("pointer: %s must be one of %s, got '%s'" % (key, "|".join(POINTER_COLOURS), params[key]))
@@ -269,6 +282,12 @@ def _table(text):
     if not text:
         return []
     return [tuple(float(x) for x in pair.split(":")) for pair in text.split(";")]
+
+
+def _marks(text):
+    """[(value, u, v)] from "value:u,v;..." (the scale marks' positions as fractions of the box)."""
+    return [(float(v),) + tuple(_floats(uv, 2)) for v, uv in (pair.split(":") for pair in text.split(";"))] \
+        if text.strip() else []
 
 
 def boxes_to_xml(zoom_index, level, width, height, targets):

@@ -12,7 +12,7 @@ import cv2
 import numpy as np
 
 from inspection_robot.inspection.geometry import polygon_mask, rectify
-from inspection_robot.inspection.gauge import angle_diff, wrap360
+from inspection_robot.inspection.gauge import GaugeScale, angle_diff, wrap360
 
 Reading = namedtuple("Reading", "value confidence detail")
 
@@ -38,6 +38,75 @@ class ReadFailed(ValueError):
 # a drag / max pointer or set-point needle to leave alone). "dark"/"light" are relative to the face.
 POINTER_COLOURS = ("dark", "light", "red", "black", "white")
 UNCERTAIN_BELOW = 50.0    # confidence under which a reading is reported "uncertain" with its reason
+
+
+DialFrame = namedtuple("DialFrame", "quad centre radius aspect scale detail")
+
+
+def dial_from_marks(quad, centre, radius, aspect, marks, min_marks=6, min_span_deg=180.0, max_residual=0.03,
+                    min_axis_ratio=0.3, max_axis_ratio=0.85):
+    """The frontal dial from the calibration's scale marks, without a hand-fitted outline.
+
+    ``marks``: [(value, u, v)] the marks' positions as fractions of the box (``quad``, whose
+    physical width / height is ``aspect``). The marks lie on a circle about the pivot in the dial's
+    plane, so in an oblique picture on an ellipse: fitted (cv2.fitEllipse), its centre is the
+    pivot's projection (for an arc centred on the pivot) and stretching its minor axis to its
+    major one undoes the view's foreshortening (an affine view: a PTZ's narrow field of view). The
+    result is a new box (a square about the fitted pivot, the same picture region straightened),
+    pivot, dial radius, aspect 1 and a scale whose marks' angles are measured in that frontal frame.
+
+    Returns None (keep the calibrated frame) when the fit is ill-conditioned: fewer than
+    ``min_marks`` marks (5 fit any ellipse exactly), an arc shorter than ``min_span_deg`` (a short
+    arc's ellipse is mostly noise), a residual above ``max_residual`` of the radius, an implausible
+    ellipse (size or centre far from the calibrated one, axes ratio under ``min_axis_ratio``), and
+    for a view nearly frontal (axes ratio above ``max_axis_ratio``, about 32 deg off axis), where
+    hand-placed marks' noise would distort more than the view does (measured on the real set).
+    Otherwise a DialFrame; its detail says what was fitted.
+    """
+    if marks is None or len(marks) < min_marks:
+        return None
+    aspect = float(aspect)
+    values = [float(m[0]) for m in marks]
+    pts = np.array([[float(m[1]), float(m[2]) / aspect] for m in marks])     # physical frame, box width 1
+    (cx, cy), (d1, d2), tilt = cv2.fitEllipse(pts.astype(np.float32).reshape(-1, 1, 2))
+    major, minor = 0.5 * max(d1, d2), 0.5 * min(d1, d2)
+    calibrated = np.array([centre[0], centre[1] / aspect])
+    if not (minor > 0 and minor / major >= min_axis_ratio and 0.4 * radius <= major <= 2.0 * radius
+            and math.hypot(cx - calibrated[0], cy - calibrated[1]) <= 0.5 * major):
+        return None
+    # the affine stretching the ellipse's minor axis to its major one (no rotation: up stays up)
+    # (of the two axes the one that maps the marks onto a circle is the minor one: robust to the
+    # angle conventions of OpenCV versions)
+    c = np.array([cx, cy])
+    best = None
+    for t in (math.radians(tilt), math.radians(tilt + 90.0)):
+        u = np.array([math.cos(t), math.sin(t)])
+        stretch_t = np.eye(2) + (major / minor - 1.0) * np.outer(u, u)
+        q_t = (pts - c).dot(stretch_t.T)
+        residual_t = float(np.sqrt(np.mean((np.hypot(q_t[:, 0], q_t[:, 1]) / major - 1.0) ** 2)))
+        if best is None or residual_t < best[0]:
+            best = (residual_t, stretch_t, q_t)
+    residual, stretch, q = best
+    angles = [wrap360(math.degrees(math.atan2(x, -y))) for x, y in q]
+    offsets = sorted(wrap360(a - angles[0]) for a in angles)
+    gaps = np.diff(offsets + [offsets[0] + 360.0])
+    span = 360.0 - float(gaps.max())
+    detail = {"axis_ratio": round(minor / major, 4), "residual": round(residual, 4), "span_deg": round(span, 1),
+              "pivot_shift": round(math.hypot(cx - calibrated[0], cy - calibrated[1]) / major, 4)}
+    if span < min_span_deg or residual > max_residual or minor / major > max_axis_ratio:
+        return None
+    try:
+        scale = GaugeScale(angles[0], angles[-1], values[0], values[-1], list(zip(values, angles)))
+    except ValueError:
+        return None
+    dial = min(max(float(radius), 0.9 * major), 1.4 * major)
+    half = 1.15 * dial
+    square = c + np.array([[-half, -half], [half, -half], [half, half], [-half, half]]).dot(np.linalg.inv(stretch).T)
+    unit = np.float32([[0, 0], [1, 0], [1, 1], [0, 1]])
+    to_image = cv2.getPerspectiveTransform(unit, np.asarray(quad, np.float32))
+    box = square * np.array([1.0, aspect])
+    new_quad = cv2.perspectiveTransform(box.reshape(-1, 1, 2), to_image).reshape(4, 2)
+    return DialFrame(new_quad, (0.5, 0.5), dial / (2 * half), 1.0, scale, detail)
 
 
 class PointerReader(object):
@@ -343,9 +412,23 @@ class PointerReader(object):
         return angle, _clip_confidence(confidence), detail
 
     def read(self, image, quad, scale, centre=(0.5, 0.5), radius=0.45, aspect=1.0, pointer_colour="",
-             ignore_colour=""):
+             ignore_colour="", marks=None):
         """Reading of a pointer gauge; detail["reason"] is non-empty when the reading is uncertain
-        (confidence below ``uncertain_below``). Raises ReadFailed when no reading is possible."""
+        (confidence below ``uncertain_below``). Raises ReadFailed when no reading is possible.
+        ``marks`` [(value, u, v)] (the scale marks' positions as fractions of the box): when they
+        fit an ellipse well, the dial is read in the frontal frame they give (dial_from_marks)."""
+        frame = dial_from_marks(quad, centre, radius, aspect, marks) if marks else None
+        if frame is not None:
+            reading = self._read_frame(image, frame.quad, frame.scale, frame.centre, frame.radius, frame.aspect,
+                                       pointer_colour, ignore_colour)
+            reading.detail["frame"] = dict(frame.detail, source="marks")
+            return reading
+        reading = self._read_frame(image, quad, scale, centre, radius, aspect, pointer_colour, ignore_colour)
+        if marks:
+            reading.detail["frame"] = {"source": "calibration"}
+        return reading
+
+    def _read_frame(self, image, quad, scale, centre, radius, aspect, pointer_colour, ignore_colour):
         reading = self._read_band(image, quad, scale, centre, radius, aspect, pointer_colour, ignore_colour)
         reading.detail["band"] = "inner"
         if reading.confidence < self.uncertain_below and self._outer_reader is not None:

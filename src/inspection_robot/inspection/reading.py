@@ -173,7 +173,8 @@ class ScaleReader(object):
         if target.kind == "pointer":
             self._check_same_gauge(preset, target, image, quad)
             return self.pointer.read(image, quad, target.scale, p.get("centre", (0.5, 0.5)), p.get("radius", 0.45),
-                                     p.get("aspect", 1.0), p.get("pointer_colour", ""), p.get("ignore_colour", ""))
+                                     p.get("aspect", 1.0), p.get("pointer_colour", ""), p.get("ignore_colour", ""),
+                                     p.get("marks") or None)
         if target.kind == "lamp":
             refs = None
             if p.get("on_reference"):
