@@ -72,7 +72,7 @@ def dial_from_marks(quad, centre, radius, aspect, marks, min_marks=6, min_span_d
     major, minor = 0.5 * max(d1, d2), 0.5 * min(d1, d2)
     calibrated = np.array([centre[0], centre[1] / aspect])
     if not (minor > 0 and minor / major >= min_axis_ratio and 0.4 * radius <= major <= 2.0 * radius
-            and math.hypot(cx - calibrated[0], cy - calibrated[1]) <= 0.5 * major):
+            and math.hypot(cx - calibrated[0], cy - calibrated[1]) <= 0.8 * major):
         return None
     # the affine stretching the ellipse's minor axis to its major one (no rotation: up stays up)
     # (of the two axes the one that maps the marks onto a circle is the minor one: robust to the
