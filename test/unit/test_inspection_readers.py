@@ -260,7 +260,7 @@ def _off_centre_face(scale, value, size=300, drop=0.3):
         u = np.array([np.sin(a), -np.cos(a)])
         cv2.line(face, tuple(int(v) for v in pivot + 0.92 * arc * u), tuple(int(v) for v in pivot + 1.05 * arc * u),
                  (20, 20, 20), 2, cv2.LINE_AA)
-    a = np.radians(scale.start_angle + scale.sweep * (value - scale.start_value) / (scale.end_value - scale.start_value))
+    a = np.radians(scale.start_angle + scale.sweep * (value - scale.start_value) / scale.full_scale)
     tip = pivot + 0.9 * arc * np.array([np.sin(a), -np.cos(a)])
     cv2.line(face, tuple(int(v) for v in pivot), tuple(int(v) for v in tip), (15, 15, 15), 3, cv2.LINE_AA)
     cv2.circle(face, tuple(int(v) for v in pivot), 6, (15, 15, 15), -1, cv2.LINE_AA)
