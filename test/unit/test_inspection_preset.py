@@ -122,3 +122,22 @@ def test_cli_calibrates_and_rejects_bad_boxes(tmp_path, capsys):
     unknown.write_text(yaml.safe_dump({"targets": [{"kind": "dial", "box": [10, 10, 40, 10, 40, 40, 10, 40]}]}))
     assert calibrate_cli([path, str(unknown), "--optics", str(optics_file)]) == 1
     assert "unknown target kind" in capsys.readouterr().err
+
+
+def test_pointer_marks_round_trip_and_old_files_load():
+    """The optional scale marks' positions survive the calibration file; a file without them loads
+    (no marks); malformed marks are refused with a reason."""
+    from inspection_robot.inspection.preset import Target
+    box = {0: [[0, 0], [100, 0], [100, 100], [0, 100]]}
+    params = dict(start_angle=225.0, end_angle=135.0, start_value=0.0, end_value=10.0)
+    marks = [(0.0, 0.18, 0.82), (5.0, 0.5, 0.08), (10.0, 0.82, 0.82)]
+    target = Target("pointer", box, name="m", marks=marks, **params)
+    again = Target.from_section(target.section(), box)
+    assert again.params["marks"] == pytest.approx(marks)
+    old = dict(target.section())
+    del old["marks"]
+    assert Target.from_section(old, box).params["marks"] == []
+    for bad in ([(1.0, 0.5)], [("x", 0.1, 0.2)], [(1.0, float("nan"), 0.2)], 7):
+        with pytest.raises(PresetError) as err:
+            Target("pointer", box, marks=bad, **params)
+        assert "marks" in str(err.value)
