@@ -135,6 +135,9 @@ class PointerReader(object):
     scale: when the reading in the inner band is uncertain, the same search runs again in the
     outer band ``outer_band`` (fractions of the dial radius), whose reading replaces it only when
     it is confident itself (detail["band"] says which band read).
+
+    With the scale marks' positions from the calibration (``read(marks=...)``) an oblique dial is
+    read in the frontal frame their fitted ellipse gives (dial_from_marks; detail["frame"]).
     """
 
     def __init__(self, size=GAUGE_SIZE, inner=0.22, outer=0.72, step_deg=ANGLE_STEP_DEG, background_deg=12.0,
