@@ -32,6 +32,7 @@ from inspection_robot.recording.recorder import (IMAGE_SUFFIX, RecorderError, co
                                                  enforce_budget, list_bags, record_command)
 from inspection_robot.ros.data_root import data_root, path_param
 from inspection_robot.ros.diagnostics import DeviceDiagnostics
+from inspection_robot.ros.node import init_node
 
 HARDWARE_ID = "bag_recorder"
 MB = 1000 * 1000
@@ -170,7 +171,7 @@ class BagRecorder(object):
 
 
 def main():
-    rospy.init_node("bag_recorder")
+    init_node("bag_recorder")
     if not rospy.get_param("~enabled", True):
         rospy.loginfo("bag_recorder: ~enabled is false; not recording")
         DeviceDiagnostics("bag recorder", HARDWARE_ID).publish(True, "disabled (~enabled false)", [])

@@ -31,6 +31,7 @@ from inspection_robot.camera.optics import ZoomOptics
 from inspection_robot.drivers import SIM, make_driver
 from inspection_robot.ros.diagnostics import DeviceDiagnostics, probe_device
 from inspection_robot.ros.images import bgr_image_msg
+from inspection_robot.ros.node import init_node
 from inspection_robot.ros.twin import CommandTwin
 from inspection_robot.ros.data_root import data_root, path_list_param
 
@@ -132,7 +133,7 @@ def make_camera(spec, optics):
 
 
 def main():
-    rospy.init_node(NODE)
+    init_node(NODE)
     optics_params = rospy.get_param("~camera_optics")
     optics = ZoomOptics(optics_params["zoom_hfov_deg"], optics_params["width"], optics_params["height"])
     roots = path_list_param("~roots", ["captures", "presets", "pictures"], data_root())

@@ -36,6 +36,7 @@ from inspection_robot.command import failed
 from inspection_robot.interface import ACK_SUCCESS, MOVE_GOAL_TYPE, MOVE_RESULT_SUCCESS, VOICE_LANGUAGES
 from inspection_robot.msg import GeneralAction, GeneralCmd, GeneralGoal, GeneralTopic, RobotStatus, VoiceCmd
 from inspection_robot.nav.goal import move_goal_data
+from inspection_robot.ros.node import init_node
 from inspection_robot.ros.twin import CommandTwin
 from inspection_robot.ros.worker import RequestWorker
 from inspection_robot.srv import ControlService
@@ -215,7 +216,7 @@ def _task_state(data):
 
 
 def main():
-    rospy.init_node(NODE_NAME)
+    init_node(NODE_NAME)
     config = ChargeConfig(
         low_level=float(rospy.get_param("~low_level", 25.0)),
         full_level=float(rospy.get_param("~full_level", 90.0)),

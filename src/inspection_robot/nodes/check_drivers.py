@@ -13,12 +13,13 @@ import sys
 import rospy
 
 from inspection_robot.drivers import DEVICES, PARAM, format_problems, robot_launch_problems
+from inspection_robot.ros.node import init_node
 
 NODE_NAME = "check_drivers"
 
 
 def main():
-    rospy.init_node(NODE_NAME)
+    init_node(NODE_NAME)
     specs = {device: rospy.get_param("%s/%s" % (entry.node, PARAM), None) for device, entry in DEVICES.items()}
     problems = robot_launch_problems(specs)
     if problems:

@@ -33,6 +33,7 @@ from inspection_robot.drivers import SIM, make_driver
 from inspection_robot.msg import PresetRotate
 from inspection_robot.interface import ACK_SUCCESS, BUSY
 from inspection_robot.ros.diagnostics import DeviceDiagnostics
+from inspection_robot.ros.node import init_node
 from inspection_robot.ros.twin import CommandTwin
 from inspection_robot.ros.worker import RequestWorker
 from inspection_robot.ptz import pelco
@@ -105,7 +106,7 @@ class CloudTerrace(object):
 
 
 def main():
-    rospy.init_node(NODE_NAME)
+    init_node(NODE_NAME)
     port = rospy.get_param("~port", "/tmp/inspection_robot_pelco")
     backoff = rospy.get_param("~reconnect_backoff", [0.1, 2.0])
     speeds = rospy.get_param("~speeds", {"high_speed": 63, "mid_speed": 32, "low_speed": 8})

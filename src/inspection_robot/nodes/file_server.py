@@ -21,6 +21,7 @@ import rospy
 from inspection_robot.camera.optics import ZoomOptics
 from inspection_robot.inspection.calibration_commands import CalibrationCommands
 from inspection_robot.ros.data_root import data_root
+from inspection_robot.ros.node import init_node
 from inspection_robot.ros.twin import CommandTwin
 from inspection_robot.storage.commands import FileCommands
 
@@ -28,7 +29,7 @@ NODE_NAME = "file_server"
 
 
 def main():
-    rospy.init_node(NODE_NAME)
+    init_node(NODE_NAME)
     root = data_root()
     roots = list(rospy.get_param("~roots", ["presets", "pictures", "captures", "thermal", "tasks"]))
     preset_roots = list(rospy.get_param("~preset_roots", ["presets"]))

@@ -40,6 +40,7 @@ from inspection_robot.interface import (FIND_FEEDBACK_PRESET_SET, FIND_GOAL_TYPE
 from inspection_robot.msg import GeneralAction, GeneralFeedback, GeneralResult
 from inspection_robot.ros.inspection_head import HeadingWatcher, RosHead
 from inspection_robot.ros.data_root import data_root, path_param
+from inspection_robot.ros.node import init_node
 
 NODE_NAME = "find_scale"
 
@@ -121,7 +122,7 @@ class FindScaleNode(object):
 
 
 def main():
-    rospy.init_node(NODE_NAME)
+    init_node(NODE_NAME)
     root = data_root()
     preset_root = path_param("~preset_root", "presets", root)
     picture_root = path_param("~picture_root", "pictures", root)

@@ -26,6 +26,7 @@ from inspection_robot.msg import GeneralTopic
 from inspection_robot.drivers import SIM, make_driver
 from inspection_robot.ros.diagnostics import DeviceDiagnostics, probe_device
 from inspection_robot.ros.images import bgr_image_msg
+from inspection_robot.ros.node import init_node
 from inspection_robot.ros.twin import CommandTwin
 from inspection_robot.thermal.commands import ThermalCommands
 from inspection_robot.thermal.driver import NoImager, ThermalError
@@ -84,7 +85,7 @@ def make_imager(spec, width, height):
 
 
 def main():
-    rospy.init_node(NODE)
+    init_node(NODE)
     width = int(rospy.get_param("~width", 384))
     height = int(rospy.get_param("~height", 288))
     status_rate = float(rospy.get_param("~status_rate", 1.0))

@@ -19,6 +19,7 @@ from sensor_msgs.msg import Joy
 from inspection_robot.interface import SENDER_JOY
 from inspection_robot.motion.joystick import JoyTeleop
 from inspection_robot.msg import GeneralCmd, MoveCmd
+from inspection_robot.ros.node import init_node
 
 
 class JoyControl(object):
@@ -69,7 +70,7 @@ class JoyControl(object):
 
 
 def main():
-    rospy.init_node("joy_control")
+    init_node("joy_control")
     rate_hz = float(rospy.get_param("~rate", 20.0))
     if rate_hz <= 0:
         raise ValueError("~rate must be positive")

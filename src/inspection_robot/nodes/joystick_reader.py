@@ -13,6 +13,7 @@ import rospy
 from sensor_msgs.msg import Joy
 
 from inspection_robot.motion.joystick import JsDecoder
+from inspection_robot.ros.node import init_node
 
 READ_SIZE = 8 * 64
 
@@ -86,7 +87,7 @@ class JoystickReader(object):
 
 
 def main():
-    rospy.init_node("joystick_reader")
+    init_node("joystick_reader")
     rate = float(rospy.get_param("~autorepeat_rate", 20.0))
     reconnect_max = float(rospy.get_param("~reconnect_max", 5.0))
     if rate <= 0 or reconnect_max <= 0:

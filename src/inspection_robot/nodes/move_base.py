@@ -61,6 +61,7 @@ from inspection_robot.files import FileError, read_json, write_json_atomic
 from inspection_robot.nav.planner import Planner, PlanningError
 from inspection_robot.nav.supervisor import FOLLOW, REPLAN, STOP, GoalAborted, GoalSupervisor
 from inspection_robot.nav.virtual_obstacles import VirtualObstacles
+from inspection_robot.ros.node import init_node
 from inspection_robot.ros.twin import CommandTwin
 from inspection_robot.ros.data_root import data_root, path_param
 
@@ -361,7 +362,7 @@ def _params():
 
 
 def main():
-    rospy.init_node("move_base")
+    init_node("move_base")
     cfg = _params()
     follower_params = FollowerParams(**{k: float(v) for k, v in rospy.get_param("~follower", {}).items()})
     grid = load_map(cfg["map_file"])

@@ -18,6 +18,7 @@ from sensor_msgs.msg import PointCloud2, PointField
 from inspection_robot.drivers import SIM, make_driver, not_fitted_reason
 from inspection_robot.msg import MoveCmd, ObstacleStatus
 from inspection_robot.nav.obstacle import FORWARD, CorridorDetector, direction_from_command, xyz_from_cloud
+from inspection_robot.ros.node import init_node
 
 
 class ObstacleDetector(object):
@@ -58,7 +59,7 @@ class ObstacleDetector(object):
 
 
 def main():
-    rospy.init_node("obstacle_detector")
+    init_node("obstacle_detector")
     p = {name: float(rospy.get_param("~" + name, default)) for name, default in (
         ("half_width", 0.45), ("front_offset", 0.45), ("rear_offset", 0.45), ("distance", 1.2),
         ("ground_height", 0.08), ("max_height", 1.8), ("spin_radius", 0.8))}

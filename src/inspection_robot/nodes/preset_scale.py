@@ -29,6 +29,7 @@ from inspection_robot.inspection.finder import FindError
 from inspection_robot.inspection.preset import PresetError
 from inspection_robot.inspection.recorder import record_preset
 from inspection_robot.interface import ACK_FAILED, ACK_SUCCESS
+from inspection_robot.ros.node import init_node
 from inspection_robot.ros.worker import RequestWorker
 from inspection_robot.msg import PresetScaleAck, PresetScaleCmd
 from inspection_robot.ros.inspection_head import HeadingWatcher, RosHead
@@ -93,7 +94,7 @@ class PresetScaleNode(object):
 
 
 def main():
-    rospy.init_node(NODE_NAME)
+    init_node(NODE_NAME)
     root = data_root()
     preset_root = path_param("~preset_root", "presets", root)
     optics_cfg = rospy.get_param("~camera_optics")

@@ -22,6 +22,7 @@ from inspection_robot.inspection.locate import Locator
 from inspection_robot.inspection.reading import ReadError, ScaleReader, result_text
 from inspection_robot.interface import ACK_FAILED, ACK_SUCCESS
 from inspection_robot.msg import ReadScaleAck, ReadScaleCmd
+from inspection_robot.ros.node import init_node
 from inspection_robot.ros.worker import RequestWorker
 from inspection_robot.ros.data_root import data_root, path_list_param, path_param
 
@@ -77,7 +78,7 @@ class ReadScaleNode(object):
 
 
 def main():
-    rospy.init_node(NODE_NAME)
+    init_node(NODE_NAME)
     root = data_root()
     preset_root = path_param("~preset_root", "presets", root)
     picture_root = path_param("~picture_root", "pictures", root)

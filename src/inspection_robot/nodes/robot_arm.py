@@ -25,6 +25,7 @@ from inspection_robot.arm.driver import Limits
 from inspection_robot.command import CommandTable, failed
 from inspection_robot.drivers import SIM, make_driver, not_fitted_reason
 from inspection_robot.interface import ARM_COMMANDS, UNSUPPORTED
+from inspection_robot.ros.node import init_node
 from inspection_robot.ros.twin import CommandTwin, serve_table
 from inspection_robot.ros.data_root import data_root, path_list_param, path_param
 
@@ -46,7 +47,7 @@ def _serve_sim_faults(arm):
 
 
 def main():
-    rospy.init_node(NODE_NAME)
+    init_node(NODE_NAME)
     driver_spec = rospy.get_param("~driver", "")
     root = data_root()
     roots = path_list_param("~trajectory_roots", ["arm"], root)

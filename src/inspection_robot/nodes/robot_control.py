@@ -51,6 +51,7 @@ from inspection_robot.motion.chassis import NoChassis
 from inspection_robot.motion.controller import MotionController
 from inspection_robot.motion.velocity import VelocityLimits
 from inspection_robot.msg import ControlStatus, GeneralAck, GeneralCmd, MoveCmd, ObstacleStatus, RobotStatus, VoiceCmd
+from inspection_robot.ros.node import init_node
 from inspection_robot.ros.twin import CommandTwin, control_response
 from inspection_robot.srv import ControlService
 
@@ -257,7 +258,7 @@ def _log(level, text):
 
 
 def main():
-    rospy.init_node(NODE_NAME)
+    init_node(NODE_NAME)
     driver_spec = rospy.get_param("~driver", "")
     rate_hz = float(rospy.get_param("~rate", 50.0))
     status_rate_hz = float(rospy.get_param("~status_rate", 10.0))

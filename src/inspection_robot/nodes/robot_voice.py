@@ -16,6 +16,7 @@ import rospy
 
 from inspection_robot.interface import ACK_FAILED, ACK_SUCCESS
 from inspection_robot.msg import GeneralAck, VoiceCmd
+from inspection_robot.ros.node import init_node
 from inspection_robot.ros.worker import RequestWorker
 from inspection_robot.voice.phrases import Speech, VoiceError, parse_command
 from inspection_robot.voice.player import FileOutput, SpeakerOutput
@@ -51,7 +52,7 @@ class RobotVoice(object):
 
 
 def main():
-    rospy.init_node("robot_voice")
+    init_node("robot_voice")
     kind = rospy.get_param("~output", "file")
     clip_dir = os.path.expanduser(rospy.get_param("~clip_dir", "~/.ros/voice_clips"))
     queue_size = int(rospy.get_param("~queue_size", 10))

@@ -47,6 +47,7 @@ from inspection_robot.ros.bridge_backend import RosBackend, RosGraph
 from inspection_robot.ros.message_types import GenpyTypes
 from inspection_robot.bridge.rosapi import RosApi
 from inspection_robot.bridge.server import BridgeServer, LoopPoster, make_ssl_context
+from inspection_robot.ros.node import init_node
 
 INSECURE_WARNING_PERIOD = 60.0  # s between warnings while insecure:=true leaves the link open
 
@@ -193,7 +194,7 @@ def update_diagnostics(updater):
 
 
 def main():
-    rospy.init_node("rosbridge_websocket")
+    init_node("rosbridge_websocket")
     params = read_params()
     io_thread = EventLoopThread()
     loop = io_thread.start()

@@ -16,6 +16,7 @@ from sensor_msgs.msg import PointCloud2, PointField
 from inspection_robot.angles import yaw_from_quaternion
 from inspection_robot.command import CommandError, CommandTable, parse_float, success
 from inspection_robot.nav.obstacle import cloud_bytes
+from inspection_robot.ros.node import init_node
 from inspection_robot.ros.twin import serve_table
 from inspection_robot.sim.nav_yard import ObstacleCloud
 
@@ -67,7 +68,7 @@ class SimObstacleCloud(object):
 
 
 def main():
-    rospy.init_node("sim_obstacle_cloud")
+    init_node("sim_obstacle_cloud")
     world = rospy.get_param("~world")
     rate_hz = float(rospy.get_param("~rate", 10.0))
     sensor_range = float(rospy.get_param("~range", 8.0))

@@ -16,6 +16,7 @@ import rospy
 
 from inspection_robot.command import CommandError, CommandTable, parse_choice
 from inspection_robot.ptz import pelco
+from inspection_robot.ros.node import init_node
 from inspection_robot.sim.pelco_head import FAULTS, PtyPelcoServer, SimPelcoHead
 from inspection_robot.ros.twin import serve_table
 
@@ -48,7 +49,7 @@ class SimPelcoHeadNode(object):
 
 
 def main():
-    rospy.init_node("sim_pelco_head")
+    init_node("sim_pelco_head")
     link = rospy.get_param("~link", "/tmp/inspection_robot_pelco")
     head = SimPelcoHead(address=rospy.get_param("~address", 1),
                         max_speed_deg_s=rospy.get_param("~max_speed_deg_s", 60.0),

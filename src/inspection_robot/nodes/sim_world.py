@@ -16,6 +16,7 @@ import rospy
 
 from inspection_robot.command import failed, success
 from inspection_robot.msg import GeneralTopic
+from inspection_robot.ros.node import init_node
 from inspection_robot.sim.world import World, WorldError
 from inspection_robot.ros.twin import control_response
 from inspection_robot.srv import ControlService
@@ -53,6 +54,6 @@ class SimWorldNode(object):
 
 
 def main():
-    rospy.init_node("sim_world")
+    init_node("sim_world")
     SimWorldNode(World.load(rospy.get_param("~world_file")))
     rospy.spin()

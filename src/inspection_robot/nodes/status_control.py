@@ -13,6 +13,7 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from nav_msgs.msg import Odometry
 
 from inspection_robot.msg import ControlStatus, GeneralTopic, NavStatus, RobotStatus
+from inspection_robot.ros.node import init_node
 from inspection_robot.status.merge import (CONTROL_FIELDS, Heartbeat, StatusMerger,
                                            heartbeat_text_problem)
 
@@ -109,7 +110,7 @@ class StatusControl(object):
 
 
 def main():
-    rospy.init_node("status_control")
+    init_node("status_control")
     timeout = float(rospy.get_param("~heartbeat_timeout", 3.0))
     rate_hz = float(rospy.get_param("~rate", 10.0))
     stale = {"control": 1.0, "nav": 2.0, "odom": 1.0}

@@ -33,6 +33,7 @@ from nav_msgs.msg import OccupancyGrid
 
 from inspection_robot.command import CommandError, CommandTable, no_data, parse_json
 from inspection_robot.msg import GeneralAction, GeneralFeedback, GeneralResult, GeneralTopic, RobotStatus
+from inspection_robot.ros.node import init_node
 from inspection_robot.ros.task_steps import StepRunner
 from inspection_robot.ros.twin import CommandTwin
 from inspection_robot.ros.worker import RequestWorker
@@ -331,7 +332,7 @@ def move_base_param(name):
 
 
 def main():
-    rospy.init_node(NODE_NAME)
+    init_node(NODE_NAME)
     root = data_root()
     tasks_dir = os.path.join(root, "tasks")
     os.makedirs(tasks_dir, exist_ok=True)

@@ -19,6 +19,7 @@ import rospy
 from inspection_robot.interface import SENDER_MOVE_BASE
 from inspection_robot.msg import GeneralTopic
 from inspection_robot.nav.virtual_obstacles import VirtualObstacles, replay_table
+from inspection_robot.ros.node import init_node
 from inspection_robot.ros.twin import CommandTwin
 
 
@@ -40,6 +41,6 @@ class ReplayedObstacles(object):
 
 
 def main():
-    rospy.init_node("virtual_obstacles_replay")
+    init_node("virtual_obstacles_replay")
     ReplayedObstacles()
     rospy.spin()

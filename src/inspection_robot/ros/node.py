@@ -1,0 +1,39 @@
+"""Node start-up shared by every node: rospy.init_node behind a guard on inbound TCPROS handshakes.
+
+rospy accepts inbound topic and service connections on one thread and reads each connection's
+handshake header there with no timeout (rospy/impl/tcpros_base.py, TCPROSServer). One client
+that connects and then sends nothing, or something that is not TCPROS (an HTTP or websocket
+client on a reused port, a port scanner), blocks that thread forever: the node takes no new
+subscriber and answers no new service call again while it looks alive. The guard bounds the
+handshake with a socket timeout, so such a connection is dropped (one warning from rospy) and the
+next one is served.
+"""
+import rospy
+from rospy.impl import tcpros_base
+
+HANDSHAKE_TIMEOUT_S = 5.0   # a TCPROS client sends its header right after connecting
+
+
+def guard_inbound_handshakes(timeout_s=HANDSHAKE_TIMEOUT_S):
+    """Bound every inbound handshake of this process to ``timeout_s`` (idempotent; before init_node)."""
+    server_class = tcpros_base.TCPROSServer
+    unguarded = getattr(server_class._tcp_server_callback, "unguarded", server_class._tcp_server_callback)
+
+    def guarded_callback(self, sock, client_addr):
+        sock.settimeout(timeout_s)
+        try:
+            unguarded(self, sock, client_addr)
+        finally:
+            try:
+                sock.settimeout(None)   # the connection's transport reads and writes blocking
+            except OSError:
+                pass                    # already closed by the refused handshake
+    guarded_callback.unguarded = unguarded
+    guarded_callback.timeout_s = timeout_s
+    server_class._tcp_server_callback = guarded_callback
+
+
+def init_node(name, **kwargs):
+    """rospy.init_node with inbound handshakes bounded (see the module's docstring)."""
+    guard_inbound_handshakes()
+    rospy.init_node(name, **kwargs)

@@ -1,0 +1,68 @@
+"""The inbound-handshake guard: a connection that never sends a TCPROS header no longer blocks rospy's accept thread."""
+import socket
+import threading
+import time
+
+from rosgraph.network import write_ros_handshake_header
+from rospy.impl import tcpros_base
+
+from inspection_robot.ros import node
+
+
+class Recorder(tcpros_base.TCPROSServer):
+    """rospy's own TCPROSServer (its _tcp_server_callback), handing topic connections to a list."""
+
+    def __init__(self):
+        super(Recorder, self).__init__()
+        self.topics = []
+        self.topic_connection_handler = lambda sock, addr, header: self.topics.append(header["topic"])
+
+
+def connect_pair():
+    listener = socket.socket()
+    listener.bind(("127.0.0.1", 0))
+    listener.listen(1)
+    client = socket.create_connection(listener.getsockname())
+    server_side, _ = listener.accept()
+    listener.close()
+    return client, server_side
+
+
+def serve_in_thread(server, sock):
+    done = threading.Event()
+
+    def run():
+        server._tcp_server_callback(sock, ("127.0.0.1", 0))
+        done.set()
+    threading.Thread(target=run, daemon=True).start()
+    return done
+
+
+def test_a_silent_or_foreign_client_is_dropped_after_the_timeout(monkeypatch):
+    monkeypatch.setattr(tcpros_base.TCPROSServer, "_tcp_server_callback", tcpros_base.TCPROSServer._tcp_server_callback)
+    node.guard_inbound_handshakes(timeout_s=0.3)
+    server = Recorder()
+    for first_bytes in (b"", b"GET / HTTP/1.1\r\nHost: robot\r\n\r\n"):   # silent; a websocket client on a reused port
+        client, server_side = connect_pair()
+        client.sendall(first_bytes)
+        started = time.monotonic()
+        assert serve_in_thread(server, server_side).wait(5.0), "the handshake read was not bounded"
+        assert time.monotonic() - started < 3.0
+        assert client.recv(16) == b""          # dropped: closed by the server
+        client.close()
+    assert server.topics == []
+
+
+def test_a_real_tcpros_client_is_still_served_and_its_socket_left_blocking(monkeypatch):
+    monkeypatch.setattr(tcpros_base.TCPROSServer, "_tcp_server_callback", tcpros_base.TCPROSServer._tcp_server_callback)
+    node.guard_inbound_handshakes(timeout_s=0.3)
+    node.guard_inbound_handshakes(timeout_s=0.3)   # idempotent: one guard, not two
+    server = Recorder()
+    client, server_side = connect_pair()
+    write_ros_handshake_header(client, {"topic": "/robot_status", "callerid": "/backend", "md5sum": "*", "type": "*"})
+    assert serve_in_thread(server, server_side).wait(5.0)
+    assert server.topics == ["/robot_status"]
+    assert server_side.gettimeout() is None
+    client.close()
+    server_side.close()
+    assert tcpros_base.TCPROSServer._tcp_server_callback.unguarded.__name__ == "_tcp_server_callback"
