@@ -108,6 +108,12 @@ class NodeLiveness(Checker):
             self._violate("%s respawned %s after its kill (limit %.1f s)"
                           % (node, "never" if seconds is None else "%.1f s" % seconds, self._max_down))
 
+    def unchanged(self, node, pid_before, pid_after):
+        """``node`` must have lived through a fault of its device: the same process before and after."""
+        self.checks += 1
+        if pid_before != pid_after:
+            self._violate("%s did not survive its device's fault (pid %s, then %s)" % (node, pid_before, pid_after))
+
     def missing(self, t, node):
         self.checks += 1
         since = self._down_since.setdefault(node, t)
