@@ -22,10 +22,12 @@ import urllib.parse
 import urllib.request
 import xml.etree.ElementTree as ElementTree
 
-import cv2
 import numpy as np
 
+from inspection_robot.lazy import lazy_import
 from inspection_robot.camera.driver import CameraDriver, CameraError
+
+cv2 = lazy_import("cv2")   # on first use: a node registers before its ~360 libraries load
 
 FOCUS_STYLES = {"auto": "AUTO", "manual": "MANUAL", "semiauto": "SEMIAUTOMATIC"}
 CONTINUOUS_SPEED = 60
