@@ -208,6 +208,16 @@ def _node_process(node):
     return pids
 
 
+def _cpu_seconds(pid):
+    """User + system CPU seconds ``pid`` has used so far (/proc/<pid>/stat), None if it is gone."""
+    try:
+        with open("/proc/%d/stat" % pid) as f:
+            fields = f.read().rsplit(")", 1)[1].split()
+    except (OSError, TypeError):
+        return None
+    return (int(fields[11]) + int(fields[12])) / float(os.sysconf("SC_CLK_TCK"))
+
+
 def _rss(pid):
     try:
         with open("/proc/%d/status" % pid) as f:
@@ -371,6 +381,7 @@ class Soak(object):
                 marks["registered"] = now
             if "registered" in marks and interface <= self.o.interface(node):
                 marks["ready"] = time.monotonic() - t0
+                marks["cpu"] = _cpu_seconds(self.o.pid(node))   # what a load-independent start-up costs
                 return True
             return False
         self.time_until(back, 30.0, period=0.05)
@@ -434,13 +445,13 @@ class Soak(object):
 
     def respawn_table(self):
         """Per killed node: kills and the slowest kill-to-process, -to-registered, -to-ready (s)."""
-        lines = ["%-20s %5s %12s %12s %12s"
-                 % ("respawn after SIGKILL", "kills", "process s", "registered s", "ready s")]
+        lines = ["%-20s %5s %10s %13s %8s %12s"
+                 % ("respawn after SIGKILL", "kills", "process s", "registered s", "ready s", "ready CPU s")]
         for node in sorted({n for n, _ in self.respawn_times}):
             marks = [m for n, m in self.respawn_times if n == node]
-            worst = ["%.2f" % max(m[k] for m in marks) if all(k in m for m in marks) else "never"
-                     for k in ("process", "registered", "ready")]
-            lines.append("%-20s %5d %12s %12s %12s" % (node, len(marks), worst[0], worst[1], worst[2]))
+            worst = ["%.2f" % max(m[k] for m in marks) if all(m.get(k) is not None for m in marks) else "never"
+                     for k in ("process", "registered", "ready", "cpu")]
+            lines.append("%-20s %5d %10s %13s %8s %12s" % ((node, len(marks)) + tuple(worst)))
         return "\n".join(lines)
 
 
@@ -525,9 +536,9 @@ def main():
             camera.stop()
     memory.finish()
     checkers = [motion, liveness, memory, ledger, availability] + ([reasons] if camera is not None else [])
-    print("soak: %.1f min, %d patrol loops, %d respawns, stop latency max %.3f s (n=%d)"
+    print("soak: %.1f min, %d patrol loops, %d respawns, stop latency max %.3f s (n=%d), load average %.1f"
           % (args.minutes, soak.loops, liveness.respawns, max(motion.stop_latencies or [0.0]),
-             len(motion.stop_latencies)))
+             len(motion.stop_latencies), os.getloadavg()[1]))
     print(table(soak.faults, checkers))
     print(soak.respawn_table())
     sys.exit(0 if held(checkers) else 1)
