@@ -18,7 +18,8 @@ from geometry_msgs.msg import PoseWithCovarianceStamped
 from nav_msgs.msg import OccupancyGrid, Path
 
 from inspection_robot.interface import MODE_SERVER, MODE_TASK, STOP_OBSTACLE
-from inspection_robot.msg import ControlStatus, GeneralAck, GeneralAction, GeneralCmd, GeneralGoal, NavStatus
+from inspection_robot.msg import (ControlStatus, GeneralAck, GeneralAction, GeneralActionFeedback, GeneralCmd,
+                                  GeneralGoal, NavStatus)
 from inspection_robot.srv import ControlService
 from rostest_helpers import Latest, wait_for, wait_subscribed
 
@@ -50,6 +51,9 @@ class NavigationTest(unittest.TestCase):
         cls.plan = Latest("plan", Path)
         cls.initial = Latest("initialpose", PoseWithCovarianceStamped)
         cls.control_status = Latest("control_status", ControlStatus)
+        # the feedback topic itself: SimpleActionClient drops feedback that arrives before send_goal
+        # has stored the new goal handle (a loaded machine can deliver "0" that early)
+        cls.raw_feedback = Latest("move_action/feedback", GeneralActionFeedback, queue_size=1000)
         cls.mode_cmd = rospy.Publisher("mode_cmd", GeneralCmd, queue_size=10)
         cls.vo_cmd = rospy.Publisher("virtual_obstacle_cmd", GeneralCmd, queue_size=10)
         cls.control = rospy.Publisher("control_cmd", GeneralCmd, queue_size=10)
@@ -155,6 +159,7 @@ class NavigationTest(unittest.TestCase):
         start = self.true_pose
         gx, gy = start[0] + 30.0, start[1]
         self.send(goal_data(gx, gy, yaw=math.pi / 2, with_direction=1, precision=1, velocity_x=1.0))
+        goal_id = self.client.gh.comm_state_machine.action_goal.goal_id.id
         code, data = self.finish(60.0)
         self.assertEqual(code, "0", data)
         self.wait_still(3.0)
@@ -165,7 +170,7 @@ class NavigationTest(unittest.TestCase):
                       position_error, heading_error)
         self.assertLess(position_error, 0.02)
         self.assertLess(heading_error, 3.0)
-        codes = self.codes()
+        codes = [m.feedback.event_code for _, m in self.raw_feedback.messages if m.status.goal_id.id == goal_id]
         self.assertEqual(codes[:2], ["0", "1"])
         self.assertIn("2", codes)
         moving = [d for c, d in self.feedback if c == "2"]
