@@ -263,7 +263,7 @@ class NavigationTest(unittest.TestCase):
         self.send(goal_data(x0 - 6.0, y0, velocity_x=0.8))
         self.wait_moving(15.0)
         NavigationTest.relay_mode = "off"
-        code, data = self.finish(5.0)
+        code, data = self.finish(8.0)   # pose_timeout 2 s (navigation.test)
         self.assertEqual(code, "2")
         self.assertIn("localization lost", data["reason"])
         self.status.wait(lambda m: m.nav_warn & 2, 2.0, "nav_warn bit1")
