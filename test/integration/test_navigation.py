@@ -2,10 +2,10 @@
 """rostest: move_base end to end against the real robot_control and its simulated chassis (goals, virtual
 obstacles, 3-D obstacles, cancel, localization loss, control-mode take-over, restart persistence,
 nav_status, location_cmd)."""
+import collections
 import json
 import math
 import threading
-import time
 import unittest
 
 import actionlib
@@ -18,7 +18,8 @@ from geometry_msgs.msg import PoseWithCovarianceStamped
 from nav_msgs.msg import OccupancyGrid, Path
 
 from inspection_robot.interface import MODE_SERVER, MODE_TASK, STOP_OBSTACLE
-from inspection_robot.msg import ControlStatus, GeneralAck, GeneralAction, GeneralCmd, GeneralGoal, NavStatus
+from inspection_robot.msg import (ControlStatus, GeneralAck, GeneralAction, GeneralActionFeedback, GeneralCmd,
+                                  GeneralGoal, NavStatus)
 from inspection_robot.srv import ControlService
 from rostest_helpers import Latest, wait_for, wait_subscribed
 
@@ -40,6 +41,7 @@ class NavigationTest(unittest.TestCase):
         rospy.init_node("test_navigation")
         cls.relay_mode = "pass"
         cls.true_pose = None
+        cls.track = collections.deque(maxlen=500)   # (stamp s, x, y, yaw) of sim/true_pose
         cls.feedback = []
         cls.lock = threading.Lock()
         cls.relay = rospy.Publisher("test_pose", PoseWithCovarianceStamped, queue_size=10)
@@ -49,6 +51,9 @@ class NavigationTest(unittest.TestCase):
         cls.plan = Latest("plan", Path)
         cls.initial = Latest("initialpose", PoseWithCovarianceStamped)
         cls.control_status = Latest("control_status", ControlStatus)
+        # the feedback topic itself: SimpleActionClient drops feedback that arrives before send_goal
+        # has stored the new goal handle (a loaded machine can deliver "0" that early)
+        cls.raw_feedback = Latest("move_action/feedback", GeneralActionFeedback, queue_size=1000)
         cls.mode_cmd = rospy.Publisher("mode_cmd", GeneralCmd, queue_size=10)
         cls.vo_cmd = rospy.Publisher("virtual_obstacle_cmd", GeneralCmd, queue_size=10)
         cls.control = rospy.Publisher("control_cmd", GeneralCmd, queue_size=10)
@@ -69,6 +74,7 @@ class NavigationTest(unittest.TestCase):
     @classmethod
     def on_true_pose(cls, msg):
         cls.true_pose = (msg.pose.pose.position.x, msg.pose.pose.position.y, yaw_of(msg.pose.pose.orientation))
+        cls.track.append((msg.header.stamp.to_sec(),) + cls.true_pose)
         if cls.relay_mode == "pass" and not rospy.is_shutdown():
             try:
                 cls.relay.publish(msg)
@@ -108,12 +114,21 @@ class NavigationTest(unittest.TestCase):
         wait_for(lambda: "2" in self.codes(), timeout, "feedback 2 (moving)")
 
     def wait_still(self, timeout=3.0):
-        """Wait until the true pose stops changing (robot stopped)."""
+        """Wait until the true pose stops changing (robot stopped): a pose stamped after this call
+        equals the one stamped 0.3 s before it (message stamps: a test process starved by a loaded
+        machine sees no new pose for a while, which is not a robot at rest)."""
+        since = rospy.get_time()
+
         def still():
-            a = self.true_pose
-            time.sleep(0.3)
-            b = self.true_pose
-            return math.hypot(a[0] - b[0], a[1] - b[1]) < 0.005 and abs(a[2] - b[2]) < 0.005
+            track = list(self.track)
+            if not track or track[-1][0] < since:
+                return False
+            t, x, y, yaw = track[-1]
+            earlier = [p for p in track if t - p[0] >= 0.3]
+            if not earlier:
+                return False
+            _, ex, ey, eyaw = earlier[-1]
+            return math.hypot(x - ex, y - ey) < 0.005 and abs(yaw - eyaw) < 0.005
         wait_for(still, timeout, "robot stopped")
 
     # --- tests, run in name order; each starts where the previous one left the robot ---------------
@@ -144,6 +159,7 @@ class NavigationTest(unittest.TestCase):
         start = self.true_pose
         gx, gy = start[0] + 30.0, start[1]
         self.send(goal_data(gx, gy, yaw=math.pi / 2, with_direction=1, precision=1, velocity_x=1.0))
+        goal_id = self.client.gh.comm_state_machine.action_goal.goal_id.id
         code, data = self.finish(60.0)
         self.assertEqual(code, "0", data)
         self.wait_still(3.0)
@@ -154,7 +170,7 @@ class NavigationTest(unittest.TestCase):
                       position_error, heading_error)
         self.assertLess(position_error, 0.02)
         self.assertLess(heading_error, 3.0)
-        codes = self.codes()
+        codes = [m.feedback.event_code for _, m in self.raw_feedback.messages if m.status.goal_id.id == goal_id]
         self.assertEqual(codes[:2], ["0", "1"])
         self.assertIn("2", codes)
         moving = [d for c, d in self.feedback if c == "2"]
@@ -219,13 +235,13 @@ class NavigationTest(unittest.TestCase):
         wait_for(lambda: "2" in self.codes()[seen:], 5.0, "moving again")
         resumed_at = self.true_pose
         wait_for(lambda: self.true_pose[0] < resumed_at[0] - 0.5, 10.0, "robot resumed")
-        # 2. an obstacle that stays: stop, and the goal ends with "3" after obstacle_wait (3 s here)
+        # 2. an obstacle that stays: stop, and the goal ends with "3" after obstacle_wait (navigation.test)
         rock_x = self.drop_rock_ahead("rock2")
         wait_for(lambda: len(self.alarms()) >= 2, 5.0, "second feedback 3 (alarm)")
         self.control_status.wait(lambda m: m.stop_status & STOP_OBSTACLE, 3.0, "robot_control obstacle stop")
         self.wait_still(3.0)
         stopped_at = self.true_pose
-        code, data = self.finish(10.0)
+        code, data = self.finish(20.0)
         self.assertEqual(code, "3", data)
         self.assertIn("blocked", data["reason"])
         self.assertLess(math.hypot(self.true_pose[0] - stopped_at[0], self.true_pose[1] - stopped_at[1]), 0.05)
@@ -247,7 +263,7 @@ class NavigationTest(unittest.TestCase):
         self.send(goal_data(x0 - 6.0, y0, velocity_x=0.8))
         self.wait_moving(15.0)
         NavigationTest.relay_mode = "off"
-        code, data = self.finish(5.0)
+        code, data = self.finish(8.0)   # pose_timeout 2 s (navigation.test)
         self.assertEqual(code, "2")
         self.assertIn("localization lost", data["reason"])
         self.status.wait(lambda m: m.nav_warn & 2, 2.0, "nav_warn bit1")
@@ -294,9 +310,10 @@ class NavigationTest(unittest.TestCase):
         self.control.publish(GeneralCmd(sender="server", cmd="switch_obstacle"))
         self.status.wait(lambda m: m.nav_status == 7, 3.0, "obstacle enabled again")
         self.status.clear()
-        start = time.monotonic()
-        wait_for(lambda: len(self.status.messages) >= 10, 3.0, "10 nav_status")
-        self.assertLess(time.monotonic() - start, 1.6)   # ~10 Hz
+        wait_for(lambda: len(self.status.messages) >= 10, 5.0, "10 nav_status")
+        stamps = [m.header.stamp.to_sec() for _, m in self.status.messages[:10]]
+        # ~10 Hz by the publisher's stamps (arrival times on a loaded machine say nothing of the rate)
+        self.assertLess(stamps[-1] - stamps[0], 1.5)
 
     def test_10_location_cmd_sets_initial_pose(self):
         self.location.publish(GeneralCmd(sender="server", cmd="set_location", data="1.5,2.5,0.5"))
@@ -338,19 +355,19 @@ class NavigationTest(unittest.TestCase):
                 return master.lookupNode("/move_base") != old_uri
             except rosgraph.MasterError:
                 return False
-        wait_for(respawned, 30.0, "move_base respawned")
-        self.acks.wait_connected(30.0)
-        wait_subscribed(self.vo_cmd, 30.0)
-        wait_for(lambda: self.vo_query_ok(), 30.0, "restarted move_base answering")
-        listing = json.loads(self.vo("query", "").data)
+        wait_for(respawned, 60.0, "move_base respawned")
+        # the old connections may still be counted for a moment: a confirmed round trip with the new
+        # process (a query re-sent every 0.5 s until answered) is the condition, not a connection count
+        sent = []
+
+        def query():
+            NavigationTest.trans_id += 1
+            sent.append(NavigationTest.trans_id)
+            self.vo_cmd.publish(GeneralCmd(sender="server", cmd="query", data="", trans_id=sent[-1]))
+        reply = self.acks.handshake(query, lambda m: m.trans_id in sent and m.ack == "success", 60.0)
+        listing = json.loads(reply.data)
         self.assertEqual(listing, [{"id": "keep_me", "points": [[10.0, 20.0], [12.0, 22.0]], "closed": False}])
         self.assertEqual(self.vo("clear", "").ack, "success")
-
-    def vo_query_ok(self):
-        try:
-            return self.vo("query", "").ack == "success"
-        except AssertionError:
-            return False
 
 
 if __name__ == "__main__":

@@ -95,6 +95,21 @@ class SystemSimTest(unittest.TestCase):
         pose = self.true_pose.wait(timeout=10.0).pose.pose
         return pose.position.x, pose.position.y
 
+    def pose_at_rest(self, timeout=10.0):
+        """The true position once it has not changed (< 2 mm) over the last 0.5 s of simulator time
+        (message stamps, not the test's clock: a loaded machine may deliver them late)."""
+        def at_rest():
+            messages = [m for _, m in self.true_pose.messages[-200:]]
+            if not messages:
+                return None
+            last = messages[-1]
+            earlier = [m for m in messages if (last.header.stamp - m.header.stamp).to_sec() >= 0.5]
+            if not earlier:
+                return None
+            a, b = earlier[-1].pose.pose.position, last.pose.pose.position
+            return (b.x, b.y) if math.hypot(b.x - a.x, b.y - a.y) < 0.002 else None
+        return wait_for(at_rest, timeout, "robot at rest")
+
     def take_remote_control(self):
         """Heartbeat running, robot online, backend mode acquired: what a backend does first."""
         heartbeat = Heartbeat(self.ros)
@@ -109,15 +124,17 @@ class SystemSimTest(unittest.TestCase):
         # acquire backend remote control and drive forward for a second
         heartbeat = self.take_remote_control()
         start = self.pose()
+        seen = len(self.status)
         deadline = time.monotonic() + 1.5
         while time.monotonic() < deadline:
             self.move_cmd.publish(roslibpy.Message({"sender": "server", "velocity_x": 300.0, "velocity_yaw": 0.0,
                                                     "wheel_control": 0}))
             time.sleep(0.05)  # the backend's command rate (20 Hz), not synchronisation
-        self.wait_status(lambda s: s["velocity_x"] > 0.1, 5.0, "moving forward")
+        # any status since the stream began (the latest may already be the cmd_timeout stop)
+        wait_for(lambda: any(s["velocity_x"] > 0.1 for s in self.status[seen:]), 5.0, "moving forward")
         # the stream stops: cmd_timeout (0.5 s) brings the robot to rest
         self.wait_status(lambda s: abs(s["velocity_x"]) < 0.01, 5.0, "stopped after cmd_timeout")
-        end = self.pose()
+        end = self.pose_at_rest()
         self.assertGreater(math.hypot(end[0] - start[0], end[1] - start[1]), 0.2)
 
         # the head, the camera and the voice through their interfaces
@@ -134,7 +151,7 @@ class SystemSimTest(unittest.TestCase):
         # release, then a short navigation goal in task mode through actionlib over the bridge
         self.mode_cmd.publish(roslibpy.Message({"sender": "server", "cmd": "release", "data": ""}))
         self.wait_status(lambda s: s["mode"] == 0, 10.0, "task mode")
-        x, y = self.pose()
+        x, y = self.pose_at_rest()
         client = roslibpy.actionlib.ActionClient(self.ros, "/move_action", "inspection_robot/GeneralAction")
         goal_data = {"with_direction": 0, "precision": 0, "move_style": 0, "velocity_x": 0.5, "velocity_yaw": 0.5,
                      "goal_pose": {"position": {"x": x + 2.0, "y": y, "z": 0},
@@ -143,7 +160,7 @@ class SystemSimTest(unittest.TestCase):
         goal.send()
         result = goal.wait(90)
         self.assertEqual(result["ret_code"], "0", result)
-        x2, y2 = self.pose()
+        x2, y2 = self.pose_at_rest()
         self.assertLess(math.hypot(x2 - (x + 2.0), y2 - y), 0.1)
         client.dispose()
 
@@ -154,19 +171,24 @@ class SystemSimTest(unittest.TestCase):
         self.wait_status(lambda s: s["offline_warn"] == 1 and s["mode"] == 0, 3.0 + 2.0, "offline -> task mode")
 
     def node_pids(self):
+        """{node: pid} of every node answering now (one still starting up on a loaded machine may be
+        registered before its XML-RPC server answers: it is left out, not taken for a restart)."""
         pids = {}
         for name in rosnode.get_node_names():
             if name.startswith("/test_") or name == "/rosout":
                 continue
-            uri = rosgraph.Master("/test_system_sim").lookupNode(name)
-            pids[name] = ServerProxy(uri).getPid("/test_system_sim")[2]
+            try:
+                uri = rosgraph.Master("/test_system_sim").lookupNode(name)
+                pids[name] = ServerProxy(uri).getPid("/test_system_sim")[2]
+            except (rosgraph.MasterError, OSError):
+                continue
         return pids
 
     def test_careless_backend(self):
         pids = self.node_pids()
         self.assertIn("/cloud_terrace", pids)
         self.take_remote_control()
-        start = self.pose()
+        start = self.pose_at_rest()
         # junk velocities: refused (robot stopped), never clamped into motion
         for velocity_x, velocity_yaw, wheel in ((float("nan"), 0.0, 0), (1e308, 0.0, 0), (300.0, float("inf"), 0),
                                                 (300.0, 0.0, 7)):
@@ -176,7 +198,7 @@ class SystemSimTest(unittest.TestCase):
                 time.sleep(0.05)  # the backend's command rate, not synchronisation
         self.mode_cmd.publish(roslibpy.Message({"sender": "server", "cmd": "release", "data": ""}))
         self.wait_status(lambda s: s["mode"] == 0, 10.0, "task mode")
-        end = self.pose()
+        end = self.pose_at_rest()
         self.assertLess(math.hypot(end[0] - start[0], end[1] - start[1]), 0.01)
 
         # huge numbers and data where none is taken: a reason, never an internal error
@@ -208,7 +230,8 @@ class SystemSimTest(unittest.TestCase):
 
         # still the same processes, and they still answer
         self.assertEqual(self.call("/terrace_control", "get_pan_angle")[0], "success")
-        self.assertEqual(self.node_pids(), pids)
+        after = self.node_pids()
+        self.assertEqual({name: after.get(name) for name in pids}, pids)
 
 
 if __name__ == "__main__":

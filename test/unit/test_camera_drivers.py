@@ -174,6 +174,24 @@ def test_isapi_driver_against_the_fake_camera():
         driver.probe()
 
 
+def test_fake_camera_faults_401_and_timeout_then_recovery():
+    fake = FakeIsapiCamera(user="admin", password="pw").start()
+    try:
+        driver = IsapiCamera(fake.url, "admin", "pw", timeout=0.3)
+        fake.set_fault("401")
+        with pytest.raises(CameraError, match="refused the credentials"):
+            driver.capture_jpeg()
+        fake.set_fault("timeout")
+        with pytest.raises(CameraError, match="unreachable.*timed out"):
+            driver.get_zoom()
+        fake.set_fault(None)
+        assert driver.capture_jpeg() == fake.picture
+        with pytest.raises(ValueError, match="fault must be one of"):
+            fake.set_fault("404")
+    finally:
+        fake.stop()
+
+
 def _fake_on_a_port_containing_401():
     for port in list(range(40100, 40200)) + list(range(14010, 14020)):
         try:

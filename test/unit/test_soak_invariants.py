@@ -1,5 +1,6 @@
 """sim.soak: the chaos soak's invariant checkers, fed with hand-made observation sequences."""
-from inspection_robot.sim.soak import Availability, Ledger, MemoryGrowth, MotionAuthority, NodeLiveness, held, table
+from inspection_robot.sim.soak import (Availability, FaultReasons, Ledger, MemoryGrowth, MotionAuthority, NodeLiveness,
+                                       held, table)
 
 CYCLE = 0.02
 
@@ -55,6 +56,26 @@ def test_node_respawned_in_time_holds_and_a_long_outage_does_not():
     n.missing(16.0, "/camera_node")
     n.missing(17.0, "/camera_node")
     assert n.violations == ["/camera_node down for more than 5.0 s"]
+
+
+def test_respawn_measured_from_the_kill_within_the_limit():
+    n = NodeLiveness(max_down=5.0)
+    n.respawned("/read_scale", 2.4)
+    assert n.violations == [] and n.checks == 1
+    n.respawned("/read_scale", 15.2)
+    n.respawned("/camera_node", None)
+    assert n.violations == ["/read_scale respawned 15.2 s after its kill (limit 5.0 s)",
+                            "/camera_node respawned never after its kill (limit 5.0 s)"]
+
+
+def test_fault_reasons_success_or_a_vague_reason_during_a_fault_are_violations():
+    f = FaultReasons()
+    f.answered("capture", "failed", "camera http://x refused the credentials (HTTP 401, digest)", ["HTTP 401"])
+    assert f.violations == [] and f.checks == 1
+    f.answered("capture", "success", "", ["HTTP 401"])
+    f.answered("capture", "failed", "internal error", ["unreachable", "timed out"])
+    assert f.violations == ["capture succeeded during the fault",
+                            "capture failed without naming the fault (unreachable | timed out): 'internal error'"]
 
 
 def test_memory_growth_against_the_level_after_warm_up():

@@ -22,10 +22,12 @@ import urllib.parse
 import urllib.request
 import xml.etree.ElementTree as ElementTree
 
-import cv2
 import numpy as np
 
+from inspection_robot.lazy import lazy_import
 from inspection_robot.camera.driver import CameraDriver, CameraError
+
+cv2 = lazy_import("cv2")   # on first use: a node registers before its ~360 libraries load
 
 FOCUS_STYLES = {"auto": "AUTO", "manual": "MANUAL", "semiauto": "SEMIAUTOMATIC"}
 CONTINUOUS_SPEED = 60
@@ -58,7 +60,8 @@ class IsapiCamera(CameraDriver):
         passwords = urllib.request.HTTPPasswordMgrWithDefaultRealm()
         passwords.add_password(None, self._base, user, password)
         passwords.add_password(None, self._snapshot_url, user, password)
-        self._opener = urllib.request.build_opener(urllib.request.HTTPDigestAuthHandler(passwords))
+        self._digest = urllib.request.HTTPDigestAuthHandler(passwords)
+        self._opener = urllib.request.build_opener(self._digest)
 
     # --- transport --------------------------------------------------------------------------
     def _request(self, method, path_or_url, body=None, accept_jpeg=False):
@@ -67,6 +70,10 @@ class IsapiCamera(CameraDriver):
         request = urllib.request.Request(url, data=data, method=method)
         if data is not None:
             request.add_header("Content-Type", "application/xml; charset=UTF-8")
+        # urllib counts digest retries per handler and resets the count only after a success: once
+        # the camera refused the credentials, every later challenge would fail at once ("digest auth
+        # failed") even after the camera accepts them again. Each request gets its own count.
+        self._digest.reset_retry_count()
         try:
             with self._opener.open(request, timeout=self._timeout) as response:
                 payload = response.read()

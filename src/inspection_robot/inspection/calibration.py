@@ -10,13 +10,15 @@ share the optical centre).
 """
 import os
 
-import cv2
 import numpy as np
 
+from inspection_robot.lazy import lazy_import
 from inspection_robot.inspection.geometry import quad_inside, quad_is_convex
 from inspection_robot.files import write_atomic
 from inspection_robot.inspection.preset import TARGET_KINDS, PresetError, Target, load_info, write_calibration
 from inspection_robot.inspection.readers import lamp_patch, switch_patch
+
+cv2 = lazy_import("cv2")   # on first use: a node registers before its ~360 libraries load
 
 
 def derive_zoom_boxes(box0, zoom_levels, optics, width, height):

@@ -17,12 +17,14 @@ with the simulated renderer). Steps for find_scale | find_foreign | find_both:
 import os
 from collections import namedtuple
 
-import cv2
 import numpy as np
 
+from inspection_robot.lazy import lazy_import
 from inspection_robot.inspection.gauge import angle_diff
 from inspection_robot.inspection.geometry import flat_from_quads, quad_center, quad_inside, transform_quad
 from inspection_robot.inspection.locate import LocateError
+
+cv2 = lazy_import("cv2")   # on first use: a node registers before its ~360 libraries load
 
 FindResult = namedtuple("FindResult",
                         "filename infrared_filename foreign_filename roi_vertex infrared_roi_vertex moves")

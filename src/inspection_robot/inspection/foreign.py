@@ -7,8 +7,11 @@ larger than ``min_area_px`` becomes a box with a confidence from its contrast an
 """
 from collections import namedtuple
 
-import cv2
 import numpy as np
+
+from inspection_robot.lazy import lazy_import
+
+cv2 = lazy_import("cv2")   # on first use: a node registers before its ~360 libraries load
 
 Foreign = namedtuple("Foreign", "quad confidence area")
 

@@ -1,8 +1,10 @@
 """Box geometry: quads (TL, TR, BR, BL), flat roi_vertex lists, rectifying warps, IoU."""
-import cv2
 import numpy as np
 
+from inspection_robot.lazy import lazy_import
 from inspection_robot.interface import ROI_VALUES_PER_BOX
+
+cv2 = lazy_import("cv2")   # on first use: a node registers before its ~360 libraries load
 
 
 def quads_from_flat(values):

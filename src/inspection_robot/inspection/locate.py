@@ -9,10 +9,12 @@ are matched at a reduced size for speed; coordinates are in the full pictures.
 """
 from collections import namedtuple
 
-import cv2
 import numpy as np
 
+from inspection_robot.lazy import lazy_import
 from inspection_robot.inspection.geometry import quad_center, quad_is_convex, transform_quad
+
+cv2 = lazy_import("cv2")   # on first use: a node registers before its ~360 libraries load
 
 Features = namedtuple("Features", "keypoints descriptors scale shape")
 # points: the inlier matches in the new picture (where the scene agrees with the homography)

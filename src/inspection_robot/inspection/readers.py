@@ -8,11 +8,13 @@ of two independent estimates, margin between references), never a constant.
 import math
 from collections import namedtuple
 
-import cv2
 import numpy as np
 
+from inspection_robot.lazy import lazy_import
 from inspection_robot.inspection.geometry import polygon_mask, rectify
 from inspection_robot.inspection.gauge import GaugeScale, angle_diff, wrap360
+
+cv2 = lazy_import("cv2")   # on first use: a node registers before its ~360 libraries load
 
 Reading = namedtuple("Reading", "value confidence detail")
 

@@ -11,9 +11,9 @@ import os
 import re
 from collections import namedtuple
 
-import cv2
 import numpy as np
 
+from inspection_robot.lazy import lazy_import
 from inspection_robot.files import FileError, confine_path, write_atomic
 from inspection_robot.command import CommandError
 from inspection_robot.inspection.foreign import detect_foreign
@@ -24,6 +24,8 @@ from inspection_robot.inspection.preset import PresetError, load_preset, zoom_pi
 from inspection_robot.inspection.readers import PointerReader, ReadFailed, face_similarity, read_lamp, read_switch, \
     read_thermal_max
 from inspection_robot.interface import FOREIGN_DETECT_BOTH, FOREIGN_DETECT_FOREIGN, FOREIGN_DETECT_READ
+
+cv2 = lazy_import("cv2")   # on first use: a node registers before its ~360 libraries load
 
 ReadOutcome = namedtuple("ReadOutcome", "scale possibility picture_path foreign_scale foreign_possibility "
                                         "foreign_picture_path uncertain")

@@ -16,12 +16,14 @@ touch is redrawn and re-inflated (a cell's cost depends on obstacles within
 """
 import math
 
-import cv2
 import numpy as np
 from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import connected_components
 
+from inspection_robot.lazy import lazy_import
 from inspection_robot.nav.gridmap import OCC_UNKNOWN
+
+cv2 = lazy_import("cv2")   # on first use: a node registers before its ~360 libraries load
 
 LETHAL = np.float32(np.inf)
 _SHIFT = 4  # sub-pixel bits of cv2.polylines

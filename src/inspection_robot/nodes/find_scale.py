@@ -26,9 +26,9 @@ import time
 import traceback
 
 import actionlib
-import cv2
 import rospy
 
+from inspection_robot.lazy import lazy_import
 from inspection_robot.camera.optics import ZoomOptics, focal_for_hfov
 from inspection_robot.command import CommandError, parse_json
 from inspection_robot.files import confine_path
@@ -41,6 +41,8 @@ from inspection_robot.msg import GeneralAction, GeneralFeedback, GeneralResult
 from inspection_robot.ros.inspection_head import HeadingWatcher, RosHead
 from inspection_robot.ros.data_root import data_root, path_param
 from inspection_robot.ros.node import init_node
+
+cv2 = lazy_import("cv2")   # on first use: a node registers before its ~360 libraries load
 
 NODE_NAME = "find_scale"
 

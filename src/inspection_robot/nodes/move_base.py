@@ -87,11 +87,17 @@ def pose_json(pose):
     return {"x": round(pose[0], 4), "y": round(pose[1], 4), "yaw": round(pose[2], 4)}
 
 
+STARTUP_WAIT = 60.0   # s a goal waits for the costmap of a node still starting
+
+
 class MoveBase(object):
-    def __init__(self, grid, costmap, planner, obstacles, localization, follower_params, cfg):
+    def __init__(self, grid, obstacles, localization, follower_params, cfg):
         self.grid = grid
-        self.costmap = costmap
-        self.planner = planner
+        # built after the ROS interface is up (attach): a respawned move_base is back on the graph
+        # before cv2, scipy and the inflation of the map; goals that come meanwhile wait for them
+        self.costmap = None
+        self.planner = None
+        self._attached = threading.Event()
         self.obstacles = obstacles
         self.loc = localization
         self.follower_params = follower_params
@@ -114,7 +120,6 @@ class MoveBase(object):
         self._status_pub = rospy.Publisher("nav_status", NavStatus, queue_size=10)
         # not latched: a localizer that (re)starts later must not be reset to an old set_location
         self._initial_pub = rospy.Publisher("initialpose", PoseWithCovarianceStamped, queue_size=1)
-        self._publish_virtual()
 
         rospy.Subscriber(cfg["pose_topic"], PoseWithCovarianceStamped, self._on_pose, queue_size=10)
         rospy.Subscriber("obstacle_status", ObstacleStatus, self._on_obstacle, queue_size=10)
@@ -169,9 +174,21 @@ class MoveBase(object):
         self._initial_pub.publish(out)
         rospy.loginfo("move_base: set_location %s -> initialpose (%.3f, %.3f, %.3f)", msg.data, x, y, yaw)
 
+    def attach(self, costmap, planner):
+        """The costmap and planner, built once the interface is up; virtual obstacles stored meanwhile
+        are drawn in now."""
+        with self._costmap_lock:
+            costmap.set_virtual(self.obstacles.polylines())
+            planner.refresh()
+            self.costmap, self.planner = costmap, planner
+        self._attached.set()
+        self._publish_virtual()
+
     def on_virtual_change(self, _listing):
         """Called by the store after a change was saved: re-inflate, republish, replan."""
         with self._costmap_lock:
+            if self.costmap is None:
+                return   # attach() draws them
             self.costmap.set_virtual(self.obstacles.polylines())
             self.planner.refresh()
         self._publish_virtual()
@@ -270,6 +287,8 @@ class MoveBase(object):
 
     def _plan(self, goal, supervisor):
         self._feedback(MOVE_FEEDBACK_PLANNING)
+        if not self._attached.wait(STARTUP_WAIT):
+            raise GoalAborted(MOVE_RESULT_PLAN_FAILED, "costmap not built %.0f s after start-up" % STARTUP_WAIT)
         pose = self._check_localization(supervisor)
         if pose is None:
             raise GoalAborted(MOVE_RESULT_LOCALIZATION_LOST, "localization lost: no pose")
@@ -366,7 +385,6 @@ def main():
     cfg = _params()
     follower_params = FollowerParams(**{k: float(v) for k, v in rospy.get_param("~follower", {}).items()})
     grid = load_map(cfg["map_file"])
-    costmap = Costmap(grid, cfg["robot_radius"], cfg["safety_margin"], cfg["margin_cost"])
     obstacles = VirtualObstacles(cfg["virtual_obstacles_file"])
     try:
         obstacles.load()
@@ -375,11 +393,11 @@ def main():
         os.replace(cfg["virtual_obstacles_file"], aside)
         rospy.logerr("move_base: virtual obstacles not loaded (file moved to %s), starting without them: %s",
                      aside, err)
-    costmap.set_virtual(obstacles.polylines())
-    planner = Planner(costmap, coarse_factor=int(cfg["coarse_factor"]))
     localization = LocalizationMonitor(cfg["max_xy_std"], cfg["max_yaw_std"], cfg["pose_timeout"])
-    node = MoveBase(grid, costmap, planner, obstacles, localization, follower_params, cfg)
+    node = MoveBase(grid, obstacles, localization, follower_params, cfg)
     obstacles.on_change = node.on_virtual_change
+    costmap = Costmap(grid, cfg["robot_radius"], cfg["safety_margin"], cfg["margin_cost"])
+    node.attach(costmap, Planner(costmap, coarse_factor=int(cfg["coarse_factor"])))
     rospy.loginfo("move_base: map %s (%dx%d at %.3f m), %d virtual obstacles, pose from %s", cfg["map_file"],
                   grid.width, grid.height, grid.resolution, len(obstacles.listing()), cfg["pose_topic"])
     rospy.spin()

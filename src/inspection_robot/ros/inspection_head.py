@@ -6,14 +6,16 @@ import math
 import threading
 import time
 
-import cv2
 import rospy
 
+from inspection_robot.lazy import lazy_import
 from inspection_robot.inspection.finder import FindError
 from inspection_robot.interface import ACK_SUCCESS, ANGLE_CENTI_DEG
 from inspection_robot.msg import NavStatus
 from inspection_robot.srv import ControlService
 from sensor_msgs.msg import JointState
+
+cv2 = lazy_import("cv2")   # on first use: a node registers before its ~360 libraries load
 
 SETTLE_TIMEOUT_S = 2.0
 SETTLE_TOLERANCE_DEG = 0.05

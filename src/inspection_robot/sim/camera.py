@@ -8,11 +8,13 @@ the view that ``view_source()`` returns: (robot pose (x, y, yaw), pan rad, tilt 
 import threading
 import time
 
-import cv2
 
+from inspection_robot.lazy import lazy_import
 from inspection_robot.camera.driver import CameraDriver, CameraError
 from inspection_robot.interface import FOCUS_POSITION_MAX, FOCUS_POSITION_MIN
 from inspection_robot.sim.render import PinholeCamera
+
+cv2 = lazy_import("cv2")   # on first use: a node registers before its ~360 libraries load
 
 
 class SimulatedCamera(CameraDriver):

@@ -7,8 +7,11 @@ needle angle) comes from ``sim.world.Face`` so the ground truth and the picture 
 """
 import math
 
-import cv2
 import numpy as np
+
+from inspection_robot.lazy import lazy_import
+
+cv2 = lazy_import("cv2")   # on first use: a node registers before its ~360 libraries load
 
 SUBPIXEL_SHIFT = 4
 _SCALE = 1 << SUBPIXEL_SHIFT

@@ -5,7 +5,9 @@ qop=auth) exactly as the camera does: a request without valid credentials gets `
 ``WWW-Authenticate: Digest`` challenge. PUTs answer an ISAPI ResponseStatus. The picture
 endpoint can be switched off (``picture_endpoint=False``) to exercise the snapshot fallback.
 Binds 127.0.0.1, port 0 by default (any free port); ``stop()`` makes the camera unreachable and
-``start()`` on the same port brings it back.
+``start()`` on the same port brings it back. ``set_fault("401")`` makes it refuse every request
+(even with the right credentials, as a camera whose password was changed), ``set_fault("timeout")``
+makes it accept connections and never answer until ``set_fault(None)``.
 """
 import hashlib
 import os
@@ -19,6 +21,7 @@ import numpy as np
 
 NS = "http://www.hikvision.com/ver20/XMLSchema"
 REALM = "IP Camera(C00000001)"
+FAULTS = (None, "401", "timeout")
 
 
 def _md5(text):
@@ -71,6 +74,9 @@ class FakeIsapiCamera(object):
         self.requests = []          # (method, path, body) of every authenticated request
         self.continuous = {"zoom": 0, "focus": 0}
         self._nonces = set()
+        self.fault = None
+        self._answering = threading.Event()   # set unless the "timeout" fault holds requests
+        self._answering.set()
         self._server = None
         self._thread = None
 
@@ -91,7 +97,22 @@ class FakeIsapiCamera(object):
         self._thread.start()
         return self
 
+    def set_fault(self, fault):
+        """None: answer normally; "401": refuse every request; "timeout": accept and never answer."""
+        if fault not in FAULTS:
+            raise ValueError("fault must be one of %s, got %r" % (FAULTS, fault))
+        self.fault = fault
+        if fault == "timeout":
+            self._answering.clear()
+        else:
+            self._answering.set()
+
+    def hold(self, limit=60.0):
+        """A request under the "timeout" fault: wait until the fault clears (at most ``limit`` s)."""
+        self._answering.wait(limit)
+
     def stop(self):
+        self._answering.set()
         if self._server is not None:
             self._server.shutdown()
             self._server.server_close()
@@ -147,7 +168,11 @@ class _Handler(BaseHTTPRequestHandler):
 
     def _authenticate(self):
         fake = self.fake
-        if fake.authorized(self.command, self.headers.get("Authorization")):
+        if fake.fault == "timeout":
+            fake.hold()              # the client times out; then this connection is closed unanswered
+            self.close_connection = True
+            return False
+        if fake.fault != "401" and fake.authorized(self.command, self.headers.get("Authorization")):
             return True
         with fake.lock:
             fake.challenges += 1

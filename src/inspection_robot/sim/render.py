@@ -16,11 +16,13 @@ No rospy here: the inspection team uses ``ground_truth`` and ``Renderer`` on its
 import math
 import zlib
 
-import cv2
 import numpy as np
 
+from inspection_robot.lazy import lazy_import
 from inspection_robot.sim import faces as painter
 from inspection_robot.sim.world import Quad
+
+cv2 = lazy_import("cv2")   # on first use: a node registers before its ~360 libraries load
 
 NEAR_M = 0.05
 FRUSTUM_MARGIN_PX = 4.0

@@ -100,6 +100,20 @@ class NodeLiveness(Checker):
             self.respawns += 1
         self._pid[node] = pid
 
+    def respawned(self, node, seconds):
+        """A node killed on purpose came back (restarted, registered with the master and its topics
+        and services registered again) ``seconds`` after the kill; None: it never did."""
+        self.checks += 1
+        if seconds is None or seconds > self._max_down:
+            self._violate("%s respawned %s after its kill (limit %.1f s)"
+                          % (node, "never" if seconds is None else "%.1f s" % seconds, self._max_down))
+
+    def unchanged(self, node, pid_before, pid_after):
+        """``node`` must have lived through a fault of its device: the same process before and after."""
+        self.checks += 1
+        if pid_before != pid_after:
+            self._violate("%s did not survive its device's fault (pid %s, then %s)" % (node, pid_before, pid_after))
+
     def missing(self, t, node):
         self.checks += 1
         since = self._down_since.setdefault(node, t)
@@ -194,6 +208,20 @@ class Availability(Checker):
             self._violate("%s did not answer within %.0f s after its fault cleared" % (what, self.limit))
         else:
             self.recoveries.append(seconds)
+
+
+class FaultReasons(Checker):
+    """During a device fault every request fails, with a reason that names the fault."""
+
+    name = "requests fail with the fault's reason during a fault"
+
+    def answered(self, what, ack, reason, fragments):
+        """``ack``/``reason`` of ``what`` sent during a fault; the reason must contain one of ``fragments``."""
+        self.checks += 1
+        if ack == "success":
+            self._violate("%s succeeded during the fault" % what)
+        elif not any(f in reason for f in fragments):
+            self._violate("%s failed without naming the fault (%s): %r" % (what, " | ".join(fragments), reason))
 
 
 def _median(values):

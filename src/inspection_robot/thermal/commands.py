@@ -8,14 +8,16 @@ Temperatures are degC with two decimals. Radiometric files: see ``save_radiometr
 import io
 import os
 
-import cv2
 import numpy as np
 
+from inspection_robot.lazy import lazy_import
 from inspection_robot.files import confine_path, write_atomic
 from inspection_robot.command import CommandError, CommandTable, no_data, parse_int, split_fields
 from inspection_robot.command import failed
 from inspection_robot.interface import INFRARED_COMMANDS, UNSUPPORTED
 from inspection_robot.thermal.driver import ThermalError
+
+cv2 = lazy_import("cv2")   # on first use: a node registers before its ~360 libraries load
 
 NO_DATA_COMMANDS = ("get_max_temperature", "get_high_temperature", "get_low_temperature", "auto_focus")
 KELVIN_OFFSET = 273.15

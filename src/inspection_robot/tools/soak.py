@@ -2,14 +2,18 @@
 
 A patrol-like loop drives the robot over the websocket the way a backend does (heartbeat, backend
 control, move_cmd, PTZ, captures, thermal readings, virtual obstacles) while random faults are
-injected: the serial head unplugged and back, a node killed (SIGKILL; roslaunch respawns it), the
-backend link dropped and back, the heartbeat stopped during backend control, a hard e-stop during
-motion, 100 websocket clients plus one client that never reads. Invariants (inspection_robot.sim.soak)
-are checked all along from ROS-side observations: every command reaching the chassis driver
-(sim/chassis_cmd), robot_status, node pids and resident memory (/proc). Prints the table of faults
+injected: the serial head unplugged and back, the camera answering 401 / timing out (camera_node runs
+the real ISAPI driver against a fake ISAPI camera served here, --isapi-port), a node killed (SIGKILL;
+roslaunch respawns it; respawned = a new process registered with the master with every topic and
+service the node had before), the backend link dropped and back, the heartbeat stopped during backend
+control, a hard e-stop during motion, 100 websocket clients plus one client that never reads.
+Invariants (inspection_robot.sim.soak) are checked all along from ROS-side observations: every
+command reaching the chassis driver (sim/chassis_cmd), robot_status, node pids and resident memory
+(/proc), what the camera answers during its faults. Prints the table of faults
 and invariants; exit status 0 only when every invariant was exercised and held.
 
-Usage: soak --minutes M [--seed S] [--warmup S]   (inside scripts/rosenv, sim.launch running)
+Usage: soak --minutes M [--seed S] [--warmup S] [--isapi-port P] [--faults WORD,...]
+       (inside scripts/rosenv, sim.launch running; scripts/soak starts both)
 """
 import argparse
 import base64
@@ -31,8 +35,9 @@ from geometry_msgs.msg import TwistStamped
 
 from inspection_robot.bridge.client import RawClient
 from inspection_robot.msg import ControlStatus, RobotStatus
-from inspection_robot.sim.soak import (Availability, Ledger, MemoryGrowth, MotionAuthority, NodeLiveness, held,
-                                       table)
+from inspection_robot.sim.fake_isapi import FakeIsapiCamera
+from inspection_robot.sim.soak import (Availability, FaultReasons, Ledger, MemoryGrowth, MotionAuthority, NodeLiveness,
+                                       held, table)
 from inspection_robot.srv import ControlService
 
 NODE_NAME = "soak"
@@ -41,6 +46,8 @@ TOPIC_ALLOWANCE = 0.05  # s a ROS topic may take from its stamp to robot_control
 KILLABLE = ("/cloud_terrace", "/camera_node", "/infrared_imager", "/status_control", "/move_base",
             "/obstacle_detector", "/robot_voice", "/preset_scale", "/find_scale", "/read_scale", "/robot_arm")
 VO = "virtual obstacle"
+ISAPI_USER, ISAPI_PASSWORD = "admin", "soak"   # launch/include/camera.launch, camera_isapi_url
+CAMERA_FAULT_REASONS = {"401": ["refused the credentials (HTTP 401"], "timeout": ["unreachable", "timed out"]}
 
 
 class Backend(object):
@@ -163,6 +170,15 @@ class Observer(object):
         except (rosgraph.MasterError, OSError):
             return None
 
+    def interface(self, node):
+        """{(kind, name)} of the topics and services ``node`` has registered with the master."""
+        try:
+            state = rosgraph.Master("/" + NODE_NAME).getSystemState()
+        except (rosgraph.MasterError, OSError):
+            return set()
+        return {(kind, name) for kind, entries in zip(("pub", "sub", "srv"), state)
+                for name, nodes in entries if node in nodes}
+
     def sample(self):
         now = time.time()
         for node in self.nodes:
@@ -177,6 +193,31 @@ class Observer(object):
             self.motion.tick(now)
 
 
+def _node_process(node):
+    """Pids of processes started as ``node`` (roslaunch passes __name:=<name>)."""
+    tag = ("__name:=" + node.rsplit("/", 1)[-1]).encode()
+    pids = []
+    for entry in os.listdir("/proc"):
+        if entry.isdigit():
+            try:
+                with open("/proc/%s/cmdline" % entry, "rb") as f:
+                    if tag in f.read().split(b"\0"):
+                        pids.append(int(entry))
+            except OSError:
+                continue   # gone meanwhile
+    return pids
+
+
+def _cpu_seconds(pid):
+    """User + system CPU seconds ``pid`` has used so far (/proc/<pid>/stat), None if it is gone."""
+    try:
+        with open("/proc/%d/stat" % pid) as f:
+            fields = f.read().rsplit(")", 1)[1].split()
+    except (OSError, TypeError):
+        return None
+    return (int(fields[11]) + int(fields[12])) / float(os.sysconf("SC_CLK_TCK"))
+
+
 def _rss(pid):
     try:
         with open("/proc/%d/status" % pid) as f:
@@ -189,17 +230,24 @@ def _rss(pid):
 
 
 class Soak(object):
-    def __init__(self, backend, observer, ledger, availability, rng, port):
+    def __init__(self, backend, observer, checkers, rng, port, camera=None, only=()):
         self.b = backend
         self.o = observer
-        self.ledger = ledger
-        self.availability = availability
+        self.ledger = checkers["ledger"]
+        self.availability = checkers["availability"]
+        self.liveness = checkers["liveness"]
+        self.reasons = checkers["reasons"]
         self.rng = rng
         self.port = port
+        self.camera = camera
         self.faults = OrderedDict((name, 0) for name in (
-            "head unplugged and back", "node killed (SIGKILL), respawned", "backend link dropped and back",
+            "head unplugged and back", "camera answering 401", "camera timing out",
+            "node killed (SIGKILL), respawned", "backend link dropped and back",
             "heartbeat stopped during backend control", "hard e-stop during motion",
-            "100 websocket clients + 1 that never reads"))
+            "100 websocket clients + 1 that never reads")
+            if (camera is not None or not name.startswith("camera"))
+            and (not only or any(word in name for word in only)))
+        self.respawn_times = []   # (node, {"process": s, "registered": s, "ready": s} after the kill)
         self.loops = 0
         self._round = []
         self._direction = 1
@@ -281,6 +329,8 @@ class Soak(object):
         name = self._round.pop()
         self.faults[name] += 1
         {"head unplugged and back": self.head_unplug,
+         "camera answering 401": lambda: self.camera_fault("401"),
+         "camera timing out": lambda: self.camera_fault("timeout"),
          "node killed (SIGKILL), respawned": self.kill_node,
          "backend link dropped and back": self.drop_link,
          "heartbeat stopped during backend control": self.stop_heartbeat,
@@ -295,13 +345,48 @@ class Soak(object):
         self.availability.recovered("head after replug", self.time_until(
             lambda: self.b.call("/terrace_control", "get_angle")[0] == "success"))
 
+    def camera_fault(self, fault):
+        """The camera refuses every login (401) or stops answering for a while: every request
+        fails naming the cause, the camera works again once it clears, camera_node lives on."""
+        pid = self.o.pid("/camera_node")
+        self.camera.set_fault(fault)
+        try:
+            for _ in range(self.rng.randint(1, 3)):
+                for cmd, data in (("capture_picture", "soak/soak_fault.jpg"), ("get_zoom_level", "")):
+                    ack, reason = self.b.call("/camera_control", cmd, data)
+                    self.reasons.answered("%s during %s" % (cmd, fault), ack, reason, CAMERA_FAULT_REASONS[fault])
+        finally:
+            self.camera.set_fault(None)
+        self.availability.recovered("camera after %s" % fault, self.time_until(
+            lambda: self.b.call("/camera_control", "capture_picture", "soak/soak_fault.jpg")[0] == "success"))
+        self.liveness.unchanged("/camera_node", pid, self.o.pid("/camera_node"))
+
     def kill_node(self):
+        """SIGKILL a node; respawned = a new process registered with the master, with every topic and
+        service it had before the kill registered again (the node serves requests). Times each step."""
         node = self.rng.choice([n for n in KILLABLE if n in self.o.nodes])
         pid = self.o.pid(node)
-        if pid:
-            os.kill(pid, signal.SIGKILL)
-        self.availability.recovered("%s respawned" % node, self.time_until(
-            lambda: self.o.pid(node) not in (None, pid)))
+        interface = self.o.interface(node)
+        if not pid:
+            return
+        t0 = time.monotonic()
+        os.kill(pid, signal.SIGKILL)
+        marks = OrderedDict()
+
+        def back():
+            now = time.monotonic() - t0
+            if "process" not in marks and [p for p in _node_process(node) if p != pid]:
+                marks["process"] = now
+            if "registered" not in marks and self.o.pid(node) not in (None, pid):
+                marks["registered"] = now
+            if "registered" in marks and interface <= self.o.interface(node):
+                marks["ready"] = time.monotonic() - t0
+                marks["cpu"] = _cpu_seconds(self.o.pid(node))   # what a load-independent start-up costs
+                return True
+            return False
+        self.time_until(back, 30.0, period=0.05)
+        self.respawn_times.append((node, marks))
+        self.liveness.respawned(node, marks.get("ready"))
 
     def drop_link(self):
         self.b.close()
@@ -349,14 +434,25 @@ class Soak(object):
             for c in clients:
                 c.close()
 
-    def time_until(self, condition, timeout=30.0):
+    def time_until(self, condition, timeout=30.0, period=0.1):
         t0 = time.monotonic()
         deadline = t0 + timeout
         while time.monotonic() < deadline:
             if condition():
                 return time.monotonic() - t0
-            time.sleep(0.1)
+            time.sleep(period)
         return None
+
+    def respawn_table(self):
+        """Per killed node: kills and the slowest kill-to-process, -to-registered, -to-ready (s)."""
+        lines = ["%-20s %5s %10s %13s %8s %12s"
+                 % ("respawn after SIGKILL", "kills", "process s", "registered s", "ready s", "ready CPU s")]
+        for node in sorted({n for n, _ in self.respawn_times}):
+            marks = [m for n, m in self.respawn_times if n == node]
+            worst = ["%.2f" % max(m[k] for m in marks) if all(m.get(k) is not None for m in marks) else "never"
+                     for k in ("process", "registered", "ready", "cpu")]
+            lines.append("%-20s %5d %10s %13s %8s %12s" % ((node, len(marks)) + tuple(worst)))
+        return "\n".join(lines)
 
 
 def _call_topic_vo(backend):
@@ -388,12 +484,20 @@ def main():
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--warmup", type=float, default=None,
                         help="s of memory warm-up after the look-round (default: 20%% of the run, >= 30 s, <= half)")
+    parser.add_argument("--isapi-port", type=int, default=None,
+                        help="serve the fake ISAPI camera here (sim.launch camera_isapi_url:=http://127.0.0.1:PORT)"
+                             " and inject its faults")
+    parser.add_argument("--faults", default="",
+                        help="only the faults whose names contain one of these comma-separated words (e.g. kill)")
     args = parser.parse_args(rospy.myargv()[1:])
+    camera = None
+    if args.isapi_port is not None:   # first: camera_node is already trying to reach it
+        camera = FakeIsapiCamera(user=ISAPI_USER, password=ISAPI_PASSWORD, port=args.isapi_port).start()
     rospy.init_node(NODE_NAME, disable_signals=True)
     duration = args.minutes * 60.0
     motion, liveness = MotionAuthority(), NodeLiveness(5.0)
     memory = MemoryGrowth(args.warmup if args.warmup is not None else min(max(0.2 * duration, 30.0), 0.5 * duration))
-    ledger, availability = Ledger(), Availability(15.0)
+    ledger, availability, reasons = Ledger(), Availability(15.0), FaultReasons()
     observer = Observer(motion, liveness, memory)
     rospy.Subscriber("control_status", ControlStatus, lambda m: setattr(observer, "mode", m.mode), queue_size=10)
     port = int(_wait(lambda: rospy.get_param("/rosbridge_websocket/actual_port", None), 120.0, "bridge port"))
@@ -401,7 +505,9 @@ def main():
     observer.nodes = sorted(n for n in rosnode.get_node_names() if n not in ("/rosout", "/" + NODE_NAME))
     backend = Backend(port)
     backend.call_topic_vo = _call_topic_vo(backend)
-    soak = Soak(backend, observer, ledger, availability, random.Random(args.seed), port)
+    soak = Soak(backend, observer, {"ledger": ledger, "availability": availability, "liveness": liveness,
+                                    "reasons": reasons},
+                random.Random(args.seed), port, camera, [w for w in args.faults.split(",") if w])
 
     soak.warm_up()
     stop = threading.Event()
@@ -426,12 +532,15 @@ def main():
         stop.set()
         sampling.join(5.0)
         backend.close()
+        if camera is not None:
+            camera.stop()
     memory.finish()
-    checkers = [motion, liveness, memory, ledger, availability]
-    print("soak: %.1f min, %d patrol loops, %d respawns, stop latency max %.3f s (n=%d)"
+    checkers = [motion, liveness, memory, ledger, availability] + ([reasons] if camera is not None else [])
+    print("soak: %.1f min, %d patrol loops, %d respawns, stop latency max %.3f s (n=%d), load average %.1f"
           % (args.minutes, soak.loops, liveness.respawns, max(motion.stop_latencies or [0.0]),
-             len(motion.stop_latencies)))
+             len(motion.stop_latencies), os.getloadavg()[1]))
     print(table(soak.faults, checkers))
+    print(soak.respawn_table())
     sys.exit(0 if held(checkers) else 1)
 
 
