@@ -174,6 +174,40 @@ def test_without_task_manager_it_still_charges_and_warns():
     assert rig.state == m.IDLE and not rig.ports.alarms
 
 
+def test_a_task_manager_that_does_not_answer_is_asked_again_until_it_pauses():
+    # task_manager was seen (task_status) and is being respawned: charging now would race its resumed
+    # patrol for move_base, so the pause is asked again every PAUSE_RETRY_S until it is answered
+    rig = Rig()
+    rig.machine.on_task_status("running")
+    rig.battery(quantity=10)
+    rig.reply_task(None, "task_control: timeout exceeded while waiting for service")
+    assert rig.state == m.PAUSING and "not reachable" in rig.machine.status()["waiting"]
+    assert not [c for c in rig.ports.calls if c[0] == "goal"] and not rig.ports.warnings
+    pauses = len([c for c in rig.ports.calls if c[0] == "task"])
+    rig.advance(m.PAUSE_RETRY_S / 2)
+    assert len([c for c in rig.ports.calls if c[0] == "task"]) == pauses, "not before PAUSE_RETRY_S"
+    rig.advance(m.PAUSE_RETRY_S)
+    assert rig.ports.last("task")[2] == "pause" and len([c for c in rig.ports.calls if c[0] == "task"]) == pauses + 1
+    rig.reply_task(True)
+    rig.machine.on_task_status("paused")
+    assert rig.state == m.TO_APPROACH and not rig.ports.warnings and rig.machine.status()["task_paused"]
+
+
+def test_a_task_manager_gone_for_good_does_not_keep_the_robot_from_charging():
+    rig = Rig()
+    rig.machine.on_task_status("running")
+    rig.battery(quantity=10)
+    for _ in range(int(CONFIG.pause_timeout / m.PAUSE_RETRY_S) + 2):
+        if rig.state != m.PAUSING:
+            break
+        if rig.ports.last("task")[1] == rig.machine._token:
+            rig.reply_task(None, "no task_control service")
+        rig.advance(m.PAUSE_RETRY_S)
+    assert rig.state == m.TO_APPROACH
+    assert "not reachable for" in rig.ports.warnings[-1] and "no task_control service" in rig.ports.warnings[-1]
+    assert not rig.ports.alarms
+
+
 def test_waits_for_task_mode_before_driving_and_after_move_base_gives_up():
     rig = Rig()
     rig.battery(quantity=15, mode=MODE_SERVER)

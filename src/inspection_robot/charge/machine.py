@@ -50,6 +50,7 @@ TRIGGER_RECOVERED = "recovered"  # found on the dock with the relay closed (e.g.
 # task_manager's task_status states in which the patrol sends no goal (charge_control may drive)
 TASK_QUIET_STATES = ("paused", "idle", "done", "cancelled", "failed")
 TASK_HOLD = "charge"  # data of task_control pause/resume
+PAUSE_RETRY_S = 1.0   # s between pause requests to a task_manager that does not answer (e.g. respawning)
 
 # failure kind -> (voice clip, reason format); the reason is the alarm text (docs/interface.md)
 FAILURES = {
@@ -153,6 +154,8 @@ class ChargeMachine(object):
         self._token = 0
         self._awaiting = None      # "task" or "goal" while a request with self._token is out
         self._pause_acked = False
+        self._pause_retry_at = 0.0   # when to ask an unreachable task_manager again
+        self._unreachable = ""       # its last error, for the status and the final warning
         self._task_paused = False  # a charge hold is (or may be) in place on task_manager
         self._after_backoff = RESUMING
         self._attempts = {}
@@ -176,13 +179,23 @@ class ChargeMachine(object):
             return
         self._awaiting = None
         if self.state == PAUSING:
-            if ok is None:
+            if ok is None and self._task_state is None:
+                # no task_status ever seen: this robot runs no task_manager
                 self._ports.warn("task_manager not reachable (%s): charging without pausing a patrol" % (data,))
                 self._go_after_pause()
+            elif ok is None:
+                # task_manager exists (it published task_status) but does not answer: it may be
+                # respawning, and a respawned task_manager resumes its patrol with goals of its own.
+                # Ask again until pause_timeout rather than race it for move_base.
+                self._pause_retry_at = self._clock() + PAUSE_RETRY_S
+                self._unreachable = data or "no reply"
+                self._step()
             elif ok:
+                self._unreachable = ""
                 self._pause_acked = self._task_paused = True
                 self._step()
             else:
+                self._unreachable = ""
                 self._fail("pause", "refused: %s" % (data,))
         elif self.state == RESUMING:
             if ok is None:
@@ -285,6 +298,7 @@ class ChargeMachine(object):
 
     def _pause(self):
         self._pause_acked = False
+        self._unreachable = ""
         self._enter(PAUSING)
         self._request_task("pause")
 
@@ -334,6 +348,17 @@ class ChargeMachine(object):
         elif state == PAUSING:
             if self._pause_acked and self._task_state in TASK_QUIET_STATES + (None,):
                 self._go_after_pause()
+                return
+            if self._unreachable:
+                if elapsed > self._config.pause_timeout:
+                    self._ports.warn("task_manager not reachable for %.0f s (%s): charging without pausing a patrol"
+                                     % (elapsed, self._unreachable))
+                    self._unreachable = ""
+                    self._go_after_pause()
+                    return
+                self.waiting = "task_manager not reachable (%s): asking again" % (self._unreachable,)
+                if self._awaiting is None and now >= self._pause_retry_at:
+                    self._request_task("pause")
                 return
             if elapsed > self._config.pause_timeout:
                 self._fail("pause", "task_status still '%s' %.0f s after pause" % (self._task_state, elapsed))
