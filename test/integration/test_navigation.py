@@ -182,6 +182,8 @@ class NavigationTest(unittest.TestCase):
         wall_x, wall_end, gx = x0 - 3.0, y0 + 1.5, x0 - 6.0  # westwards: the next tests drive west
         wall = {"id": "wall", "points": [[wall_x, -1.0], [wall_x, wall_end]], "closed": False}
         self.assertEqual(self.vo("add", json.dumps(wall)).ack, "success")
+        # the later tests (test_12 lists every obstacle) must not inherit the wall if this one fails
+        self.addCleanup(self.vo, "delete", '{"id":"wall"}')
         self.plan.clear()
         track = []
         sub = rospy.Subscriber("sim/true_pose", PoseWithCovarianceStamped,
