@@ -100,28 +100,25 @@ def grid(width, height, resolution, origin, cells):
     return msg
 
 
-def yard_map():
-    """20 m x 16 m at 0.1 m from (-4, -5): a fence ring and one equipment block."""
+def yard_grid(occupied):
+    """A 20 m x 16 m grid at 0.1 m from (-4, -5): 100 where ``occupied(row, col, x, y)``, else 0."""
     width, height = 200, 160
     cells = [0] * (width * height)
     for row in range(height):
         for col in range(width):
             x, y = -4 + col * 0.1, -5 + row * 0.1
-            fence = row in (0, height - 1) or col in (0, width - 1)
-            block = 2.0 <= x <= 5.0 and 2.0 <= y <= 4.0
-            cells[row * width + col] = 100 if fence or block else 0
+            cells[row * width + col] = 100 if occupied(row, col, x, y) else 0
     return grid(width, height, 0.1, (-4.0, -5.0), cells)
+
+
+def yard_map():
+    """The map: a fence ring and one equipment block."""
+    return yard_grid(lambda row, col, x, y: row in (0, 159) or col in (0, 199) or (2.0 <= x <= 5.0 and 2.0 <= y <= 4.0))
 
 
 def virtual_map():
-    width, height = 200, 160
-    cells = [0] * (width * height)
-    for row in range(height):
-        for col in range(width):
-            x, y = -4 + col * 0.1, -5 + row * 0.1
-            if 10.0 <= x <= 11.0 and -1.0 <= y <= 3.0:
-                cells[row * width + col] = 100
-    return grid(width, height, 0.1, (-4.0, -5.0), cells)
+    """move_base's virtual layer: one 1 m x 4 m obstacle."""
+    return yard_grid(lambda _row, _col, x, y: 10.0 <= x <= 11.0 and -1.0 <= y <= 3.0)
 
 
 def latched(topic, msg):
