@@ -12,7 +12,7 @@ import pytest
 from inspection_robot.interface import MOVE_VELOCITY_X_UNIT_M_S, MOVE_VELOCITY_YAW_UNIT_RAD_S, SENDER_MOVE_BASE
 from inspection_robot.motion.controller import MotionController
 from inspection_robot.motion.velocity import VelocityLimits
-from inspection_robot.nav.follower import DONE, FollowerParams, PathFollower
+from inspection_robot.nav.follower import DONE, Approach, FollowerParams, PathFollower
 from inspection_robot.nav.goal import MoveGoal
 from inspection_robot.angles import wrap_angle
 from inspection_robot.sim.chassis import SimChassis
@@ -103,3 +103,51 @@ def test_corners_driven_without_stopping_and_docked_precisely():
     assert math.hypot(x - goal.x, y - goal.y) <= 0.02
     assert abs(math.degrees(wrap_angle(yaw - goal.yaw))) <= 1.0
     assert seconds < 70.0  # 54 m at <= 1 m/s: the corners cost little
+
+
+def drive_starved(goal, approach, stall_every=3, stall_s=0.35, lag_s=0.15, timeout=60.0):
+    """move_base's loop on a starved CPU: every ``stall_every``-th cycle comes ``stall_s`` late and each
+    pose it reads is ``lag_s`` old (queued). Returns (pose at rest, Approach or None)."""
+    clock = FakeClock()
+    chassis = SimChassis(clock, (0.0, 0.0, 0.0))
+    controller = MotionController(chassis, VelocityLimits(1.0, 1.0, 5.0, 5.0), 0.5, clock)
+    follower = PathFollower(np.array([[0.0, 0.0], [goal.x, goal.y]]), goal, FollowerParams())
+    runner = Approach(follower) if approach else None
+    history = []  # (time, true pose)
+    next_cycle, cycle, step, done_at = 0.0, 0, 0, None
+    while clock.now < timeout and (done_at is None or clock.now < done_at + 2.0):
+        history.append((clock.now, chassis.true_pose()[0]))
+        if done_at is None and clock.now >= next_cycle - 1e-9:
+            seen = [p for t, p in history if t <= clock.now - lag_s] or [history[0][1]]
+            pose = seen[-1]
+            progress = runner.step(clock.now, clock.now, pose) if runner else follower.step(*pose)
+            cmd = progress.command
+            controller.on_move_cmd(SENDER_MOVE_BASE, cmd.velocity_x / MOVE_VELOCITY_X_UNIT_M_S,
+                                   cmd.velocity_yaw / MOVE_VELOCITY_YAW_UNIT_RAD_S, cmd.wheel_control)
+            if progress.phase == DONE:
+                done_at = clock.now
+            cycle += 1
+            next_cycle = clock.now + (0.05 + stall_s if cycle % stall_every == 0 else 0.05)
+        if step % 2 == 0:
+            controller.tick()
+        clock.now += TICK
+        step += 1
+    assert done_at is not None, "goal not reached in %.0f s" % timeout
+    return chassis.true_pose()[0], runner
+
+
+def test_starved_loop_overshoots_the_follower_but_the_approach_ends_within_tolerance():
+    goal = MoveGoal(6.0, 0.0, 0.0, False, False, False, 1.0, 0.8)
+    (x, y, _yaw), _ = drive_starved(goal, approach=False)
+    assert math.hypot(x - goal.x, y - goal.y) > FollowerParams().xy_tolerance  # the problem: success on a stale pose
+    (x, y, _yaw), runner = drive_starved(goal, approach=True)
+    assert math.hypot(x - goal.x, y - goal.y) <= FollowerParams().xy_tolerance
+    assert runner.corrections >= 1
+    assert math.hypot(runner.rest[0] - x, runner.rest[1] - y) < 0.005  # judged on the pose at rest
+
+
+def test_starved_spin_ends_within_the_heading_tolerance():
+    goal = MoveGoal(3.0, 0.0, math.pi / 2, True, True, False, 1.0, 0.8)
+    (x, y, yaw), runner = drive_starved(goal, approach=True)
+    assert abs(wrap_angle(yaw - goal.yaw)) <= FollowerParams().yaw_tolerance_precise
+    assert math.hypot(x - goal.x, y - goal.y) <= FollowerParams().xy_tolerance_precise

@@ -18,7 +18,11 @@ Each ``step(pose)`` returns a Command (m/s, rad/s, wheel mode) for robot_control
 - ``spin``: with_direction goals turn in place to the goal heading at the end;
 - ``done``: zero command.
 
-Tolerances come from FollowerParams; precision goals use the tight pair.
+Tolerances come from FollowerParams; precision goals use the tight pair. The follower's ``done`` is
+judged on the last pose received, which under CPU starvation lags a robot still rolling at its
+approach speed; ``Approach`` wraps the follower so that a goal ends on a pose at rest (phase
+``settle`` meanwhile, zero command) and drives the last centimetres again when that pose is out of
+tolerance.
 """
 import math
 from collections import namedtuple
@@ -31,7 +35,7 @@ from inspection_robot.angles import wrap_angle
 Command = namedtuple("Command", "velocity_x velocity_yaw wheel_control")
 Progress = namedtuple("Progress", "phase remaining lateral_error command")
 
-ALIGN, TRACK, SPIN, DONE = "align", "track", "spin", "done"
+ALIGN, TRACK, SPIN, SETTLE, DONE = "align", "track", "spin", "settle", "done"
 
 
 class FollowerParams(object):
@@ -40,7 +44,8 @@ class FollowerParams(object):
                  spin_exit_rad=0.15, decel_m_s2=0.5, approach_gain=1.5, min_speed_m_s=0.05,
                  min_speed_precise_m_s=0.02, min_yaw_rate_rad_s=0.05, yaw_gain=3.0, yaw_decel_rad_s2=1.3,
                  lookahead_min_m=0.4, lookahead_time_s=1.2, min_turn_radius_m=0.65, corner_accel_m_s2=1.0,
-                 corner_decel_m_s2=0.7, proximity_m=0.2, proximity_min_scale=0.4):
+                 corner_decel_m_s2=0.7, proximity_m=0.2, proximity_min_scale=0.4, rest_m=0.005,
+                 rest_rad=0.005, rest_s=0.25, rest_timeout_s=2.0, max_corrections=2):
         self.lookahead = float(lookahead_m)
         self.lookahead_min = min(float(lookahead_min_m), self.lookahead)
         self.lookahead_time = float(lookahead_time_s)
@@ -62,6 +67,11 @@ class FollowerParams(object):
         self.min_speed_precise = float(min_speed_precise_m_s)
         self.min_yaw_rate = float(min_yaw_rate_rad_s)
         self.yaw_gain = float(yaw_gain)
+        self.rest_m = float(rest_m)
+        self.rest_rad = float(rest_rad)
+        self.rest_s = float(rest_s)
+        self.rest_timeout = float(rest_timeout_s)
+        self.max_corrections = int(max_corrections)
 
 
 STOP = Command(0.0, 0.0, WHEEL_STRAIGHT)
@@ -156,6 +166,21 @@ class PathFollower(object):
     def goal_point(self):
         return np.array([self.goal.x, self.goal.y])
 
+    def within_tolerance(self, x, y, yaw):
+        """Whether a pose meets the goal: position, and heading for with_direction goals."""
+        if math.hypot(self.goal.x - x, self.goal.y - y) > self.tolerance:
+            return False
+        return not self.goal.with_direction or abs(wrap_angle(self.goal.yaw - yaw)) <= self.yaw_tolerance
+
+    def correction(self, x, y, yaw):
+        """A follower for the last centimetres from a pose at rest beside the goal: the straight segment
+        to it (the planned path already ended there), same tolerances, backing up (or, on a backward
+        goal, going forward) when the goal lies behind rather than turning round for it."""
+        heading = wrap_angle(yaw + (math.pi if self.goal.backward else 0.0))
+        behind = abs(wrap_angle(math.atan2(self.goal.y - y, self.goal.x - x) - heading)) > math.pi / 2
+        goal = self.goal._replace(backward=self.goal.backward != behind)
+        return PathFollower([(x, y), (goal.x, goal.y)], goal, self.p, self.clearance)
+
     def _spin(self, error):
         size = abs(error)
         # braking profile: constant angular deceleration, then proportional
@@ -200,6 +225,71 @@ class PathFollower(object):
             speed = -min(speed, self.min_speed)
             yaw_rate = 0.0
         return Command(self.direction * speed, yaw_rate, WHEEL_STRAIGHT)
+
+
+class Arrival(object):
+    """The pose a finished goal is judged on: the robot at rest, seen on poses received after the stop.
+
+    ``update(now, stamp, pose)`` each control cycle (``stamp``: when the pose arrived) returns None
+    while the robot may still move, then the pose at rest: the newest pose when one received at
+    least ``rest_s`` earlier (after the stop) lies within ``rest_m`` and ``rest_rad`` of it, or the
+    newest pose after ``rest_timeout`` (a noisy localizer never looks still).
+    """
+
+    def __init__(self, params, stopped_at):
+        self.p = params
+        self.stopped_at = float(stopped_at)
+        self._poses = []  # (stamp, pose) received after the stop, oldest first
+
+    def update(self, now, stamp, pose):
+        if pose is not None and stamp is not None and stamp > self.stopped_at and \
+                (not self._poses or stamp > self._poses[-1][0]):
+            self._poses.append((stamp, pose))
+        if not self._poses:
+            return None
+        newest_stamp, newest = self._poses[-1]
+        earlier = [p for s, p in self._poses if s <= newest_stamp - self.p.rest_s]
+        if earlier:
+            then = earlier[-1]
+            if math.hypot(newest[0] - then[0], newest[1] - then[1]) <= self.p.rest_m and \
+                    abs(wrap_angle(newest[2] - then[2])) <= self.p.rest_rad:
+                return newest
+        if now - self.stopped_at >= self.p.rest_timeout:
+            return newest
+        return None
+
+
+class Approach(object):
+    """A goal's follower until the robot rests within tolerance.
+
+    ``step(now, stamp, pose)`` (``stamp``: when that pose arrived, on ``now``'s clock) returns the
+    follower's Progress; once the follower is done it returns phase ``settle`` with a zero command
+    until ``Arrival`` sees the robot at rest, then ``done`` with the resting pose in ``rest`` when
+    that pose is within tolerance, or after ``max_corrections`` straight-line corrections from it.
+    """
+
+    def __init__(self, follower):
+        self.follower = follower
+        self.p = follower.p
+        self.corrections = 0
+        self.rest = None
+        self._arrival = None
+
+    def step(self, now, stamp, pose):
+        progress = self.follower.step(*pose)
+        if progress.phase != DONE:
+            return progress
+        if self._arrival is None:
+            self._arrival = Arrival(self.p, now)
+        rest = self._arrival.update(now, stamp, pose)
+        if rest is None:
+            return Progress(SETTLE, progress.remaining, progress.lateral_error, STOP)
+        if self.follower.within_tolerance(*rest) or self.corrections >= self.p.max_corrections:
+            self.rest = rest
+            return progress
+        self.corrections += 1
+        self.follower, self._arrival = self.follower.correction(*rest), None
+        return self.follower.step(*rest)
 
 
 def stop_spin_go_params(**overrides):

@@ -17,16 +17,16 @@ class LocalizationMonitor(object):
         self.max_yaw_std = float(max_yaw_std_rad)
         self.stale_timeout = float(stale_timeout_s)
         self.pose = None       # (x, y, yaw) of the last message
-        self._stamp = None
+        self.stamp = None      # when it arrived (the ``now`` given to update)
         self._covariance_problem = None
 
     def update(self, now, x, y, yaw, covariance):
         if not all(math.isfinite(v) for v in (x, y, yaw)):
             self._covariance_problem = "pose is not finite"
-            self._stamp = now
+            self.stamp = now
             return
         self.pose = (float(x), float(y), wrap_angle(float(yaw)))
-        self._stamp = now
+        self.stamp = now
         self._covariance_problem = None
         if covariance is not None and len(covariance) == 36:
             var_x, var_y, var_yaw = covariance[0], covariance[7], covariance[35]
@@ -40,9 +40,9 @@ class LocalizationMonitor(object):
                     math.sqrt(max(var_yaw, 0.0)), self.max_yaw_std)
 
     def problem(self, now):
-        if self._stamp is None:
+        if self.stamp is None:
             return "no pose received yet"
-        age = now - self._stamp
+        age = now - self.stamp
         if age > self.stale_timeout:
             return "pose is stale (%.1f s old)" % age
         return self._covariance_problem

@@ -53,7 +53,7 @@ from inspection_robot.interface import (MODE_TASK,
 from inspection_robot.msg import (ControlStatus, GeneralAction, GeneralCmd, GeneralFeedback, GeneralResult,
                                   GeneralTopic, MoveCmd, NavStatus, ObstacleStatus)
 from inspection_robot.nav.costmap import Costmap
-from inspection_robot.nav.follower import DONE, FollowerParams, PathFollower
+from inspection_robot.nav.follower import DONE, Approach, FollowerParams, PathFollower
 from inspection_robot.nav.goal import parse_move_goal
 from inspection_robot.nav.gridmap import load_map
 from inspection_robot.nav.localization import LocalizationMonitor, location_target
@@ -302,7 +302,7 @@ class MoveBase(object):
         self._publish_plan(plan.points)
         self._feedback(MOVE_FEEDBACK_PLANNED, path_length=round(plan.length, 3),
                        planning_time=round(time.monotonic() - started, 3))
-        return PathFollower(plan.points, goal, self.follower_params, self.costmap.clearance)
+        return Approach(PathFollower(plan.points, goal, self.follower_params, self.costmap.clearance))
 
     def _run(self, goal_msg):
         cfg = self.cfg
@@ -336,13 +336,16 @@ class MoveBase(object):
                 follower = self._plan(goal, supervisor)
                 pose = self.loc.pose
             if action in (REPLAN, FOLLOW):
-                progress = follower.step(*pose)
+                progress = follower.step(time.monotonic(), self.loc.stamp, pose)
                 supervisor.followed(progress)
                 self.off_track = supervisor.off_track
                 if progress.phase == DONE:
-                    error = math.hypot(goal.x - pose[0], goal.y - pose[1])
+                    rest = follower.rest
+                    if follower.corrections:
+                        rospy.loginfo("move_base: goal judged at rest after %d correction(s)", follower.corrections)
+                    error = math.hypot(goal.x - rest[0], goal.y - rest[1])
                     return MOVE_RESULT_SUCCESS, {"position_error": round(error, 4),
-                                                 "yaw_error": round(abs(wrap_angle(goal.yaw - pose[2])), 4)}
+                                                 "yaw_error": round(abs(wrap_angle(goal.yaw - rest[2])), 4)}
                 cmd = progress.command
                 self.send(cmd.velocity_x, cmd.velocity_yaw, cmd.wheel_control)
                 now = time.monotonic()
