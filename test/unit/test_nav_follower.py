@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from inspection_robot.interface import WHEEL_STEER, WHEEL_STRAIGHT
-from inspection_robot.nav.follower import DONE, FollowerParams, PathFollower
+from inspection_robot.nav.follower import DONE, Arrival, FollowerParams, PathFollower
 from inspection_robot.nav.goal import MoveGoal
 from inspection_robot.angles import wrap_angle
 
@@ -116,3 +116,30 @@ def test_speed_regulated_near_obstacles_read_from_the_costmap():
     assert speeds["free"] == pytest.approx(1.0)
     # clearance ~0.1 m of the 0.2 m proximity distance: about half speed
     assert 0.4 < speeds["regulated"] <= 0.6
+
+
+def test_arrival_ignores_poses_from_before_the_stop_and_waits_for_rest():
+    params = FollowerParams()
+    arrival = Arrival(params, stopped_at=10.0)
+    assert arrival.update(10.0, 9.99, (1.0, 0.0, 0.0)) is None       # arrived before the stop
+    assert arrival.update(10.1, 10.05, (1.02, 0.0, 0.0)) is None     # one pose: nothing to compare
+    assert arrival.update(10.4, 10.35, (1.05, 0.0, 0.0)) is None     # still rolling 3 cm
+    assert arrival.update(10.5, 10.5, (1.052, 0.0, 0.0)) is None     # 2 mm since 10.35, but only 0.15 s
+    assert arrival.update(10.6, 10.6, (1.052, 0.0, 0.01)) is None    # 0.6 deg turned since 10.35
+    assert arrival.update(10.9, 10.9, (1.053, 0.0, 0.011)) == (1.053, 0.0, 0.011)
+
+
+def test_arrival_judges_a_noisy_localizer_on_its_newest_pose_after_the_timeout():
+    params = FollowerParams(rest_timeout_s=2.0)
+    arrival = Arrival(params, stopped_at=0.0)
+    i, t, verdict = 0, 0.0, None
+    while verdict is None and t < 5.0:
+        i += 1
+        t = 0.05 * i
+        verdict = arrival.update(t, t, (0.01 * (-1) ** i, 0.0, 0.0))  # 2 cm jitter
+    assert verdict is not None and 2.0 <= t < 2.1
+
+
+def test_arrival_waits_while_no_pose_comes():
+    arrival = Arrival(FollowerParams(), stopped_at=0.0)
+    assert arrival.update(5.0, None, None) is None
