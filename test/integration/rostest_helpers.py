@@ -76,6 +76,12 @@ def set_pose_when_at_rest(inject, pose, sender="rostest", timeout=10.0):
              or replies[-1].ack == "success", timeout, "set_pose %s accepted" % (tuple(pose),), period=0.1)
 
 
+def control_proxy(name, timeout=30.0, persistent=False):
+    """A ControlService proxy once the service is offered (fails the test after ``timeout``)."""
+    rospy.wait_for_service(name, timeout)
+    return rospy.ServiceProxy(name, ControlService, persistent=persistent)
+
+
 def wait_subscribed(publisher, timeout=5.0):
     wait_for(lambda: publisher.get_num_connections() > 0, timeout, "subscriber of " + publisher.name)
 
@@ -91,9 +97,8 @@ class TwinClient(object):
     """
 
     def __init__(self, service, cmd_topic, ack_topic, node, timeout=10.0):
-        rospy.wait_for_service(service, timeout)
+        self.proxy = control_proxy(service, timeout)
         self.node = node
-        self.proxy = rospy.ServiceProxy(service, ControlService)
         self.acks = Latest(ack_topic, GeneralAck, queue_size=200)
         self.publisher = rospy.Publisher(cmd_topic, GeneralCmd, queue_size=10)
         wait_subscribed(self.publisher, timeout)

@@ -16,8 +16,7 @@ import yaml
 from inspection_robot.interface import SENSOR_CAMERA_ALARM
 from inspection_robot.msg import GeneralAck, GeneralCmd, RobotStatus
 from inspection_robot.sim.fake_isapi import FakeIsapiCamera
-from inspection_robot.srv import ControlService
-from rostest_helpers import Latest, wait_for, wait_subscribed
+from rostest_helpers import Latest, control_proxy, wait_for, wait_subscribed
 
 ROOT = "/tmp/ir_camera_isapi_rostest"
 PKG = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
@@ -39,8 +38,7 @@ class CameraIsapiTest(unittest.TestCase):
         cls.launch.start()
         cls.process = cls.launch.launch(roslaunch.core.Node("inspection_robot", "camera_node", name="camera_node",
                                                             output="screen"))
-        rospy.wait_for_service("camera_control", 20.0)
-        cls.control = rospy.ServiceProxy("camera_control", ControlService)
+        cls.control = control_proxy("camera_control", 20.0)
         cls.status = Latest("robot_status", RobotStatus)
         cls.acks = Latest("camera_ack", GeneralAck)
         cls.cmd = rospy.Publisher("camera_cmd", GeneralCmd, queue_size=10)

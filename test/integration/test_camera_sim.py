@@ -20,9 +20,8 @@ from inspection_robot.msg import ControlStatus, GeneralAck, GeneralCmd
 from inspection_robot.camera.optics import focal_for_hfov
 from inspection_robot.sim.render import PinholeCamera, ground_truth
 from inspection_robot.sim.world import World
-from inspection_robot.srv import ControlService
 from inspection_robot.thermal.commands import load_radiometric
-from rostest_helpers import Latest, wait_for, wait_subscribed
+from rostest_helpers import Latest, control_proxy, wait_for, wait_subscribed
 
 ROOT = "/tmp/ir_camera_rostest"
 PKG = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
@@ -49,8 +48,7 @@ class CameraSimTest(unittest.TestCase):
         cls.services = {}
         for name in ("camera_control", "infrared_control", "vendor/infrared_control", "sim/set_world_value",
                      "sim/get_world_value"):
-            rospy.wait_for_service(name, 20.0)
-            cls.services[name] = rospy.ServiceProxy(name, ControlService)
+            cls.services[name] = control_proxy(name, 20.0)
         cls.acks = {"camera": Latest("camera_ack", GeneralAck), "infrared": Latest("infrared_ack", GeneralAck)}
         cls.cmds = {"camera": rospy.Publisher("camera_cmd", GeneralCmd, queue_size=10),
                     "infrared": rospy.Publisher("infrared_cmd", GeneralCmd, queue_size=10)}

@@ -17,7 +17,7 @@ import rostest
 from inspection_robot.interface import BATTERY_CHARGING, LIGHT_CHARGE_RELAY
 from inspection_robot.msg import GeneralAck, GeneralCmd, GeneralTopic, RobotStatus, VoiceCmd
 from inspection_robot.srv import ControlService, ControlServiceResponse
-from rostest_helpers import Latest, TwinClient, set_pose_when_at_rest, wait_for, wait_subscribed
+from rostest_helpers import Latest, TwinClient, control_proxy, set_pose_when_at_rest, wait_for, wait_subscribed
 
 DOCK = (2.2, 5.0)
 APPROACH = (3.7, 5.0)
@@ -83,8 +83,7 @@ class ChargeControlTest(unittest.TestCase):
         cls.alarms = Latest("charge_ack", GeneralAck)
         cls.vo_acks = Latest("virtual_obstacle_ack", GeneralAck)
         cls.vo_cmd = rospy.Publisher("virtual_obstacle_cmd", GeneralCmd, queue_size=10)
-        rospy.wait_for_service("sim/inject_fault", 30.0)
-        cls.sim = rospy.ServiceProxy("sim/inject_fault", ControlService)
+        cls.sim = control_proxy("sim/inject_fault", 30.0)
         cls.charge = TwinClient("charge_control", "charge_cmd", "charge_ack", "charge_control", timeout=30.0)
         wait_subscribed(cls.vo_cmd, 30.0)
         cls.robot.wait(lambda m: len(m.position) == 2, 30.0, "robot_status with a pose")

@@ -26,8 +26,7 @@ from playwright.sync_api import sync_playwright
 from sensor_msgs.msg import JointState
 
 from inspection_robot.msg import GeneralAck, GeneralCmd, GeneralTopic, MoveCmd, RobotStatus
-from inspection_robot.srv import ControlService
-from rostest_helpers import Latest, wait_for, wait_subscribed
+from rostest_helpers import Latest, control_proxy, wait_for, wait_subscribed
 
 CHROMIUM = "/usr/bin/chromium"
 CHROMIUM_ARGS = ["--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
@@ -285,8 +284,7 @@ class ConsoleTest(unittest.TestCase):
 
     def calibration(self, preset):
         """calibration_control get over ROS (not through the page)."""
-        rospy.wait_for_service("/calibration_control", 30.0)
-        reply = rospy.ServiceProxy("/calibration_control", ControlService)(
+        reply = control_proxy("/calibration_control", 30.0)(
             sender="test_console", cmd="get", data=json.dumps({"preset": preset}))
         self.assertEqual(reply.ack, "success", reply.data)
         return json.loads(reply.data)
@@ -382,8 +380,7 @@ class ConsoleTest(unittest.TestCase):
                   "the patrol paused by the page")
         self.wait_page("document.getElementById('patrol-state').textContent.startsWith('paused')", "paused shown")
         # The reading of stop 1 in the history, with its annotated picture fetched through file_control.
-        rospy.wait_for_service("/task_control", 10.0)
-        reply = rospy.ServiceProxy("/task_control", ControlService)(
+        reply = control_proxy("/task_control", 10.0)(
             sender="test_console", cmd="query_results", data=json.dumps({"task_id": task_id}))
         (row,) = json.loads(reply.data)
         self.wait_page("document.querySelector('#results tbody').textContent.includes('console_gauge')",

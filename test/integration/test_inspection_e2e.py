@@ -24,10 +24,9 @@ from sensor_msgs.msg import JointState
 from inspection_robot.inspection.preset import load_preset
 from inspection_robot.msg import (GeneralAction, GeneralGoal, NavStatus, PresetScaleAck, PresetScaleCmd,
                                   ReadScaleAck, ReadScaleCmd)
-from inspection_robot.srv import ControlService
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from rostest_helpers import Latest, set_pose_when_at_rest, wait_for, wait_subscribed  # noqa: E402
+from rostest_helpers import Latest, control_proxy, set_pose_when_at_rest, wait_for, wait_subscribed  # noqa: E402
 
 HALF_PI = math.pi / 2.0
 # preset id, robot pose (x, y, yaw), height aimed at (m), distance to the side (m), zoom, infrared
@@ -71,10 +70,8 @@ class TestInspectionAcceptance(unittest.TestCase):
         cls.joints = Latest("terrace_state", JointState, queue_size=1)
         names = ("terrace_control", "camera_control", "sim/set_world_value", "sim/get_world_value",
                  "sim/inject_fault", "arm_control")
-        for name in names:
-            rospy.wait_for_service(name, 30.0)
         cls.terrace, cls.camera, cls.set_value, cls.get_value, cls.inject, cls.arm = (
-            rospy.ServiceProxy(n, ControlService) for n in names)
+            control_proxy(n, 30.0) for n in names)
         cls.find = actionlib.SimpleActionClient("find_scale_action", GeneralAction)
         cls.move = actionlib.SimpleActionClient("move_action", GeneralAction)
         assert cls.find.wait_for_server(rospy.Duration(30.0)), "find_scale_action server"

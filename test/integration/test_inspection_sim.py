@@ -22,10 +22,9 @@ from inspection_robot.msg import (GeneralAction, GeneralGoal, NavStatus, PresetS
 from inspection_robot.sim.inspection_sim import RenderedHead, world_specs
 from inspection_robot.sim.render import Renderer
 from inspection_robot.sim.world import World
-from inspection_robot.srv import ControlService
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from rostest_helpers import Latest, wait_for, wait_subscribed  # noqa: E402
+from rostest_helpers import Latest, control_proxy, wait_for, wait_subscribed  # noqa: E402
 
 FACE = "breaker_1/sf6_pressure"
 DIST_M = 3.0
@@ -50,11 +49,8 @@ class TestInspectionSim(unittest.TestCase):
         cls.preset_acks = Latest("preset_scale_ack", PresetScaleAck)
         cls.read_acks = Latest("read_scale_ack", ReadScaleAck)
         cls.publish_pose(cls.pose)
-        for name in ("terrace_control", "camera_control", "sim/set_world_value"):
-            rospy.wait_for_service(name, 30.0)
-        cls.terrace = rospy.ServiceProxy("terrace_control", ControlService)
-        cls.camera = rospy.ServiceProxy("camera_control", ControlService)
-        cls.set_value = rospy.ServiceProxy("sim/set_world_value", ControlService)
+        cls.terrace, cls.camera, cls.set_value = (
+            control_proxy(n, 30.0) for n in ("terrace_control", "camera_control", "sim/set_world_value"))
         cls.find = actionlib.SimpleActionClient("find_scale_action", GeneralAction)
         assert cls.find.wait_for_server(rospy.Duration(30.0)), "find_scale_action server"
         wait_subscribed(cls.preset_pub, 20.0)

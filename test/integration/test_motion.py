@@ -19,8 +19,7 @@ from inspection_robot.interface import (LIGHT_CHARGE_RELAY, LIGHT_HARD_ESTOP, LI
                                         STOP_RIGHT_FALL, WHEEL_COLLISION_OFF, WHEEL_FALL_OFF, WHEEL_OBSTACLE_OFF)
 from inspection_robot.msg import (ControlStatus, GeneralAck, GeneralCmd, MoveCmd, ObstacleStatus, RobotStatus,
                                   VoiceCmd)
-from inspection_robot.srv import ControlService
-from rostest_helpers import Latest, wait_for, wait_subscribed
+from rostest_helpers import Latest, control_proxy, wait_for, wait_subscribed
 
 CYCLE = 0.02  # s, robot_control's control cycle (50 Hz)
 CMD_TIMEOUT = 0.5
@@ -48,8 +47,7 @@ class MotionTest(unittest.TestCase):
             wait_subscribed(pub, 10.0)
         for sub in (cls.status, cls.driver, cls.odom, cls.true_pose):
             sub.wait_connected(10.0)
-        rospy.wait_for_service("sim/inject_fault", 10.0)
-        cls.fault_srv = rospy.ServiceProxy("sim/inject_fault", ControlService, persistent=True)
+        cls.fault_srv = control_proxy("sim/inject_fault", 10.0, persistent=True)
         cls.trans_id = 0
 
     # --- helpers ---------------------------------------------------------------------------------

@@ -20,8 +20,7 @@ from nav_msgs.msg import OccupancyGrid, Path
 from inspection_robot.interface import MODE_SERVER, MODE_TASK, STOP_OBSTACLE
 from inspection_robot.msg import (ControlStatus, GeneralAck, GeneralAction, GeneralActionFeedback, GeneralCmd,
                                   GeneralGoal, NavStatus)
-from inspection_robot.srv import ControlService
-from rostest_helpers import Latest, wait_for, wait_subscribed
+from rostest_helpers import Latest, control_proxy, wait_for, wait_subscribed
 
 
 def goal_data(x, y, yaw=0.0, with_direction=0, precision=0, move_style=0, velocity_x=1.0, velocity_yaw=0.8):
@@ -60,8 +59,7 @@ class NavigationTest(unittest.TestCase):
         cls.location = rospy.Publisher("location_cmd", GeneralCmd, queue_size=10)
         cls.client = actionlib.SimpleActionClient("move_action", GeneralAction)
         assert cls.client.wait_for_server(rospy.Duration(30.0)), "move_action server"
-        rospy.wait_for_service("sim_obstacle_control", 10.0)
-        cls.sim_obstacles = rospy.ServiceProxy("sim_obstacle_control", ControlService)
+        cls.sim_obstacles = control_proxy("sim_obstacle_control", 10.0)
         for pub in (cls.vo_cmd, cls.control, cls.location, cls.relay, cls.mode_cmd):
             wait_subscribed(pub, 10.0)
         cls.acks.wait_connected(10.0)

@@ -8,8 +8,7 @@ import rospy
 import rostest
 
 from inspection_robot.msg import ControlStatus
-from inspection_robot.srv import ControlService
-from rostest_helpers import TwinClient, wait_for, wait_subscribed
+from rostest_helpers import TwinClient, control_proxy, wait_for, wait_subscribed
 
 
 def floats(text):
@@ -23,8 +22,7 @@ class ArmTest(unittest.TestCase):
         cls.root = rospy.get_param("~root")
         cls.arm = TwinClient("arm_control", "arm_cmd", "arm_ack", "robot_arm")
         cls.acks = cls.arm.acks
-        rospy.wait_for_service("robot_arm/sim_control", 10.0)
-        cls.sim = rospy.ServiceProxy("robot_arm/sim_control", ControlService)
+        cls.sim = control_proxy("robot_arm/sim_control", 10.0)
         cls.control = rospy.Publisher("control_status", ControlStatus, queue_size=10, latch=True)
         wait_subscribed(cls.control)
         cls.control.publish(ControlStatus(mode=0))

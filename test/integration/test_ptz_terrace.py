@@ -11,8 +11,7 @@ from std_msgs.msg import Float64
 
 from inspection_robot.camera.optics import ZoomOptics
 from inspection_robot.msg import ControlStatus, PresetRotate
-from inspection_robot.srv import ControlService
-from rostest_helpers import Latest, TwinClient, wait_for, wait_subscribed
+from rostest_helpers import Latest, TwinClient, control_proxy, wait_for, wait_subscribed
 
 
 class TerraceTest(unittest.TestCase):
@@ -23,8 +22,7 @@ class TerraceTest(unittest.TestCase):
         rospy.init_node("test_ptz_terrace")
         cls.terrace = TwinClient("terrace_control", "terrace_cmd", "terrace_ack", "cloud_terrace")
         cls.acks = cls.terrace.acks
-        rospy.wait_for_service("sim_pelco_head/sim_control", 10.0)
-        cls.sim = rospy.ServiceProxy("sim_pelco_head/sim_control", ControlService)
+        cls.sim = control_proxy("sim_pelco_head/sim_control", 10.0)
         cls.state = Latest("terrace_state", JointState, queue_size=100)
         cls.diagnostics = Latest("diagnostics", DiagnosticArray, queue_size=100)
         cls.control = rospy.Publisher("control_status", ControlStatus, queue_size=10, latch=True)
