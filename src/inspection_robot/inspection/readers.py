@@ -111,6 +111,97 @@ def dial_from_marks(quad, centre, radius, aspect, marks, min_marks=6, min_span_d
     return DialFrame(new_quad, (0.5, 0.5), dial / (2 * half), 1.0, scale, detail)
 
 
+Hub = namedtuple("Hub", "x y radius score")
+
+
+def find_hub(gray, centre, dial, reach=0.45, sizes=(0.035, 0.16), directions=48, count=4, min_score=0.3):
+    """Where the needle's pivot may be in a frontal face: compact round blobs (hub cap, screw, boss).
+
+    ``gray``: the face (one channel); ``centre``: the calibrated pivot (px); ``dial``: the dial
+    radius (px). Candidate centres lie within ``reach`` dial radii of the calibrated centre (on a
+    grid of dial/60 px); hub radii span ``sizes`` dial radii (the lower bound is above a needle's
+    half-width, whose two parallel edges would otherwise look like a tiny circle). A hub's rim is
+    an edge all around it with one polarity (a dark cap on a light face, a bright screw on a dark
+    cap): at ``directions`` points of each candidate circle the image gradient's component along
+    the radius is taken with the circle's majority sign, and the score is the 25th percentile of
+    it (three quarters of the rim must show an edge: the needle crossing the rim, or a numeral's
+    strokes, cannot make one) over the 95th percentile of the gradient magnitude on the dial.
+    Returns up to ``count`` Hubs (px, score; distinct, best first) scoring at least ``min_score``:
+    candidates, which the reader confirms by reading the needle about them (a needle's round tip,
+    a numeral or a screw can score too).
+    """
+    gray = cv2.GaussianBlur(np.asarray(gray, np.float32), (3, 3), 0)
+    gx = cv2.Sobel(gray, cv2.CV_32F, 1, 0)
+    gy = cv2.Sobel(gray, cv2.CV_32F, 0, 1)
+    yy, xx = np.mgrid[0:gray.shape[0], 0:gray.shape[1]]
+    on_dial = np.hypot(xx - centre[0], yy - centre[1]) <= dial
+    magnitude = np.hypot(gx, gy)
+    norm = float(np.percentile(magnitude[on_dial], 95)) if on_dial.any() else 0.0
+    if norm <= 1e-6:
+        return []
+    step = max(1.0, dial / 60.0)
+    grid = np.arange(-reach * dial, reach * dial + step, step)
+    ox, oy = np.meshgrid(grid, grid)
+    keep = np.hypot(ox, oy) <= reach * dial
+    spots = np.stack([centre[0] + ox[keep], centre[1] + oy[keep]], axis=1)
+    radii = np.arange(max(3.0, sizes[0] * dial), max(4.0, sizes[1] * dial) + 0.5, 1.0)
+    theta = np.linspace(0.0, 2.0 * math.pi, directions, endpoint=False)
+    cos, sin = np.cos(theta), np.sin(theta)
+    scores = np.full(len(spots), -np.inf)
+    sizes_px = np.zeros(len(spots))
+    for r in radii:
+        # one remap per hub radius: rows the candidate centres, columns the rim's directions
+        map_x = (spots[:, 0:1] + r * cos[None]).astype(np.float32)
+        map_y = (spots[:, 1:2] + r * sin[None]).astype(np.float32)
+        rx = cv2.remap(gx, map_x, map_y, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+        ry = cv2.remap(gy, map_x, map_y, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+        radial = rx * cos[None] + ry * sin[None]
+        sign = np.where(np.median(radial, axis=1) >= 0.0, 1.0, -1.0)
+        k = directions // 4
+        score = np.partition(radial * sign[:, None], k, axis=1)[:, k] / norm
+        better = score > scores
+        scores[better], sizes_px[better] = score[better], r
+    hubs = []
+    for j in np.argsort(-scores):
+        if len(hubs) >= count or not np.isfinite(scores[j]) or scores[j] < min_score:
+            break
+        if all(math.hypot(spots[j, 0] - h.x, spots[j, 1] - h.y) > h.radius + sizes_px[j] for h in hubs):
+            hubs.append(Hub(float(spots[j, 0]), float(spots[j, 1]), float(sizes_px[j]), float(scores[j])))
+    return hubs
+
+
+def scale_about(scale, centre, pivot, ring):
+    """The calibrated scale re-measured about a pivot seen off the calibrated centre.
+
+    The calibration measured its marks' angles about ``centre`` (px); the marks lie where those
+    directions meet the scale's arc, an arc about the real ``pivot`` (px). Its radius is not in the
+    calibration: the arc about the pivot through the calibrated scale circle (radius ``ring``
+    about the centre) at the marks' directions, on average. Each mark's direction from the centre
+    meets that arc at the mark; its angle about the pivot is the new scale's (a linear scale stays
+    linear about its pivot, where the needle turns). Returns (GaugeScale, arc radius) or None when
+    the geometry does not hold (the centre outside the arc, the marks out of order)."""
+    entries = scale.entries()
+    centre, pivot = np.asarray(centre, float), np.asarray(pivot, float)
+    dirs = [np.array([math.sin(math.radians(a)), -math.cos(math.radians(a))]) for _, a in entries]
+    arc = float(np.mean([np.linalg.norm(centre + ring * d - pivot) for d in dirs]))
+    q = centre - pivot
+    if float(np.dot(q, q)) >= arc * arc:
+        return None
+    table = []
+    for (value, _), d in zip(entries, dirs):
+        b = float(np.dot(q, d))
+        t = -b + math.sqrt(b * b - (float(np.dot(q, q)) - arc * arc))
+        x, y = q + t * d
+        table.append((value, wrap360(math.degrees(math.atan2(x, -y)))))
+    try:
+        about = GaugeScale(table[0][1], table[-1][1], table[0][0], table[-1][0], table if len(table) > 2 else None)
+    except ValueError:
+        return None
+    if abs(about.sweep - scale.sweep) > 90.0:     # the order of the marks flipped: not this pivot
+        return None
+    return about, arc
+
+
 class PointerReader(object):
     """Finds the needle on a rectified gauge face by a radial dissimilarity profile and a line fit.
 
@@ -145,8 +236,10 @@ class PointerReader(object):
     def __init__(self, size=GAUGE_SIZE, inner=0.22, outer=0.72, step_deg=ANGLE_STEP_DEG, background_deg=12.0,
                  margin_deg=8.0, reach=(0.72, 0.9), uncertain_below=UNCERTAIN_BELOW, outer_band=(0.6, 0.95),
                  hub_steps=2, hub_move=0.06, hub_axis=(0.1, 0.2, 0.3, 0.4),
-                 hub_axis_confidence=75.0):
+                 hub_axis_confidence=75.0, find_hubs=True, hub_unsure=0.12):
         self.size = size
+        self.hub_unsure = hub_unsure
+        self.find_hubs = find_hubs
         self.hub_axis_confidence = hub_axis_confidence
         self.hub_axis = hub_axis
         self.hub_steps = hub_steps
@@ -302,7 +395,7 @@ class PointerReader(object):
             raise ReadFailed("blank picture in the box (no contrast)")
 
     def needle_angle(self, image, quad, centre=(0.5, 0.5), radius=0.45, aspect=1.0, scale=None,
-                     pointer_colour="", ignore_colour="", hub=None):
+                     pointer_colour="", ignore_colour="", hub=None, look_for_hub=False, about_hub=False):
         """Needle angle (deg clockwise from up, about the calibrated centre) in the face's frontal
         view, a confidence and a detail dict (``reason``: why the confidence is low, "" when it is not).
 
@@ -326,7 +419,19 @@ class PointerReader(object):
         # the needle is searched along rays from ``hub`` (the calibrated centre unless given) and read
         # where its line meets the scale circle about the calibrated centre
         hub = c if hub is None else (hub[0] * (width - 1), hub[1] * (height - 1))
-        angles = self._search_angles(scale, c, hub, ring)
+        read_about, read_radius = c, ring
+        if about_hub and scale is not None and hub != c:
+            # a hub seen in the picture: the scale's arc is about it (scale_about), the needle
+            # turns about it, so the search and the reading are both about the hub
+            found = scale_about(scale, c, hub, ring)
+            if found is None:
+                return None, 0.0, {"reason": "the calibrated scale does not fit an arc about the hub seen",
+                                   "angle": None}
+            scale, read_radius = found
+            read_about = hub
+            angles = self._search_angles(scale)
+        else:
+            angles = self._search_angles(scale, c, hub, ring)
         dist, samples, background = self._profile(lab, hub, rad, angles, self._radii)
         reach_dist = self._profile(lab, hub, rad, angles, self._reach_radii)[0]
         full = np.median(dist, axis=1)
@@ -378,11 +483,18 @@ class PointerReader(object):
         # where the needle's line meets the scale circle: near the tip, so the line's direction
         # error (a tapered or shadowed needle) hardly matters, and a pivot off the calibrated
         # centre moves the reading only by the parallax at the scale, not by a ray's full error
-        angle = self._meets_circle(line, c, ring)
-        inner_angle = self._meets_circle(inner_line, c, ring)
-        outer_angle = self._meets_circle(outer_line, c, ring)
+        angle = self._meets_circle(line, read_about, read_radius)
+        inner_angle = self._meets_circle(inner_line, read_about, read_radius)
+        outer_angle = self._meets_circle(outer_line, read_about, read_radius)
+        if read_about is not c:
+            detail["scale_about_hub"] = scale
+            normal = np.array([-line[1][1], line[1][0]])
+            detail["hub_off_line"] = float(abs(np.dot(np.asarray(hub) - line[0], normal))) / rad
         # the needle's line passes closest to the calibrated centre here: the pivot seen in the picture
         foot = line[0] + np.dot(np.asarray(c) - line[0], line[1]) * line[1]
+        if look_for_hub and math.hypot(foot[0] - c[0], foot[1] - c[1]) > self.hub_move * rad:
+            # the needle's line passes away from the calibrated centre: the pivot may be elsewhere
+            detail["hub_candidates"] = find_hub(lab[:, :, 0], c, rad)
         spread = float(np.percentile(full, 90) - base) + 1.0
         contrast = (full[i] - base) / max(spread, 1.0)
         disagreement = abs(angle_diff(inner_angle, outer_angle))
@@ -459,10 +571,72 @@ class PointerReader(object):
                 return best
         return reading
 
+    def _about_hub(self, hubs, image, quad, scale, centre, radius, aspect, pointer_colour, ignore_colour, first):
+        """The reading about a hub seen in the picture (find_hub's candidates, face px) instead of the
+        calibrated centre. A candidate within ``hub_move`` dial radii of the calibrated centre
+        confirms the calibration (nothing changes). One farther off is taken only when the needle,
+        searched along rays from it and read on the scale's arc about it (scale_about), is found
+        at least as confidently as about the calibrated centre and its line passes through the
+        candidate (within the hub's radius): a needle's round tip, a numeral or a screw on the
+        bezel fail that. Returns (angle, confidence, detail, scale the angle is measured on)."""
+        angle, confidence, detail, _ = first
+        aspect = float(aspect)
+        width = self.size if aspect >= 1.0 else max(16, int(round(self.size * aspect)))
+        height = max(16, int(round(width / aspect)))
+        rad = radius * (width - 1)
+        c = (centre[0] * (width - 1), centre[1] * (height - 1))
+        tried = []
+        for h in hubs:
+            off = math.hypot(h.x - c[0], h.y - c[1]) / rad
+            seen = {"x": round(h.x / (width - 1), 4), "y": round(h.y / (height - 1), 4),
+                    "radius": round(h.radius / rad, 3), "score": round(h.score, 2), "offset": round(off, 3)}
+            if off <= self.hub_move:
+                detail["hub_seen"] = dict(seen, used=False)
+                return angle, confidence, detail, scale
+            again = self.needle_angle(image, quad, centre, radius, aspect, scale, pointer_colour, ignore_colour,
+                                      hub=(h.x / (width - 1), h.y / (height - 1)), about_hub=True)
+            if again[0] is None or "scale_about_hub" not in again[2]:
+                tried.append(dict(seen, why="no needle about it"))
+                continue
+            about = again[2].pop("scale_about_hub")
+            why = []
+            if again[2]["hub_off_line"] > max(h.radius / rad, 0.03):
+                why.append("the needle's line passes %.0f %% of the dial radius from it" % (100 * again[2]["hub_off_line"]))
+            if not about.in_sweep(again[0], margin_deg=max(1.5, 0.01 * about.sweep)):
+                why.append("the needle about it is outside the scale's sweep")
+            if again[1] < max(confidence, self.uncertain_below):
+                why.append("the needle about it is less confident (%.0f < %.0f)"
+                           % (again[1], max(confidence, self.uncertain_below)))
+            if why:
+                tried.append(dict(seen, why="; ".join(why)))
+                continue
+            again[2]["hub_seen"] = dict(seen, used=True)
+            again[2]["hub"] = (h.x / (width - 1), h.y / (height - 1))
+            return again[0], again[1], again[2], about
+        detail["hub_tried"] = tried
+        return angle, confidence, detail, scale
+
     def _read_band(self, image, quad, scale, centre, radius, aspect, pointer_colour, ignore_colour, hub=None):
         angle, confidence, detail = self.needle_angle(image, quad, centre, radius, aspect, scale,
-                                                      pointer_colour, ignore_colour, hub=hub)
-        for _ in range(self.hub_steps if hub is None else 0):
+                                                      pointer_colour, ignore_colour, hub=hub,
+                                                      look_for_hub=hub is None and self.find_hubs)
+        hubs = detail.pop("hub_candidates", None)
+        if hubs == []:
+            detail["hub_tried"] = []
+        if angle is not None and hubs:
+            angle, confidence, detail, scale = self._about_hub(hubs, image, quad, scale, centre, radius, aspect,
+                                                               pointer_colour, ignore_colour,
+                                                               (angle, confidence, detail, scale))
+        if angle is not None and "hub_tried" in detail and "hub" not in detail:
+            # the needle's line misses the calibrated centre and no hub seen in the picture
+            # confirms another pivot: the reading's geometry is a guess
+            off = math.hypot(detail["pivot"][0] - centre[0], (detail["pivot"][1] - centre[1]) / float(aspect))
+            if off > self.hub_unsure * radius and confidence >= self.uncertain_below:
+                confidence = self.uncertain_below * 0.9
+                detail["reason"] = ("pivot not found: the needle's line passes %.0f %% of the dial radius from the "
+                                    "calibrated centre and no hub on it was confirmed (%d candidate(s) tried)"
+                                    % (100.0 * off / radius, len(detail["hub_tried"])))
+        for _ in range(self.hub_steps if hub is None and "hub_seen" not in detail else 0):
             # the hub lies on the needle's line: when a confidently found line passes well away
             # from the calibrated centre, search again along rays from its point nearest the centre
             if angle is None or confidence < self.uncertain_below:
