@@ -114,18 +114,20 @@ def dial_from_marks(quad, centre, radius, aspect, marks, min_marks=6, min_span_d
 Hub = namedtuple("Hub", "x y radius score")
 
 
-def find_hub(gray, centre, dial, reach=0.45, sizes=(0.035, 0.16), directions=48, count=4, min_score=0.3):
+def find_hub(gray, centre, dial, reach=0.45, sizes=(0.035, 0.16), directions=48, count=4, min_score=0.3,
+             shortlist=64):
     """Where the needle's pivot may be in a frontal face: compact round blobs (hub cap, screw, boss).
 
     ``gray``: the face (one channel); ``centre``: the calibrated pivot (px); ``dial``: the dial
     radius (px). Candidate centres lie within ``reach`` dial radii of the calibrated centre (on a
-    grid of dial/60 px); hub radii span ``sizes`` dial radii (the lower bound is above a needle's
+    grid of dial/40 px); hub radii span ``sizes`` dial radii (the lower bound is above a needle's
     half-width, whose two parallel edges would otherwise look like a tiny circle). A hub's rim is
     an edge all around it with one polarity (a dark cap on a light face, a bright screw on a dark
     cap): at ``directions`` points of each candidate circle the image gradient's component along
     the radius is taken with the circle's majority sign, and the score is the 25th percentile of
     it (three quarters of the rim must show an edge: the needle crossing the rim, or a numeral's
-    strokes, cannot make one) over the 95th percentile of the gradient magnitude on the dial.
+    strokes, cannot make one) over the 95th percentile of the gradient magnitude on the dial; it is
+    computed for the ``shortlist`` circles of each radius with the strongest mean radial edge.
     Returns up to ``count`` Hubs (px, score; distinct, best first) scoring at least ``min_score``:
     candidates, which the reader confirms by reading the needle about them (a needle's round tip,
     a numeral or a screw can score too).
@@ -139,34 +141,50 @@ def find_hub(gray, centre, dial, reach=0.45, sizes=(0.035, 0.16), directions=48,
     norm = float(np.percentile(magnitude[on_dial], 95)) if on_dial.any() else 0.0
     if norm <= 1e-6:
         return []
-    step = max(1.0, dial / 60.0)
+    step = max(1.0, dial / 40.0)
     grid = np.arange(-reach * dial, reach * dial + step, step)
     ox, oy = np.meshgrid(grid, grid)
     keep = np.hypot(ox, oy) <= reach * dial
     spots = np.stack([centre[0] + ox[keep], centre[1] + oy[keep]], axis=1)
-    radii = np.arange(max(3.0, sizes[0] * dial), max(4.0, sizes[1] * dial) + 0.5, 1.0)
+    radii = np.arange(max(3.0, sizes[0] * dial), max(4.0, sizes[1] * dial) + 0.5, max(1.0, dial / 60.0))
     theta = np.linspace(0.0, 2.0 * math.pi, directions, endpoint=False)
     cos, sin = np.cos(theta), np.sin(theta)
-    scores = np.full(len(spots), -np.inf)
-    sizes_px = np.zeros(len(spots))
-    for r in radii:
-        # one remap per hub radius: rows the candidate centres, columns the rim's directions
-        map_x = (spots[:, 0:1] + r * cos[None]).astype(np.float32)
-        map_y = (spots[:, 1:2] + r * sin[None]).astype(np.float32)
-        rx = cv2.remap(gx, map_x, map_y, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
-        ry = cv2.remap(gy, map_x, map_y, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
-        radial = rx * cos[None] + ry * sin[None]
-        sign = np.where(np.median(radial, axis=1) >= 0.0, 1.0, -1.0)
-        k = directions // 4
-        score = np.partition(radial * sign[:, None], k, axis=1)[:, k] / norm
-        better = score > scores
-        scores[better], sizes_px[better] = score[better], r
+
+    def rims(spots, radii, shortlist):
+        """Each spot's best rim score over ``radii`` and that radius."""
+        scores = np.full(len(spots), -np.inf)
+        sizes_px = np.zeros(len(spots))
+        for r in radii:
+            # one remap per hub radius: rows the candidate centres, columns the rim's directions
+            map_x = (spots[:, 0:1] + r * cos[None]).astype(np.float32)
+            map_y = (spots[:, 1:2] + r * sin[None]).astype(np.float32)
+            rx = cv2.remap(gx, map_x, map_y, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+            ry = cv2.remap(gy, map_x, map_y, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+            radial = rx * cos[None] + ry * sin[None]
+            mean = radial.mean(axis=1)
+            # the rim's percentile only for the circles with the strongest mean radial edge (a
+            # hub's is among them; the percentile over every candidate costs ten times as much)
+            top = np.argsort(-np.abs(mean))[:shortlist]
+            edge = radial[top] * np.where(mean[top] >= 0.0, 1.0, -1.0)[:, None]
+            score = np.partition(edge, directions // 4, axis=1)[:, directions // 4] / norm
+            better = score > scores[top]
+            scores[top[better]], sizes_px[top[better]] = score[better], r
+        return scores, sizes_px
+
+    scores, sizes_px = rims(spots, radii, shortlist)
     hubs = []
     for j in np.argsort(-scores):
         if len(hubs) >= count or not np.isfinite(scores[j]) or scores[j] < min_score:
             break
         if all(math.hypot(spots[j, 0] - h.x, spots[j, 1] - h.y) > h.radius + sizes_px[j] for h in hubs):
-            hubs.append(Hub(float(spots[j, 0]), float(spots[j, 1]), float(sizes_px[j]), float(scores[j])))
+            # refined on a half-pixel grid about the coarse spot
+            fine = np.arange(-step, step + 0.25, 0.5)
+            fx, fy = np.meshgrid(fine, fine)
+            near = np.stack([spots[j, 0] + fx.ravel(), spots[j, 1] + fy.ravel()], axis=1)
+            sizes_near = np.arange(max(3.0, sizes_px[j] - step), sizes_px[j] + step + 0.25, 0.5)
+            fine_scores, fine_sizes = rims(near, sizes_near, len(near))
+            k = int(np.argmax(fine_scores))
+            hubs.append(Hub(float(near[k, 0]), float(near[k, 1]), float(fine_sizes[k]), float(fine_scores[k])))
     return hubs
 
 
@@ -429,6 +447,8 @@ class PointerReader(object):
                                    "angle": None}
             scale, read_radius = found
             read_about = hub
+            # the needle's sampling band in proportion to the scale's arc about the hub
+            rad = read_radius / self._reach_radii[-1]
             angles = self._search_angles(scale)
         else:
             angles = self._search_angles(scale, c, hub, ring)
@@ -469,6 +489,10 @@ class PointerReader(object):
                          min(len(angles), chosen["index"] + int(8.0 / self.step_deg) + 1))
         i = int(near[np.argmax(off_dial[near] * (full[near] > base))])
         k = len(self._radii) // 2
+        # the needle's width (px): its angular extent above half its height at each radius
+        window = np.arange(max(0, i - int(6.0 / self.step_deg)), min(len(angles), i + int(6.0 / self.step_deg) + 1))
+        over = dist[window] > 0.5 * (dist[i][None] + np.median(dist, axis=0)[None])
+        width_px = float(np.median(over.sum(axis=0) * math.radians(self.step_deg) * self._radii * rad))
         # fitted to the samples of the needle's own colour; to all of them where that leaves too
         # few (a needle hardly apart from the face)
         for like in (self._needle_likeness(dist, samples, background, full, base, i), None):
@@ -490,10 +514,10 @@ class PointerReader(object):
             detail["scale_about_hub"] = scale
             normal = np.array([-line[1][1], line[1][0]])
             detail["hub_off_line"] = float(abs(np.dot(np.asarray(hub) - line[0], normal))) / rad
+            detail["hub_radius_unit"] = rad     # px per unit of hub_off_line and needle_width
         # the needle's line passes closest to the calibrated centre here: the pivot seen in the picture
         foot = line[0] + np.dot(np.asarray(c) - line[0], line[1]) * line[1]
-        if look_for_hub and math.hypot(foot[0] - c[0], foot[1] - c[1]) > self.hub_move * rad:
-            # the needle's line passes away from the calibrated centre: the pivot may be elsewhere
+        if look_for_hub:
             detail["hub_candidates"] = find_hub(lab[:, :, 0], c, rad)
         spread = float(np.percentile(full, 90) - base) + 1.0
         contrast = (full[i] - base) / max(spread, 1.0)
@@ -513,6 +537,7 @@ class PointerReader(object):
             reason = "two pointers %.0f deg apart (set pointer_colour / ignore_colour in the calibration)" % gap
         detail["pointers"] = [(round(float(angles[d["index"]]) % 360.0, 1), round(d["score"], 1), d["reach"],
                                d["colour"]) for d in described]
+        detail["needle_width"] = width_px / rad
         detail.update({"angle": angle, "inner_angle": inner_angle, "outer_angle": outer_angle,
                        "contrast": float(full[i] - base), "contrast_ratio": float(contrast),
                        "disagreement": disagreement, "colour": chosen["colour"], "reach": chosen["reach"],
@@ -585,32 +610,45 @@ class PointerReader(object):
         height = max(16, int(round(width / aspect)))
         rad = radius * (width - 1)
         c = (centre[0] * (width - 1), centre[1] * (height - 1))
-        tried = []
-        for h in hubs:
-            off = math.hypot(h.x - c[0], h.y - c[1]) / rad
-            seen = {"x": round(h.x / (width - 1), 4), "y": round(h.y / (height - 1), 4),
+        def seen(h, off):
+            return {"x": round(h.x / (width - 1), 4), "y": round(h.y / (height - 1), 4),
                     "radius": round(h.radius / rad, 3), "score": round(h.score, 2), "offset": round(off, 3)}
+        offsets = [math.hypot(h.x - c[0], h.y - c[1]) / rad for h in hubs]
+        for h, off in zip(hubs, offsets):
             if off <= self.hub_move:
-                detail["hub_seen"] = dict(seen, used=False)
+                detail["hub_seen"] = dict(seen(h, off), used=False)
                 return angle, confidence, detail, scale
+        tried = []
+        for h, off in zip(hubs, offsets):
             again = self.needle_angle(image, quad, centre, radius, aspect, scale, pointer_colour, ignore_colour,
                                       hub=(h.x / (width - 1), h.y / (height - 1)), about_hub=True)
             if again[0] is None or "scale_about_hub" not in again[2]:
-                tried.append(dict(seen, why="no needle about it"))
+                tried.append(dict(seen(h, off), why="no needle about it"))
                 continue
             about = again[2].pop("scale_about_hub")
             why = []
-            if again[2]["hub_off_line"] > max(h.radius / rad, 0.03):
-                why.append("the needle's line passes %.0f %% of the dial radius from it" % (100 * again[2]["hub_off_line"]))
+            unit = again[2].pop("hub_radius_unit")
+            if again[2]["hub_off_line"] * unit > max(h.radius, 0.03 * rad):
+                why.append("the needle's line passes %.0f %% of the dial radius from it"
+                           % (100 * again[2]["hub_off_line"] * unit / rad))
+            width = again[2]["needle_width"] * unit
+            if h.radius < width:
+                # a hub cap is at least twice as wide as its needle; a needle's round end is not
+                why.append("narrower than twice the needle (%.1f px against %.1f)" % (2 * h.radius, width))
             if not about.in_sweep(again[0], margin_deg=max(1.5, 0.01 * about.sweep)):
                 why.append("the needle about it is outside the scale's sweep")
-            if again[1] < max(confidence, self.uncertain_below):
-                why.append("the needle about it is less confident (%.0f < %.0f)"
-                           % (again[1], max(confidence, self.uncertain_below)))
+            # a needle line that misses the calibrated centre contradicts it: a hub on that line
+            # needs only a confident needle; one that passes through it is kept unless the hub
+            # reads more confidently
+            missed = math.hypot(detail["pivot"][0] - centre[0], (detail["pivot"][1] - centre[1]) / aspect) \
+                > self.hub_move * radius
+            needed = self.uncertain_below if missed else max(confidence, self.uncertain_below)
+            if again[1] < needed:
+                why.append("the needle about it is less confident (%.0f < %.0f)" % (again[1], needed))
             if why:
-                tried.append(dict(seen, why="; ".join(why)))
+                tried.append(dict(seen(h, off), why="; ".join(why)))
                 continue
-            again[2]["hub_seen"] = dict(seen, used=True)
+            again[2]["hub_seen"] = dict(seen(h, off), used=True)
             again[2]["hub"] = (h.x / (width - 1), h.y / (height - 1))
             return again[0], again[1], again[2], about
         detail["hub_tried"] = tried
