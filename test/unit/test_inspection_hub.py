@@ -91,16 +91,21 @@ def test_off_centre_pivot_without_a_visible_hub_is_uncertain():
     """The same gauge with no hub cap and the needle's inner part hidden (nothing round at the
     pivot; the needle's round inner end is narrower than a hub): the needle's line misses the
     calibrated centre by far and no hub confirms another pivot, so the reading is uncertain with
-    the reason, not a confident number."""
+    the reason ("pivot not found", or the needle's halves disagreeing), not a confident number."""
     rng = np.random.default_rng(22)
     reader = PointerReader(outer_band=None, hub_axis=())
-    for value in (-10.0, 0.0, 131.0):
+    reasons = []
+    for value in (0.0, 37.0, 88.0, 131.0):
         face, pivot, arc = _face(value, 0.25, hub=False)
         image, quad = _scene(face, rng)
         box, scale, centre, radius = _dial_centre_calibration(quad, pivot, arc)
         reading = reader.read(image, box, scale, centre, radius)
-        assert reading.confidence < 50, (value, reading)
-        assert reading.detail["reason"].startswith("pivot not found"), reading.detail
+        assert reading.confidence < 50 and reading.detail["reason"], (value, reading)
+        assert "hub" not in reading.detail
+        # every candidate tried is listed with why it was refused
+        assert all(t["why"] for t in reading.detail["hub_tried"]), reading.detail["hub_tried"]
+        reasons.append(reading.detail["reason"])
+    assert len([r for r in reasons if r.startswith("pivot not found: the needle's line passes")]) >= 2, reasons
 
 
 def test_find_hub_finds_the_cap_and_ignores_a_face_without_one():

@@ -517,6 +517,10 @@ class PointerReader(object):
             detail["hub_radius_unit"] = rad     # px per unit of hub_off_line and needle_width
         # the needle's line passes closest to the calibrated centre here: the pivot seen in the picture
         foot = line[0] + np.dot(np.asarray(c) - line[0], line[1]) * line[1]
+        # the outer half's line alone: from a centre far off the pivot the inner samples (taken
+        # along rays from that centre) pull the whole line towards it, the outer ones hardly
+        normal = np.array([-outer_line[1][1], outer_line[1][0]])
+        detail["outer_line_miss"] = float(abs(np.dot(np.asarray(c) - outer_line[0], normal))) / rad
         if look_for_hub:
             detail["hub_candidates"] = find_hub(lab[:, :, 0], c, rad)
         spread = float(np.percentile(full, 90) - base) + 1.0
@@ -631,17 +635,17 @@ class PointerReader(object):
             if again[2]["hub_off_line"] * unit > max(h.radius, 0.03 * rad):
                 why.append("the needle's line passes %.0f %% of the dial radius from it"
                            % (100 * again[2]["hub_off_line"] * unit / rad))
-            width = again[2]["needle_width"] * unit
-            if h.radius < width:
+            needle_px = again[2]["needle_width"] * unit
+            if h.radius < needle_px:
                 # a hub cap is at least twice as wide as its needle; a needle's round end is not
-                why.append("narrower than twice the needle (%.1f px against %.1f)" % (2 * h.radius, width))
+                why.append("narrower than twice the needle (%.1f px against %.1f)" % (2 * h.radius, needle_px))
             if not about.in_sweep(again[0], margin_deg=max(1.5, 0.01 * about.sweep)):
                 why.append("the needle about it is outside the scale's sweep")
             # a needle line that misses the calibrated centre contradicts it: a hub on that line
             # needs only a confident needle; one that passes through it is kept unless the hub
             # reads more confidently
-            missed = math.hypot(detail["pivot"][0] - centre[0], (detail["pivot"][1] - centre[1]) / aspect) \
-                > self.hub_move * radius
+            missed = max(math.hypot(detail["pivot"][0] - centre[0], (detail["pivot"][1] - centre[1]) / aspect),
+                         detail["outer_line_miss"] * radius) > self.hub_move * radius
             needed = self.uncertain_below if missed else max(confidence, self.uncertain_below)
             if again[1] < needed:
                 why.append("the needle about it is less confident (%.0f < %.0f)" % (again[1], needed))
@@ -668,7 +672,8 @@ class PointerReader(object):
         if angle is not None and "hub_tried" in detail and "hub" not in detail:
             # the needle's line misses the calibrated centre and no hub seen in the picture
             # confirms another pivot: the reading's geometry is a guess
-            off = math.hypot(detail["pivot"][0] - centre[0], (detail["pivot"][1] - centre[1]) / float(aspect))
+            off = max(math.hypot(detail["pivot"][0] - centre[0], (detail["pivot"][1] - centre[1]) / float(aspect)),
+                      detail["outer_line_miss"] * radius)
             if off > self.hub_unsure * radius and confidence >= self.uncertain_below:
                 confidence = self.uncertain_below * 0.9
                 detail["reason"] = ("pivot not found: the needle's line passes %.0f %% of the dial radius from the "
