@@ -254,8 +254,9 @@ class PointerReader(object):
     def __init__(self, size=GAUGE_SIZE, inner=0.22, outer=0.72, step_deg=ANGLE_STEP_DEG, background_deg=12.0,
                  margin_deg=8.0, reach=(0.72, 0.9), uncertain_below=UNCERTAIN_BELOW, outer_band=(0.6, 0.95),
                  hub_steps=2, hub_move=0.06, hub_axis=(0.1, 0.2, 0.3, 0.4),
-                 hub_axis_confidence=75.0, find_hubs=True, hub_unsure=0.12):
+                 hub_axis_confidence=75.0, find_hubs=True, hub_search=0.1, hub_unsure=0.12):
         self.size = size
+        self.hub_search = hub_search
         self.hub_unsure = hub_unsure
         self.find_hubs = find_hubs
         self.hub_axis_confidence = hub_axis_confidence
@@ -512,8 +513,10 @@ class PointerReader(object):
         outer_angle = self._meets_circle(outer_line, read_about, read_radius)
         if read_about is not c:
             detail["scale_about_hub"] = scale
-            normal = np.array([-line[1][1], line[1][0]])
-            detail["hub_off_line"] = float(abs(np.dot(np.asarray(hub) - line[0], normal))) / rad
+            # the outer half's line: the inner samples, taken along rays from the hub, pull the
+            # whole line through it whether it is the pivot or not
+            normal = np.array([-outer_line[1][1], outer_line[1][0]])
+            detail["hub_off_line"] = float(abs(np.dot(np.asarray(hub) - outer_line[0], normal))) / rad
             detail["hub_radius_unit"] = rad     # px per unit of hub_off_line and needle_width
         # the needle's line passes closest to the calibrated centre here: the pivot seen in the picture
         foot = line[0] + np.dot(np.asarray(c) - line[0], line[1]) * line[1]
@@ -521,7 +524,9 @@ class PointerReader(object):
         # along rays from that centre) pull the whole line towards it, the outer ones hardly
         normal = np.array([-outer_line[1][1], outer_line[1][0]])
         detail["outer_line_miss"] = float(abs(np.dot(np.asarray(c) - outer_line[0], normal))) / rad
-        if look_for_hub:
+        if look_for_hub and max(math.hypot(foot[0] - c[0], foot[1] - c[1]) / rad,
+                                detail["outer_line_miss"]) > self.hub_search:
+            # the needle's line misses the calibrated centre: the pivot may be elsewhere
             detail["hub_candidates"] = find_hub(lab[:, :, 0], c, rad)
         spread = float(np.percentile(full, 90) - base) + 1.0
         contrast = (full[i] - base) / max(spread, 1.0)
@@ -602,12 +607,15 @@ class PointerReader(object):
 
     def _about_hub(self, hubs, image, quad, scale, centre, radius, aspect, pointer_colour, ignore_colour, first):
         """The reading about a hub seen in the picture (find_hub's candidates, face px) instead of the
-        calibrated centre. A candidate within ``hub_move`` dial radii of the calibrated centre
-        confirms the calibration (nothing changes). One farther off is taken only when the needle,
-        searched along rays from it and read on the scale's arc about it (scale_about), is found
-        at least as confidently as about the calibrated centre and its line passes through the
-        candidate (within the hub's radius): a needle's round tip, a numeral or a screw on the
-        bezel fail that. Returns (angle, confidence, detail, scale the angle is measured on)."""
+        calibrated centre, called when the needle's line misses that centre. A candidate within
+        ``hub_move`` dial radii of the calibrated centre confirms the calibration (nothing changes).
+        One farther off is confirmed when the needle, searched along rays from it and read on the
+        scale's arc about it (scale_about), is confident and inside the sweep, the line of its
+        outer half passes through the candidate (within the hub's radius, at least 4 % of the dial
+        radius) and the candidate is at least twice as wide as the needle: a needle's round tip or
+        end, a numeral or a screw on the bezel fail that. Of several confirmed (a hub cap, the
+        counterweight's end, a widening of the needle on the same line) the widest is the pivot. Returns (angle, confidence, detail, scale the angle is measured on); the
+        detail lists the candidates refused and why (``hub_tried``)."""
         angle, confidence, detail, _ = first
         aspect = float(aspect)
         width = self.size if aspect >= 1.0 else max(16, int(round(self.size * aspect)))
@@ -622,7 +630,7 @@ class PointerReader(object):
             if off <= self.hub_move:
                 detail["hub_seen"] = dict(seen(h, off), used=False)
                 return angle, confidence, detail, scale
-        tried = []
+        tried, confirmed = [], []
         for h, off in zip(hubs, offsets):
             again = self.needle_angle(image, quad, centre, radius, aspect, scale, pointer_colour, ignore_colour,
                                       hub=(h.x / (width - 1), h.y / (height - 1)), about_hub=True)
@@ -632,7 +640,7 @@ class PointerReader(object):
             about = again[2].pop("scale_about_hub")
             why = []
             unit = again[2].pop("hub_radius_unit")
-            if again[2]["hub_off_line"] * unit > max(h.radius, 0.03 * rad):
+            if again[2]["hub_off_line"] * unit > max(h.radius, 0.04 * rad):
                 why.append("the needle's line passes %.0f %% of the dial radius from it"
                            % (100 * again[2]["hub_off_line"] * unit / rad))
             needle_px = again[2]["needle_width"] * unit
@@ -641,22 +649,25 @@ class PointerReader(object):
                 why.append("narrower than twice the needle (%.1f px against %.1f)" % (2 * h.radius, needle_px))
             if not about.in_sweep(again[0], margin_deg=max(1.5, 0.01 * about.sweep)):
                 why.append("the needle about it is outside the scale's sweep")
-            # a needle line that misses the calibrated centre contradicts it: a hub on that line
-            # needs only a confident needle; one that passes through it is kept unless the hub
-            # reads more confidently
-            missed = max(math.hypot(detail["pivot"][0] - centre[0], (detail["pivot"][1] - centre[1]) / aspect),
-                         detail["outer_line_miss"] * radius) > self.hub_move * radius
-            needed = self.uncertain_below if missed else max(confidence, self.uncertain_below)
-            if again[1] < needed:
-                why.append("the needle about it is less confident (%.0f < %.0f)" % (again[1], needed))
+            # the needle's line misses the calibrated centre (find_hub runs only then), which
+            # contradicts the calibration: a hub on the line needs only a confident needle
+            if again[1] < self.uncertain_below:
+                why.append("the needle about it is uncertain (confidence %.0f)" % again[1])
             if why:
                 tried.append(dict(seen(h, off), why="; ".join(why)))
                 continue
-            again[2]["hub_seen"] = dict(seen(h, off), used=True)
-            again[2]["hub"] = (h.x / (width - 1), h.y / (height - 1))
-            return again[0], again[1], again[2], about
-        detail["hub_tried"] = tried
-        return angle, confidence, detail, scale
+            confirmed.append((h, off, again, about))
+        if not confirmed:
+            detail["hub_tried"] = tried
+            return angle, confidence, detail, scale
+        # several on the needle's line (the hub cap, the counterweight's end, a widening of the
+        # needle): the pivot is the widest, the cap
+        h, off, again, about = max(confirmed, key=lambda k: k[0].radius)
+        again[2]["hub_seen"] = dict(seen(h, off), used=True)
+        again[2]["hub"] = (h.x / (width - 1), h.y / (height - 1))
+        again[2]["hub_tried"] = tried + [dict(seen(k[0], k[1]), why="on the needle's line, narrower than the hub")
+                                         for k in confirmed if k[0] is not h]
+        return again[0], again[1], again[2], about
 
     def _read_band(self, image, quad, scale, centre, radius, aspect, pointer_colour, ignore_colour, hub=None):
         angle, confidence, detail = self.needle_angle(image, quad, centre, radius, aspect, scale,
