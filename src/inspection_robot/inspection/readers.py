@@ -188,7 +188,7 @@ def find_hub(gray, centre, dial, reach=0.45, sizes=(0.035, 0.16), directions=48,
     return hubs
 
 
-def scale_about(scale, centre, pivot, ring):
+def scale_about(scale, centre, pivot, ring, marks=None):
     """The calibrated scale re-measured about a pivot seen off the calibrated centre.
 
     The calibration measured its marks' angles about ``centre`` (px); the marks lie where those
@@ -197,7 +197,20 @@ def scale_about(scale, centre, pivot, ring):
     about the centre) at the marks' directions, on average. Each mark's direction from the centre
     meets that arc at the mark; its angle about the pivot is the new scale's (a linear scale stays
     linear about its pivot, where the needle turns). Returns (GaugeScale, arc radius) or None when
-    the geometry does not hold (the centre outside the arc, the marks out of order)."""
+    the geometry does not hold (the centre outside the arc, the marks out of order).
+
+    With the marks' positions (``marks`` [(value, x, y)] px, the calibration's ``marks``) their
+    own angles about the pivot make the scale and their distance its arc (no assumption needed).
+    """
+    if marks and len(marks) >= 2:
+        angles = [wrap360(math.degrees(math.atan2(x - pivot[0], -(y - pivot[1])))) for _, x, y in marks]
+        try:
+            about = GaugeScale(angles[0], angles[-1], marks[0][0], marks[-1][0],
+                               list(zip([m[0] for m in marks], angles)) if len(marks) > 2 else None)
+            if abs(about.sweep - scale.sweep) <= 90.0:
+                return about, float(np.median([math.hypot(x - pivot[0], y - pivot[1]) for _, x, y in marks]))
+        except ValueError:
+            pass
     entries = scale.entries()
     centre, pivot = np.asarray(centre, float), np.asarray(pivot, float)
     dirs = [np.array([math.sin(math.radians(a)), -math.cos(math.radians(a))]) for _, a in entries]
@@ -267,7 +280,7 @@ class PointerReader(object):
         if outer_band:
             self._outer_reader = PointerReader(size, outer_band[0], outer_band[1], step_deg, background_deg,
                                                margin_deg, (outer_band[1] - 0.05, outer_band[1] + 0.05),
-                                               uncertain_below, outer_band=None, hub_steps=0)
+                                               uncertain_below, outer_band=None, hub_steps=0, find_hubs=False)
         self.background_deg = background_deg
         self.inner = inner
         self.outer = outer
@@ -414,7 +427,8 @@ class PointerReader(object):
             raise ReadFailed("blank picture in the box (no contrast)")
 
     def needle_angle(self, image, quad, centre=(0.5, 0.5), radius=0.45, aspect=1.0, scale=None,
-                     pointer_colour="", ignore_colour="", hub=None, look_for_hub=False, about_hub=False):
+                     pointer_colour="", ignore_colour="", hub=None, look_for_hub=False, about_hub=False,
+                     marks=None):
         """Needle angle (deg clockwise from up, about the calibrated centre) in the face's frontal
         view, a confidence and a detail dict (``reason``: why the confidence is low, "" when it is not).
 
@@ -442,7 +456,8 @@ class PointerReader(object):
         if about_hub and scale is not None and hub != c:
             # a hub seen in the picture: the scale's arc is about it (scale_about), the needle
             # turns about it, so the search and the reading are both about the hub
-            found = scale_about(scale, c, hub, ring)
+            found = scale_about(scale, c, hub, ring, None if not marks else
+                                [(m[0], m[1] * (width - 1), m[2] * (height - 1)) for m in marks])
             if found is None:
                 return None, 0.0, {"reason": "the calibrated scale does not fit an arc about the hub seen",
                                    "angle": None}
@@ -574,17 +589,18 @@ class PointerReader(object):
                                        pointer_colour, ignore_colour)
             reading.detail["frame"] = dict(frame.detail, source="marks")
             return reading
-        reading = self._read_frame(image, quad, scale, centre, radius, aspect, pointer_colour, ignore_colour)
+        reading = self._read_frame(image, quad, scale, centre, radius, aspect, pointer_colour, ignore_colour, marks)
         if marks:
             reading.detail["frame"] = {"source": "calibration"}
         return reading
 
-    def _read_frame(self, image, quad, scale, centre, radius, aspect, pointer_colour, ignore_colour):
-        reading = self._read_band(image, quad, scale, centre, radius, aspect, pointer_colour, ignore_colour)
+    def _read_frame(self, image, quad, scale, centre, radius, aspect, pointer_colour, ignore_colour, marks=None):
+        reading = self._read_band(image, quad, scale, centre, radius, aspect, pointer_colour, ignore_colour,
+                                  marks=marks)
         reading.detail["band"] = "inner"
         if reading.confidence < self.uncertain_below and self._outer_reader is not None:
             outer = self._outer_reader._read_band(image, quad, scale, centre, radius, aspect, pointer_colour,
-                                                  ignore_colour)
+                                                  ignore_colour, marks=marks)
             if outer.confidence >= self.uncertain_below:
                 outer.detail["band"] = "outer"
                 return outer
@@ -605,7 +621,8 @@ class PointerReader(object):
                 return best
         return reading
 
-    def _about_hub(self, hubs, image, quad, scale, centre, radius, aspect, pointer_colour, ignore_colour, first):
+    def _about_hub(self, hubs, image, quad, scale, centre, radius, aspect, pointer_colour, ignore_colour, first,
+                   marks=None):
         """The reading about a hub seen in the picture (find_hub's candidates, face px) instead of the
         calibrated centre, called when the needle's line misses that centre. A candidate within
         ``hub_move`` dial radii of the calibrated centre confirms the calibration (nothing changes).
@@ -633,7 +650,7 @@ class PointerReader(object):
         tried, confirmed = [], []
         for h, off in zip(hubs, offsets):
             again = self.needle_angle(image, quad, centre, radius, aspect, scale, pointer_colour, ignore_colour,
-                                      hub=(h.x / (width - 1), h.y / (height - 1)), about_hub=True)
+                                      hub=(h.x / (width - 1), h.y / (height - 1)), about_hub=True, marks=marks)
             if again[0] is None or "scale_about_hub" not in again[2]:
                 tried.append(dict(seen(h, off), why="no needle about it"))
                 continue
@@ -669,7 +686,8 @@ class PointerReader(object):
                                          for k in confirmed if k[0] is not h]
         return again[0], again[1], again[2], about
 
-    def _read_band(self, image, quad, scale, centre, radius, aspect, pointer_colour, ignore_colour, hub=None):
+    def _read_band(self, image, quad, scale, centre, radius, aspect, pointer_colour, ignore_colour, hub=None,
+                   marks=None):
         angle, confidence, detail = self.needle_angle(image, quad, centre, radius, aspect, scale,
                                                       pointer_colour, ignore_colour, hub=hub,
                                                       look_for_hub=hub is None and self.find_hubs)
@@ -679,18 +697,9 @@ class PointerReader(object):
         if angle is not None and hubs:
             angle, confidence, detail, scale = self._about_hub(hubs, image, quad, scale, centre, radius, aspect,
                                                                pointer_colour, ignore_colour,
-                                                               (angle, confidence, detail, scale))
-        if angle is not None and "hub_tried" in detail and "hub" not in detail:
-            # the needle's line misses the calibrated centre and no hub seen in the picture
-            # confirms another pivot: the reading's geometry is a guess
-            off = max(math.hypot(detail["pivot"][0] - centre[0], (detail["pivot"][1] - centre[1]) / float(aspect)),
-                      detail["outer_line_miss"] * radius)
-            if off > self.hub_unsure * radius and confidence >= self.uncertain_below:
-                confidence = self.uncertain_below * 0.9
-                detail["reason"] = ("pivot not found: the needle's line passes %.0f %% of the dial radius from the "
-                                    "calibrated centre and no hub on it was confirmed (%d candidate(s) tried)"
-                                    % (100.0 * off / radius, len(detail["hub_tried"])))
-        for _ in range(self.hub_steps if hub is None and "hub_seen" not in detail else 0):
+                                                               (angle, confidence, detail, scale), marks)
+        first = detail
+        for _ in range(self.hub_steps if hub is None and "hub" not in detail else 0):
             # the hub lies on the needle's line: when a confidently found line passes well away
             # from the calibrated centre, search again along rays from its point nearest the centre
             if angle is None or confidence < self.uncertain_below:
@@ -704,6 +713,18 @@ class PointerReader(object):
                 break
             angle, confidence, detail = again
             detail["hub"] = detail["pivot"]
+        if angle is not None and "hub_tried" in first and "hub_seen" not in first:
+            # the needle's line misses the calibrated centre and no hub seen in the picture confirms
+            # another pivot (the search from the line's point nearest the centre guesses one): the
+            # reading's geometry is a guess
+            off = max(math.hypot(first["pivot"][0] - centre[0], (first["pivot"][1] - centre[1]) / float(aspect)),
+                      first["outer_line_miss"] * radius)
+            if off > self.hub_unsure * radius and confidence >= self.uncertain_below:
+                confidence = self.uncertain_below * 0.9
+                detail["hub_tried"] = first["hub_tried"]
+                detail["reason"] = ("pivot not found: the needle's line passes %.0f %% of the dial radius from the "
+                                    "calibrated centre and no hub on it was confirmed (%d candidate(s) tried)"
+                                    % (100.0 * off / radius, len(first["hub_tried"])))
         if angle is None:
             return Reading(float("nan"), 0.0, detail)
         if not scale.in_sweep(angle, margin_deg=max(1.5, 0.01 * scale.sweep)):
