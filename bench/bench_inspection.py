@@ -12,7 +12,8 @@ Real part (when the photos are present, see scripts/real_gauges.py): real photog
 eye (bench/data/real_gauges.json), each one both the preset's picture and the live picture, read
 through read_scale's core (ScaleReader): accuracy, the share flagged uncertain, gross errors
 (> 10 % FS) not flagged, a reliability curve (accuracy per confidence band), and pictures that
-are not a gauge, which must fail.
+are not a gauge, which must fail. BENCH_REAL_CENTRE_OFF=f calibrates the centre f tick radii off the
+labelled pivot (a dial's centre clicked as the pivot), BENCH_REAL_HUB=0 reads without the hub search.
 
 Prints one JSON line per figure: mean abs error (% of full scale), share within 1 % and 1.5 %
 FS, find success rate, mean ROI IoU, time per find and per read.
@@ -230,7 +231,8 @@ def real_cases(photo_dir, tmp):
         doc = json.load(f)
     by_id = dict((p["id"], p) for p in doc["photos"])
     found = dict((os.path.splitext(n)[0], os.path.join(photo_dir, n)) for n in os.listdir(photo_dir))
-    reader = ScaleReader([tmp], [tmp, photo_dir], os.path.join(tmp, "results"), pointer=PointerReader(find_hubs=FIND_HUBS))
+    reader = ScaleReader([tmp], [tmp, photo_dir], os.path.join(tmp, "results"),
+                         pointer=PointerReader(find_hubs=FIND_HUBS))
     out = []
     for label in doc["photos"] + doc["negatives"]:
         picture = found.get(label["id"])

@@ -262,6 +262,13 @@ class PointerReader(object):
 
     With the scale marks' positions from the calibration (``read(marks=...)``) an oblique dial is
     read in the frontal frame their fitted ellipse gives (dial_from_marks; detail["frame"]).
+
+    A pivot off the calibrated centre (the operator clicked the dial's centre of a temperature
+    indicator): when the needle's line misses the calibrated centre by more than ``hub_search``
+    dial radii, the hub is looked for in the picture (find_hub) and, confirmed by the needle read
+    about it (_about_hub), the needle is read on the scale re-measured about it (scale_about);
+    without a confirmed hub, a line missing the centre by more than ``hub_unsure`` makes the
+    reading uncertain ("pivot not found"). ``find_hubs`` False reads without it.
     """
 
     def __init__(self, size=GAUGE_SIZE, inner=0.22, outer=0.72, step_deg=ANGLE_STEP_DEG, background_deg=12.0,
@@ -435,7 +442,11 @@ class PointerReader(object):
         From the calibration: ``centre`` (pivot as fractions of the box width, height), ``radius``
         (dial radius as a fraction of the box width), ``aspect`` (physical width / height of the
         box, so the frontal view is not stretched), ``scale`` (the search covers its sweep plus
-        margin_deg; None: all around), colour hints.
+        margin_deg; None: all around), colour hints. ``hub`` (face fractions): search along rays
+        from it instead of the centre; with ``about_hub`` the angle is about the hub, measured on
+        the scale re-measured about it (scale_about, from ``marks`` when given), which the detail
+        carries (``scale_about_hub``). ``look_for_hub``: when the line misses the centre by more
+        than ``hub_search``, detail["hub_candidates"] are find_hub's candidates.
         """
         aspect = float(aspect)
         width = self.size if aspect >= 1.0 else max(16, int(round(self.size * aspect)))
@@ -595,6 +606,14 @@ class PointerReader(object):
         return reading
 
     def _read_frame(self, image, quad, scale, centre, radius, aspect, pointer_colour, ignore_colour, marks=None):
+        reading = self._read_retried(image, quad, scale, centre, radius, aspect, pointer_colour, ignore_colour, marks)
+        unsure = reading.detail.pop("pivot_unsure", "")
+        if unsure and reading.confidence >= self.uncertain_below:
+            reading = Reading(reading.value, self.uncertain_below * 0.9, reading.detail)
+            reading.detail["reason"] = unsure
+        return reading
+
+    def _read_retried(self, image, quad, scale, centre, radius, aspect, pointer_colour, ignore_colour, marks):
         reading = self._read_band(image, quad, scale, centre, radius, aspect, pointer_colour, ignore_colour,
                                   marks=marks)
         reading.detail["band"] = "inner"
@@ -631,14 +650,16 @@ class PointerReader(object):
         outer half passes through the candidate (within the hub's radius, at least 4 % of the dial
         radius) and the candidate is at least twice as wide as the needle: a needle's round tip or
         end, a numeral or a screw on the bezel fail that. Of several confirmed (a hub cap, the
-        counterweight's end, a widening of the needle on the same line) the widest is the pivot. Returns (angle, confidence, detail, scale the angle is measured on); the
-        detail lists the candidates refused and why (``hub_tried``)."""
+        counterweight's end, a widening of the needle on the same line) the widest is the pivot.
+        Returns (angle, confidence, detail, scale the angle is measured on); the detail lists the
+        candidates refused and why (``hub_tried``)."""
         angle, confidence, detail, _ = first
         aspect = float(aspect)
         width = self.size if aspect >= 1.0 else max(16, int(round(self.size * aspect)))
         height = max(16, int(round(width / aspect)))
         rad = radius * (width - 1)
         c = (centre[0] * (width - 1), centre[1] * (height - 1))
+
         def seen(h, off):
             return {"x": round(h.x / (width - 1), 4), "y": round(h.y / (height - 1), 4),
                     "radius": round(h.radius / rad, 3), "score": round(h.score, 2), "offset": round(off, 3)}
@@ -719,12 +740,13 @@ class PointerReader(object):
             # reading's geometry is a guess
             off = max(math.hypot(first["pivot"][0] - centre[0], (first["pivot"][1] - centre[1]) / float(aspect)),
                       first["outer_line_miss"] * radius)
-            if off > self.hub_unsure * radius and confidence >= self.uncertain_below:
-                confidence = self.uncertain_below * 0.9
+            if off > self.hub_unsure * radius:
+                # applied by _read_frame to the reading it returns, so the retries it makes for an
+                # uncertain reading (outer band, axis) do not replace an honest flag with a guess
                 detail["hub_tried"] = first["hub_tried"]
-                detail["reason"] = ("pivot not found: the needle's line passes %.0f %% of the dial radius from the "
-                                    "calibrated centre and no hub on it was confirmed (%d candidate(s) tried)"
-                                    % (100.0 * off / radius, len(first["hub_tried"])))
+                detail["pivot_unsure"] = ("pivot not found: the needle's line passes %.0f %% of the dial radius from "
+                                          "the calibrated centre and no hub on it was confirmed (%d candidate(s) tried)"
+                                          % (100.0 * off / radius, len(first["hub_tried"])))
         if angle is None:
             return Reading(float("nan"), 0.0, detail)
         if not scale.in_sweep(angle, margin_deg=max(1.5, 0.01 * scale.sweep)):
