@@ -12,7 +12,8 @@ Real part (when the photos are present, see scripts/real_gauges.py): real photog
 eye (bench/data/real_gauges.json), each one both the preset's picture and the live picture, read
 through read_scale's core (ScaleReader): accuracy, the share flagged uncertain, gross errors
 (> 10 % FS) not flagged, a reliability curve (accuracy per confidence band), and pictures that
-are not a gauge, which must fail.
+are not a gauge, which must fail. BENCH_REAL_CENTRE_OFF=f calibrates the centre f tick radii off the
+labelled pivot (a dial's centre clicked as the pivot), BENCH_REAL_HUB=0 reads without the hub search.
 
 Prints one JSON line per figure: mean abs error (% of full scale), share within 1 % and 1.5 %
 FS, find success rate, mean ROI IoU, time per find and per read.
@@ -40,6 +41,12 @@ CASES = int(os.environ.get("BENCH_INSPECTION_CASES", "320"))   # 0: no synthetic
 USE_DIAL_AXES = os.environ.get("BENCH_REAL_DIAL_AXES", "1") != "0"
 # 0: calibrate without the marks' positions (no ellipse fit: the reader's calibrated frame only)
 USE_MARKS = os.environ.get("BENCH_REAL_MARKS", "1") != "0"
+# > 0: the calibration clicks the centre this many tick radii off the labelled pivot, towards the
+# scale's middle (where a dial's centre lies from a pivot below it), the marks' angles measured
+# about that centre, as a calibration of an off-centre-pivot gauge made at the dial's centre is
+CENTRE_OFF = float(os.environ.get("BENCH_REAL_CENTRE_OFF", "0"))
+# 0: the reader does not look for the hub in the picture (PointerReader(find_hubs=False))
+FIND_HUBS = os.environ.get("BENCH_REAL_HUB", "1") != "0"
 
 
 def synthetic_case(rng, locator, reader):
@@ -175,6 +182,12 @@ def label_spec(label, width, height):
     px, py = label["pivot"]
     sx, sy = label.get("dial_axes", (1.0, 1.0)) if USE_DIAL_AXES else (1.0, 1.0)
     r = float(label["radius"])
+    if CENTRE_OFF > 0.0:
+        marks = np.array([(x, y) for _, x, y in label["marks"]], float)
+        ends = (marks[0] + marks[-1]) / 2.0 - (px, py)
+        middle = marks[len(marks) // 2] - (px, py)
+        towards = middle if np.hypot(*ends) < 0.3 * r else ends     # a near-full circle: its middle mark
+        px, py = np.array([px, py]) + CENTRE_OFF * r * towards / np.hypot(*towards)
     x0, y0 = max(0.0, px - 1.15 * r * sx), max(0.0, py - 1.15 * r * sy)
     x1, y1 = min(width - 1.0, px + 1.15 * r * sx), min(height - 1.0, py + 1.15 * r * sy)
     angles = [math.degrees(math.atan2((x - px) / sx, -(y - py) / sy)) % 360.0 for _, x, y in label["marks"]]
@@ -218,7 +231,8 @@ def real_cases(photo_dir, tmp):
         doc = json.load(f)
     by_id = dict((p["id"], p) for p in doc["photos"])
     found = dict((os.path.splitext(n)[0], os.path.join(photo_dir, n)) for n in os.listdir(photo_dir))
-    reader = ScaleReader([tmp], [tmp, photo_dir], os.path.join(tmp, "results"))
+    reader = ScaleReader([tmp], [tmp, photo_dir], os.path.join(tmp, "results"),
+                         pointer=PointerReader(find_hubs=FIND_HUBS))
     out = []
     for label in doc["photos"] + doc["negatives"]:
         picture = found.get(label["id"])

@@ -87,6 +87,12 @@ class GaugeScale(object):
                 return v0 + (v1 - v0) * (off - o0) / (o1 - o0)
         return marks[-1][1]
 
+    def entries(self):
+        """The scale as [(value, angle)]: the table's marks, or the two ends of a linear scale."""
+        if self._marks is None:
+            return [(self.start_value, self.start_angle), (self.end_value, self.end_angle)]
+        return [(value, wrap360(self.start_angle + offset)) for offset, value in self._marks]
+
     def angle(self, value):
         """Needle angle for ``value`` (clamped to the scale's ends); the inverse of value()."""
         value = float(value)

@@ -111,6 +111,128 @@ def dial_from_marks(quad, centre, radius, aspect, marks, min_marks=6, min_span_d
     return DialFrame(new_quad, (0.5, 0.5), dial / (2 * half), 1.0, scale, detail)
 
 
+Hub = namedtuple("Hub", "x y radius score")
+
+
+def find_hub(gray, centre, dial, reach=0.45, sizes=(0.035, 0.16), directions=48, count=4, min_score=0.3,
+             shortlist=64):
+    """Where the needle's pivot may be in a frontal face: compact round blobs (hub cap, screw, boss).
+
+    ``gray``: the face (one channel); ``centre``: the calibrated pivot (px); ``dial``: the dial
+    radius (px). Candidate centres lie within ``reach`` dial radii of the calibrated centre (on a
+    grid of dial/40 px); hub radii span ``sizes`` dial radii (the lower bound is above a needle's
+    half-width, whose two parallel edges would otherwise look like a tiny circle). A hub's rim is
+    an edge all around it with one polarity (a dark cap on a light face, a bright screw on a dark
+    cap): at ``directions`` points of each candidate circle the image gradient's component along
+    the radius is taken with the circle's majority sign, and the score is the 25th percentile of
+    it (three quarters of the rim must show an edge: the needle crossing the rim, or a numeral's
+    strokes, cannot make one) over the 95th percentile of the gradient magnitude on the dial; it is
+    computed for the ``shortlist`` circles of each radius with the strongest mean radial edge.
+    Returns up to ``count`` Hubs (px, score; distinct, best first) scoring at least ``min_score``:
+    candidates, which the reader confirms by reading the needle about them (a needle's round tip,
+    a numeral or a screw can score too).
+    """
+    gray = cv2.GaussianBlur(np.asarray(gray, np.float32), (3, 3), 0)
+    gx = cv2.Sobel(gray, cv2.CV_32F, 1, 0)
+    gy = cv2.Sobel(gray, cv2.CV_32F, 0, 1)
+    yy, xx = np.mgrid[0:gray.shape[0], 0:gray.shape[1]]
+    on_dial = np.hypot(xx - centre[0], yy - centre[1]) <= dial
+    magnitude = np.hypot(gx, gy)
+    norm = float(np.percentile(magnitude[on_dial], 95)) if on_dial.any() else 0.0
+    if norm <= 1e-6:
+        return []
+    step = max(1.0, dial / 40.0)
+    grid = np.arange(-reach * dial, reach * dial + step, step)
+    ox, oy = np.meshgrid(grid, grid)
+    keep = np.hypot(ox, oy) <= reach * dial
+    spots = np.stack([centre[0] + ox[keep], centre[1] + oy[keep]], axis=1)
+    radii = np.arange(max(3.0, sizes[0] * dial), max(4.0, sizes[1] * dial) + 0.5, max(1.0, dial / 60.0))
+    theta = np.linspace(0.0, 2.0 * math.pi, directions, endpoint=False)
+    cos, sin = np.cos(theta), np.sin(theta)
+
+    def rims(spots, radii, shortlist):
+        """Each spot's best rim score over ``radii`` and that radius."""
+        scores = np.full(len(spots), -np.inf)
+        sizes_px = np.zeros(len(spots))
+        for r in radii:
+            # one remap per hub radius: rows the candidate centres, columns the rim's directions
+            map_x = (spots[:, 0:1] + r * cos[None]).astype(np.float32)
+            map_y = (spots[:, 1:2] + r * sin[None]).astype(np.float32)
+            rx = cv2.remap(gx, map_x, map_y, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+            ry = cv2.remap(gy, map_x, map_y, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+            radial = rx * cos[None] + ry * sin[None]
+            mean = radial.mean(axis=1)
+            # the rim's percentile only for the circles with the strongest mean radial edge (a
+            # hub's is among them; the percentile over every candidate costs ten times as much)
+            top = np.argsort(-np.abs(mean))[:shortlist]
+            edge = radial[top] * np.where(mean[top] >= 0.0, 1.0, -1.0)[:, None]
+            score = np.partition(edge, directions // 4, axis=1)[:, directions // 4] / norm
+            better = score > scores[top]
+            scores[top[better]], sizes_px[top[better]] = score[better], r
+        return scores, sizes_px
+
+    scores, sizes_px = rims(spots, radii, shortlist)
+    hubs = []
+    for j in np.argsort(-scores):
+        if len(hubs) >= count or not np.isfinite(scores[j]) or scores[j] < min_score:
+            break
+        if all(math.hypot(spots[j, 0] - h.x, spots[j, 1] - h.y) > h.radius + sizes_px[j] for h in hubs):
+            # refined on a half-pixel grid about the coarse spot
+            fine = np.arange(-step, step + 0.25, 0.5)
+            fx, fy = np.meshgrid(fine, fine)
+            near = np.stack([spots[j, 0] + fx.ravel(), spots[j, 1] + fy.ravel()], axis=1)
+            sizes_near = np.arange(max(3.0, sizes_px[j] - step), sizes_px[j] + step + 0.25, 0.5)
+            fine_scores, fine_sizes = rims(near, sizes_near, len(near))
+            k = int(np.argmax(fine_scores))
+            hubs.append(Hub(float(near[k, 0]), float(near[k, 1]), float(fine_sizes[k]), float(fine_scores[k])))
+    return hubs
+
+
+def scale_about(scale, centre, pivot, ring, marks=None):
+    """The calibrated scale re-measured about a pivot seen off the calibrated centre.
+
+    The calibration measured its marks' angles about ``centre`` (px); the marks lie where those
+    directions meet the scale's arc, an arc about the real ``pivot`` (px). Its radius is not in the
+    calibration: the arc about the pivot through the calibrated scale circle (radius ``ring``
+    about the centre) at the marks' directions, on average. Each mark's direction from the centre
+    meets that arc at the mark; its angle about the pivot is the new scale's (a linear scale stays
+    linear about its pivot, where the needle turns). Returns (GaugeScale, arc radius) or None when
+    the geometry does not hold (the centre outside the arc, the marks out of order).
+
+    With the marks' positions (``marks`` [(value, x, y)] px, the calibration's ``marks``) their
+    own angles about the pivot make the scale and their distance its arc (no assumption needed).
+    """
+    if marks and len(marks) >= 2:
+        angles = [wrap360(math.degrees(math.atan2(x - pivot[0], -(y - pivot[1])))) for _, x, y in marks]
+        try:
+            about = GaugeScale(angles[0], angles[-1], marks[0][0], marks[-1][0],
+                               list(zip([m[0] for m in marks], angles)) if len(marks) > 2 else None)
+            if abs(about.sweep - scale.sweep) <= 90.0:
+                return about, float(np.median([math.hypot(x - pivot[0], y - pivot[1]) for _, x, y in marks]))
+        except ValueError:
+            pass
+    entries = scale.entries()
+    centre, pivot = np.asarray(centre, float), np.asarray(pivot, float)
+    dirs = [np.array([math.sin(math.radians(a)), -math.cos(math.radians(a))]) for _, a in entries]
+    arc = float(np.mean([np.linalg.norm(centre + ring * d - pivot) for d in dirs]))
+    q = centre - pivot
+    if float(np.dot(q, q)) >= arc * arc:
+        return None
+    table = []
+    for (value, _), d in zip(entries, dirs):
+        b = float(np.dot(q, d))
+        t = -b + math.sqrt(b * b - (float(np.dot(q, q)) - arc * arc))
+        x, y = q + t * d
+        table.append((value, wrap360(math.degrees(math.atan2(x, -y)))))
+    try:
+        about = GaugeScale(table[0][1], table[-1][1], table[0][0], table[-1][0], table if len(table) > 2 else None)
+    except ValueError:
+        return None
+    if abs(about.sweep - scale.sweep) > 90.0:     # the order of the marks flipped: not this pivot
+        return None
+    return about, arc
+
+
 class PointerReader(object):
     """Finds the needle on a rectified gauge face by a radial dissimilarity profile and a line fit.
 
@@ -140,13 +262,23 @@ class PointerReader(object):
 
     With the scale marks' positions from the calibration (``read(marks=...)``) an oblique dial is
     read in the frontal frame their fitted ellipse gives (dial_from_marks; detail["frame"]).
+
+    A pivot off the calibrated centre (the operator clicked the dial's centre of a temperature
+    indicator): when the needle's line misses the calibrated centre by more than ``hub_search``
+    dial radii, the hub is looked for in the picture (find_hub) and, confirmed by the needle read
+    about it (_about_hub), the needle is read on the scale re-measured about it (scale_about);
+    without a confirmed hub, a line missing the centre by more than ``hub_unsure`` makes the
+    reading uncertain ("pivot not found"). ``find_hubs`` False reads without it.
     """
 
     def __init__(self, size=GAUGE_SIZE, inner=0.22, outer=0.72, step_deg=ANGLE_STEP_DEG, background_deg=12.0,
                  margin_deg=8.0, reach=(0.72, 0.9), uncertain_below=UNCERTAIN_BELOW, outer_band=(0.6, 0.95),
                  hub_steps=2, hub_move=0.06, hub_axis=(0.1, 0.2, 0.3, 0.4),
-                 hub_axis_confidence=75.0):
+                 hub_axis_confidence=75.0, find_hubs=True, hub_search=0.1, hub_unsure=0.12):
         self.size = size
+        self.hub_search = hub_search
+        self.hub_unsure = hub_unsure
+        self.find_hubs = find_hubs
         self.hub_axis_confidence = hub_axis_confidence
         self.hub_axis = hub_axis
         self.hub_steps = hub_steps
@@ -155,7 +287,7 @@ class PointerReader(object):
         if outer_band:
             self._outer_reader = PointerReader(size, outer_band[0], outer_band[1], step_deg, background_deg,
                                                margin_deg, (outer_band[1] - 0.05, outer_band[1] + 0.05),
-                                               uncertain_below, outer_band=None, hub_steps=0)
+                                               uncertain_below, outer_band=None, hub_steps=0, find_hubs=False)
         self.background_deg = background_deg
         self.inner = inner
         self.outer = outer
@@ -302,14 +434,19 @@ class PointerReader(object):
             raise ReadFailed("blank picture in the box (no contrast)")
 
     def needle_angle(self, image, quad, centre=(0.5, 0.5), radius=0.45, aspect=1.0, scale=None,
-                     pointer_colour="", ignore_colour="", hub=None):
+                     pointer_colour="", ignore_colour="", hub=None, look_for_hub=False, about_hub=False,
+                     marks=None):
         """Needle angle (deg clockwise from up, about the calibrated centre) in the face's frontal
         view, a confidence and a detail dict (``reason``: why the confidence is low, "" when it is not).
 
         From the calibration: ``centre`` (pivot as fractions of the box width, height), ``radius``
         (dial radius as a fraction of the box width), ``aspect`` (physical width / height of the
         box, so the frontal view is not stretched), ``scale`` (the search covers its sweep plus
-        margin_deg; None: all around), colour hints.
+        margin_deg; None: all around), colour hints. ``hub`` (face fractions): search along rays
+        from it instead of the centre; with ``about_hub`` the angle is about the hub, measured on
+        the scale re-measured about it (scale_about, from ``marks`` when given), which the detail
+        carries (``scale_about_hub``). ``look_for_hub``: when the line misses the centre by more
+        than ``hub_search``, detail["hub_candidates"] are find_hub's candidates.
         """
         aspect = float(aspect)
         width = self.size if aspect >= 1.0 else max(16, int(round(self.size * aspect)))
@@ -326,7 +463,22 @@ class PointerReader(object):
         # the needle is searched along rays from ``hub`` (the calibrated centre unless given) and read
         # where its line meets the scale circle about the calibrated centre
         hub = c if hub is None else (hub[0] * (width - 1), hub[1] * (height - 1))
-        angles = self._search_angles(scale, c, hub, ring)
+        read_about, read_radius = c, ring
+        if about_hub and scale is not None and hub != c:
+            # a hub seen in the picture: the scale's arc is about it (scale_about), the needle
+            # turns about it, so the search and the reading are both about the hub
+            found = scale_about(scale, c, hub, ring, None if not marks else
+                                [(m[0], m[1] * (width - 1), m[2] * (height - 1)) for m in marks])
+            if found is None:
+                return None, 0.0, {"reason": "the calibrated scale does not fit an arc about the hub seen",
+                                   "angle": None}
+            scale, read_radius = found
+            read_about = hub
+            # the needle's sampling band in proportion to the scale's arc about the hub
+            rad = read_radius / self._reach_radii[-1]
+            angles = self._search_angles(scale)
+        else:
+            angles = self._search_angles(scale, c, hub, ring)
         dist, samples, background = self._profile(lab, hub, rad, angles, self._radii)
         reach_dist = self._profile(lab, hub, rad, angles, self._reach_radii)[0]
         full = np.median(dist, axis=1)
@@ -364,6 +516,10 @@ class PointerReader(object):
                          min(len(angles), chosen["index"] + int(8.0 / self.step_deg) + 1))
         i = int(near[np.argmax(off_dial[near] * (full[near] > base))])
         k = len(self._radii) // 2
+        # the needle's width (px): its angular extent above half its height at each radius
+        window = np.arange(max(0, i - int(6.0 / self.step_deg)), min(len(angles), i + int(6.0 / self.step_deg) + 1))
+        over = dist[window] > 0.5 * (dist[i][None] + np.median(dist, axis=0)[None])
+        width_px = float(np.median(over.sum(axis=0) * math.radians(self.step_deg) * self._radii * rad))
         # fitted to the samples of the needle's own colour; to all of them where that leaves too
         # few (a needle hardly apart from the face)
         for like in (self._needle_likeness(dist, samples, background, full, base, i), None):
@@ -378,11 +534,26 @@ class PointerReader(object):
         # where the needle's line meets the scale circle: near the tip, so the line's direction
         # error (a tapered or shadowed needle) hardly matters, and a pivot off the calibrated
         # centre moves the reading only by the parallax at the scale, not by a ray's full error
-        angle = self._meets_circle(line, c, ring)
-        inner_angle = self._meets_circle(inner_line, c, ring)
-        outer_angle = self._meets_circle(outer_line, c, ring)
+        angle = self._meets_circle(line, read_about, read_radius)
+        inner_angle = self._meets_circle(inner_line, read_about, read_radius)
+        outer_angle = self._meets_circle(outer_line, read_about, read_radius)
+        if read_about is not c:
+            detail["scale_about_hub"] = scale
+            # the outer half's line: the inner samples, taken along rays from the hub, pull the
+            # whole line through it whether it is the pivot or not
+            normal = np.array([-outer_line[1][1], outer_line[1][0]])
+            detail["hub_off_line"] = float(abs(np.dot(np.asarray(hub) - outer_line[0], normal))) / rad
+            detail["hub_radius_unit"] = rad     # px per unit of hub_off_line and needle_width
         # the needle's line passes closest to the calibrated centre here: the pivot seen in the picture
         foot = line[0] + np.dot(np.asarray(c) - line[0], line[1]) * line[1]
+        # the outer half's line alone: from a centre far off the pivot the inner samples (taken
+        # along rays from that centre) pull the whole line towards it, the outer ones hardly
+        normal = np.array([-outer_line[1][1], outer_line[1][0]])
+        detail["outer_line_miss"] = float(abs(np.dot(np.asarray(c) - outer_line[0], normal))) / rad
+        if look_for_hub and max(math.hypot(foot[0] - c[0], foot[1] - c[1]) / rad,
+                                detail["outer_line_miss"]) > self.hub_search:
+            # the needle's line misses the calibrated centre: the pivot may be elsewhere
+            detail["hub_candidates"] = find_hub(lab[:, :, 0], c, rad)
         spread = float(np.percentile(full, 90) - base) + 1.0
         contrast = (full[i] - base) / max(spread, 1.0)
         disagreement = abs(angle_diff(inner_angle, outer_angle))
@@ -401,6 +572,7 @@ class PointerReader(object):
             reason = "two pointers %.0f deg apart (set pointer_colour / ignore_colour in the calibration)" % gap
         detail["pointers"] = [(round(float(angles[d["index"]]) % 360.0, 1), round(d["score"], 1), d["reach"],
                                d["colour"]) for d in described]
+        detail["needle_width"] = width_px / rad
         detail.update({"angle": angle, "inner_angle": inner_angle, "outer_angle": outer_angle,
                        "contrast": float(full[i] - base), "contrast_ratio": float(contrast),
                        "disagreement": disagreement, "colour": chosen["colour"], "reach": chosen["reach"],
@@ -428,17 +600,26 @@ class PointerReader(object):
                                        pointer_colour, ignore_colour)
             reading.detail["frame"] = dict(frame.detail, source="marks")
             return reading
-        reading = self._read_frame(image, quad, scale, centre, radius, aspect, pointer_colour, ignore_colour)
+        reading = self._read_frame(image, quad, scale, centre, radius, aspect, pointer_colour, ignore_colour, marks)
         if marks:
             reading.detail["frame"] = {"source": "calibration"}
         return reading
 
-    def _read_frame(self, image, quad, scale, centre, radius, aspect, pointer_colour, ignore_colour):
-        reading = self._read_band(image, quad, scale, centre, radius, aspect, pointer_colour, ignore_colour)
+    def _read_frame(self, image, quad, scale, centre, radius, aspect, pointer_colour, ignore_colour, marks=None):
+        reading = self._read_retried(image, quad, scale, centre, radius, aspect, pointer_colour, ignore_colour, marks)
+        unsure = reading.detail.pop("pivot_unsure", "")
+        if unsure and reading.confidence >= self.uncertain_below:
+            reading = Reading(reading.value, self.uncertain_below * 0.9, reading.detail)
+            reading.detail["reason"] = unsure
+        return reading
+
+    def _read_retried(self, image, quad, scale, centre, radius, aspect, pointer_colour, ignore_colour, marks):
+        reading = self._read_band(image, quad, scale, centre, radius, aspect, pointer_colour, ignore_colour,
+                                  marks=marks)
         reading.detail["band"] = "inner"
         if reading.confidence < self.uncertain_below and self._outer_reader is not None:
             outer = self._outer_reader._read_band(image, quad, scale, centre, radius, aspect, pointer_colour,
-                                                  ignore_colour)
+                                                  ignore_colour, marks=marks)
             if outer.confidence >= self.uncertain_below:
                 outer.detail["band"] = "outer"
                 return outer
@@ -459,10 +640,87 @@ class PointerReader(object):
                 return best
         return reading
 
-    def _read_band(self, image, quad, scale, centre, radius, aspect, pointer_colour, ignore_colour, hub=None):
+    def _about_hub(self, hubs, image, quad, scale, centre, radius, aspect, pointer_colour, ignore_colour, first,
+                   marks=None):
+        """The reading about a hub seen in the picture (find_hub's candidates, face px) instead of the
+        calibrated centre, called when the needle's line misses that centre. A candidate within
+        ``hub_move`` dial radii of the calibrated centre confirms the calibration (nothing changes).
+        One farther off is confirmed when the needle, searched along rays from it and read on the
+        scale's arc about it (scale_about), is confident and inside the sweep, the line of its
+        outer half passes through the candidate (within the hub's radius, at least 4 % of the dial
+        radius) and the candidate is at least twice as wide as the needle: a needle's round tip or
+        end, a numeral or a screw on the bezel fail that. Of several confirmed (a hub cap, the
+        counterweight's end, a widening of the needle on the same line) the widest is the pivot.
+        Returns (angle, confidence, detail, scale the angle is measured on); the detail lists the
+        candidates refused and why (``hub_tried``)."""
+        angle, confidence, detail, _ = first
+        aspect = float(aspect)
+        width = self.size if aspect >= 1.0 else max(16, int(round(self.size * aspect)))
+        height = max(16, int(round(width / aspect)))
+        rad = radius * (width - 1)
+        c = (centre[0] * (width - 1), centre[1] * (height - 1))
+
+        def seen(h, off):
+            return {"x": round(h.x / (width - 1), 4), "y": round(h.y / (height - 1), 4),
+                    "radius": round(h.radius / rad, 3), "score": round(h.score, 2), "offset": round(off, 3)}
+        offsets = [math.hypot(h.x - c[0], h.y - c[1]) / rad for h in hubs]
+        for h, off in zip(hubs, offsets):
+            if off <= self.hub_move:
+                detail["hub_seen"] = dict(seen(h, off), used=False)
+                return angle, confidence, detail, scale
+        tried, confirmed = [], []
+        for h, off in zip(hubs, offsets):
+            again = self.needle_angle(image, quad, centre, radius, aspect, scale, pointer_colour, ignore_colour,
+                                      hub=(h.x / (width - 1), h.y / (height - 1)), about_hub=True, marks=marks)
+            if again[0] is None or "scale_about_hub" not in again[2]:
+                tried.append(dict(seen(h, off), why="no needle about it"))
+                continue
+            about = again[2].pop("scale_about_hub")
+            why = []
+            unit = again[2].pop("hub_radius_unit")
+            if again[2]["hub_off_line"] * unit > max(h.radius, 0.04 * rad):
+                why.append("the needle's line passes %.0f %% of the dial radius from it"
+                           % (100 * again[2]["hub_off_line"] * unit / rad))
+            needle_px = again[2]["needle_width"] * unit
+            if h.radius < needle_px:
+                # a hub cap is at least twice as wide as its needle; a needle's round end is not
+                why.append("narrower than twice the needle (%.1f px against %.1f)" % (2 * h.radius, needle_px))
+            if not about.in_sweep(again[0], margin_deg=max(1.5, 0.01 * about.sweep)):
+                why.append("the needle about it is outside the scale's sweep")
+            # the needle's line misses the calibrated centre (find_hub runs only then), which
+            # contradicts the calibration: a hub on the line needs only a confident needle
+            if again[1] < self.uncertain_below:
+                why.append("the needle about it is uncertain (confidence %.0f)" % again[1])
+            if why:
+                tried.append(dict(seen(h, off), why="; ".join(why)))
+                continue
+            confirmed.append((h, off, again, about))
+        if not confirmed:
+            detail["hub_tried"] = tried
+            return angle, confidence, detail, scale
+        # several on the needle's line (the hub cap, the counterweight's end, a widening of the
+        # needle): the pivot is the widest, the cap
+        h, off, again, about = max(confirmed, key=lambda k: k[0].radius)
+        again[2]["hub_seen"] = dict(seen(h, off), used=True)
+        again[2]["hub"] = (h.x / (width - 1), h.y / (height - 1))
+        again[2]["hub_tried"] = tried + [dict(seen(k[0], k[1]), why="on the needle's line, narrower than the hub")
+                                         for k in confirmed if k[0] is not h]
+        return again[0], again[1], again[2], about
+
+    def _read_band(self, image, quad, scale, centre, radius, aspect, pointer_colour, ignore_colour, hub=None,
+                   marks=None):
         angle, confidence, detail = self.needle_angle(image, quad, centre, radius, aspect, scale,
-                                                      pointer_colour, ignore_colour, hub=hub)
-        for _ in range(self.hub_steps if hub is None else 0):
+                                                      pointer_colour, ignore_colour, hub=hub,
+                                                      look_for_hub=hub is None and self.find_hubs)
+        hubs = detail.pop("hub_candidates", None)
+        if hubs == []:
+            detail["hub_tried"] = []
+        if angle is not None and hubs:
+            angle, confidence, detail, scale = self._about_hub(hubs, image, quad, scale, centre, radius, aspect,
+                                                               pointer_colour, ignore_colour,
+                                                               (angle, confidence, detail, scale), marks)
+        first = detail
+        for _ in range(self.hub_steps if hub is None and "hub" not in detail else 0):
             # the hub lies on the needle's line: when a confidently found line passes well away
             # from the calibrated centre, search again along rays from its point nearest the centre
             if angle is None or confidence < self.uncertain_below:
@@ -476,6 +734,19 @@ class PointerReader(object):
                 break
             angle, confidence, detail = again
             detail["hub"] = detail["pivot"]
+        if angle is not None and "hub_tried" in first and "hub_seen" not in first:
+            # the needle's line misses the calibrated centre and no hub seen in the picture confirms
+            # another pivot (the search from the line's point nearest the centre guesses one): the
+            # reading's geometry is a guess
+            off = max(math.hypot(first["pivot"][0] - centre[0], (first["pivot"][1] - centre[1]) / float(aspect)),
+                      first["outer_line_miss"] * radius)
+            if off > self.hub_unsure * radius:
+                # applied by _read_frame to the reading it returns, so the retries it makes for an
+                # uncertain reading (outer band, axis) do not replace an honest flag with a guess
+                detail["hub_tried"] = first["hub_tried"]
+                detail["pivot_unsure"] = ("pivot not found: the needle's line passes %.0f %% of the dial radius from "
+                                          "the calibrated centre and no hub on it was confirmed (%d candidate(s) tried)"
+                                          % (100.0 * off / radius, len(first["hub_tried"])))
         if angle is None:
             return Reading(float("nan"), 0.0, detail)
         if not scale.in_sweep(angle, margin_deg=max(1.5, 0.01 * scale.sweep)):
