@@ -13,28 +13,8 @@ SIZE = 300
 
 
 def _face(value, drop, hub=True):
-    """A dial (radius 0.45 * SIZE) whose needle pivots ``drop`` dial radii below its centre, the
-    scale's ticks on an arc (0.55 of the dial radius) about the pivot, a dark needle and, with
-    ``hub``, a dark hub cap over the pivot (without, the needle shows only from 0.35 of the arc
-    out, as if its hub were hidden under a plate of the face's colour). Returns (face, pivot px, arc px)."""
-    face = np.full((SIZE, SIZE, 3), 60, np.uint8)
-    c, r = SIZE / 2.0, 0.45 * SIZE
-    cv2.circle(face, (int(c), int(c)), int(r), (235, 235, 235), -1, cv2.LINE_AA)
-    pivot = np.array([c, c + drop * r])
-    arc = 0.55 * r
-    for k in range(11):
-        a = np.radians(DRAWN.start_angle + k * DRAWN.sweep / 10.0)
-        u = np.array([np.sin(a), -np.cos(a)])
-        cv2.line(face, tuple(int(v) for v in pivot + 0.92 * arc * u), tuple(int(v) for v in pivot + 1.05 * arc * u),
-                 (20, 20, 20), 2, cv2.LINE_AA)
-    a = np.radians(DRAWN.angle(value))
-    u = np.array([np.sin(a), -np.cos(a)])
-    start = pivot if hub else pivot + 0.35 * arc * u     # no cap: the needle's inner part hidden too
-    cv2.line(face, tuple(int(v) for v in start), tuple(int(v) for v in pivot + 0.9 * arc * u), (15, 15, 15), 3,
-             cv2.LINE_AA)
-    if hub:
-        cv2.circle(face, tuple(int(v) for v in pivot), 7, (15, 15, 15), -1, cv2.LINE_AA)
-    return face, pivot, arc
+    """The off-centre dial with a dark hub cap over its pivot or (``hub`` False) its hub hidden."""
+    return S.draw_off_centre_face(DRAWN, value, SIZE, drop, hub_cap=hub, hidden_hub=not hub)
 
 
 def _dial_centre_calibration(quad, pivot, arc):

@@ -247,26 +247,6 @@ def test_strongly_oblique_view_reads_through_the_box_homography():
         assert reading.confidence >= 50, reading
 
 
-def _off_centre_face(scale, value, size=300, drop=0.3):
-    """A dial of radius 0.45 * size whose needle pivots ``drop`` dial radii below its centre, the
-    scale's arc (radius 0.55 of the dial) centred on the pivot; returns (face, pivot, arc radius)."""
-    face = np.full((size, size, 3), 60, np.uint8)
-    c, r = size / 2.0, 0.45 * size
-    cv2.circle(face, (int(c), int(c)), int(r), (235, 235, 235), -1, cv2.LINE_AA)
-    pivot = np.array([c, c + drop * r])
-    arc = 0.55 * r
-    for k in range(11):
-        a = np.radians(scale.start_angle + k * scale.sweep / 10.0)
-        u = np.array([np.sin(a), -np.cos(a)])
-        cv2.line(face, tuple(int(v) for v in pivot + 0.92 * arc * u), tuple(int(v) for v in pivot + 1.05 * arc * u),
-                 (20, 20, 20), 2, cv2.LINE_AA)
-    a = np.radians(scale.start_angle + scale.sweep * (value - scale.start_value) / scale.full_scale)
-    tip = pivot + 0.9 * arc * np.array([np.sin(a), -np.cos(a)])
-    cv2.line(face, tuple(int(v) for v in pivot), tuple(int(v) for v in tip), (15, 15, 15), 3, cv2.LINE_AA)
-    cv2.circle(face, tuple(int(v) for v in pivot), 6, (15, 15, 15), -1, cv2.LINE_AA)
-    return face, pivot, arc
-
-
 def _oblique_calibration(face_quad, size, pivot, arc, scale, centre_at):
     """What a field calibration clicks in the oblique picture: an upright box around the dial,
     the pivot (here ``centre_at``, face px), the scale marks where they appear; marks as box
@@ -295,7 +275,7 @@ def test_pointer_reader_oblique_dial_from_its_marks(yaw, pitch):
     scale = GaugeScale(225.0, 135.0, 0.0, 1.6)
     reader = PointerReader()
     for value in (0.1, 0.55, 1.2, 1.5):
-        face, pivot, arc = _off_centre_face(scale, value, drop=0.0)
+        face, pivot, arc = S.draw_off_centre_face(scale, value, drop=0.0)
         image, quad = _scene(face, rng, side=200, yaw=yaw, pitch=pitch, roll=0.0, noise=2.0)
         box, centre, radius, aspect, marks = _oblique_calibration(quad, 300, pivot, arc, scale, pivot)
         reading = reader.read(image, box, scale, centre, radius, aspect, marks=marks)
@@ -312,7 +292,7 @@ def test_pointer_reader_off_centre_pivot(drop):
     scale = GaugeScale(240.0, 120.0, -20.0, 140.0)
     reader = PointerReader()
     for value in (0.0, 37.0, 88.0, 131.0):
-        face, pivot, arc = _off_centre_face(scale, value, drop=drop)
+        face, pivot, arc = S.draw_off_centre_face(scale, value, drop=drop)
         image, quad = _scene(face, rng, side=200, yaw=0.0, pitch=0.0, roll=0.0, noise=2.0)
         box, centre, radius, aspect, marks = _oblique_calibration(quad, 300, pivot, arc, scale, pivot)
         reading = reader.read(image, box, scale, centre, radius, aspect)

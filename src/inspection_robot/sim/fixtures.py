@@ -65,6 +65,30 @@ def draw_gauge_face(scale, value, size=400, style="classic", ticks=10):
     return img
 
 
+def draw_off_centre_face(scale, value, size=300, drop=0.3, hub_cap=False, hidden_hub=False):
+    """A dial of radius 0.45 * ``size`` whose needle pivots ``drop`` dial radii below its centre, the
+    scale's ticks on an arc (0.55 of the dial radius) about the pivot, a dark needle; ``hub_cap``: a
+    dark cap over the pivot; ``hidden_hub``: the needle shows only from 0.35 of the arc out, as if
+    its hub were under a plate of the face's colour. Returns (face, pivot px, arc radius px)."""
+    face = np.full((size, size, 3), 60, np.uint8)
+    c, r = size / 2.0, 0.45 * size
+    cv2.circle(face, (int(c), int(c)), int(r), (235, 235, 235), -1, cv2.LINE_AA)
+    pivot = np.array([c, c + drop * r])
+    arc = 0.55 * r
+    for k in range(11):
+        a = np.radians(scale.start_angle + k * scale.sweep / 10.0)
+        u = np.array([np.sin(a), -np.cos(a)])
+        cv2.line(face, tuple(int(v) for v in pivot + 0.92 * arc * u), tuple(int(v) for v in pivot + 1.05 * arc * u),
+                 (20, 20, 20), 2, cv2.LINE_AA)
+    u = np.array([np.sin(np.radians(scale.angle(value))), -np.cos(np.radians(scale.angle(value)))])
+    start = pivot + 0.35 * arc * u if hidden_hub else pivot
+    cv2.line(face, tuple(int(v) for v in start), tuple(int(v) for v in pivot + 0.9 * arc * u), (15, 15, 15), 3,
+             cv2.LINE_AA)
+    if hub_cap and not hidden_hub:
+        cv2.circle(face, tuple(int(v) for v in pivot), 7, (15, 15, 15), -1, cv2.LINE_AA)
+    return face, pivot, arc
+
+
 def draw_lamp(colour_bgr, on, size=128):
     img = np.full((size, size, 3), 70, np.uint8)
     c = size // 2
