@@ -176,7 +176,13 @@ class TerraceTest(unittest.TestCase):
 
     def rotate_and_check(self, start, zoom, width, height, dx, dy):
         self.assertEqual(self.call("set_angle", "%d,%d" % start).ack, "success")
+        self.diagnostics.clear()
         self.zoom.publish(Float64(zoom))
+        # camera_zoom and preset_rotate are separate connections: rotate once the head node has the zoom
+        wait_for(lambda: any(s.hardware_id == "pan_tilt_head" and
+                             any(kv.key == "camera_zoom" and float(kv.value) == zoom for kv in s.values)
+                             for _, m in list(self.diagnostics.messages) for s in m.status),
+                 5.0, "camera_zoom %g heard by cloud_terrace" % zoom)
         optics_param = rospy.get_param("cloud_terrace/camera_optics")
         optics = ZoomOptics(optics_param["zoom_hfov_deg"], optics_param["width"], optics_param["height"])
         focal = optics.focal_px(zoom, width)

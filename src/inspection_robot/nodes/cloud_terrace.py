@@ -102,7 +102,8 @@ class CloudTerrace(object):
         fresh = self._last_state_time is not None and rospy.get_time() - self._last_state_time < STATE_STALE_S
         ok = self._head.connected and fresh
         message = "head answering" if ok else "head lost: %s" % (self._head.last_error or "no reply")
-        self._diagnostics.publish(ok, message, sorted(self._head.stats.items()) + [("port", self._head.port)])
+        self._diagnostics.publish(ok, message, sorted(self._head.stats.items()) +
+                                  [("port", self._head.port), ("camera_zoom", "%g" % self._zoom)])
 
 
 def main():
