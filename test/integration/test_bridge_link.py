@@ -280,16 +280,34 @@ class BridgeLinkTest(unittest.TestCase):
         everything = self.raw()
         everything.send({"op": "subscribe", "topic": NS + "fast", "type": "std_msgs/Int32"})
         wait_for(lambda: pub.get_num_connections() > 0, 5.0, "bridge subscriber")
+        # frames of two connections are not ordered: the bridge may take one client's subscribe after
+        # the other's subscriber is connected, so both are in place once each has heard a 0
+        heard = set()
+
+        def both_hear_zero():
+            pub.publish(Int32(0))
+            for name, ws in (("throttled", client), ("everything", everything)):
+                try:
+                    while True:
+                        if ws.recv_message(timeout=0.1)["msg"]["data"] == 0:
+                            heard.add(name)
+                except queue.Empty:
+                    pass
+            return len(heard) == 2
+        wait_for(both_hear_zero, 10.0, "both subscriptions in place", period=0.0)
+        rospy.sleep(0.3)  # the throttled client's 300 ms window since its last 0
         rate = rospy.Rate(50)
         for i in range(1, 31):  # 0.6 s at 50 Hz
             pub.publish(Int32(i))
             rate.sleep()
-        all_values = [everything.recv_message()["msg"]["data"] for _ in range(30)]
+        all_values = []
+        while len(all_values) < 30:   # a late 0 of the handshake is not counted
+            all_values += [v for v in [everything.recv_message()["msg"]["data"]] if v]
         self.assertEqual(all_values, list(range(1, 31)))
         throttled = []
         try:
             while True:
-                throttled.append(client.recv_message(timeout=0.5)["msg"]["data"])
+                throttled += [v for v in [client.recv_message(timeout=0.5)["msg"]["data"]] if v]
         except queue.Empty:
             pass
         self.assertGreaterEqual(len(throttled), 2)
