@@ -233,6 +233,11 @@ def scale_about(scale, centre, pivot, ring, marks=None):
     return about, arc
 
 
+def _pivot_offset(pivot, centre, aspect):
+    """Distance between two points given as fractions of the box, in box widths (the dial radius' unit)."""
+    return math.hypot(pivot[0] - centre[0], (pivot[1] - centre[1]) / float(aspect))
+
+
 class PointerReader(object):
     """Finds the needle on a rectified gauge face by a radial dissimilarity profile and a line fit.
 
@@ -433,6 +438,14 @@ class PointerReader(object):
         if float(gray.std()) < 4.0:
             raise ReadFailed("blank picture in the box (no contrast)")
 
+    def _face_geometry(self, centre, radius, aspect):
+        """The rectified face's size (px), the dial radius (px) and the calibrated centre (px)."""
+        aspect = float(aspect)
+        width = self.size if aspect >= 1.0 else max(16, int(round(self.size * aspect)))
+        height = max(16, int(round(width / aspect)))
+        rad = radius * (width - 1)
+        return width, height, rad, (centre[0] * (width - 1), centre[1] * (height - 1))
+
     def needle_angle(self, image, quad, centre=(0.5, 0.5), radius=0.45, aspect=1.0, scale=None,
                      pointer_colour="", ignore_colour="", hub=None, look_for_hub=False, about_hub=False,
                      marks=None):
@@ -448,17 +461,13 @@ class PointerReader(object):
         carries (``scale_about_hub``). ``look_for_hub``: when the line misses the centre by more
         than ``hub_search``, detail["hub_candidates"] are find_hub's candidates.
         """
-        aspect = float(aspect)
-        width = self.size if aspect >= 1.0 else max(16, int(round(self.size * aspect)))
-        height = max(16, int(round(width / aspect)))
+        width, height, rad, c = self._face_geometry(centre, radius, aspect)
         face = rectify(image, quad, width, height)
         if face.ndim == 2:
             face = cv2.cvtColor(face, cv2.COLOR_GRAY2BGR)
         self.check_face(face)
         face = cv2.GaussianBlur(face, (3, 3), 0)
         lab = cv2.cvtColor(face, cv2.COLOR_BGR2LAB)
-        rad = radius * (width - 1)
-        c = (centre[0] * (width - 1), centre[1] * (height - 1))
         ring = rad * self._reach_radii[-1]
         # the needle is searched along rays from ``hub`` (the calibrated centre unless given) and read
         # where its line meets the scale circle about the calibrated centre
@@ -537,18 +546,15 @@ class PointerReader(object):
         angle = self._meets_circle(line, read_about, read_radius)
         inner_angle = self._meets_circle(inner_line, read_about, read_radius)
         outer_angle = self._meets_circle(outer_line, read_about, read_radius)
+        # distances to the outer half's line alone: the inner samples, taken along rays from the hub
+        # (or from a centre far off the pivot), pull the whole line through it, the outer ones hardly
+        normal = np.array([-outer_line[1][1], outer_line[1][0]])
         if read_about is not c:
             detail["scale_about_hub"] = scale
-            # the outer half's line: the inner samples, taken along rays from the hub, pull the
-            # whole line through it whether it is the pivot or not
-            normal = np.array([-outer_line[1][1], outer_line[1][0]])
             detail["hub_off_line"] = float(abs(np.dot(np.asarray(hub) - outer_line[0], normal))) / rad
             detail["hub_radius_unit"] = rad     # px per unit of hub_off_line and needle_width
         # the needle's line passes closest to the calibrated centre here: the pivot seen in the picture
         foot = line[0] + np.dot(np.asarray(c) - line[0], line[1]) * line[1]
-        # the outer half's line alone: from a centre far off the pivot the inner samples (taken
-        # along rays from that centre) pull the whole line towards it, the outer ones hardly
-        normal = np.array([-outer_line[1][1], outer_line[1][0]])
         detail["outer_line_miss"] = float(abs(np.dot(np.asarray(c) - outer_line[0], normal))) / rad
         if look_for_hub and max(math.hypot(foot[0] - c[0], foot[1] - c[1]) / rad,
                                 detail["outer_line_miss"]) > self.hub_search:
@@ -654,11 +660,7 @@ class PointerReader(object):
         Returns (angle, confidence, detail, scale the angle is measured on); the detail lists the
         candidates refused and why (``hub_tried``)."""
         angle, confidence, detail, _ = first
-        aspect = float(aspect)
-        width = self.size if aspect >= 1.0 else max(16, int(round(self.size * aspect)))
-        height = max(16, int(round(width / aspect)))
-        rad = radius * (width - 1)
-        c = (centre[0] * (width - 1), centre[1] * (height - 1))
+        width, height, rad, c = self._face_geometry(centre, radius, aspect)
 
         def seen(h, off):
             return {"x": round(h.x / (width - 1), 4), "y": round(h.y / (height - 1), 4),
@@ -725,7 +727,7 @@ class PointerReader(object):
             # from the calibrated centre, search again along rays from its point nearest the centre
             if angle is None or confidence < self.uncertain_below:
                 break
-            off = math.hypot(detail["pivot"][0] - centre[0], (detail["pivot"][1] - centre[1]) / float(aspect))
+            off = _pivot_offset(detail["pivot"], centre, aspect)
             if off < self.hub_move * radius:
                 break
             again = self.needle_angle(image, quad, centre, radius, aspect, scale, pointer_colour, ignore_colour,
@@ -738,8 +740,7 @@ class PointerReader(object):
             # the needle's line misses the calibrated centre and no hub seen in the picture confirms
             # another pivot (the search from the line's point nearest the centre guesses one): the
             # reading's geometry is a guess
-            off = max(math.hypot(first["pivot"][0] - centre[0], (first["pivot"][1] - centre[1]) / float(aspect)),
-                      first["outer_line_miss"] * radius)
+            off = max(_pivot_offset(first["pivot"], centre, aspect), first["outer_line_miss"] * radius)
             if off > self.hub_unsure * radius:
                 # applied by _read_frame to the reading it returns, so the retries it makes for an
                 # uncertain reading (outer band, axis) do not replace an honest flag with a guess
