@@ -320,7 +320,7 @@ class MoveBase(object):
             self._supervisor = None
 
     def _supervise(self, goal, supervisor):
-        follower = self._plan(goal, supervisor)
+        approach = self._plan(goal, supervisor)
         rate = rospy.Rate(self.cfg["control_rate"])
         last_feedback = 0.0
         while not rospy.is_shutdown():
@@ -333,16 +333,16 @@ class MoveBase(object):
             if alarm:
                 self._feedback(MOVE_FEEDBACK_ALARM, nav_warn=self.nav_warn(), reason=alarm)
             if action == REPLAN:
-                follower = self._plan(goal, supervisor)
+                approach = self._plan(goal, supervisor)
                 pose = self.loc.pose
             if action in (REPLAN, FOLLOW):
-                progress = follower.step(time.monotonic(), self.loc.stamp, pose)
+                progress = approach.step(time.monotonic(), self.loc.stamp, pose)
                 supervisor.followed(progress)
                 self.off_track = supervisor.off_track
                 if progress.phase == DONE:
-                    rest = follower.rest
-                    if follower.corrections:
-                        rospy.loginfo("move_base: goal judged at rest after %d correction(s)", follower.corrections)
+                    rest = approach.rest
+                    if approach.corrections:
+                        rospy.loginfo("move_base: goal judged at rest after %d correction(s)", approach.corrections)
                     error = math.hypot(goal.x - rest[0], goal.y - rest[1])
                     return MOVE_RESULT_SUCCESS, {"position_error": round(error, 4),
                                                  "yaw_error": round(abs(wrap_angle(goal.yaw - rest[2])), 4)}
