@@ -8,7 +8,6 @@ the view that ``view_source()`` returns: (robot pose (x, y, yaw), pan rad, tilt 
 import threading
 import time
 
-
 from inspection_robot.lazy import lazy_import
 from inspection_robot.camera.driver import CameraDriver, CameraError
 from inspection_robot.interface import FOCUS_POSITION_MAX, FOCUS_POSITION_MIN
