@@ -8,6 +8,8 @@ Parameters:  ~heartbeat_timeout (s, 3.0), ~rate (Hz, 10.0),
              ~stale_timeout/{control,nav,odom} (s, 1.0/2.0/1.0),
              ~sensor_hardware_bits ({hardware_id: sensor_status bit}, {camera: 0, thermal_imager: 1})
 """
+import threading
+
 import rospy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from nav_msgs.msg import Odometry
@@ -23,6 +25,10 @@ class StatusControl(object):
         self._merger = merger
         self._sensor_bits = dict(sensor_hardware_bits)
         self._last_published = None
+        # rospy runs each subscription's callbacks (and the timer) on its own thread: a status built
+        # before another input's but published after it would put an old value on the wire
+        # (offline_warn back on after the first heartbeat), so one input is merged and published at a time
+        self._lock = threading.Lock()
         self._pub = rospy.Publisher("robot_status", RobotStatus, queue_size=10)
         rospy.Subscriber("server_status", GeneralTopic, self._on_server_status, queue_size=10)
         rospy.Subscriber("control_status", ControlStatus, self._on_control_status, queue_size=10)
@@ -47,55 +53,52 @@ class StatusControl(object):
         return now
 
     def _on_server_status(self, msg):
-        now = self._now()
-        if now is None:
-            return
         problem = heartbeat_text_problem(msg.sender, msg.receiver, msg.data)
         if problem:
             rospy.logwarn_throttle(5.0, "server_status from %r malformed (%s); counted as heartbeat"
                                    % (msg.sender[:40], problem))
-        self._merger.heartbeat.beat(now)
-        self._publish_if_changed(now)
+        self._merge(self._merger.heartbeat.beat)
 
     def _on_control_status(self, msg):
-        now = self._now()
-        if now is None:
-            return
         fields = {name: getattr(msg, name) for name in ("mode",) + CONTROL_FIELDS}
-        for problem in self._merger.update_control(now, fields):
-            rospy.logwarn_throttle(5.0, "control_status: %s; padded/truncated" % problem)
-        self._publish_if_changed(now)
+
+        def update(now):
+            for problem in self._merger.update_control(now, fields):
+                rospy.logwarn_throttle(5.0, "control_status: %s; padded/truncated" % problem)
+        self._merge(update)
 
     def _on_nav_status(self, msg):
-        now = self._now()
-        if now is None:
-            return
-        for problem in self._merger.update_nav(now, msg.nav_warn, msg.position, msg.orientation):
-            rospy.logwarn_throttle(5.0, "nav_status: %s; keeping the last valid pose" % problem)
-        self._publish_if_changed(now)
+        def update(now):
+            for problem in self._merger.update_nav(now, msg.nav_warn, msg.position, msg.orientation):
+                rospy.logwarn_throttle(5.0, "nav_status: %s; keeping the last valid pose" % problem)
+        self._merge(update)
 
     def _on_odom(self, msg):
-        now = self._now()
-        if now is None:
-            return
         twist = msg.twist.twist
-        self._merger.update_odometry(now, twist.linear.x, twist.angular.z)
-        self._publish_if_changed(now)
+        self._merge(lambda now: self._merger.update_odometry(now, twist.linear.x, twist.angular.z))
 
     def _on_diagnostics(self, msg):
-        now = self._now()
-        if now is None:
-            return
-        for status in msg.status:
-            bit = self._sensor_bits.get(status.hardware_id)
-            if bit is not None:
-                self._merger.set_sensor_bit(1 << int(bit), status.level >= DiagnosticStatus.ERROR)
-        self._publish_if_changed(now)
+        def update(_now):
+            for status in msg.status:
+                bit = self._sensor_bits.get(status.hardware_id)
+                if bit is not None:
+                    self._merger.set_sensor_bit(1 << int(bit), status.level >= DiagnosticStatus.ERROR)
+        self._merge(update)
 
     def _on_timer(self, _event):
-        now = self._now()
-        if now is not None:
-            self._publish(self._merger.robot_status(now))
+        with self._lock:
+            now = self._now()
+            if now is not None:
+                self._publish(self._merger.robot_status(now))
+
+    def _merge(self, update):
+        """``update(now)`` applied to the merger, then robot_status published if it changed."""
+        with self._lock:
+            now = self._now()
+            if now is None:
+                return
+            update(now)
+            self._publish_if_changed(now)
 
     def _publish_if_changed(self, now):
         status = self._merger.robot_status(now)
