@@ -352,18 +352,46 @@ class BridgeLinkTest(unittest.TestCase):
                       "end": 0})
         self.assertIn("authentication failed", guesser.recv_message()["msg"])
         self.assertIs(guesser.recv(5.0), CLOSED)
-        t = int(rospy.get_time())
-        mac = hashlib.sha512(("s3cret-token" + "c" + "d" + "r" + str(t) + "admin" + str(t + 60)).encode()).hexdigest()
-        for auth in ({"op": "auth", "mac": "s3cret-token"},
-                     {"op": "auth", "mac": mac, "client": "c", "dest": "d", "rand": "r", "t": t, "level": "admin",
-                      "end": t + 60}):
-            friend = self.raw(url)
-            friend.send(auth)
-            friend.send({"op": "call_service", "id": "t", "service": "/rosapi/get_time"})
-            self.assertTrue(friend.recv_message()["result"])
-        ros = roslibpy.Ros("127.0.0.1", self.secured_port)
+        friend = self.raw(url)  # the token itself: from this machine (or over TLS) only
+        friend.send({"op": "auth", "mac": "s3cret-token"})
+        friend.send({"op": "call_service", "id": "t", "service": "/rosapi/get_time"})
+        self.assertTrue(friend.recv_message()["result"])
+        challenged = self.raw(url)  # rosauth's MAC over the nonce the bridge issued to this connection
+        challenged.send({"op": "auth_challenge", "id": "c"})
+        challenge = challenged.recv_message()
+        self.assertEqual((challenge["op"], challenge["id"], len(challenge["nonce"])), ("auth_challenge", "c", 32))
+        t = challenge["t"]
+        auth = {"op": "auth", "mac": hashlib.sha512(("s3cret-token" + "c" + "d" + challenge["nonce"] + str(t) + "admin"
+                                                     + str(t + 60)).encode()).hexdigest(),
+                "client": "c", "dest": "d", "rand": challenge["nonce"], "t": t, "level": "admin", "end": t + 60}
+        challenged.send(auth)
+        challenged.send({"op": "call_service", "id": "t", "service": "/rosapi/get_time"})
+        self.assertTrue(challenged.recv_message()["result"])
+        replay = self.raw(url)  # the same auth message captured and sent again: refused
+        replay.send(auth)
+        self.assertIn("rand must be the nonce", replay.recv_message()["msg"])
+        self.assertIs(replay.recv(5.0), CLOSED)
+        ros = roslibpy.Ros("127.0.0.1", self.secured_port)  # roslibpy unchanged, the token on the robot
         ros.authenticate("s3cret-token", "", "", "", 0, "", 0)
         ros.run(timeout=10)
+        self.assertGreater(ros.get_time().secs, 0)
+        ros.close()
+        ros = roslibpy.Ros("127.0.0.1", self.secured_port)  # and the challenge, as docs/interface.md shows
+        answered = threading.Event()
+
+        def on_ready(proto):
+            def answer(challenge):
+                t, nonce = challenge["t"], challenge["nonce"]
+                mac = hashlib.sha512(("s3cret-token" + "backend" + "robot" + nonce + str(t) + "server"
+                                      + str(t + 3600)).encode()).hexdigest()
+                proto.send_ros_message(roslibpy.Message({"op": "auth", "mac": mac, "client": "backend", "dest": "robot",
+                                                         "rand": nonce, "t": t, "level": "server", "end": t + 3600}))
+                answered.set()
+            proto.register_message_handlers("auth_challenge", answer)
+            proto.send_ros_message(roslibpy.Message({"op": "auth_challenge"}))
+        ros.factory.on_ready(on_ready)
+        ros.run(timeout=10)
+        self.assertTrue(answered.wait(5.0))
         self.assertGreater(ros.get_time().secs, 0)
         ros.close()
 

@@ -33,7 +33,20 @@ CHROMIUM_ARGS = ["--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-
                  "--disable-background-networking", "--disable-component-update", "--disable-sync"]
 CMD_TIMEOUT = 0.5      # s, robot_control's move_cmd watchdog
 SHOTS = os.path.join(rospkg.RosPack().get_path("inspection_robot"), "test_logs", "console")
-FAR_STOP = (15.5, 10.0, 0.0)   # a reachable stop of the yard (sim/yard_patrol.py), ~11 m from the start
+FAR_STOP = (15.5, 10.0, 0.0)
+# A page of another origin that tries to take backend control and drive through the robot's bridge.
+ATTACK_PAGE = """<!doctype html><script>
+window.attack = {opened: false, done: false};
+const ws = new WebSocket('ws://127.0.0.1:%d/');
+const header = {sender: 'server', receiver: '', trans_id: 1};
+ws.onopen = () => {
+  window.attack.opened = true;
+  ws.send(JSON.stringify({op: 'publish', topic: '/mode_cmd',
+                          msg: Object.assign({cmd: 'acquire', data: 'server'}, header)}));
+  ws.send(JSON.stringify({op: 'publish', topic: '/move_cmd', msg: Object.assign({velocity_x: 0.5}, header)}));
+};
+ws.onclose = () => { window.attack.done = true; };
+</script>"""   # a reachable stop of the yard (sim/yard_patrol.py), ~11 m from the start
 
 
 def bridge_port(node):
@@ -124,6 +137,23 @@ class ConsoleTest(unittest.TestCase):
             "([x, y]) => { const c = document.getElementById('map');"
             " const [sx, sy] = window.consoleMap.toScreen([x, y]); return [sx, sy, c.width, c.height]; }", [x, y])
         self.page.mouse.click(box["x"] + sx * box["width"] / width, box["y"] + sy * box["height"] / height)
+
+    # ------------------------------------------------------------------ cross-site websocket hijacking
+    def test_0_pages_of_other_origins_cannot_drive(self):
+        """A page of another site (or another port of this machine) in the operator's browser tries to
+        take backend control and drive: the bridge refuses its handshake and nothing moves."""
+        attack = ATTACK_PAGE % self.port
+        self.move_cmds.clear()
+        for origin in ("http://attacker.example", "http://127.0.0.1:%d" % (self.port + 1)):
+            self.page.route(origin + "/**", lambda route: route.fulfill(body=attack, content_type="text/html"))
+            self.page.goto(origin + "/")
+            self.wait_page("window.attack && window.attack.done", "the attack page's end")
+            self.assertEqual(self.page.evaluate("window.attack.opened"), False, origin)
+        self.link_errors_expected = True   # chromium logs each refused handshake
+        self.open_console()   # the console itself, from the bridge's own origin, still connects
+        self.wait_connected()
+        self.assertEqual([m for _, m in self.move_cmds.messages if m.sender == "server"], [])
+        self.assertEqual(self.status.wait(lambda m: True, 5.0, "robot_status").mode, 0)
 
     # ------------------------------------------------------------------ status
     def test_1_status_in_words(self):
@@ -413,6 +443,8 @@ class ConsoleTest(unittest.TestCase):
     def test_7_token_asked_refused_accepted_and_link_loss_shown(self):
         port = bridge_port("rosbridge_auth")
         self.link_errors_expected = True
+        sent = []   # every frame the page sends: the token must never be among them
+        self.page.on("websocket", lambda ws: ws.on("framesent", lambda payload: sent.append(str(payload))))
         self.open_console(port)
         self.wait_page("document.getElementById('auth').open", "the token dialog")
         self.page.fill("#auth-token", "wrong-token")
@@ -425,6 +457,10 @@ class ConsoleTest(unittest.TestCase):
         self.wait_connected()
         self.wait_page("document.querySelector('#status tbody').textContent.includes('battery')",
                        "status through the authenticated link")
+        auths = [json.loads(frame) for frame in sent if '"op":"auth"' in frame.replace(" ", "")]
+        self.assertEqual(len(auths), 2, sent[:5])   # the wrong token's and the right one's, as MACs of nonces
+        self.assertEqual(len({a["rand"] for a in auths}), 2)
+        self.assertFalse([frame for frame in sent if "console-secret" in frame or "wrong-token" in frame])
         subprocess.check_call(["rosnode", "kill", "/rosbridge_auth"], stdout=subprocess.DEVNULL)
         self.wait_page("document.getElementById('link').textContent.startsWith('disconnected')",
                        "the dropped link shown")

@@ -7,7 +7,8 @@ import genpy
 from bridge_fakes import FakeBackend, Harness
 from inspection_robot.bridge import cbor
 from inspection_robot.bridge.compression import fragments, png_decode
-from inspection_robot.bridge.protocol import LOG_PERIOD, OPS, Authenticator, Outgoing, SessionConfig
+from inspection_robot.bridge.access import Authenticator, FailureLimiter, Peer
+from inspection_robot.bridge.protocol import LOG_PERIOD, OPS, Outgoing, SessionConfig
 
 
 def outgoing(backend, topic, text):
@@ -228,29 +229,113 @@ def test_cbor_request_frames_are_accepted():
     assert h.backend.published[-1][1].data == "from cbor"
 
 
+REMOTE = Peer("10.1.2.3", False)
+
+
+def auth_config(limiter=None):
+    return SessionConfig(authenticator=Authenticator("s3cret", clock=lambda: 1000.0, limiter=limiter))
+
+
+def challenged(config, peer=REMOTE):
+    """A harness whose client asked for a nonce; returns (harness, nonce, server time)."""
+    h = Harness(config=config, peer=peer)
+    h.send({"op": "auth_challenge", "id": "c1"})
+    reply, = h.messages()
+    assert reply["op"] == "auth_challenge" and reply["id"] == "c1" and len(reply["nonce"]) == 32
+    return h, reply["nonce"], reply["t"]
+
+
+def mac_auth(nonce, t=999, end=2000, secret="s3cret"):
+    text = "%sclientdest%s%duser%d" % (secret, nonce, t, end)
+    return {"op": "auth", "mac": hashlib.sha512(text.encode()).hexdigest(), "client": "client", "dest": "dest",
+            "rand": nonce, "t": t, "level": "user", "end": end}
+
+
+def authenticated(h):
+    h.send({"op": "subscribe", "topic": "/known"})
+    return not h.closed and "/known" in h.backend.subscribers
+
+
 def test_auth_required_first():
-    config = SessionConfig(authenticator=Authenticator("s3cret", clock=lambda: 1000.0))
-    h = Harness(config=config)
+    h = Harness(config=auth_config())
     h.send({"op": "subscribe", "topic": "/known", "id": 1})
     assert h.closed and "Not authenticated" in errors(h.messages())[0]["msg"]
-    h = Harness(config=config)
-    h.send({"op": "auth", "mac": "wrong"})
-    assert h.closed
-    h = Harness(config=config)
+    assert "/known" not in h.backend.subscribers
+
+
+def test_raw_token_only_from_a_private_peer():
+    config = auth_config()
+    for peer in (None, Peer("127.0.0.1", False), Peer("10.1.2.3", True)):  # loopback or TLS
+        h = Harness(config=config, peer=peer)
+        h.send({"op": "auth", "mac": "s3cret"})
+        assert authenticated(h), peer
+    h = Harness(config=config, peer=REMOTE)
     h.send({"op": "auth", "mac": "s3cret"})
-    h.send({"op": "subscribe", "topic": "/known"})
-    assert not h.closed and "/known" in h.backend.subscribers
-    h = Harness(config=config)
-    mac = hashlib.sha512(b"s3cretclientdestrand999user2000").hexdigest()
-    h.send({"op": "auth", "mac": mac, "client": "client", "dest": "dest", "rand": "rand", "t": 999, "level": "user",
-            "end": 2000})
-    h.send({"op": "subscribe", "topic": "/known"})
-    assert not h.closed and h.messages() == []
-    h = Harness(config=config)
-    mac = hashlib.sha512(b"s3cretclientdestrand999user900").hexdigest()  # session already ended
-    h.send({"op": "auth", "mac": mac, "client": "client", "dest": "dest", "rand": "rand", "t": 999, "level": "user",
-            "end": 900})
-    assert h.closed
+    assert h.closed and "only over TLS (wss) or from the robot" in errors(h.messages())[0]["msg"]
+    assert not authenticated(h)
+
+
+def test_mac_needs_this_connections_nonce_once():
+    config = auth_config()
+    h, nonce, now = challenged(config)
+    assert now == 1000
+    h.send(mac_auth(nonce))
+    assert authenticated(h) and h.messages() == []
+    replayed = Harness(config=config, peer=REMOTE)  # the captured message on a new connection
+    replayed.send(mac_auth(nonce))
+    assert replayed.closed and "rand must be the nonce" in errors(replayed.messages())[0]["msg"]
+    other, other_nonce, _ = challenged(config)  # or with that connection's own nonce
+    assert other_nonce != nonce
+    other.send(mac_auth(nonce))
+    assert other.closed and "rand must be the nonce" in errors(other.messages())[0]["msg"]
+    own_rand = Harness(config=config, peer=REMOTE)  # rosauth clients choosing their own rand
+    own_rand.send(mac_auth("r"))
+    assert own_rand.closed
+
+
+def test_mac_refusals_name_the_reason():
+    config = auth_config(FailureLimiter(lambda: 0.0, max_failures=100))
+    for auth, reason in ((lambda n: mac_auth(n, secret="guess"), "wrong mac"),
+                         (lambda n: mac_auth(n, end=900), "end is in the past"),
+                         (lambda n: mac_auth(n, t=900), "t is more than 60 s away"),
+                         (lambda n: dict(mac_auth(n), t=float("inf")), "finite numbers"),
+                         (lambda n: dict(mac_auth(n), end=float("nan")), "finite numbers")):
+        h, nonce, _ = challenged(config)
+        h.send(auth(nonce))
+        assert h.closed and reason in errors(h.messages())[0]["msg"]
+        assert not authenticated(h)
+
+
+def test_one_try_per_connection_and_failures_block_the_peer():
+    now = [0.0]
+    limiter = FailureLimiter(lambda: now[0], max_failures=3, period=60.0)
+    config = auth_config(limiter)
+    h = Harness(config=config, peer=Peer("127.0.0.1", False))
+    h.send({"op": "auth", "mac": "guess1"})
+    h.send({"op": "auth", "mac": "s3cret"})  # the right token in the same burst: not even looked at
+    assert h.closed and not authenticated(h)
+    for guess in ("guess2", "guess3"):
+        h = Harness(config=config, peer=Peer("127.0.0.1", False))
+        h.send({"op": "auth", "mac": guess})
+    blocked = Harness(config=config, peer=Peer("127.0.0.1", False))
+    assert blocked.closed and "Too many failed authentications from 127.0.0.1: try again in 60 s" in \
+        errors(blocked.messages())[0]["msg"]
+    blocked.send({"op": "auth", "mac": "s3cret"})
+    assert not authenticated(blocked)
+    other = Harness(config=config, peer=REMOTE)  # another address is not affected
+    assert not other.closed
+    now[0] = 61.0
+    h = Harness(config=config, peer=Peer("127.0.0.1", False))
+    h.send({"op": "auth", "mac": "s3cret"})
+    assert authenticated(h)
+
+
+def test_auth_challenge_without_auth_configured():
+    h = Harness()
+    h.send({"op": "auth_challenge", "id": 7})
+    status, = h.messages()
+    assert status == {"op": "status", "level": "error", "id": 7,
+                      "msg": "auth_challenge: no authentication needed on this connection"}
 
 
 def test_outgoing_encodes_once_and_keeps_nan_in_cbor():

@@ -11,6 +11,7 @@ import threading
 import time
 
 import pytest
+import tornado.httpclient
 import tornado.ioloop
 
 from bridge_fakes import FakeBackend
@@ -80,8 +81,9 @@ class LiveServer(object):
         asyncio.set_event_loop(asyncio.new_event_loop())
         self.loop = tornado.ioloop.IOLoop.current()
 
-        def make_session(client_id, send, call_later, close):
-            return Session(client_id, self.backend, send, time.monotonic, call_later, close, SessionConfig())
+        def make_session(client_id, send, call_later, close, peer):
+            return Session(client_id, self.backend, send, time.monotonic, call_later, close, SessionConfig(),
+                           peer=peer)
         self.server = BridgeServer(make_session, "127.0.0.1", 0, on_client_count=self.counts.append,
                                    log=lambda level, text: self.logged.append(text), **kwargs)
         ready.set_result(self.server.start())
@@ -123,6 +125,29 @@ def test_round_trip_size_limit_and_other_clients_unaffected(live):
     assert a.recv_message()["id"] == 2
     a.close()
     live.wait_count(0)
+
+
+def test_browser_pages_of_other_origins_are_refused_before_the_protocol(live):
+    url = "ws://127.0.0.1:%d" % live.port
+    console = RawClient(url, headers={"Origin": "http://127.0.0.1:%d" % live.port})  # the bridge's own page
+    console.send({"op": "call_service", "id": 1, "service": "/echo"})
+    assert console.recv_message()["id"] == 1
+    for origin in ("http://127.0.0.1:8000", "http://evil.example", "null"):
+        with pytest.raises(tornado.httpclient.HTTPClientError, match="403"):
+            RawClient(url, headers={"Origin": origin})
+    assert live.server.origins_refused == 3
+    assert sum("refused a browser connection from 127.0.0.1: origin http://127.0.0.1:8000" in line
+               for line in live.logged) == 1  # one line per period, not one per attempt
+    assert [call[0] for call in live.backend.calls] == ["/echo"]  # the console's call only
+    allowed = LiveServer(allowed_origins=["https://backend.example"])
+    try:
+        client = RawClient("ws://127.0.0.1:%d" % allowed.port, headers={"Origin": "https://backend.example"})
+        client.send({"op": "call_service", "id": 2, "service": "/echo"})
+        assert client.recv_message()["id"] == 2
+        client.close()
+    finally:
+        allowed.stop()
+    console.close()
 
 
 def test_silent_client_is_dropped_by_keepalive(live):

@@ -8,6 +8,7 @@
   const HEARTBEAT_PERIOD_MS = 1000;   // server_status while the page acts as the backend
   const RECONNECT_MS = 2000;
   const YAW_RATE = 0.5;               // rad/s when turning
+  const AUTH_LIFETIME_S = 12 * 3600;  // the auth op's end: an operator's shift
 
   const $ = (id) => document.getElementById(id);
   const state = { ros: null, topics: {}, transId: 1, status: null, authRequired: false, connected: false };
@@ -72,15 +73,32 @@
       setTimeout(connect, RECONNECT_MS);
     });
     ros.connect(url);
-    const token = sessionStorage.getItem('robot-token');
-    if (state.authRequired) {
-      if (!token) {
-        askToken('');
-        return;
-      }
-      ros.authenticate(token, '', '', '', 0, '', 0);   // the robot accepts its token as the mac
+    if (!state.authRequired) {
+      subscribeAll();
+      return;
     }
-    subscribeAll();
+    const token = sessionStorage.getItem('robot-token');
+    if (!token) {
+      askToken('');
+      return;
+    }
+    authenticate(ros, token);
+  }
+
+  /* Ask the robot for a nonce, answer with the MAC over it (never the token), then subscribe: the
+     robot handles a connection's messages in order, so the subscriptions follow the auth op. */
+  function authenticate(ros, token) {
+    const onChallenge = (event) => {
+      if (typeof event.data !== 'string' || event.data.indexOf('"auth_challenge"') < 0) return;
+      const challenge = JSON.parse(event.data);
+      if (challenge.op !== 'auth_challenge') return;
+      ros.socket.removeEventListener('message', onChallenge);
+      const f = RobotAuth.authFields(token, challenge, 'console', location.host, AUTH_LIFETIME_S);
+      ros.authenticate(f.mac, f.client, f.dest, f.rand, f.t, f.level, f.end);
+      subscribeAll();
+    };
+    ros.socket.addEventListener('message', onChallenge);   // roslib.js passes on no op it does not know
+    ros.callOnConnection({ op: 'auth_challenge' });
   }
 
   function askToken(reason) {

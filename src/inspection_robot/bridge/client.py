@@ -23,9 +23,10 @@ CLOSED = object()
 
 
 class RawClient(object):
-    """Connects to ``url`` (ws:// or wss://); frames are read with :meth:`recv`."""
+    """Connects to ``url`` (ws:// or wss://); frames are read with :meth:`recv`. ``headers``: extra
+    handshake headers (an ``Origin`` to act as a browser page)."""
 
-    def __init__(self, url, timeout=5.0, ssl_options=None, max_message_size=64 * 1024 * 1024):
+    def __init__(self, url, timeout=5.0, ssl_options=None, max_message_size=64 * 1024 * 1024, headers=None):
         self.url = url
         self.frames = queue.Queue()
         self.close_code = None
@@ -34,7 +35,7 @@ class RawClient(object):
         self._conn = None
         self._loop = None
         self._ready = threading.Event()
-        self._request = tornado.httpclient.HTTPRequest(url, ssl_options=ssl_options) if ssl_options else url
+        self._request = tornado.httpclient.HTTPRequest(url, ssl_options=ssl_options, headers=headers)
         self._max = max_message_size
         self._thread = threading.Thread(target=self._run, name="raw_ws_client")
         self._thread.daemon = True

@@ -10,11 +10,11 @@ out through ``send(frames, key, limit)`` of the transport's bounded queue. All m
 the transport's event-loop thread; the backend hands ROS callbacks over to that thread.
 """
 import base64
-import hashlib
-import hmac
 import json
+import math
 
 from inspection_robot.bridge import cbor
+from inspection_robot.bridge.access import Peer
 from inspection_robot.bridge.compression import Defragmenter, FragmentError, fragments, png_encode
 
 LEVELS = {"info": 0, "warning": 1, "error": 2, "none": 3}
@@ -77,6 +77,7 @@ OPS = {
     "auth": [_f("mac", str, True), _f("client", str, default=""), _f("dest", str, default=""),
              _f("rand", str, default=""), _f("t", (int, float, dict), default=0, type_name="time"),
              _f("level", str, default=""), _f("end", (int, float, dict), default=0, type_name="time")],
+    "auth_challenge": [],
 }
 
 
@@ -100,38 +101,6 @@ def check_fields(op, msg):
 
 def _short(text):
     return text if len(text) <= ORIGINAL_MAX else text[:ORIGINAL_MAX] + "..."
-
-
-def _seconds(value):
-    if isinstance(value, dict):
-        return int(value.get("secs", 0)) if isinstance(value.get("secs", 0), int) else 0
-    return int(value)
-
-
-class Authenticator(object):
-    """Checks an ``auth`` op against a shared secret.
-
-    Accepted: ``mac`` equal to the secret, or rosauth's MAC, the hex SHA-512 of
-    secret + client + dest + rand + str(t) + level + str(end) (t, end in whole seconds), when
-    ``end`` is not in the past and ``t`` is within ``window`` seconds of ``clock()``.
-    """
-
-    def __init__(self, secret, clock, window=60.0):
-        if not secret:
-            raise ValueError("an empty secret would accept anyone")
-        self._secret = secret
-        self._clock = clock
-        self._window = float(window)
-
-    def check(self, args):
-        if hmac.compare_digest(args["mac"].encode("utf-8"), self._secret.encode("utf-8")):
-            return True
-        t, end = _seconds(args["t"]), _seconds(args["end"])
-        text = "%s%s%s%s%d%s%d" % (self._secret, args["client"], args["dest"], args["rand"], t, args["level"], end)
-        expected = hashlib.sha512(text.encode("utf-8")).hexdigest()
-        now = self._clock()
-        return (hmac.compare_digest(args["mac"].encode("utf-8"), expected.encode("utf-8"))
-                and end >= now and abs(now - t) <= self._window)
 
 
 class Outgoing(object):
@@ -232,10 +201,13 @@ class Session(object):
     droppable)``: queue a list of frames (str text / bytes binary) as one message. ``clock()``:
     monotonic seconds. ``call_later(delay_s, fn)``: returns a handle with ``cancel()``.
     ``close()``: drop the connection after the queued frames. ``rosapi``: RosApi or None.
+    ``peer``: the client's access.Peer (address, TLS), for authentication.
     """
 
-    def __init__(self, client_id, backend, send, clock, call_later, close, config, rosapi=None, log=None):
+    def __init__(self, client_id, backend, send, clock, call_later, close, config, rosapi=None, log=None,
+                 peer=None):
         self.client_id = client_id
+        self.peer = peer or Peer("127.0.0.1", False)
         self._backend = backend
         self._send = send
         self._clock = clock
@@ -246,6 +218,7 @@ class Session(object):
         self._log = log or (lambda level, text: None)
         self._level = LEVELS[DEFAULT_LEVEL]
         self._authenticated = config.authenticator is None
+        self._nonce = None  # the auth_challenge nonce issued to this client, until an auth uses it
         self._defrag = Defragmenter(clock, config.fragment_timeout, config.max_message_size)
         self._advertised = {}   # topic -> set of advertise ids
         self._subscriptions = {}  # topic -> _Subscription
@@ -271,7 +244,13 @@ class Session(object):
             "set_level": self._op_set_level,
             "fragment": self._op_fragment,
             "auth": self._op_auth,
+            "auth_challenge": self._op_auth_challenge,
         }
+        if not self._authenticated:
+            wait = config.authenticator.limiter.blocked_for(self.peer.address)
+            if wait > 0:
+                self._refuse("Too many failed authentications from %s: try again in %d s; closing"
+                             % (self.peer.address, math.ceil(wait)))
 
     # ------------------------------------------------------------------ incoming frames
     def on_frame(self, frame, more_input=False):
@@ -305,9 +284,9 @@ class Session(object):
         if mid is not None and not isinstance(mid, ANY_ID) or isinstance(mid, bool):
             mid = None
         op = msg.get("op")
-        if not self._authenticated and op != "auth":
-            self.status("error", "Not authenticated: the first message must be an auth op; closing", mid, op)
-            self._close()
+        if not self._authenticated and op not in ("auth", "auth_challenge"):
+            self._refuse("Not authenticated: the first message must be an auth op (or auth_challenge); closing",
+                         mid)
             return
         if op is None:
             self.status("error", "Received a message without an op. All messages require 'op' field with value "
@@ -327,6 +306,13 @@ class Session(object):
         except Exception as exc:  # boundary: one bad op never takes the connection down
             self._log("error", "client %s: %s failed: %r" % (self.client_id, op, exc))
             self.status("error", "%s: %s" % (op, exc), mid, op)
+
+    def _refuse(self, text, mid=None):
+        """Tell an unauthenticated client why, close, and handle none of its further frames (a burst of
+        guesses gets one try per connection)."""
+        self.status("error", text, mid, always=True)
+        self._close()
+        self._closed = True  # nothing to clean up: an unauthenticated client has opened nothing
 
     # ------------------------------------------------------------------ outgoing
     def status(self, level, text, mid=None, op=None, always=False):
@@ -602,11 +588,23 @@ class Session(object):
         authenticator = self._config.authenticator
         if authenticator is None or self._authenticated:
             return  # nothing to check (rosbridge also ignores a late auth)
-        if not authenticator.check(args):
-            self.status("error", "auth: authentication failed; closing", mid, "auth")
-            self._close()
+        nonce, self._nonce = self._nonce, None  # single use, whatever the outcome
+        refusal = authenticator.refusal(args, self.peer, nonce)
+        if refusal is not None:
+            authenticator.limiter.failed(self.peer.address)
+            self._refuse("auth: authentication failed: %s; closing" % refusal, mid)
             return
         self._authenticated = True
+
+    def _op_auth_challenge(self, args, mid):
+        authenticator = self._config.authenticator
+        if authenticator is None or self._authenticated:
+            raise BridgeError("no authentication needed on this connection")
+        self._nonce, now = authenticator.challenge()
+        reply = {"op": "auth_challenge", "nonce": self._nonce, "t": now}
+        if mid is not None:
+            reply["id"] = mid
+        self._send_json(reply)
 
     # ------------------------------------------------------------------ teardown
     def close(self):

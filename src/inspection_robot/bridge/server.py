@@ -38,10 +38,13 @@ import tornado.web
 import tornado.websocket
 from tornado.iostream import StreamClosedError
 
+from inspection_robot.bridge.access import Peer, local_names, origin_allowed
+
 KEEPALIVE_TICK = 1.0  # s between checks for silent or over-budget clients (pings go every ping_interval)
 READ_SLICE = 32  # incoming frames handled before the reader yields to the IOLoop once
 BATCH_BYTES = 1 << 20  # outgoing bytes handed to the socket per write (at least one message)
 DROP_WARNING_PERIOD = 1.0  # s: at most one drop warning per client and period
+REFUSAL_LOG_PERIOD = 10.0  # s: at most one logged origin refusal per period
 BACKLOG_POLL = 0.001  # s between checks of a full rospy publisher queue while a client's reading is paused
 CLOSE_POLICY = 1008  # websocket close codes (RFC 6455 7.4.1)
 CLOSE_TOO_BIG = 1009
@@ -239,7 +242,12 @@ class BridgeHandler(tornado.websocket.WebSocketHandler):
         self.last_heard = time.monotonic()
 
     def check_origin(self, origin):
-        return True  # as rosbridge: any origin; restrict with the address/auth parameters
+        # only browsers send an Origin (tornado lets clients without one through): a page from another
+        # site must not use the operator's browser, on the robot's network, to drive the robot
+        if self._server.origin_allowed(origin, self.request.host, self.request.protocol):
+            return True
+        self._server.origin_refused(self.request.remote_ip, origin)
+        return False
 
     def get_compression_options(self):
         return None  # permessage-deflate costs more CPU than it saves on a local link
@@ -434,7 +442,8 @@ class _Timer(object):
 class BridgeServer(object):
     """Listens on ``address:port`` (0 = any free port) and runs one Session per client.
 
-    ``make_session(client_id, send, call_later, close)`` returns a protocol Session.
+    ``make_session(client_id, send, call_later, close, peer)`` returns a protocol Session (``peer``:
+    access.Peer). ``allowed_origins``: browser origins accepted besides the console's own.
     ``on_client_count(n)`` is called on every connect/disconnect. ``budget`` (bytes) and
     ``budget_grace`` (s) bound each client's send queue (module docstring). Must be started on the
     thread that runs the tornado IOLoop. :meth:`stats` feeds the node's diagnostics.
@@ -443,8 +452,12 @@ class BridgeServer(object):
 
     def __init__(self, make_session, address="127.0.0.1", port=9090, ssl_context=None, ping_interval=10.0,
                  ping_timeout=30.0, max_message_size=10000000, budget=64 << 20, budget_grace=5.0,
-                 on_client_count=None, log=None, extra_routes=()):
+                 on_client_count=None, log=None, extra_routes=(), allowed_origins=()):
         self._make_session = make_session
+        self._allowed_origins = tuple(allowed_origins)
+        self._local_names = local_names()
+        self.origins_refused = 0
+        self._origin_log_after = 0.0
         self._address = address
         self._port = int(port)
         self._ssl = ssl_context
@@ -524,6 +537,19 @@ class BridgeServer(object):
         handler.close_with(CLOSE_POLICY, "send queue over budget (%d bytes) for %g s: client reads too slowly; "
                            "%d messages dropped" % (self.budget, self.budget_grace, dropped))
 
+    def origin_allowed(self, origin, host, scheme):
+        return origin_allowed(origin, host, scheme, self._allowed_origins, self._local_names)
+
+    def origin_refused(self, address, origin):
+        """Log a refused browser origin; at most one line per REFUSAL_LOG_PERIOD s (a page may retry in a loop)."""
+        self.origins_refused += 1
+        now = time.monotonic()
+        if now < self._origin_log_after:
+            return
+        self._origin_log_after = now + REFUSAL_LOG_PERIOD
+        self.log("warning", "refused a browser connection from %s: origin %s is neither the console's nor in "
+                 "~allowed_origins (%d refused so far)" % (address, origin[:200], self.origins_refused))
+
     @property
     def client_count(self):
         return len(self._clients)
@@ -534,7 +560,7 @@ class BridgeServer(object):
         session = self._make_session(
             self._next_id, handler.send,
             lambda delay, fn: _Timer(loop, loop.call_later(delay, fn)),
-            handler.close_after_flush)
+            handler.close_after_flush, Peer(handler.request.remote_ip, handler.request.protocol == "https"))
         self._clients.add(handler)
         self.log("info", "client %d connected from %s (%d clients)"
                  % (self._next_id, handler.request.remote_ip, len(self._clients)))
@@ -568,7 +594,8 @@ class BridgeServer(object):
                             "dropped": sum(queue.dropped.values()), "queue_length_dropped": queue.limit_dropped,
                             "over_budget": queue.over_since is not None})
         return {"clients": clients, "dropped_by_topic": dict(self.dropped_by_topic),
-                "closed_over_budget": self.closed_over_budget, "budget": self.budget}
+                "closed_over_budget": self.closed_over_budget, "budget": self.budget,
+                "origins_refused": self.origins_refused}
 
 
 def make_ssl_context(certfile, keyfile):

@@ -17,7 +17,9 @@ Parameters:  ~port (int, 9090; 0 = any free port), ~address (str, "127.0.0.1"; "
              ~auth_token_file (str, "": file holding the token, mode 600 or stricter),
              ~insecure (bool, false): allow a non-loopback ~address without token or client
              certificates (warns every minute); otherwise such a bind is refused at start-up,
-             ~auth_window (s, 60.0), ~max_message_size (bytes, 10000000),
+             ~auth_window (s, 60.0), ~auth_max_failures (int, 5: failed auths per peer address within
+             60 s before it is refused for 60 s), ~allowed_origins (list of str, []: browser origins
+             accepted besides the console's own), ~max_message_size (bytes, 10000000),
              ~ping_interval (s, 10.0; 0 = off), ~ping_timeout (s, 30.0),
              ~client_budget (bytes per client send queue, 67108864), ~budget_grace (s, 5.0: over budget
              that long = disconnected), ~fragment_timeout (s, 600.0),
@@ -39,10 +41,10 @@ import tornado.ioloop
 from diagnostic_msgs.msg import DiagnosticStatus
 from std_msgs.msg import Int32
 
-from inspection_robot.bridge.access import listen_check, read_token_file
+from inspection_robot.bridge.access import Authenticator, FailureLimiter, listen_check, read_token_file
 from inspection_robot.bridge.codec import Codec
 from inspection_robot.bridge.console import CONSOLE_PATH, console_routes, missing_files
-from inspection_robot.bridge.protocol import Authenticator, Session, SessionConfig
+from inspection_robot.bridge.protocol import Session, SessionConfig
 from inspection_robot.ros.bridge_backend import RosBackend, RosGraph
 from inspection_robot.ros.message_types import GenpyTypes
 from inspection_robot.bridge.rosapi import RosApi
@@ -72,6 +74,8 @@ def read_params():
         "client_ca": str(rospy.get_param("~client_ca", "")),
         "insecure": bool(rospy.get_param("~insecure", False)),
         "auth_window": float(rospy.get_param("~auth_window", 60.0)),
+        "auth_max_failures": int(rospy.get_param("~auth_max_failures", 5)),
+        "allowed_origins": rospy.get_param("~allowed_origins", []),
         "max_message_size": int(rospy.get_param("~max_message_size", 10000000)),
         "ping_interval": float(rospy.get_param("~ping_interval", 10.0)),
         "ping_timeout": float(rospy.get_param("~ping_timeout", 30.0)),
@@ -87,7 +91,11 @@ def read_params():
     }
     if not 0 <= params["port"] <= 65535:
         raise ValueError("~port must be 0..65535, not %d" % params["port"])
-    for name in ("max_message_size", "client_budget", "service_threads"):
+    origins = params["allowed_origins"]
+    if not isinstance(origins, list) or not all(isinstance(o, str) and "://" in o for o in origins):
+        raise ValueError("~allowed_origins must be a list of origins like 'https://backend.example:8443', not %r"
+                         % (origins,))
+    for name in ("max_message_size", "client_budget", "service_threads", "auth_max_failures"):
         if params[name] < 1:
             raise ValueError("~%s must be positive" % name)
     for name in ("subscriber_queue_size", "budget_grace"):
@@ -176,6 +184,7 @@ class LinkDiagnostics(diagnostic_updater.DiagnosticTask):
         stat.add("budget_bytes", str(stats["budget"]))
         stat.add("dropped", str(dropped))
         stat.add("closed_over_budget", str(stats["closed_over_budget"]))
+        stat.add("origins_refused", str(stats["origins_refused"]))
         for topic, count in sorted(stats["dropped_by_topic"].items()):
             stat.add("dropped %s" % topic, str(count))
         for client in stats["clients"]:
@@ -209,13 +218,14 @@ def main():
     if params["auth_token"]:
         # The client's auth time stamp is its wall clock: compare with ours, not with ROS time, which
         # is the bag's time during a replay (use_sim_time) and would refuse every client.
-        authenticator = Authenticator(params["auth_token"], time.time, params["auth_window"])
+        authenticator = Authenticator(params["auth_token"], time.time, params["auth_window"],
+                                      FailureLimiter(time.monotonic, params["auth_max_failures"]))
     config = SessionConfig(authenticator, params["fragment_timeout"], params["max_message_size"],
                            params["service_timeout"])
     count_pub = rospy.Publisher("client_count", Int32, queue_size=1, latch=True)
 
-    def make_session(client_id, send, call_later, close):
-        return Session(client_id, backend, send, time.monotonic, call_later, close, config, rosapi, log)
+    def make_session(client_id, send, call_later, close, peer):
+        return Session(client_id, backend, send, time.monotonic, call_later, close, config, rosapi, log, peer)
 
     http_routes = []
     if params["console"]:
@@ -231,7 +241,7 @@ def main():
     server = BridgeServer(make_session, params["address"], params["port"], ssl_context,
                           params["ping_interval"], params["ping_timeout"], params["max_message_size"],
                           params["client_budget"], params["budget_grace"], lambda n: count_pub.publish(Int32(n)),
-                          log, extra_routes=http_routes)
+                          log, extra_routes=http_routes, allowed_origins=params["allowed_origins"])
     port = io_thread.run_sync(server.start)
     updater = diagnostic_updater.Updater()
     updater.setHardwareID("backend_link")
