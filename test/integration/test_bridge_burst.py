@@ -17,6 +17,7 @@ import roslibpy
 import rospy
 import rostest
 from diagnostic_msgs.msg import DiagnosticArray
+from std_msgs.msg import String
 
 from inspection_robot.bridge.client import CLOSED, RawClient, SocketClient
 from rostest_helpers import wait_for
@@ -157,12 +158,21 @@ class BridgeBurstTest(unittest.TestCase):
         connect_loopback(publisher, topic, [])
         listener = self.raw()
         listener.send({"op": "subscribe", "topic": topic, "type": "std_msgs/String"})
+        in_ros = []  # what reached ROS, seen by a plain rospy subscriber
+        subscriber = rospy.Subscriber(topic, String, lambda m: in_ros.append(m.data), queue_size=None)
+        self.addCleanup(subscriber.unregister)
         warm_until(publisher, topic, heard_by(listener, topic), "listener on %s" % topic)
+        warm_until(publisher, topic, received_into(in_ros), "rospy on %s" % topic)
         drain(listener, [])
         publish_burst(publisher, topic, n)
         publisher.close()  # gone while the burst is still being read
         got = collect(listener, {topic: n}, timeout=60.0)[topic]
-        self.assertEqual(got, list(range(len(got))))  # whatever arrived: from 0, in order, no gap
+        ros_seqs = [int(d[:8]) for d in in_ros if d != "warmup"]
+        # whatever arrived: from 0, in order, no gap, and not nothing (the frames sent before the
+        # close were read and published before the bridge let the publisher go)
+        self.assertEqual(ros_seqs, list(range(len(ros_seqs))))
+        self.assertEqual(got, list(range(len(got))))
+        self.assertGreater(min(len(got), len(ros_seqs)), 0, "nothing of the %d messages arrived" % n)
         listener.send({"op": "call_service", "id": "alive", "service": "/rosapi/get_time"})
         self.assertTrue(listener.recv_message(lambda m: m.get("id") == "alive", timeout=10.0)["result"])
 

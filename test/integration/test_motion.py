@@ -31,6 +31,7 @@ class MotionTest(unittest.TestCase):
         rospy.init_node("test_motion_control")
         cls.status = Latest("control_status", ControlStatus, queue_size=1000)
         cls.driver = Latest("sim/chassis_cmd", TwistStamped, queue_size=1000)
+        cls.mode_ack = Latest("/mode_ack", GeneralAck, queue_size=100)
         cls.control_ack = Latest("control_ack", GeneralAck)
         cls.imu_ack = Latest("imu_ack", GeneralAck)
         cls.voice = Latest("voice_cmd", VoiceCmd)
@@ -82,18 +83,17 @@ class MotionTest(unittest.TestCase):
         return ack
 
     def mode(self, sender, cmd, data=""):
-        self.mode_pub.publish(GeneralCmd(sender=sender, trans_id=self.next_id(), cmd=cmd, data=data))
+        tid = self.next_id()
+        self.mode_pub.publish(GeneralCmd(sender=sender, trans_id=tid, cmd=cmd, data=data))
+        return tid
 
     def acquire(self, sender, data, mode):
-        """Acquire and wait for the mode; repeated because the online state (robot_status) travels on
-        another topic than mode_cmd, so a previous test's offline_warn may still be in force once."""
-        for _attempt in range(3):
-            self.mode(sender, "acquire", data)
-            try:
-                return self.status.wait(lambda m: m.mode == mode, 1.0, "mode %d" % mode)
-            except AssertionError:
-                continue
-        self.fail("could not acquire %s" % data)
+        """Acquire once: the robot was reported online (setUp), so robot_control must grant it, even
+        when its own copy of that status arrives after the mode_cmd."""
+        tid = self.mode(sender, "acquire", data)
+        ack = self.mode_ack.wait(lambda m: m.trans_id == tid, 3.0, "mode_ack of acquire %s" % data)
+        self.assertEqual(ack.ack, "success", ack.data)
+        return self.status.wait(lambda m: m.mode == mode, 1.0, "mode %d" % mode)
 
     def move(self, sender, vx, wz=0.0, wheel=0):
         self.move_pub.publish(MoveCmd(sender=sender, velocity_x=vx, velocity_yaw=wz, wheel_control=wheel))

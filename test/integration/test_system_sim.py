@@ -43,8 +43,10 @@ class Heartbeat(object):
         self._thread.join(2.0)
 
     def _run(self):
-        while not self._stop.wait(self._period):
+        while True:  # the first one at once: the robot is online because of this heartbeat, not an earlier one
             self._topic.publish(roslibpy.Message({"sender": "server", "data": "alive"}))
+            if self._stop.wait(self._period):
+                return
 
 
 class SystemSimTest(unittest.TestCase):
@@ -69,7 +71,7 @@ class SystemSimTest(unittest.TestCase):
         cls.move_cmd = roslibpy.Topic(cls.ros, "/move_cmd", "inspection_robot/MoveCmd")
         cls.voice_cmd = roslibpy.Topic(cls.ros, "/voice_cmd", "inspection_robot/VoiceCmd")
         cls.acks_by_topic = {}
-        for name in ("/virtual_obstacle_ack", "/voice_ack"):
+        for name in ("/virtual_obstacle_ack", "/voice_ack", "/mode_ack"):
             cls.acks_by_topic[name] = []
             roslibpy.Topic(cls.ros, name, "inspection_robot/GeneralAck").subscribe(cls.acks_by_topic[name].append)
 
@@ -112,20 +114,20 @@ class SystemSimTest(unittest.TestCase):
 
     def take_remote_control(self):
         """Heartbeat running, robot online, backend mode acquired: what a backend does first."""
+        seen = len(self.status)
         heartbeat = Heartbeat(self.ros)
         heartbeat.start()
         self.addCleanup(heartbeat.stop)
-        self.wait_status(lambda s: s["offline_warn"] == 0, 20.0, "robot online")
-
-        def acquired():
-            # asked again while refused: the status seen online can be the last one before the
-            # previous test's heartbeat loss is noticed, and then acquire is refused (offline:)
-            self.mode_cmd.publish(roslibpy.Message({"sender": "server", "cmd": "acquire", "data": "server"}))
-            try:
-                return self.wait_status(lambda s: s["mode"] == 1, 1.0, "mode 1")
-            except AssertionError:
-                return False
-        wait_for(acquired, 20.0, "mode 1", period=0.0)
+        wait_for(lambda: any(s["offline_warn"] == 0 for s in self.status[seen:]), 20.0, "robot online")
+        # once reported online, one acquire must be granted (robot_control decides on a status at
+        # least as new as the one seen here, even when its copy arrives after the mode_cmd)
+        acks = self.acks_by_topic["/mode_ack"]
+        self.mode_cmd.publish(roslibpy.Message({"sender": "server", "trans_id": 4242, "cmd": "acquire",
+                                                "data": "server"}))
+        ack = wait_for(lambda: next((a for a in acks if a["trans_id"] == 4242), None), 10.0, "mode_ack")
+        del acks[:]
+        self.assertEqual((ack["ack"], ack["data"]), ("success", "server"))
+        self.wait_status(lambda s: s["mode"] == 1, 5.0, "mode 1")
         return heartbeat
 
     def test_backend_session(self):

@@ -1,9 +1,9 @@
 """MotionController against the simulated chassis with a fake clock: the behaviour of robot_control."""
 import pytest
 
-from inspection_robot.interface import (LIGHT_CHARGE_RELAY, LIGHT_SOFT_ESTOP, MODE_JOY, MODE_TASK,
+from inspection_robot.interface import (LIGHT_CHARGE_RELAY, LIGHT_SOFT_ESTOP, MODE_JOY, MODE_SERVER, MODE_TASK,
                                         STOP_OBSTACLE, WHEEL_COLLISION_OFF, WHEEL_STEER, WHEEL_STRAIGHT)
-from inspection_robot.motion.controller import MotionController
+from inspection_robot.motion.controller import MAX_PENDING, OFFLINE_RECHECK, MotionController
 from inspection_robot.motion.velocity import VelocityLimits
 from inspection_robot.sim.chassis import SimChassis
 
@@ -266,3 +266,30 @@ def test_mode_reply_says_what_was_granted_and_why_not(rig):
     assert ctl.mode_reply(ctl.on_mode_cmd("server", "acquire", "server")) == (
         "success", "server; motion blocked: soft_estop,hard_estop")  # the hard e-stop latches the soft one
     assert ctl.mode_reply(None).ack == "failed"
+
+
+def test_acquire_while_offline_waits_for_the_next_robot_status(rig):
+    """A client that saw robot_status online may reach robot_control before that status does: its
+    acquire is decided on the next status (granted when online), refused on a status still offline
+    or after OFFLINE_RECHECK without any."""
+    ctl, _chassis, _clock, _rec, run, _logs, _ = rig
+    answers = []
+    ctl.on_offline(True)
+    assert ctl.on_mode_cmd("server", "acquire", "server", answers.append) is None
+    assert answers == [] and ctl.mode == MODE_TASK
+    ctl.on_offline(False)  # the status the client had seen
+    assert [a.accepted for a in answers] == [True] and ctl.mode == MODE_SERVER
+    ctl.on_mode_cmd("server", "release", "")
+    ctl.on_offline(True)
+    ctl.on_mode_cmd("server", "acquire", "server", answers.append)
+    ctl.on_offline(True)  # a newer status, still offline
+    assert answers[-1].reason.startswith("offline") and ctl.mode == MODE_TASK
+    ctl.on_mode_cmd("server", "acquire", "server", answers.append)
+    run(OFFLINE_RECHECK - 0.1)
+    assert len(answers) == 2
+    run(0.2)  # no status at all (status_control down): refused after OFFLINE_RECHECK
+    assert len(answers) == 3 and not answers[-1].accepted and ctl.mode == MODE_TASK
+    for _ in range(MAX_PENDING):
+        assert ctl.on_mode_cmd("server", "acquire", "server", answers.append) is None
+    assert not ctl.on_mode_cmd("server", "acquire", "server", answers.append).accepted  # bounded
+    assert ctl.on_mode_cmd("joy_control", "acquire", "joy", answers.append).changed  # others decided at once

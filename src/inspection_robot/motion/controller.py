@@ -27,6 +27,9 @@ from inspection_robot.motion.safety import SWITCHES, SafetyLatch
 from inspection_robot.motion.status import control_status_fields
 from inspection_robot.motion.voice import status_sentence
 
+OFFLINE_RECHECK = 1.0  # s an acquire of backend mode waits for a robot_status while the backend seems offline
+MAX_PENDING = 8        # such acquires waiting at once; more are refused at once
+
 
 class MotionController(object):
     """``driver``: a ChassisDriver; ``limits``: VelocityLimits; ``clock()``: monotonic seconds;
@@ -51,6 +54,7 @@ class MotionController(object):
         self._last_tick = None
         self._lamps = None
         self._offline = False
+        self._pending = []  # acquires waiting for the next robot_status: (sender, cmd, data, answer, deadline)
         self._chassis = driver.state()
         self.stop_count = 0
         driver.set_safety_listener(self.on_chassis_event)
@@ -70,18 +74,53 @@ class MotionController(object):
         return self.arbiter.mode
 
     # --- inputs ------------------------------------------------------------------------------
-    def on_mode_cmd(self, sender, cmd, data):
+    def on_mode_cmd(self, sender, cmd, data, answer=None):
+        """Decide a mode_cmd: returns the Decision, or None when ``answer(decision)`` will get it later.
+
+        An acquire of backend mode while the backend seems offline waits for the next robot_status
+        (at most OFFLINE_RECHECK s) when the caller can be answered later: a client that saw the
+        robot online sent its acquire after that status, but the status travels on another topic
+        and may reach this node after the acquire. Deciding on a newer status than the client's
+        gives it what the status it saw promised.
+        """
         with self._lock:
             if self._offline and cmd == MODE_CMD_ACQUIRE and data == "server":
-                decision = refused(REFUSAL_OFFLINE,
-                                   "acquire server refused: backend offline (robot_status.offline_warn)")
+                if answer is not None and len(self._pending) < MAX_PENDING:
+                    self._pending.append((sender, cmd, data, answer, self._clock() + OFFLINE_RECHECK))
+                    return None
+                return self._offline_refusal(sender, cmd, data)
+            return self._decide(sender, cmd, data)
+
+    def _decide(self, sender, cmd, data):
+        decision = self.arbiter.request(sender, cmd, data)
+        self._log_decision(sender, cmd, data, decision)
+        if decision.changed:
+            self._stop("mode change")
+        return decision
+
+    def _offline_refusal(self, sender, cmd, data):
+        decision = refused(REFUSAL_OFFLINE, "acquire server refused: backend offline (robot_status.offline_warn)")
+        self._log_decision(sender, cmd, data, decision)
+        return decision
+
+    def _log_decision(self, sender, cmd, data, decision):
+        self._log("info" if decision.accepted else "warn", "mode_cmd %s(%r) from %r: %s"
+                  % (cmd, data, sender, decision.reason))
+
+    def _settle_pending(self, fresh_status):
+        """Decide the deferred acquires: all of them after a fresh robot_status, else the overdue ones.
+        Returns [(answer, decision)] for the caller to deliver outside the lock."""
+        now = self._clock()
+        settled, waiting = [], []
+        for sender, cmd, data, answer, deadline in self._pending:
+            if not self._offline:
+                settled.append((answer, self._decide(sender, cmd, data)))
+            elif fresh_status or now >= deadline:
+                settled.append((answer, self._offline_refusal(sender, cmd, data)))
             else:
-                decision = self.arbiter.request(sender, cmd, data)
-            self._log("info" if decision.accepted else "warn", "mode_cmd %s(%r) from %r: %s"
-                      % (cmd, data, sender, decision.reason))
-            if decision.changed:
-                self._stop("mode change")
-            return decision
+                waiting.append((sender, cmd, data, answer, deadline))
+        self._pending = waiting
+        return settled
 
     def mode_reply(self, decision):
         """The mode_ack answer to a Decision: success with the mode now in force (and, when a stop
@@ -125,7 +164,8 @@ class MotionController(object):
                 self._stop_if_moving("obstacle")
 
     def on_offline(self, offline):
-        """robot_status.offline_warn: going offline in mode 1 stops and returns to task mode."""
+        """robot_status.offline_warn: going offline in mode 1 stops and returns to task mode; acquires
+        waiting for this status are decided."""
         with self._lock:
             went_offline = offline and not self._offline
             self._offline = bool(offline)
@@ -133,6 +173,9 @@ class MotionController(object):
                 self.arbiter.force_task()
                 self._stop("backend offline")
                 self._log("warn", "backend offline in mode 1: stopped, back to task mode")
+            settled = self._settle_pending(fresh_status=True)
+        for answer, decision in settled:
+            answer(decision)
 
     def on_chassis_event(self):
         """Safety listener of the driver: re-read the chassis and stop at once if needed."""
@@ -167,6 +210,9 @@ class MotionController(object):
                 self.odometry.update(state.velocity_x, state.velocity_yaw, now - self._last_tick)
             self._last_tick = now
             self._update_lamps(state)
+            settled = self._settle_pending(fresh_status=False)
+        for answer, decision in settled:
+            answer(decision)
 
     def status(self):
         """control_status fields (dict)."""

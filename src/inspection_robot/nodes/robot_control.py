@@ -127,12 +127,16 @@ class RobotControl(object):
 
     # --- inputs (handlers of self._inputs) -----------------------------------------------------
     def _on_mode_cmd(self, msg):
-        decision = self._ctl.on_mode_cmd(msg.sender, msg.cmd, msg.data)
-        reply = self._ctl.mode_reply(decision)
-        ack = GeneralAck(sender=NODE_NAME, receiver=msg.sender, trans_id=msg.trans_id, ack=reply.ack, data=reply.data)
-        ack.header.stamp = rospy.Time.now()
-        self._mode_ack_pub.publish(ack)
-        self._publish_status_if_changed()
+        def answer(decision):
+            reply = self._ctl.mode_reply(decision)
+            ack = GeneralAck(sender=NODE_NAME, receiver=msg.sender, trans_id=msg.trans_id, ack=reply.ack,
+                             data=reply.data)
+            ack.header.stamp = rospy.Time.now()
+            self._mode_ack_pub.publish(ack)
+            self._publish_status_if_changed()
+        decision = self._ctl.on_mode_cmd(msg.sender, msg.cmd, msg.data, answer)
+        if decision is not None:
+            answer(decision)
 
     def _on_move_cmd(self, msg):
         reply = self._ctl.on_move_cmd(msg.sender, msg.velocity_x, msg.velocity_yaw, msg.wheel_control)
