@@ -411,3 +411,16 @@ def test_compression_per_topic_and_each_encoding_made_once():
     assert outgoing.encoded("none") == '{"op":"publish","topic":"/known","msg":{"data":"x"}}'
     h.session.deliver(outgoing)
     assert h.sent[-1] == [frame]  # the very bytes computed ahead
+
+
+def test_an_unauthenticated_client_is_closed_after_auth_timeout():
+    h = Harness(config=SessionConfig(authenticator=Authenticator("s3cret", clock=lambda: 1000.0), auth_timeout=10.0))
+    h.send({"op": "auth_challenge"})
+    h.advance(9.9)
+    assert not h.closed
+    h.advance(0.2)
+    assert h.closed and errors(h.messages())[0]["msg"] == "Not authenticated within 10 s; closing"
+    ok = Harness(config=SessionConfig(authenticator=Authenticator("s3cret", clock=lambda: 1000.0)))
+    ok.send({"op": "auth", "mac": "s3cret"})
+    ok.advance(60.0)
+    assert authenticated(ok)

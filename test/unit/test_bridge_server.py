@@ -4,6 +4,7 @@ import concurrent.futures
 import json
 import queue
 import shutil
+import socket
 import struct
 import subprocess
 import ssl
@@ -148,6 +149,21 @@ def test_browser_pages_of_other_origins_are_refused_before_the_protocol(live):
     finally:
         allowed.stop()
     console.close()
+
+
+def test_slow_handshakes_are_dropped_and_others_served():
+    server = LiveServer(handshake_timeout=0.5)
+    try:
+        loris = socket.create_connection(("127.0.0.1", server.port))
+        loris.sendall(b"GET / HTTP/1.1\r\nHost: 127.0.0.1\r\nUpgrade: websocket\r\n")  # headers never end
+        client = RawClient("ws://127.0.0.1:%d" % server.port)
+        client.send({"op": "call_service", "id": "meanwhile", "service": "/echo"})
+        assert client.recv_message()["id"] == "meanwhile"
+        loris.settimeout(10.0)
+        assert loris.recv(100) == b""  # closed by the bridge, not by the test's timeout
+        client.close()
+    finally:
+        server.stop()
 
 
 def test_silent_client_is_dropped_by_keepalive(live):

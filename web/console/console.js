@@ -11,7 +11,8 @@
   const AUTH_LIFETIME_S = 12 * 3600;  // the auth op's end: an operator's shift
 
   const $ = (id) => document.getElementById(id);
-  const state = { ros: null, topics: {}, transId: 1, status: null, authRequired: false, connected: false };
+  const state = { ros: null, topics: {}, transId: 1, status: null, authRequired: false, connected: false,
+    waitingForToken: false };
 
   // ------------------------------------------------------------------ log of the robot's replies
   function log(text, failed) {
@@ -49,6 +50,12 @@
 
   function connect() {
     const url = (location.protocol === 'https:' ? 'wss://' : 'ws://') + location.host + '/';
+    const token = sessionStorage.getItem('robot-token');
+    state.waitingForToken = state.authRequired && !token;
+    if (state.waitingForToken) {   // the robot closes a connection that does not authenticate in time
+      askToken($('auth-error').textContent);
+      return;
+    }
     const ros = new ROSLIB.Ros();
     state.ros = ros;
     state.topics = {};
@@ -61,7 +68,9 @@
     });
     ros.on('status', (msg) => {
       log('robot: ' + msg.level + ': ' + msg.msg, msg.level === 'error');
-      if (/auth/.test(msg.msg)) askToken('The robot refused the token (' + msg.msg + ').');
+      if (/authentication failed|failed authentications/.test(msg.msg)) {
+        askToken('The robot refused the token (' + msg.msg + ').');
+      }
     });
     ros.on('error', () => setLink('link error', false));
     ros.on('close', () => {
@@ -73,16 +82,11 @@
       setTimeout(connect, RECONNECT_MS);
     });
     ros.connect(url);
-    if (!state.authRequired) {
+    if (state.authRequired) {
+      authenticate(ros, token);
+    } else {
       subscribeAll();
-      return;
     }
-    const token = sessionStorage.getItem('robot-token');
-    if (!token) {
-      askToken('');
-      return;
-    }
-    authenticate(ros, token);
   }
 
   /* Ask the robot for a nonce, answer with the MAC over it (never the token), then subscribe: the
@@ -109,7 +113,8 @@
 
   $('auth-form').addEventListener('submit', () => {
     sessionStorage.setItem('robot-token', $('auth-token').value);
-    if (state.ros) state.ros.close();   // 'close' reconnects with the token
+    if (state.waitingForToken) connect();
+    else if (state.ros) state.ros.close();   // 'close' reconnects with the token
   });
 
   // ------------------------------------------------------------------ subscriptions

@@ -187,8 +187,9 @@ class SessionConfig(object):
     """Per-client limits, read once by the node and shared by all sessions."""
 
     def __init__(self, authenticator=None, fragment_timeout=600.0, max_message_size=10000000,
-                 service_timeout=10.0):
+                 service_timeout=10.0, auth_timeout=10.0):
         self.authenticator = authenticator
+        self.auth_timeout = float(auth_timeout)  # s an unauthenticated client may stay connected
         self.fragment_timeout = float(fragment_timeout)
         self.max_message_size = int(max_message_size)
         self.service_timeout = float(service_timeout)
@@ -251,6 +252,8 @@ class Session(object):
             if wait > 0:
                 self._refuse("Too many failed authentications from %s: try again in %d s; closing"
                              % (self.peer.address, math.ceil(wait)))
+            else:  # a connection that never authenticates must not hold a slot forever
+                self._call_later(config.auth_timeout, self._auth_overdue)
 
     # ------------------------------------------------------------------ incoming frames
     def on_frame(self, frame, more_input=False):
@@ -306,6 +309,10 @@ class Session(object):
         except Exception as exc:  # boundary: one bad op never takes the connection down
             self._log("error", "client %s: %s failed: %r" % (self.client_id, op, exc))
             self.status("error", "%s: %s" % (op, exc), mid, op)
+
+    def _auth_overdue(self):
+        if not self._authenticated and not self._closed:
+            self._refuse("Not authenticated within %g s; closing" % self._config.auth_timeout)
 
     def _refuse(self, text, mid=None):
         """Tell an unauthenticated client why, close, and handle none of its further frames (a burst of

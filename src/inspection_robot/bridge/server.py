@@ -444,6 +444,7 @@ class BridgeServer(object):
 
     ``make_session(client_id, send, call_later, close, peer)`` returns a protocol Session (``peer``:
     access.Peer). ``allowed_origins``: browser origins accepted besides the console's own.
+    ``handshake_timeout``: s for a connection's TLS and HTTP handshake (and any request body).
     ``on_client_count(n)`` is called on every connect/disconnect. ``budget`` (bytes) and
     ``budget_grace`` (s) bound each client's send queue (module docstring). Must be started on the
     thread that runs the tornado IOLoop. :meth:`stats` feeds the node's diagnostics.
@@ -452,8 +453,9 @@ class BridgeServer(object):
 
     def __init__(self, make_session, address="127.0.0.1", port=9090, ssl_context=None, ping_interval=10.0,
                  ping_timeout=30.0, max_message_size=10000000, budget=64 << 20, budget_grace=5.0,
-                 on_client_count=None, log=None, extra_routes=(), allowed_origins=()):
+                 on_client_count=None, log=None, extra_routes=(), allowed_origins=(), handshake_timeout=10.0):
         self._make_session = make_session
+        self._handshake_timeout = float(handshake_timeout)
         self._allowed_origins = tuple(allowed_origins)
         self._local_names = local_names()
         self.origins_refused = 0
@@ -489,8 +491,12 @@ class BridgeServer(object):
         self._pinger.start()
         app = tornado.web.Application(self.routes(), websocket_max_message_size=self.max_message_size)
         sockets = tornado.netutil.bind_sockets(self._port, self._address or None)
+        # a handshake (TLS and HTTP headers) or request body that takes longer is dropped: slow-loris
+        # clients cannot pile up half-open connections
         self._http = tornado.httpserver.HTTPServer(app, ssl_options=self._ssl,
-                                                   max_buffer_size=self.max_message_size + 65536)
+                                                   max_buffer_size=self.max_message_size + 65536,
+                                                   idle_connection_timeout=self._handshake_timeout,
+                                                   body_timeout=self._handshake_timeout)
         self._http.add_sockets(sockets)
         self.port = sockets[0].getsockname()[1]
         self._on_count(0)

@@ -19,7 +19,9 @@ Parameters:  ~port (int, 9090; 0 = any free port), ~address (str, "127.0.0.1"; "
              certificates (warns every minute); otherwise such a bind is refused at start-up,
              ~auth_window (s, 60.0), ~auth_max_failures (int, 5: failed auths per peer address within
              60 s before it is refused for 60 s), ~allowed_origins (list of str, []: browser origins
-             accepted besides the console's own), ~max_message_size (bytes, 10000000),
+             accepted besides the console's own), ~auth_timeout (s, 10.0: an unauthenticated client is
+             closed after it), ~handshake_timeout (s, 10.0: TLS + HTTP handshake of a connection),
+             ~max_message_size (bytes, 10000000),
              ~ping_interval (s, 10.0; 0 = off), ~ping_timeout (s, 30.0),
              ~client_budget (bytes per client send queue, 67108864), ~budget_grace (s, 5.0: over budget
              that long = disconnected), ~fragment_timeout (s, 600.0),
@@ -75,6 +77,8 @@ def read_params():
         "insecure": bool(rospy.get_param("~insecure", False)),
         "auth_window": float(rospy.get_param("~auth_window", 60.0)),
         "auth_max_failures": int(rospy.get_param("~auth_max_failures", 5)),
+        "auth_timeout": float(rospy.get_param("~auth_timeout", 10.0)),
+        "handshake_timeout": float(rospy.get_param("~handshake_timeout", 10.0)),
         "allowed_origins": rospy.get_param("~allowed_origins", []),
         "max_message_size": int(rospy.get_param("~max_message_size", 10000000)),
         "ping_interval": float(rospy.get_param("~ping_interval", 10.0)),
@@ -97,6 +101,9 @@ def read_params():
                          % (origins,))
     for name in ("max_message_size", "client_budget", "service_threads", "auth_max_failures"):
         if params[name] < 1:
+            raise ValueError("~%s must be positive" % name)
+    for name in ("auth_timeout", "handshake_timeout"):
+        if not params[name] > 0:
             raise ValueError("~%s must be positive" % name)
     for name in ("subscriber_queue_size", "budget_grace"):
         if params[name] < 0:
@@ -221,7 +228,7 @@ def main():
         authenticator = Authenticator(params["auth_token"], time.time, params["auth_window"],
                                       FailureLimiter(time.monotonic, params["auth_max_failures"]))
     config = SessionConfig(authenticator, params["fragment_timeout"], params["max_message_size"],
-                           params["service_timeout"])
+                           params["service_timeout"], params["auth_timeout"])
     count_pub = rospy.Publisher("client_count", Int32, queue_size=1, latch=True)
 
     def make_session(client_id, send, call_later, close, peer):
@@ -241,7 +248,8 @@ def main():
     server = BridgeServer(make_session, params["address"], params["port"], ssl_context,
                           params["ping_interval"], params["ping_timeout"], params["max_message_size"],
                           params["client_budget"], params["budget_grace"], lambda n: count_pub.publish(Int32(n)),
-                          log, extra_routes=http_routes, allowed_origins=params["allowed_origins"])
+                          log, extra_routes=http_routes, allowed_origins=params["allowed_origins"],
+                          handshake_timeout=params["handshake_timeout"])
     port = io_thread.run_sync(server.start)
     updater = diagnostic_updater.Updater()
     updater.setHardwareID("backend_link")
