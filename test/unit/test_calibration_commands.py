@@ -76,9 +76,9 @@ def test_upload_writes_the_whole_calibration(robot):
 
 @pytest.mark.parametrize("targets,reason", [
     ([], "no targets given"),
-    ([{"kind": "pointer", "box": BOX}], "bad or missing parameter"),
+    ([{"kind": "pointer", "box": BOX}], "target 0 (pointer): missing key(s) start_angle, end_angle"),
     ([{"kind": "gauge", "box": BOX}], "unknown target kind"),
-    ([{"kind": "lamp", "box": [0, 0, 1, 1], "colour": "red"}], "box must be 8 numbers"),
+    ([{"kind": "lamp", "box": [0, 0, 1, 1], "colour": "red"}], "box must be a list of 8 numbers"),
     ([{"kind": "lamp", "box": [0, 0, 9000, 0, 9000, 10, 0, 10], "colour": "red"}], "outside the 640x360 picture"),
     ([{"kind": "lamp", "box": BOX, "colour": "red"},
       {"kind": "switch", "box": BOX, "open_picture": "captures/open.png", "closed_picture": "captures/nope.png"}],
@@ -121,7 +121,7 @@ def test_bad_values_and_types(robot):
     call(commands, "mark_box", target=0, box=BOX)
     reason = call(commands, "set_meter_type", target=0, kind="dial")[1]
     assert "meter type must be one of pointer|lamp|switch|thermal" in reason
-    assert "unknown value(s) colr" in call(commands, "set_values", target=0, values={"colr": "red"})[1]
+    assert "unknown key 'colr'" in call(commands, "set_values", target=0, values={"colr": "red"})[1]
     assert "radius must be a finite number" in call(commands, "set_values", target=0, values={"radius": "big"})[1]
     assert "value must be a finite number" in call(commands, "set_zero", target=0, angle=0, value=float("inf"))[1]
     ack, out = call(commands, "remove_target", target=0)
