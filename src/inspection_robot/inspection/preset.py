@@ -12,7 +12,8 @@ Layout of ``<preset_root>/<preset_id>/<YYYYMMDD_HHMMSS>/`` (documented in docs/i
   ``zoom<k>.jpg``.
 
 A new preset directory is filled under a hidden temporary name and renamed at the end, so a
-failure never leaves half a preset; single files are written to a temporary name and replaced.
+failure never leaves half a preset; a calibration is written into a copy of the directory that
+replaces it in one rename (calibration.calibrate, files.DirUpdate), so it is whole or absent too.
 """
 import configparser
 import io
@@ -23,7 +24,7 @@ import xml.etree.ElementTree as ET
 
 import numpy as np
 
-from inspection_robot.files import write_atomic
+from inspection_robot.files import fsync_dir, write_atomic
 from inspection_robot.inspection import calibration_schema as schema
 from inspection_robot.inspection.calibration_schema import TARGET_KINDS
 
@@ -70,8 +71,10 @@ class PresetDirWriter(object):
         return os.path.join(self.path, name)
 
     def commit(self):
+        fsync_dir(self.path)        # the files' names, before the rename that publishes them
         os.rename(self.path, self.final)
         self.path = self.final
+        fsync_dir(self.parent)      # the rename itself
         return self.final
 
     def abort(self):
@@ -232,7 +235,8 @@ def boxes_from_xml(text):
 
 
 def write_calibration(preset_dir, targets, info):
-    """Write preset_calib_info.ini and zoom<k>.xml for every zoom picture of the preset."""
+    """Write preset_calib_info.ini and zoom<k>.xml for every zoom picture of the preset into
+    ``preset_dir`` (calibration.calibrate passes the staged copy that then replaces the preset)."""
     c = configparser.ConfigParser(interpolation=None)
     c["calibration"] = {"version": str(CALIB_VERSION), "reference": zoom_picture_name(0),
                         "target_count": str(len(targets))}
