@@ -75,3 +75,43 @@ def test_json_state_round_trip_missing_and_corrupt(tmp_path):
     open(path, "w").write("{half")
     with pytest.raises(FileError, match="not valid JSON"):
         read_json(path)
+
+
+def _tree(folder):
+    out = {}
+    for base, _dirs, names in os.walk(str(folder)):
+        for name in names:
+            path = os.path.join(base, name)
+            out[os.path.relpath(path, str(folder))] = open(path, "rb").read()
+    return out
+
+
+def test_dir_update_replaces_the_folder_at_once_or_not_at_all(tmp_path):
+    folder = tmp_path / "preset"
+    (folder / "sub").mkdir(parents=True)
+    (folder / "keep.jpg").write_bytes(b"jpeg")
+    (folder / "sub" / "deep.txt").write_text("deep")
+    (folder / "calib.ini").write_text("old")
+    os.symlink("keep.jpg", str(folder / "link.jpg"))
+    before = _tree(folder)
+    with pytest.raises(RuntimeError):     # left without commit: the folder untouched, no copy left
+        with files.DirUpdate(str(folder)) as update:
+            write_atomic(update.file("calib.ini"), "new")
+            write_atomic(update.file("zoom0.xml"), "<zoom/>")
+            assert _tree(folder) == before
+            raise RuntimeError("operator gave up")
+    assert _tree(folder) == before and os.listdir(str(tmp_path)) == ["preset"]
+    inode = os.stat(str(folder)).st_ino
+    with files.DirUpdate(str(folder)) as update:
+        write_atomic(update.file("calib.ini"), "new")
+        write_atomic(update.file("zoom0.xml"), "<zoom/>")
+        update.commit()
+    assert _tree(folder) == dict(before, **{"calib.ini": b"new", "zoom0.xml": b"<zoom/>"})
+    assert os.readlink(str(folder / "link.jpg")) == "keep.jpg"
+    assert os.stat(str(folder)).st_ino != inode and os.listdir(str(tmp_path)) == ["preset"]
+
+
+def test_dir_update_refuses_a_missing_folder(tmp_path):
+    with pytest.raises(FileError) as err:
+        files.DirUpdate(str(tmp_path / "nowhere"))
+    assert "no such directory" in str(err.value)

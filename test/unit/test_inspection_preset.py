@@ -133,7 +133,7 @@ def test_pointer_marks_round_trip_and_old_files_load():
     marks = [(0.0, 0.18, 0.82), (5.0, 0.5, 0.08), (10.0, 0.82, 0.82)]
     target = Target("pointer", box, name="m", marks=marks, **params)
     again = Target.from_section(target.section(), box)
-    assert again.params["marks"] == pytest.approx(marks)
+    assert again.params["marks"] == [pytest.approx(list(m)) for m in marks]
     old = dict(target.section())
     del old["marks"]
     assert Target.from_section(old, box).params["marks"] == []

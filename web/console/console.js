@@ -978,7 +978,7 @@
     }
     const values = {};
     if ($('calib-name').value) values.name = $('calib-name').value;
-    if ($('calib-unit').value) values.unit = $('calib-unit').value;
+    if ($('calib-unit').value && kind === 'pointer') values.unit = $('calib-unit').value;   // a pointer key only
     if (Object.keys(values).length) steps.push(['set_values', { values }]);
     calibMessage('applying…');
     // One edit after the other, then apply: the first refusal stops the chain with the robot's text.

@@ -2,7 +2,8 @@
 
 A target description (a dict, e.g. one entry of the YAML the command-line tool reads, or what a
 web page would post) has ``kind`` (pointer | lamp | switch | thermal), ``box`` (8 numbers: TL,
-TR, BR, BL in zoom0.jpg) and the kind's parameters (see preset.Target). Switch targets give
+TR, BR, BL in zoom0.jpg) and the kind's keys (inspection.calibration_schema: the keys, their
+ranges, refusals by name). Switch targets give
 ``open_picture`` / ``closed_picture``: pictures of the same view with the switch open / closed,
 from which reference patches are cut; lamps may give ``on_picture`` / ``off_picture`` likewise.
 Boxes in the wider zoom pictures follow from the zoom levels and the camera's optics (the pictures
@@ -13,8 +14,8 @@ import os
 import numpy as np
 
 from inspection_robot.lazy import lazy_import
-from inspection_robot.inspection.geometry import quad_inside, quad_is_convex
-from inspection_robot.files import write_atomic
+from inspection_robot.files import DirUpdate, write_atomic, write_json_atomic
+from inspection_robot.inspection import calibration_schema as schema
 from inspection_robot.inspection.preset import TARGET_KINDS, PresetError, Target, load_info, write_calibration
 from inspection_robot.inspection.readers import lamp_patch, switch_patch
 
@@ -39,101 +40,92 @@ def _picture_size(preset_dir, info):
     return image.shape[1], image.shape[0]
 
 
+def _thermal_size(preset_dir, info):
+    """(w, h) of the preset's thermal picture, None when it has none (thermal boxes are then only
+    bounded, see calibration_schema)."""
+    if not info.thermal_picture:
+        return None
+    image = cv2.imread(os.path.join(preset_dir, info.thermal_picture), cv2.IMREAD_UNCHANGED)
+    return None if image is None else (image.shape[1], image.shape[0])
+
+
 def build_targets(preset_dir, specs, optics):
-    """Validate ``specs``; return (info, targets, patches): ``patches`` are the reference patches
-    {file name: image} the targets name, not yet written (a bad spec leaves the preset untouched)."""
+    """Validate ``specs`` against the calibration schema; return (info, targets, patches):
+    ``patches`` are the reference patches {file name: image} the targets name, not yet written (a
+    bad spec leaves the preset untouched)."""
     info = load_info(preset_dir)
     width, height = _picture_size(preset_dir, info)
+    if not isinstance(specs, (list, tuple)):
+        raise PresetError("targets must be a list of target objects")
     if not specs:
         raise PresetError("no targets given")
+    thermal = any(isinstance(s, dict) and s.get("kind") == "thermal" for s in specs)
+    thermal_size = _thermal_size(preset_dir, info) if thermal else None
     targets, patches = [], {}
     for i, spec in enumerate(specs):
-        if not isinstance(spec, dict):
-            raise PresetError("target %d: expected an object with kind, box and parameters" % i)
-        spec = dict(spec)
-        kind = spec.pop("kind", None)
         try:
-            box = np.asarray(spec.pop("box"), np.float64).reshape(4, 2)
-        except (KeyError, TypeError, ValueError) as err:
-            raise PresetError("target %d: box must be 8 numbers TL,TR,BR,BL (%s)" % (i, err))
-        if not np.all(np.isfinite(box)):
-            raise PresetError("target %d: box must be finite numbers" % i)
-        if not quad_is_convex(box):
-            raise PresetError("target %d: box is not a convex TL,TR,BR,BL quad" % i)
-        if not quad_inside(box, width, height):
-            raise PresetError("target %d: box lies outside the %dx%d picture" % (i, width, height))
-        states = {"switch": ("open", "closed"), "lamp": ("on", "off")}.get(kind, ())
-        if kind == "lamp" and not any(spec.get(state + "_picture") for state in states):
-            states = ()   # lamp references are optional
-        for state in states:
-            picture = spec.pop(state + "_picture", None)
-            image = cv2.imread(picture) if isinstance(picture, str) and picture else None
+            kind, box, name, params, pictures = schema.check_spec(spec, i, width, height, thermal_size)
+        except schema.SchemaError as err:
+            kind = spec.get("kind") if isinstance(spec, dict) and spec.get("kind") in TARGET_KINDS else None
+            raise PresetError("target %d%s: %s" % (i, " (%s)" % kind if kind else "", err))
+        for state, picture in sorted(pictures.items()):
+            image = cv2.imread(picture) if picture else None
             if image is None:
                 raise PresetError("target %d: %s_picture missing or unreadable: %s" % (i, state, picture))
-            name = "target_%d_%s.png" % (i, state)
-            patches[name] = switch_patch(image, box) if kind == "switch" else lamp_patch(image, box)
-            spec[state + "_reference"] = name
-        name = str(spec.pop("name", ""))
-        try:
-            targets.append(Target(kind, derive_zoom_boxes(box, info.zoom_levels, optics, width, height),
-                                  name=name, **spec))
-        except (KeyError, TypeError, ValueError) as err:
-            raise PresetError("target %d (%s): bad or missing parameter: %s" % (i, kind, err))
+            patches[params[state + "_reference"]] = switch_patch(image, box) if kind == "switch" \
+                else lamp_patch(image, box)
+        for state in ("on", "off", "open", "closed"):
+            reference = params.get(state + "_reference")
+            if state not in pictures and reference and not os.path.isfile(os.path.join(preset_dir, reference)):
+                raise PresetError("target %d: %s_reference %s is not in the preset directory" % (i, state, reference))
+        targets.append(Target(kind, derive_zoom_boxes(box, info.zoom_levels, optics, width, height),
+                              name=name, thermal_size=thermal_size, **params))
     return info, targets, patches
 
 
-def calibrate(preset_dir, specs, optics):
+def calibrate(preset_dir, specs, optics, draft=None):
     """Write the calibration of ``preset_dir``; returns the Target list. Raises PresetError and
-    writes nothing when any target is bad."""
+    writes nothing when any target is bad.
+
+    All or nothing: the reference patches, zoom<k>.xml, preset_calib_info.ini and (``draft`` not
+    None) the draft are written into a copy of the preset directory that replaces it in one rename
+    (files.DirUpdate); an I/O failure (FileError) leaves the old calibration as it was.
+    """
+    preset_dir = os.path.realpath(preset_dir)
     info, targets, patches = build_targets(preset_dir, specs, optics)
+    encoded = {}
     for name, patch in sorted(patches.items()):
         ok, data = cv2.imencode(".png", patch)
         if not ok:
             raise PresetError("cannot encode reference patch %s" % name)
-        write_atomic(os.path.join(preset_dir, name), data.tobytes())
-    write_calibration(preset_dir, targets, info)
+        encoded[name] = data.tobytes()
+    with DirUpdate(preset_dir) as update:
+        for name, data in sorted(encoded.items()):
+            write_atomic(update.file(name), data)
+        write_calibration(update.path, targets, info)
+        if draft is not None:
+            write_json_atomic(update.file(DRAFT_FILE), draft)
+        update.commit()
     return targets
 
 
 # --- the calibration tool's operations, one target at a time ----------------------------------
 # A draft is the list of target specs being built (the format calibrate() takes); the operations
 # below edit it one field group at a time (what the tool's operator does with the mouse), and
-# calibrate(draft) applies it. Shared by tools/calibrate_preset.py and the calibration_control
-# commands (inspection/calibration_commands.py).
+# calibrate(draft) applies it. Each value is checked by the calibration schema as it comes in;
+# what depends on the whole target (its kind's keys, the scale) is checked by apply.
+# Shared by tools/calibrate_preset.py and the calibration_control commands
+# (inspection/calibration_commands.py).
 DRAFT_FILE = "calibration_draft.json"
-POINTER_FIELDS = {"name": str, "unit": str, "centre": "pair", "radius": float, "aspect": float,
-                  "scale_table": "table"}
-VALUE_FIELDS = dict(POINTER_FIELDS, colour=str, thermal_box="box",
-                    open_picture=str, closed_picture=str, on_picture=str, off_picture=str)
-PICTURE_FIELDS = ("open_picture", "closed_picture", "on_picture", "off_picture")
+VALUE_FIELDS = tuple(sorted(k for k in schema.FIELDS if k not in ("kind", "box")))
+PICTURE_FIELDS = tuple("%s_picture" % state for states in schema.PICTURE_STATES.values() for state in states)
 
 
-def _number(value, name):
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not np.isfinite(value):
-        raise PresetError("%s must be a finite number, got %r" % (name, value))
-    return float(value)
-
-
-def _numbers(value, count, name):
-    if not isinstance(value, (list, tuple)) or len(value) != count:
-        raise PresetError("%s must be a list of %d numbers, got %r" % (name, count, value))
-    return [_number(v, name) for v in value]
-
-
-def _check_field(name, value, kind):
-    if kind is str:
-        if not isinstance(value, str):
-            raise PresetError("%s must be a string, got %r" % (name, value))
-        return value
-    if kind is float:
-        return _number(value, name)
-    if kind == "pair":
-        return _numbers(value, 2, name)
-    if kind == "box":
-        return _numbers(value, 8, name)
-    if not isinstance(value, list):
-        raise PresetError("%s must be a list of [value, angle] pairs, got %r" % (name, value))
-    return [_numbers(pair, 2, name + " entry") for pair in value]
+def _checked(key, value):
+    try:
+        return schema.check_value(key, value)
+    except schema.SchemaError as err:
+        raise PresetError(str(err))
 
 
 def _target(draft, index, may_append=False):
@@ -151,35 +143,47 @@ def _target(draft, index, may_append=False):
 def mark_box(draft, index, box):
     """Set target ``index``'s box (8 numbers TL,TR,BR,BL in zoom0.jpg px); index len(draft) adds a
     pointer target."""
-    _target(draft, index, may_append=True)["box"] = _numbers(box, 8, "box")
+    box = _checked("box", box)
+    _target(draft, index, may_append=True)["box"] = box
 
 
 def set_meter_type(draft, index, kind):
+    """Change the target's kind; returns the keys it had that the new kind does not take, which
+    are removed (apply would refuse them, and no edit can remove a key)."""
     if kind not in TARGET_KINDS:
         raise PresetError("meter type must be one of %s, got %r" % ("|".join(TARGET_KINDS), kind))
-    _target(draft, index)["kind"] = kind
+    target = _target(draft, index)
+    keep = set(schema.kind_keys(kind, stored=False)) | {"kind", "box", "name"}
+    dropped = sorted(k for k in target if k not in keep)
+    for key in dropped:
+        del target[key]
+    target["kind"] = kind
+    return dropped
 
 
 def set_zero(draft, index, angle_deg, value):
     """The scale's start: the needle at ``angle_deg`` (clockwise from up) reads ``value``."""
+    angle, value = _checked("start_angle", angle_deg), _checked("start_value", value)
     target = _target(draft, index)
-    target["start_angle"], target["start_value"] = _number(angle_deg, "angle"), _number(value, "value")
+    target["start_angle"], target["start_value"] = angle, value
 
 
 def set_full_scale(draft, index, angle_deg, value):
+    angle, value = _checked("end_angle", angle_deg), _checked("end_value", value)
     target = _target(draft, index)
-    target["end_angle"], target["end_value"] = _number(angle_deg, "angle"), _number(value, "value")
+    target["end_angle"], target["end_value"] = angle, value
 
 
 def set_values(draft, index, values):
-    """Set further parameters of a target (name, unit, scale_table, centre, radius, aspect, colour,
-    thermal_box, <state>_picture); unknown names are refused."""
+    """Set further keys of a target (any key of the calibration schema but kind and box, e.g. name,
+    unit, scale_table, centre, radius, colour, thermal_box, <state>_picture); each value is
+    checked, an unknown key is refused by name."""
     if not isinstance(values, dict) or not values:
         raise PresetError("values must be a non-empty object")
-    unknown = sorted(set(values) - set(VALUE_FIELDS))
-    if unknown:
-        raise PresetError("unknown value(s) %s (allowed: %s)" % (", ".join(unknown), ", ".join(sorted(VALUE_FIELDS))))
-    checked = dict((name, _check_field(name, value, VALUE_FIELDS[name])) for name, value in values.items())
+    for key in values:
+        if key not in VALUE_FIELDS:
+            raise PresetError("unknown key %r (allowed: %s)" % (key, ", ".join(VALUE_FIELDS)))
+    checked = dict((key, _checked(key, value)) for key, value in values.items())
     _target(draft, index).update(checked)
 
 

@@ -4,13 +4,17 @@ can calibrate a recorded preset without a shell on the robot.
 Every command takes a JSON object whose ``preset`` names a preset directory (relative to the data
 root, e.g. ``presets/p1/20260101_120000``, or absolute) inside the preset roots. The operations
 edit a draft (``calibration_draft.json`` in the preset directory) one target at a time, exactly
-as the command-line tool does (inspection.calibration); ``apply`` validates the whole draft and
-writes ``preset_calib_info.ini`` + ``zoom<k>.xml``; ``upload`` does the same with a complete target
-list in one request. A bad draft or upload fails with the reason and writes nothing; pictures a
-target names (switch/lamp references) must lie inside the readable roots.
+as the command-line tool does (inspection.calibration); ``apply`` validates the whole draft against the
+calibration schema (inspection.calibration_schema) and writes ``preset_calib_info.ini`` +
+``zoom<k>.xml`` + reference patches; ``upload`` does the same with a complete target list in one
+request (and makes it the draft). A bad draft or upload fails with the reason and writes nothing;
+the files of a good one replace the old calibration in one rename (files.DirUpdate), so an I/O
+failure leaves the old one whole. Pictures a target names (switch/lamp references) must lie inside
+the readable roots.
 """
 import json
 import os
+import threading
 
 import numpy as np
 
@@ -42,10 +46,15 @@ class CalibrationCommands(object):
         self.preset_roots = [under(self.data_root, r) for r in preset_roots]
         self.picture_roots = [under(self.data_root, r) for r in picture_roots]
         self.optics = optics
-        self.table = CommandTable({
+        # one command at a time: an apply replaces the preset directory, and an edit saved into
+        # the old one meanwhile would be lost (the service and its topic twin run on two threads)
+        self._lock = threading.Lock()
+        locked = self._locked
+        self.table = CommandTable(dict((name, locked(handler)) for name, handler in {
             "get": self.get,
             "mark_box": self._edit(("box",), lambda d, i, f: calibration.mark_box(d, i, f["box"])),
-            "set_meter_type": self._edit(("kind",), lambda d, i, f: calibration.set_meter_type(d, i, f["kind"])),
+            "set_meter_type": self._edit(("kind",), lambda d, i, f: {
+                "dropped": calibration.set_meter_type(d, i, f["kind"])}),
             "set_zero": self._edit(("angle", "value"),
                                    lambda d, i, f: calibration.set_zero(d, i, f["angle"], f["value"])),
             "set_full_scale": self._edit(("angle", "value"),
@@ -55,7 +64,13 @@ class CalibrationCommands(object):
             "clear_draft": self.clear_draft,
             "apply": self.apply,
             "upload": self.upload,
-        })
+        }.items()))
+
+    def _locked(self, handler):
+        def run(data):
+            with self._lock:
+                return handler(data)
+        return run
 
     # --- helpers ---------------------------------------------------------------------------------
     def _fields(self, data, allowed):
@@ -97,13 +112,15 @@ class CalibrationCommands(object):
             draft = self._draft(path)
             try:
                 if names:
-                    operation(draft, fields["target"], fields)
+                    extra = operation(draft, fields["target"], fields)
                 else:
-                    operation(draft, fields["target"])
+                    extra = operation(draft, fields["target"])
             except PresetError as err:
                 raise CommandError(str(err))
             self._save_draft(path, draft)
-            return json.dumps({"preset": self._name(path), "draft": draft}, sort_keys=True)
+            answer = {"preset": self._name(path), "draft": draft}
+            answer.update(extra if isinstance(extra, dict) else {})
+            return json.dumps(answer, sort_keys=True)
         return handler
 
     def _name(self, path):
@@ -126,11 +143,13 @@ class CalibrationCommands(object):
             out.append(spec)
         return out
 
-    def _calibrate(self, path, specs):
+    def _calibrate(self, path, specs, draft=None):
         try:
-            targets = calibration.calibrate(path, self._confined_specs(specs), self.optics)
+            targets = calibration.calibrate(path, self._confined_specs(specs), self.optics, draft)
         except PresetError as err:
             raise CommandError("calibration refused, nothing written: %s" % err)
+        except FileError as err:
+            raise CommandError("calibration not written, the preset is unchanged: %s" % err)
         return json.dumps({"preset": self._name(path), "targets": len(targets),
                            "kinds": [t.kind for t in targets]}, sort_keys=True)
 
@@ -170,6 +189,4 @@ class CalibrationCommands(object):
         """{"preset", "targets": [spec, ...]}: calibrate from a complete target list (the tool's
         YAML as JSON); on success the list also becomes the draft."""
         path, fields = self._fields(data, ("targets",))
-        reply = self._calibrate(path, fields["targets"])
-        self._save_draft(path, fields["targets"])
-        return reply
+        return self._calibrate(path, fields["targets"], draft=fields["targets"])

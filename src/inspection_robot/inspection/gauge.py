@@ -42,14 +42,14 @@ class GaugeScale(object):
         if table:
             marks = [(self.offset(angle), float(value)) for value, angle in table]
             if len(marks) < 2:
-                raise ValueError("a scale table needs at least 2 marks")
+                raise ValueError("a scale_table needs at least 2 marks")
             offsets = [m[0] for m in marks]
             if any(b <= a for a, b in zip(offsets, offsets[1:])):
-                raise ValueError("scale table angles must increase along the sweep")
+                raise ValueError("scale_table angles must increase along the sweep from start_angle")
             values = [m[1] for m in marks]
             rising = values[-1] > values[0]
             if any((b <= a) if rising else (b >= a) for a, b in zip(values, values[1:])):
-                raise ValueError("scale table values must be monotonic")
+                raise ValueError("scale_table values must be monotonic")
             self._marks = marks
             self.start_value, self.end_value = values[0], values[-1]
 

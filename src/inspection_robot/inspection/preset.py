@@ -12,11 +12,11 @@ Layout of ``<preset_root>/<preset_id>/<YYYYMMDD_HHMMSS>/`` (documented in docs/i
   ``zoom<k>.jpg``.
 
 A new preset directory is filled under a hidden temporary name and renamed at the end, so a
-failure never leaves half a preset; single files are written to a temporary name and replaced.
+failure never leaves half a preset; a calibration is written into a copy of the directory that
+replaces it in one rename (calibration.calibrate, files.DirUpdate), so it is whole or absent too.
 """
 import configparser
 import io
-import math
 import os
 import shutil
 import tempfile
@@ -24,13 +24,12 @@ import xml.etree.ElementTree as ET
 
 import numpy as np
 
-from inspection_robot.files import write_atomic
-from inspection_robot.inspection.gauge import GaugeScale
-from inspection_robot.inspection.readers import LAMP_COLOURS, POINTER_COLOURS
+from inspection_robot.files import fsync_dir, write_atomic
+from inspection_robot.inspection import calibration_schema as schema
+from inspection_robot.inspection.calibration_schema import TARGET_KINDS
 
 PRESET_INI = "preset.ini"
 CALIB_INI = "preset_calib_info.ini"
-TARGET_KINDS = ("pointer", "lamp", "switch", "thermal")
 CALIB_VERSION = 1
 
 
@@ -72,8 +71,10 @@ class PresetDirWriter(object):
         return os.path.join(self.path, name)
 
     def commit(self):
+        fsync_dir(self.path)        # the files' names, before the rename that publishes them
         os.rename(self.path, self.final)
         self.path = self.final
+        fsync_dir(self.parent)      # the rename itself
         return self.final
 
     def abort(self):
@@ -161,133 +162,52 @@ class PresetInfo(object):
 class Target(object):
     """One calibrated target box: its kind, its parameters and its box in each zoom picture.
 
-    ``boxes``: {zoom index: 4x2 array TL, TR, BR, BL}. Pointer parameters: centre (pivot as
-    fractions of the box), radius (dial radius as a fraction of the box width), aspect (physical
-    width / height of the box), start/end angle (deg clockwise from up) and
-    value, unit, optional scale_table [(value, angle)], optional marks [(value, u, v)] (the scale
-    marks' positions as fractions of the box: the reader fits their ellipse to undo an oblique
-    view and find the pivot, see readers.dial_from_marks). Lamp: colour, optional on_reference and
-    off_reference (patch file names). Switch: open_reference,
-    closed_reference (patch file names in the preset directory). Thermal: thermal_box (4x2 in the
-    thermal picture).
+    ``boxes``: {zoom index: 4x2 array TL, TR, BR, BL}. ``params``: the kind's keys, checked and
+    normalised by inspection.calibration_schema (the one schema of uploads, draft edits and this
+    file), which lists them with their ranges. Pointer: centre (pivot as fractions of the box),
+    radius (dial radius as a fraction of the box width), aspect (physical width / height of the
+    box), start/end angle (deg clockwise from up) and value, unit, scale_table [(value, angle)],
+    marks [(value, u, v)] (the scale marks' positions as fractions of the box: the reader fits
+    their ellipse to undo an oblique view and find the pivot, see readers.dial_from_marks),
+    pointer_colour, ignore_colour. Lamp: colour, optional on_reference and off_reference (patch
+    file names). Switch: open_reference, closed_reference (patch file names in the preset
+    directory). Thermal: thermal_box (4x2 in the thermal picture). Any kind: normal [low, high].
     """
 
-    def __init__(self, kind, boxes, name="", **params):
-        if kind not in TARGET_KINDS:
-            raise PresetError("unknown target kind '%s' (one of %s)" % (kind, "|".join(TARGET_KINDS)))
+    def __init__(self, kind, boxes, name="", thermal_size=None, **params):
+        try:
+            self.name = schema.check_value("name", name)
+            self.params = schema.check_params(kind, params, thermal_size)
+        except schema.SchemaError as err:
+            raise PresetError("%s: %s" % (kind, err) if kind in TARGET_KINDS else str(err))
         self.kind = kind
-        self.name = name
         self.boxes = dict((int(k), np.asarray(v, np.float64).reshape(4, 2)) for k, v in boxes.items())
-        self.params = params
-        if kind == "pointer":
-            try:
-                self.scale = GaugeScale(params["start_angle"], params["end_angle"], params["start_value"],
-                                        params["end_value"], params.get("scale_table") or None)
-            except ValueError as err:
-                raise PresetError("pointer: %s" % err)
-            _check_pointer_geometry(params)
-        elif kind == "lamp" and params.get("colour") not in LAMP_COLOURS:
-            raise PresetError("lamp colour must be one of %s" % "|".join(LAMP_COLOURS))
-        elif kind == "lamp" and bool(params.get("on_reference")) != bool(params.get("off_reference")):
-            raise PresetError("a lamp needs both on_reference and off_reference, or neither")
-        elif kind == "switch" and not (params.get("open_reference") and params.get("closed_reference")):
-            raise PresetError("a switch needs open_reference and closed_reference")
-        elif kind == "thermal":
-            self.params["thermal_box"] = np.asarray(params["thermal_box"], np.float64).reshape(4, 2)
+        for k, box in self.boxes.items():
+            if not np.all(np.isfinite(box)):
+                raise PresetError("the box in %s must be finite numbers" % zoom_xml_name(k))
+        self.scale = schema.pointer_scale(self.params) if kind == "pointer" else None
+        if kind == "thermal":
+            self.params["thermal_box"] = np.asarray(self.params["thermal_box"], np.float64).reshape(4, 2)
 
     def section(self):
-        p = self.params
         out = {"kind": self.kind, "name": self.name}
-        if self.kind == "pointer":
-            out.update({"centre": "%g,%g" % tuple(p.get("centre", (0.5, 0.5))),
-                        "radius": "%g" % p.get("radius", 0.45), "aspect": "%g" % p.get("aspect", 1.0),
-                        "start_angle": "%g" % p["start_angle"], "end_angle": "%g" % p["end_angle"],
-                        "start_value": "%g" % p["start_value"], "end_value": "%g" % p["end_value"],
-                        "unit": p.get("unit", ""),
-                        "scale_table": ";".join("%g:%g" % (v, a) for v, a in (p.get("scale_table") or []))})
-            if p.get("marks"):
-                out["marks"] = ";".join("%g:%g,%g" % tuple(m) for m in p["marks"])
-            for key in ("pointer_colour", "ignore_colour"):
-                if p.get(key):
-                    out[key] = p[key]
-        elif self.kind == "lamp":
-            out["colour"] = p["colour"]
-            if p.get("on_reference") and p.get("off_reference"):
-                out.update({"on_reference": p["on_reference"], "off_reference": p["off_reference"]})
-        elif self.kind == "switch":
-            out.update({"open_reference": p["open_reference"], "closed_reference": p["closed_reference"]})
-        else:
-            out["thermal_box"] = ",".join("%g" % v for v in p["thermal_box"].reshape(-1))
+        out.update(schema.params_to_section(self.params))
         return out
 
     @classmethod
     def from_section(cls, section, boxes):
-        kind = section.get("kind", "")
+        """The target of a [target_<i>] section; every key is read through the schema, so a key
+        the schema does not know (a typo such as ``radus``) is refused by name."""
         params = {}
-        if kind == "pointer":
-            params = {"centre": _floats(section.get("centre", "0.5,0.5"), 2),
-                      "radius": float(section.get("radius", "0.45")),
-                      "aspect": float(section.get("aspect", "1")),
-                      "start_angle": float(section["start_angle"]), "end_angle": float(section["end_angle"]),
-                      "start_value": float(section["start_value"]), "end_value": float(section["end_value"]),
-                      "unit": section.get("unit", ""), "scale_table": _table(section.get("scale_table", "")),
-                      "pointer_colour": section.get("pointer_colour", ""),
-                      "ignore_colour": section.get("ignore_colour", ""),
-                      "marks": _marks(section.get("marks", ""))}
-        elif kind == "lamp":
-            params = {"colour": section.get("colour", "")}
-            if section.get("on_reference") or section.get("off_reference"):
-                params.update(on_reference=section.get("on_reference", ""),
-                              off_reference=section.get("off_reference", ""))
-        elif kind == "switch":
-            params = {"open_reference": section.get("open_reference", ""),
-                      "closed_reference": section.get("closed_reference", "")}
-        elif kind == "thermal":
-            params = {"thermal_box": _floats(section["thermal_box"], 8)}
-        return cls(kind, boxes, name=section.get("name", ""), **params)
-
-
-def _check_pointer_geometry(params):
-    """The pivot must lie inside the box, the dial radius be positive, the colour hints known."""
-    centre = params.get("centre", (0.5, 0.5))
-    radius = float(params.get("radius", 0.45))
-    aspect = float(params.get("aspect", 1.0))
-    if len(centre) != 2 or not all(0.0 <= float(c) <= 1.0 for c in centre):
-        raise PresetError("pointer: centre %s lies outside the box (fractions 0..1 expected)" % (list(centre),))
-    if not 0.0 < radius <= 1.5:
-        raise PresetError("pointer: radius must be in (0, 1.5] of the box width, got %g" % radius)
-    if not 0.05 <= aspect <= 20.0:
-        raise PresetError("pointer: aspect must be in [0.05, 20], got %g" % aspect)
-    marks = params.get("marks") or []
-    try:
-        params["marks"] = [tuple(float(x) for x in m) for m in marks]
-    except (TypeError, ValueError):
-        raise PresetError("pointer: marks must be [value, u, v] triples (fractions of the box), got %r" % (marks,))
-    if any(len(m) != 3 or not all(math.isfinite(x) for x in m) for m in params["marks"]):
-        raise PresetError("pointer: marks must be [value, u, v] triples of finite numbers, got %r" % (marks,))
-    for key in ("pointer_colour", "ignore_colour"):
-        if params.get(key) and params[key] not in POINTER_COLOURS:
-            raise PresetError("pointer: %s must be one of %s, got '%s'" % (key, "|".join(POINTER_COLOURS), params[key]))
-
-
-def _floats(text, count):
-    values = [float(v) for v in text.split(",")]
-    if len(values) != count:
-        raise ValueError("expected %d numbers, got '%s'" % (count, text))
-    return values
-
-
-def _table(text):
-    text = text.strip()
-    if not text:
-        return []
-    return [tuple(float(x) for x in pair.split(":")) for pair in text.split(";")]
-
-
-def _marks(text):
-    """[(value, u, v)] from "value:u,v;..." (the scale marks' positions as fractions of the box)."""
-    return [(float(v),) + tuple(_floats(uv, 2)) for v, uv in (pair.split(":") for pair in text.split(";"))] \
-        if text.strip() else []
+        try:
+            for key, text in section.items():
+                if key not in ("kind", "name"):
+                    value = schema.from_text(key, text)
+                    if value is not None:
+                        params[key] = value
+        except schema.SchemaError as err:
+            raise PresetError(str(err))
+        return cls(section.get("kind", ""), boxes, name=section.get("name", ""), **params)
 
 
 def boxes_to_xml(zoom_index, level, width, height, targets):
@@ -315,7 +235,8 @@ def boxes_from_xml(text):
 
 
 def write_calibration(preset_dir, targets, info):
-    """Write preset_calib_info.ini and zoom<k>.xml for every zoom picture of the preset."""
+    """Write preset_calib_info.ini and zoom<k>.xml for every zoom picture of the preset into
+    ``preset_dir`` (calibration.calibrate passes the staged copy that then replaces the preset)."""
     c = configparser.ConfigParser(interpolation=None)
     c["calibration"] = {"version": str(CALIB_VERSION), "reference": zoom_picture_name(0),
                         "target_count": str(len(targets))}
@@ -381,7 +302,10 @@ def load_preset(path, need_calibration=True):
             target_boxes = dict((k, b[i]) for k, b in boxes.items() if i in b)
             if 0 not in target_boxes:
                 raise ValueError("target %d has no box in %s" % (i, zoom_xml_name(0)))
-            targets.append(Target.from_section(c["target_%d" % i], target_boxes))
+            try:
+                targets.append(Target.from_section(c["target_%d" % i], target_boxes))
+            except PresetError as err:
+                raise PresetError("[target_%d] %s" % (i, err))
     except PresetError as err:
         raise PresetError("corrupt calibration in %s: %s" % (path, err))
     except (configparser.Error, ValueError, KeyError, ET.ParseError, TypeError) as err:

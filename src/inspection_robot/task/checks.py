@@ -1,6 +1,5 @@
 """The two task checks that need the robot's world: does a preset exist (and is it calibrated),
 and can a stop be reached on the map. Used by task_manager at submission, before anything moves."""
-import configparser
 import os
 import threading
 
@@ -8,10 +7,10 @@ import numpy as np
 
 from inspection_robot.command import CommandError
 from inspection_robot.files import confine_path
-from inspection_robot.inspection.preset import CALIB_INI, PRESET_INI, PresetError, load_preset
+from inspection_robot.inspection.preset import PRESET_INI, PresetError, load_preset
 from inspection_robot.nav.costmap import Costmap
 from inspection_robot.nav.gridmap import MapError, load_map
-from inspection_robot.task.spec import ResolvedPreset, parse_band
+from inspection_robot.task.spec import ResolvedPreset
 
 
 def resolve_preset(preset_root, name):
@@ -32,24 +31,10 @@ def resolve_preset(preset_root, name):
         raise CommandError("unknown preset directory '%s': %s" % (name, err))
     targets = [{"name": t.name, "kind": t.kind, "unit": t.params.get("unit", "") if t.kind == "pointer" else ""}
                for t in preset.targets]
-    return ResolvedPreset(path, targets, preset_bands(path, targets))
-
-
-def preset_bands(path, targets):
-    """Alarm bands stored with the preset: ``normal = low,high`` in a target's section of
-    preset_calib_info.ini (optional; the task's own bands override them)."""
-    parser = configparser.ConfigParser()
-    parser.read(os.path.join(path, CALIB_INI))
-    bands = {}
-    for i, target in enumerate(targets):
-        text = parser.get("target_%d" % i, "normal", fallback="")
-        if text:
-            try:
-                band = [float(v) for v in text.split(",")]
-            except ValueError:
-                raise CommandError("preset '%s' target %d: normal must be low,high, got '%s'" % (path, i, text))
-            bands[target["name"]] = parse_band(band, "preset '%s' target %d normal" % (path, i))
-    return bands
+    # a preset's own alarm bands: ``normal = low,high`` in a target's section, read and checked
+    # with the rest of the calibration (inspection.calibration_schema)
+    bands = dict((t.name, list(t.params["normal"])) for t in preset.targets if t.params.get("normal"))
+    return ResolvedPreset(path, targets, bands)
 
 
 class Reachability(object):

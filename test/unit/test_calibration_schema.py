@@ -1,0 +1,84 @@
+"""The calibration schema: every stored key survives its INI text; values are refused by name."""
+import math
+
+import numpy as np
+import pytest
+
+from inspection_robot.inspection import calibration_schema as schema
+
+GOOD = {"name": "oil", "normal": [0.2, 1.4], "start_angle": -135.0, "end_angle": 135.0, "start_value": 0.0,
+        "end_value": 1.6, "unit": "MPa %", "centre": [0.5, 0.55], "radius": 0.42, "aspect": 1.25,
+        "scale_table": [[0.0, -135.0], [0.8, 0.0], [1.6, 135.0]],
+        "marks": [[0.0, 0.18, 0.82], [1.6, 0.82, 0.82]], "pointer_colour": "dark", "ignore_colour": "red",
+        "colour": "green", "on_reference": "target_0_on.png", "off_reference": "target_0_off.png",
+        "open_reference": "a.png", "closed_reference": "b.png",
+        "thermal_box": [5.0, 5.0, 30.5, 5.0, 30.5, 30.0, 5.0, 30.0]}
+
+
+@pytest.mark.parametrize("key", sorted(k for k, f in schema.FIELDS.items() if f.stored))
+def test_every_stored_key_round_trips_through_its_text(key):
+    assert key in GOOD, "add an example of %s" % key
+    assert schema.from_text(key, schema.to_text(key, GOOD[key])) == GOOD[key]
+
+
+def test_a_whole_pointer_round_trips_with_defaults():
+    params = schema.check_params("pointer", {"start_angle": 225, "end_angle": 135, "start_value": 0,
+                                             "end_value": 10})
+    assert params["centre"] == [0.5, 0.5] and params["radius"] == 0.45 and params["marks"] == []
+    section = schema.params_to_section(params)
+    assert "marks" not in section and "pointer_colour" not in section and section["scale_table"] == ""
+    again = dict((k, schema.from_text(k, t)) for k, t in section.items())
+    assert schema.check_params("pointer", dict((k, v) for k, v in again.items() if v is not None)) == params
+
+
+@pytest.mark.parametrize("key,value,reason", [
+    ("end_value", float("inf"), "end_value must be a finite number, got inf"),
+    ("end_value", float("nan"), "end_value must be a finite number, got nan"),
+    ("end_value", 10 ** 400, "end_value must be a finite number"),
+    ("end_value", True, "end_value must be a finite number, got True"),
+    ("end_value", "1.6", "end_value must be a finite number, got '1.6'"),
+    ("end_value", np.float64(2e9), "end_value must be in [-1e+09, 1e+09]"),
+    ("start_angle", -361, "start_angle must be in [-360, 360], got -361"),
+    ("radius", 0.0, "radius must be in (0, 1.5], got 0"),
+    ("centre", [0.5], "centre must be a list of 2 numbers"),
+    ("centre", [0.5, 1.01], "centre must be in [0, 1], got 1.01"),
+    ("scale_table", [[0, 1], [1]], "scale_table entries must be [value, angle]"),
+    ("scale_table", [[0, 1], [0, 2]], "scale_table values must be strictly monotonic"),
+    ("marks", [[0, -0.1, 0.5]], "marks u must be in [0, 1], got -0.1"),
+    ("thermal_box", [0, 0, 1, 0, 1, 1, 0, math.inf], "thermal_box must be a finite number, got inf"),
+    ("normal", [1, 0], "normal must be [low, high], low 1 is above high 0"),
+    ("open_reference", "sub/a.png", "open_reference must be a file name in the preset directory"),
+    ("open_reference", ".hidden.png", "open_reference must be a file name"),
+    ("name", "x" * 201, "name must be at most 200 characters"),
+    ("radus", 0.4, "unknown key 'radus'"),
+])
+def test_values_are_refused_by_name(key, value, reason):
+    with pytest.raises(schema.SchemaError) as err:
+        schema.check_value(key, value)
+    assert reason in str(err.value)
+
+
+@pytest.mark.parametrize("key,text,reason", [
+    ("end_value", "inf", "end_value must be a finite number, got inf"),
+    ("end_value", "1.6x", "end_value: cannot read '1.6x'"),
+    ("marks", "0:0.5", "marks: cannot read"),
+    ("radus", "0.4", "unknown key 'radus'"),
+    ("open_picture", "x.png", "unknown key 'open_picture'"),    # a spec key, never in the file
+])
+def test_file_text_is_refused_by_name(key, text, reason):
+    with pytest.raises(schema.SchemaError) as err:
+        schema.from_text(key, text)
+    assert reason in str(err.value)
+
+
+def test_keys_belong_to_their_kind():
+    with pytest.raises(schema.SchemaError) as err:
+        schema.check_params("thermal", {"thermal_box": GOOD["thermal_box"], "unit": "degC"})
+    assert "key 'unit' does not apply to a thermal target (pointer only)" in str(err.value)
+    with pytest.raises(schema.SchemaError) as err:
+        schema.check_params("switch", {"open_reference": "a.png"})
+    assert "missing key(s) closed_reference" in str(err.value)
+    assert schema.check_params("thermal", {"thermal_box": GOOD["thermal_box"]}, thermal_size=(32, 31))
+    with pytest.raises(schema.SchemaError) as err:
+        schema.check_params("thermal", {"thermal_box": GOOD["thermal_box"]}, thermal_size=(30, 40))
+    assert "thermal_box lies outside the 30x40 thermal picture" in str(err.value)
