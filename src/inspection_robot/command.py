@@ -129,12 +129,46 @@ def _check_length(text, name):
                            % (name, len(text), MAX_NUMBER_CHARS, text[:20]))
 
 
+class _NotFinite(str):
+    """Stands in for a NaN, Infinity or overflowing number while decoding, so the error can name where it was."""
+
+
+def _json_float(text):
+    value = float(text)
+    return value if math.isfinite(value) else _NotFinite(text)
+
+
+def _json_int(text):
+    if len(text) > MAX_NUMBER_CHARS:
+        raise ValueError("a number of %d digits is too long (at most %d)" % (len(text), MAX_NUMBER_CHARS))
+    return int(text)
+
+
+def _first_not_finite(value, path):
+    """(path, text) of the first _NotFinite inside ``value``, or None."""
+    if isinstance(value, _NotFinite):
+        return path, str(value)
+    items = value.items() if isinstance(value, dict) else enumerate(value) if isinstance(value, list) else ()
+    for key, item in items:
+        where = "%s[%d]" % (path, key) if isinstance(key, int) else ("%s.%s" % (path, key) if path else key)
+        found = _first_not_finite(item, where)
+        if found:
+            return found
+    return None
+
+
 def parse_json(data, name="data"):
-    """Decode JSON text; malformed, too deeply nested or non-text data raises CommandError."""
+    """Decode JSON text; malformed, too deeply nested or non-text data raises CommandError, and so do
+    NaN, Infinity and numbers too large for a float (Python's json accepts them; no command has a use
+    for them and they slip through range checks) or longer than MAX_NUMBER_CHARS digits."""
     try:
-        return json.loads(data)
+        value = json.loads(data, parse_constant=_NotFinite, parse_float=_json_float, parse_int=_json_int)
+        found = _first_not_finite(value, name if isinstance(value, list) else "")
     except (TypeError, ValueError, RecursionError) as err:
         raise CommandError("%s is not valid JSON: %s" % (name, err))
+    if found:
+        raise CommandError("%s must be a finite number, got %s" % (found[0] or name, found[1]))
+    return value
 
 
 def _check_range(value, name, low, high):

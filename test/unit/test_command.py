@@ -46,6 +46,24 @@ def test_parse_json_turns_every_bad_input_into_a_command_error(text):
         parse_json(text, "goal data")
 
 
+@pytest.mark.parametrize("text,why", [
+    ('{"x": NaN}', "x must be a finite number, got NaN"), ('[Infinity]', "data[0] must be a finite number, got "
+                                                                         "Infinity"),
+    ('{"a": {"b": [1, -Infinity]}}', "a.b[1] must be a finite number, got -Infinity"),
+    ('{"x": 1e400}', "x must be a finite number, got 1e400"), ('-1e999', "data must be a finite number, got -1e999"),
+    ('[%s]' % ("9" * 5000), "data is not valid JSON: a number of 5000 digits is too long"),
+])
+def test_parse_json_refuses_what_is_not_a_finite_number(text, why):
+    with pytest.raises(CommandError) as err:
+        parse_json(text)
+    assert str(err.value) == why if "valid JSON" not in why else str(err.value).startswith(why)
+
+
+def test_parse_json_keeps_ordinary_numbers():
+    assert parse_json('{"a": 1.5e3, "b": -7, "c": 1e-300, "d": [%s]}' % ("9" * 64)) == {
+        "a": 1500.0, "b": -7, "c": 1e-300, "d": [int("9" * 64)]}
+
+
 def test_ranges():
     assert parse_int("-18000", "pan", -18000, 18000) == -18000
     with pytest.raises(CommandError, match="out of range"):
