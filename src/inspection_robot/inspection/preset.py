@@ -11,8 +11,10 @@ Layout of ``<preset_root>/<preset_id>/<YYYYMMDD_HHMMSS>/`` (documented in docs/i
 - ``zoom<k>.xml`` written by the calibration tool: every target's box (TL, TR, BR, BL) in
   ``zoom<k>.jpg``.
 
-A new preset directory is filled under a hidden temporary name and renamed at the end, so a
-failure never leaves half a preset; single files are written to a temporary name and replaced.
+A new preset directory is filled under a hidden temporary name and renamed at the end (the parent
+folder fsynced), so a failure or a power cut never leaves half a preset; single files are written
+to a temporary name and replaced. Only preset_scale (recording) and the calibration tool write here;
+the camera and the imager write into their own capture roots and never into a preset.
 """
 import configparser
 import io
@@ -24,7 +26,7 @@ import xml.etree.ElementTree as ET
 
 import numpy as np
 
-from inspection_robot.files import write_atomic
+from inspection_robot.files import rename_durable, write_atomic
 from inspection_robot.inspection.gauge import GaugeScale
 from inspection_robot.inspection.readers import LAMP_COLOURS, POINTER_COLOURS
 
@@ -72,7 +74,8 @@ class PresetDirWriter(object):
         return os.path.join(self.path, name)
 
     def commit(self):
-        os.rename(self.path, self.final)
+        """Rename the filled directory to its final name, durably (rename_durable fsyncs the parent)."""
+        rename_durable(self.path, self.final)
         self.path = self.final
         return self.final
 
