@@ -4,17 +4,23 @@ Every module that takes a path from a caller or saves a file other code may read
 
 - ``confine_path(path, roots)``: resolve a caller's path (after symlinks and ``..``) and require it
   to lie inside one of the allowed roots, so a command can never read or write elsewhere;
+  ``new_file_path`` adds what a command that creates a file needs: no ``..``, not a folder, not
+  an existing file;
 - ``write_atomic(path, data)``: the data goes to a hidden temporary file in the target's folder, is
-  flushed and fsynced, and is renamed over the target; the folder is fsynced so the rename survives
-  a power cut. A reader or a crash sees the old file or the new one, never half of one; a failed
+  flushed and fsynced, and is put in place with ``rename_durable`` (or, with ``replace=False``,
+  hard-linked, which fails on an existing file); the folder is fsynced so the rename survives a
+  power cut. A reader or a crash sees the old file or the new one, never half of one; a failed
   write leaves no temporary file behind;
 - ``DirUpdate(folder)``: several files of one folder changed at once (a preset's calibration): the
   changes go into a hard-linked copy beside it that replaces the folder in one atomic rename, so
   a reader or a crash sees all of them or none;
+- ``rename_durable(src, dst)``: the one rename of product data (preset commits, files set aside):
+  the rename, then an fsync of the folder(s) it changed (``fsync_dir``);
 - ``write_json_atomic`` / ``read_json``: small JSON state files (virtual obstacles, last pose).
 
 Every failure raises :class:`FileError` (a CommandError, so a command handler that lets it pass
-fails that one request with the message as the reason).
+fails that one request with the message as the reason). Messages name a path as the caller gave
+it (control characters escaped, long paths shortened).
 """
 import ctypes
 import errno
@@ -26,35 +32,90 @@ import tempfile
 
 from inspection_robot.command import CommandError
 
+MAX_PATH_BYTES = 4095   # Linux PATH_MAX less the NUL: longer paths fail in the OS anyway, less clearly
+MAX_NAME_BYTES = 255    # Linux NAME_MAX, per path component
+SHOWN_PATH_CHARS = 120  # a path quoted in a message is cut after this many characters
+
 
 class FileError(CommandError):
     """A path outside the roots, or a file that cannot be read or written; the message says which."""
 
 
-def confine_path(path, roots):
-    """Resolve ``path`` and require it to lie inside one of ``roots`` (after symlinks and ``..``).
+def shown(path):
+    """``path`` fit for a one-line message: control characters escaped, cut when very long."""
+    text = "".join(c if c.isprintable() else repr(c)[1:-1] for c in str(path))
+    if len(text) > SHOWN_PATH_CHARS:
+        text = "%s...(%d characters)" % (text[:SHOWN_PATH_CHARS], len(path))
+    return text
 
-    Returns the absolute real path. Relative paths are taken relative to the first root.
-    """
+
+def check_path_text(path):
+    """Refuse what no file name of the robot contains: empty, NUL, control characters (a trailing
+    newline included), more than MAX_PATH_BYTES, or a component longer than MAX_NAME_BYTES (UTF-8)."""
     if not isinstance(path, str) or not path:
         raise FileError("empty path")
     if "\x00" in path:
-        raise FileError("path contains a NUL byte")
+        raise FileError("path '%s' contains a NUL byte" % shown(path))
+    if any(not c.isprintable() for c in path):
+        raise FileError("path '%s' contains a control or unprintable character (newline, tab, ...)" % shown(path))
+    size = len(_encoded(path))
+    if size > MAX_PATH_BYTES:
+        raise FileError("path '%s' is too long (%d bytes, at most %d)" % (shown(path), size, MAX_PATH_BYTES))
+    longest = max(len(_encoded(part)) for part in path.split("/"))
+    if longest > MAX_NAME_BYTES:
+        raise FileError("path '%s' has a name of %d bytes (at most %d)" % (shown(path), longest, MAX_NAME_BYTES))
+
+
+def _encoded(text):
+    return text.encode("utf-8", "surrogateescape")
+
+
+def confine_path(path, roots, base=None, root_names=None):
+    """Resolve ``path`` and require it to lie inside one of ``roots`` (after symlinks and ``..``).
+
+    Returns the absolute real path. A relative path is taken relative to ``base`` (default: the
+    first root). Errors name ``path`` as given and the roots as ``root_names`` (default: ``roots``
+    as given), never the resolved path.
+    """
+    check_path_text(path)
     if not roots:
         raise FileError("no allowed roots configured")
     real_roots = [os.path.realpath(os.path.expanduser(r)) for r in roots]
     candidate = os.path.expanduser(path)
     if not os.path.isabs(candidate):
-        candidate = os.path.join(real_roots[0], candidate)
+        candidate = os.path.join(real_roots[0] if base is None else os.path.expanduser(base), candidate)
     resolved = os.path.realpath(candidate)
-    for root in real_roots:
-        if resolved == root or resolved.startswith(root + os.sep):
-            return resolved
-    raise FileError("path '%s' is outside the allowed roots (%s)" % (path, ", ".join(real_roots)))
+    if inside(resolved, real_roots):
+        return resolved
+    names = roots if root_names is None else root_names
+    raise FileError("path '%s' is outside the allowed roots (%s)" % (shown(path), ", ".join(names)))
 
 
-def write_atomic(path, data):
-    """Write ``data`` (str or bytes) to ``path``, creating its folder; FileError (nothing changed) on failure."""
+def inside(resolved, real_roots):
+    """Whether the real path ``resolved`` is one of ``real_roots`` or lies below one."""
+    return any(resolved == root or resolved.startswith(root + os.sep) for root in real_roots)
+
+
+def new_file_path(path, roots, root_names=None):
+    """confine_path for a file a command is about to create: no ``..`` component (a new file is
+    named, not navigated to), not a folder, and nothing there yet (files are never replaced)."""
+    check_path_text(path)
+    if ".." in path.split("/"):
+        raise FileError("path '%s' contains '..' (name the file inside the roots directly)" % shown(path))
+    resolved = confine_path(path, roots, root_names=root_names)
+    if os.path.isdir(resolved):
+        raise FileError("path '%s' is a directory" % shown(path))
+    if os.path.lexists(resolved):
+        raise FileError("'%s' already exists (files are never replaced: choose a new name)" % shown(path))
+    return resolved
+
+
+def write_atomic(path, data, replace=True):
+    """Write ``data`` (str or bytes) to ``path``, creating its folder; FileError (nothing changed) on failure.
+
+    ``replace=False``: an existing file at ``path`` fails the write (checked atomically: the new
+    file is hard-linked into place, which refuses an existing name).
+    """
     if not isinstance(data, (str, bytes)):
         raise TypeError("write_atomic needs str or bytes, got %s" % type(data).__name__)
     folder = os.path.dirname(os.path.abspath(path))
@@ -62,20 +123,54 @@ def write_atomic(path, data):
         os.makedirs(folder, exist_ok=True)
         fd, tmp = tempfile.mkstemp(prefix="." + os.path.basename(path) + ".", suffix=".tmp", dir=folder)
     except OSError as err:
-        raise FileError("cannot write '%s': %s" % (path, err.strerror or err))
+        raise FileError("cannot write '%s': %s" % (shown(path), err.strerror or err))
     try:
         with os.fdopen(fd, "wb" if isinstance(data, bytes) else "w") as f:
             f.write(data)
             f.flush()
             os.fsync(f.fileno())
-        os.replace(tmp, path)
     except OSError as err:
         _remove_quietly(tmp)
-        raise FileError("cannot write '%s': %s" % (path, err.strerror or err))
+        raise FileError("cannot write '%s': %s" % (shown(path), err.strerror or err))
+    try:
+        if replace:
+            rename_durable(tmp, path)
+        else:
+            _link_new(tmp, path)
     except BaseException:
         _remove_quietly(tmp)
         raise
-    fsync_dir(folder)   # make the rename itself durable (best effort: the data is in place)
+
+
+def _link_new(tmp, path):
+    """Put ``tmp`` in place at ``path`` only if nothing is there, durably."""
+    try:
+        os.link(tmp, path)
+    except FileExistsError:
+        raise FileError("'%s' already exists (files are never replaced: choose a new name)" % shown(path))
+    except OSError as err:
+        if err.errno not in (errno.EPERM, errno.EOPNOTSUPP):
+            raise FileError("cannot write '%s': %s" % (shown(path), err.strerror or err))
+        # a filesystem without hard links (FAT): check, then rename (a narrow race, nothing better there)
+        if os.path.lexists(path):
+            raise FileError("'%s' already exists (files are never replaced: choose a new name)" % shown(path))
+        rename_durable(tmp, path)
+        return
+    _remove_quietly(tmp)
+    fsync_dir(os.path.dirname(os.path.abspath(path)))
+
+
+def rename_durable(src, dst):
+    """``os.replace(src, dst)``, then fsync the folder(s) it changed so the rename survives a power
+    cut. FileError (nothing renamed) when the rename fails."""
+    try:
+        os.replace(src, dst)
+    except OSError as err:
+        raise FileError("cannot write '%s': %s" % (shown(dst), err.strerror or err))
+    src_folder, dst_folder = (os.path.dirname(os.path.abspath(p)) for p in (src, dst))
+    fsync_dir(dst_folder)
+    if src_folder != dst_folder:
+        fsync_dir(src_folder)
 
 
 def fsync_dir(folder, strict=False):
@@ -208,6 +303,18 @@ def _link_tree(source, target):
                 shutil.copy2(entry.path, destination)
 
 
+def move_file(src, dst):
+    """Move the file ``src`` (another process's, maybe on another filesystem) to ``dst`` with
+    write_atomic; ``src`` is removed once ``dst`` is in place. FileError on failure."""
+    try:
+        with open(src, "rb") as f:
+            data = f.read()
+    except OSError as err:
+        raise FileError("cannot read '%s': %s" % (shown(src), err.strerror or err))
+    write_atomic(dst, data)
+    _remove_quietly(src)
+
+
 def _remove_quietly(path):
     try:
         os.unlink(path)
@@ -245,6 +352,24 @@ DATA_SUBDIRS = {
     "voice_out": "robot_voice's output files in simulation",
     "tasks": "task_manager's tasks and results",
 }
+
+
+CAPTURE_SUBDIRS = ("captures", "thermal")   # written by the devices' capture commands; the rest by their owners
+
+
+def capture_roots(roots, data_root):
+    """``roots`` (absolute) checked as a device's capture roots: none may be, contain or lie inside
+    a data-root folder another node owns (presets, pictures, tasks, ...), so no capture can ever
+    replace a preset or a result. ValueError naming the root otherwise; returns ``roots``."""
+    owned = [os.path.realpath(os.path.join(data_root, d)) for d in sorted(DATA_SUBDIRS) if d not in CAPTURE_SUBDIRS]
+    for root in roots:
+        real = os.path.realpath(root)
+        for folder in owned:
+            if inside(real, [folder]) or inside(folder, [real]):
+                raise ValueError("capture root %s overlaps %s, which only its owner writes (%s); use captures, "
+                                 "thermal or a folder outside the data root's owned folders"
+                                 % (root, folder, DATA_SUBDIRS[os.path.basename(folder)]))
+    return list(roots)
 
 
 def under(root, path):

@@ -157,6 +157,7 @@ class CameraSimTest(unittest.TestCase):
         """Width in px of the bright dial along the picture's centre row, if it is centred."""
         self.ok("camera_control", "capture_picture", path)
         gray = cv2.cvtColor(cv2.imread(path), cv2.COLOR_BGR2GRAY)
+        os.unlink(path)   # a capture never replaces a file: the next try needs the name free
         window = int(0.6 * expected)   # the dial only, not the neighbouring gauges
         row = gray[540, 960 - window:960 + window] > 185
         cols = np.nonzero(row)[0] + 960 - window
@@ -197,6 +198,38 @@ class CameraSimTest(unittest.TestCase):
         finally:
             os.chmod(locked, 0o700)
         self.assertEqual(self.topic("camera", "set_wdr_level", "x")[0], "failed")
+
+    def test_captures_never_replace_a_file_nor_leave_the_root(self):
+        """A capture onto an existing file (a calibrated preset's, in the finding) fails and the file
+        stays; a path leaving the root or carrying junk fails before the camera is asked; nothing written."""
+        kept = os.path.join(ROOT, "kept", "preset.ini")
+        os.makedirs(os.path.dirname(kept), exist_ok=True)
+        with open(kept, "w") as f:
+            f.write("[preset]\ncalibrated = 1\n")
+        outside = ROOT + "_outside"
+        shutil.rmtree(outside, ignore_errors=True)
+        os.makedirs(outside)
+        link = os.path.join(ROOT, "link_out")
+        if not os.path.islink(link):
+            os.symlink(outside, link)
+        before = sorted(os.walk(ROOT))
+        cases = [(kept, "already exists"), ("kept/preset.ini", "already exists"),
+                 ("kept/../kept/preset.ini", "contains '..'"), ("link_out/x.jpg", "outside the allowed roots"),
+                 ("x.jpg\n", "control or unprintable character"), ("a\x01.jpg", "control or unprintable"),
+                 ("n" * 300 + ".jpg", "has a name of 304 bytes"), ("d/" * 2100 + "x.jpg", "too long")]
+        for service in ("camera_control", "infrared_control"):
+            for data, reason in cases:
+                ack, reply = self.call(service, "capture_picture", data)
+                self.assertEqual(ack, "failed", "%s %r -> %s" % (service, data, reply))
+                self.assertIn(reason, reply, "%s %r" % (service, data))
+        ack, frame = self.call("infrared_control", "save_temperature", os.path.join(ROOT, "kept", "frame.png"))
+        self.assertEqual(ack, "success", frame)
+        self.assertEqual(self.call("infrared_control", "save_temperature", frame)[0], "failed")   # not twice
+        os.unlink(frame)
+        with open(kept) as f:
+            self.assertEqual(f.read(), "[preset]\ncalibrated = 1\n")
+        self.assertEqual(sorted(os.walk(ROOT)), before)
+        self.assertEqual(os.listdir(outside), [])
 
     def test_joystick_busy_rule(self):
         try:

@@ -40,6 +40,7 @@ class FilesLinkTest(unittest.TestCase):
         write_atomic(os.path.join(preset, "preset.ini"), info.to_ini())
         write_atomic(os.path.join(preset, "zoom0.jpg"), cls.jpeg)
         write_atomic(os.path.join(cls.root, "captures", "c1.jpg"), cls.jpeg)
+        os.symlink("/etc", os.path.join(cls.root, "captures", "link_out"))
         port = int(wait_for(lambda: rospy.get_param("/rosbridge_websocket/actual_port", None), 60.0, "bridge port"))
         cls.ros = roslibpy.Ros("127.0.0.1", port)
         cls.ros.run(timeout=20)
@@ -126,12 +127,23 @@ class FilesLinkTest(unittest.TestCase):
                 break
         self.assertEqual(data, self.jpeg)
         self.assertGreater(chunks, 1)
-        for fields, reason in (({"path": "captures/none.jpg"}, "no such file"),
-                               ({"path": "../../etc/passwd"}, "outside the allowed roots"),
+        for fields, reason in (({"path": "captures/none.jpg"}, "no such file: 'captures/none.jpg'"),
+                               ({"path": "../../etc/passwd"}, "path '../../etc/passwd' is outside the allowed roots ("),
+                               ({"path": "captures/link_out/passwd"}, "path 'captures/link_out/passwd' is outside"),
+                               ({"path": "captures/c1.jpg\n"}, "control or unprintable character"),
                                ({"path": "captures/c1.jpg", "length": 65537}, "length out of range")):
             ack, out = self.call(self.files, "read", **fields)
             self.assertEqual(ack, "failed")
             self.assertIn(reason, out)
+            self.assertNotIn(self.root, out)   # the request's own words, never the robot's layout
+
+    def test_2b_a_link_out_of_the_roots_is_listed_not_followed(self):
+        ack, listing = self.call(self.files, "list", path="captures")
+        self.assertEqual(ack, "success")
+        entries = dict((e["name"], e) for e in listing["entries"])
+        self.assertEqual(entries["link_out"]["type"], "link")
+        self.assertEqual(entries["link_out"]["size"], len("/etc"))   # the link's own, not the target's
+        self.assertEqual(entries["c1.jpg"]["type"], "file")
 
     def test_3_calibrate_a_preset_over_the_link(self):
         preset_dir = os.path.join(self.root, PRESET)

@@ -93,6 +93,68 @@ def test_capture_writes_a_full_size_jpeg_inside_the_root(camera):
     with open(reply.data, "rb") as stream:
         assert stream.read(2) == b"\xff\xd8"
     assert table.dispatch("capture_picture", "../outside.jpg").ack == "failed"
+    again = table.dispatch("capture_picture", "sub/a.jpg")
+    assert again == ("failed", "'sub/a.jpg' already exists (files are never replaced: choose a new name)")
+
+
+CAPTURE_FUZZ = [("../presets/p/20260101_120000/preset.ini", "contains '..'"),
+                ("{root}/../presets/preset.ini", "contains '..'"), ("/etc/cron.d/x.jpg", "outside the allowed roots"),
+                ("link_out/preset.ini", "outside the allowed roots"), ("a\x00.jpg", "NUL byte"),
+                ("shot.jpg\n", "control or unprintable character"), ("d/" * 2100 + "x.jpg", "too long"),
+                ("n" * 300 + ".jpg", "has a name of 304 bytes"), ("kept.jpg", "already exists"),
+                ("{root}/kept.jpg", "already exists"), ("", "empty path"), ("sub", "is a directory")]
+
+
+def _capture_tree(tmp_path):
+    """The capture root, with a calibrated file (as if a preset) in it, a folder and a link out."""
+    (tmp_path / "kept.jpg").write_bytes(b"calibrated")
+    (tmp_path / "kept.png").write_bytes(b"calibrated")
+    (tmp_path / "sub").mkdir(exist_ok=True)
+    outside = tmp_path.parent / (tmp_path.name + "_presets")
+    outside.mkdir(exist_ok=True)
+    (outside / "preset.ini").write_text("[preset]")
+    os.symlink(str(outside), str(tmp_path / "link_out"))
+    return lambda: sorted((str(p), p.read_bytes() if p.is_file() else None)
+                          for folder in (tmp_path, outside) for p in folder.rglob("*"))
+
+
+@pytest.mark.parametrize("data, reason", CAPTURE_FUZZ)
+def test_camera_capture_refuses_before_asking_the_camera_and_writes_nothing(camera, data, reason):
+    table, driver, _, _, root = camera
+    tree = _capture_tree(root)
+    before = tree()
+    asked = []
+    driver.capture_jpeg = lambda: asked.append(1) or b"\xff\xd8"
+    reply = table.dispatch("capture_picture", data.format(root=root))
+    assert reply.ack == "failed" and reason in reply.data, reply
+    assert asked == [] and tree() == before
+
+
+@pytest.mark.parametrize("cmd", ["capture_picture", "save_temperature"])
+@pytest.mark.parametrize("data, reason", CAPTURE_FUZZ)
+def test_thermal_files_refused_the_same_way(world, tmp_path, cmd, data, reason):
+    imager = SimulatedImager(ThermalRenderer(world, noise_sigma=0.0), lambda: (world.start_pose, 0.0, 0.0),
+                             world.sensor_height)
+    table = ThermalCommands(imager, [str(tmp_path)], DeviceHealth(), 384, 288).table
+    tree = _capture_tree(tmp_path)
+    before = tree()
+    data = data.format(root=tmp_path).replace(".jpg", ".png" if cmd == "save_temperature" else ".jpg")
+    reply = table.dispatch(cmd, data)
+    assert reply.ack == "failed" and reason in reply.data, reply
+    assert tree() == before
+
+
+def test_a_file_appearing_during_the_capture_is_not_replaced(camera):
+    table, driver, _, _, root = camera
+
+    def capture_while_someone_writes():
+        (root / "race.jpg").write_bytes(b"theirs")
+        return b"\xff\xd8 ours"
+    driver.capture_jpeg = capture_while_someone_writes
+    reply = table.dispatch("capture_picture", "race.jpg")
+    reason = "'%s' already exists (files are never replaced: choose a new name)" % (root / "race.jpg")
+    assert reply == ("failed", reason)
+    assert (root / "race.jpg").read_bytes() == b"theirs" and sorted(os.listdir(str(root))) == ["race.jpg"]
 
 
 def test_driver_failure_is_a_clear_failed_and_marks_health(camera):

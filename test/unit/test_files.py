@@ -77,13 +77,140 @@ def test_json_state_round_trip_missing_and_corrupt(tmp_path):
         read_json(path)
 
 
-def _tree(folder):
+# --- paths a command creates: fuzzed, each refused clearly and nothing written -----------------
+def _tree(tmp_path):
+    """Every file below ``tmp_path`` with its bytes (the whole tree, so nothing can hide)."""
     out = {}
-    for base, _dirs, names in os.walk(str(folder)):
+    for folder, _dirs, names in os.walk(str(tmp_path)):
         for name in names:
-            path = os.path.join(base, name)
-            out[os.path.relpath(path, str(folder))] = open(path, "rb").read()
+            path = os.path.join(folder, name)
+            out[os.path.relpath(path, str(tmp_path))] = open(path, "rb").read() if not os.path.islink(path) else "link"
     return out
+
+
+@pytest.fixture
+def roots(tmp_path):
+    captures = tmp_path / "captures"
+    captures.mkdir()
+    (captures / "kept.jpg").write_bytes(b"calibrated")
+    (tmp_path / "presets").mkdir()
+    (tmp_path / "presets" / "preset.ini").write_text("[preset]")
+    os.symlink(str(tmp_path / "presets"), str(captures / "to_presets"))
+    os.symlink(str(tmp_path / "presets" / "new.ini"), str(captures / "dangling.jpg"))
+    return tmp_path, [str(captures)]
+
+
+@pytest.mark.parametrize("path, reason", [
+    ("", "empty path"),
+    ("a\x00b.jpg", "contains a NUL byte"),
+    ("shot.jpg\n", "contains a control or unprintable character"),
+    ("a\tb.jpg", "contains a control or unprintable character"),
+    ("x/" * 2100 + "a.jpg", "is too long (4205 bytes, at most 4095)"),
+    ("n" * 256 + ".jpg", "has a name of 260 bytes (at most 255)"),
+    ("\u00e9" * 128 + ".jpg", "has a name of 260 bytes"),   # 2 bytes a character in UTF-8
+    ("../presets/preset.ini", "contains '..'"),
+    ("sub/../kept.jpg", "contains '..'"),
+    ("/etc/cron.d/x", "outside the allowed roots"),
+    ("to_presets/preset.ini", "outside the allowed roots"),      # a link out of the root
+    ("to_presets/new.jpg", "outside the allowed roots"),
+    ("dangling.jpg", "outside the allowed roots"),               # a link to a file not yet there
+    ("kept.jpg", "'kept.jpg' already exists (files are never replaced: choose a new name)"),
+    (".", "is a directory"),
+])
+def test_new_file_path_refuses_and_nothing_is_written(roots, path, reason):
+    tmp_path, allowed = roots
+    before = _tree(tmp_path)
+    with pytest.raises(FileError) as err:
+        files.new_file_path(path, allowed)
+    assert reason in str(err.value)
+    assert "\n" not in str(err.value) and len(str(err.value)) < 400   # one short line, whatever came in
+    assert _tree(tmp_path) == before
+
+
+def test_new_file_path_accepts_a_fresh_name_relative_or_absolute(roots):
+    tmp_path, allowed = roots
+    assert files.new_file_path("a/b.jpg", allowed) == str(tmp_path / "captures" / "a" / "b.jpg")
+    assert files.new_file_path(str(tmp_path / "captures" / "c.jpg"), allowed) == str(tmp_path / "captures" / "c.jpg")
+
+
+def test_confine_path_names_the_request_not_the_resolved_path(tmp_path):
+    root = tmp_path / "data" / "pictures"
+    root.mkdir(parents=True)
+    with pytest.raises(FileError) as err:
+        confine_path("../../secret", [str(root)], base=str(tmp_path / "data"), root_names=["pictures"])
+    assert str(err.value) == "path '../../secret' is outside the allowed roots (pictures)"
+    assert confine_path("pictures/x.jpg", [str(root)], base=str(tmp_path / "data")) == str(root / "x.jpg")
+
+
+def test_write_without_replace_refuses_an_existing_file_and_keeps_it(tmp_path):
+    path = str(tmp_path / "preset.ini")
+    write_atomic(path, "calibrated")
+    with pytest.raises(FileError, match="already exists"):
+        write_atomic(path, b"\xff\xd8 jpeg", replace=False)
+    assert open(path).read() == "calibrated"
+    assert os.listdir(str(tmp_path)) == ["preset.ini"]   # no temporary file left
+    write_atomic(str(tmp_path / "new.jpg"), b"\xff\xd8", replace=False)
+    assert open(str(tmp_path / "new.jpg"), "rb").read() == b"\xff\xd8"
+    assert sorted(os.listdir(str(tmp_path))) == ["new.jpg", "preset.ini"]
+
+
+def test_write_without_replace_on_a_filesystem_without_hard_links(tmp_path, monkeypatch):
+    def no_links(*_args):
+        raise OSError(1, "Operation not permitted")
+    monkeypatch.setattr(files.os, "link", no_links)
+    write_atomic(str(tmp_path / "a.jpg"), b"new", replace=False)
+    with pytest.raises(FileError, match="already exists"):
+        write_atomic(str(tmp_path / "a.jpg"), b"newer", replace=False)
+    assert open(str(tmp_path / "a.jpg"), "rb").read() == b"new"
+    assert os.listdir(str(tmp_path)) == ["a.jpg"]
+
+
+def test_every_rename_fsyncs_the_folders_it_changed(tmp_path, monkeypatch):
+    synced = []
+    real_fsync = os.fsync
+
+    def fsync(fd):
+        synced.append(os.readlink("/proc/self/fd/%d" % fd))
+        return real_fsync(fd)
+    monkeypatch.setattr(files.os, "fsync", fsync)
+    (tmp_path / "a").mkdir()
+    (tmp_path / "a" / "x").write_text("x")
+    files.rename_durable(str(tmp_path / "a" / "x"), str(tmp_path / "b.txt"))
+    assert synced == [str(tmp_path), str(tmp_path / "a")]
+    del synced[:]
+    write_atomic(str(tmp_path / "c.txt"), "c", replace=False)
+    assert synced[-1] == str(tmp_path)   # the file, then its folder
+    with pytest.raises(FileError, match="cannot write 'missing'"):
+        files.rename_durable(str(tmp_path / "nothing"), "missing")
+
+
+def test_move_file_puts_another_process_file_in_place(tmp_path):
+    (tmp_path / "captures").mkdir()
+    src = tmp_path / "captures" / ".staging.jpg"
+    src.write_bytes(b"picture")
+    dst = tmp_path / "presets" / ".tmp_x" / "zoom0.jpg"
+    files.move_file(str(src), str(dst))
+    assert dst.read_bytes() == b"picture" and not src.exists()
+    with pytest.raises(FileError, match="cannot read"):
+        files.move_file(str(src), str(dst))
+    assert dst.read_bytes() == b"picture"
+
+
+@pytest.mark.parametrize("roots, owned", [
+    (["{root}"], "arm"), (["{root}/presets"], "presets"), (["{root}/pictures/p1"], "pictures"),
+    (["{root}/captures", "{root}/tasks"], "tasks"),
+])
+def test_capture_roots_never_overlap_an_owner_folder(tmp_path, roots, owned):
+    root = str(tmp_path)
+    with pytest.raises(ValueError) as err:
+        files.capture_roots([r.format(root=root) for r in roots], root)
+    assert os.path.join(root, owned) in str(err.value)
+
+
+def test_capture_roots_accepts_captures_thermal_and_folders_elsewhere(tmp_path):
+    root = str(tmp_path / "data")
+    good = [root + "/captures", root + "/thermal/x", str(tmp_path / "usb")]
+    assert files.capture_roots(good, root) == good
 
 
 def test_dir_update_replaces_the_folder_at_once_or_not_at_all(tmp_path):

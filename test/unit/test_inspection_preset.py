@@ -49,6 +49,22 @@ def test_writer_is_atomic(tmp_path):
         PresetDirWriter(root, "../evil", "20260101_000001")
 
 
+def test_commit_fsyncs_the_preset_folder_so_the_rename_survives_a_power_cut(tmp_path, monkeypatch):
+    from inspection_robot import files
+    synced = []
+    real_fsync = os.fsync
+
+    def fsync(fd):
+        synced.append(os.readlink("/proc/self/fd/%d" % fd))
+        return real_fsync(fd)
+    monkeypatch.setattr(files.os, "fsync", fsync)
+    with PresetDirWriter(str(tmp_path), "p1", "20260101_000000") as writer:
+        staging = writer.path
+        final = writer.commit()
+    # the preset's own names before the rename that publishes them, then the rename itself
+    assert synced == [staging, str(tmp_path / "p1")] and final == str(tmp_path / "p1" / "20260101_000000")
+
+
 def test_zoom_boxes_scale_about_the_centre():
     optics = S.linear_optics(*SIZE)
     box = [[200, 100], [280, 100], [280, 170], [200, 170]]

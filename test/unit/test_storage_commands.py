@@ -106,3 +106,49 @@ def test_symlink_out_of_the_roots_is_refused(robot):
     os.symlink("/etc", str(root / "captures" / "etc"))
     ack, out = call(files, "read", path="captures/etc/hostname")
     assert ack == "failed" and "outside the allowed roots" in out
+
+
+def test_list_does_not_follow_links_out_of_the_roots(robot):
+    files, root, payload = robot
+    outside = root.parent / "secret.txt"
+    os.symlink(str(outside), str(root / "captures" / "leak.txt"))            # a file outside
+    os.symlink("/etc", str(root / "captures" / "etc"))                       # a folder outside
+    os.symlink(str(root / "nowhere"), str(root / "captures" / "dangling"))  # nothing at all
+    os.symlink(str(root / "pictures" / "p1" / "a_read_00.jpg"), str(root / "captures" / "same.jpg"))  # inside
+    names, offset = {}, 0
+    while True:
+        _ack, out = call(files, "list", path="captures", offset=offset)
+        names.update((e["name"], e) for e in out["entries"])
+        offset += len(out["entries"])
+        if not out["truncated"]:
+            break
+    for name in ("leak.txt", "etc", "dangling"):
+        link = os.lstat(str(root / "captures" / name))
+        assert names[name] == {"name": name, "type": "link", "size": link.st_size,
+                               "mtime": round(link.st_mtime, 3)}, name   # the link's own, not its target's
+    assert names["same.jpg"]["type"] == "file" and names["same.jpg"]["size"] == len(payload)
+    ack, out = call(files, "stat", path="captures/leak.txt")
+    assert (ack, out) == ("failed",
+                          "path 'captures/leak.txt' is outside the allowed roots (presets, pictures, captures)")
+
+
+@pytest.mark.parametrize("cmd", ["list", "stat", "read"])
+@pytest.mark.parametrize("path, reason", [
+    ("../secret.txt", "path '../secret.txt' is outside the allowed roots (presets, pictures, captures)"),
+    ("nav/last_pose.json", "path 'nav/last_pose.json' is outside the allowed roots (presets, pictures, captures)"),
+    ("pictures/../../secret.txt", "path 'pictures/../../secret.txt' is outside the allowed roots"),
+    ("captures/a\x00b", "path 'captures/a\\x00b' contains a NUL byte"),
+    ("captures/c.jpg\n", "path 'captures/c.jpg\\n' contains a control or unprintable character"),
+    ("captures/" + "d/" * 2100, "is too long"),
+    ("captures/" + "n" * 256, "has a name of 256 bytes (at most 255)"),
+    ("", "empty path"),
+    ("captures/gone", "'captures/gone'"),
+])
+def test_errors_name_the_request_never_the_resolved_path(robot, cmd, path, reason):
+    files, root, _payload = robot
+    if cmd == "list" and path == "":
+        return   # "" lists the roots
+    os.symlink(str(root / "captures" / "gone_target"), str(root / "captures" / "gone"))
+    ack, out = call(files, cmd, path=path)
+    assert ack == "failed" and reason in out, out
+    assert str(root) not in out and str(root.parent) not in out and len(out) < 400

@@ -4,7 +4,7 @@ import json
 import pytest
 
 from inspection_robot.command import CommandError
-from inspection_robot.task.spec import ResolvedPreset, parse_task
+from inspection_robot.task.spec import ResolvedPreset, check_task_id, parse_task
 from inspection_robot.task.store import ResultStore
 
 TARGETS = [{"name": "cab/ammeter", "kind": "pointer", "unit": "A"}]
@@ -73,6 +73,22 @@ def test_malformed_tasks_are_refused_with_the_reason(task, reason):
     with pytest.raises(CommandError) as err:
         parse(task)
     assert reason in str(err.value)
+
+
+@pytest.mark.parametrize("task_id", [".", "..", "t-1\n", "t.1", "a/b", "", "x" * 65, " t1", "t1 ", "\u00e91",
+                                     "t\x001", 7, None, ["t1"]])
+def test_task_ids_name_a_report_folder_so_only_plain_names_pass(task_id):
+    with pytest.raises(CommandError) as err:
+        parse(good(id=task_id))
+    assert str(err.value).startswith("task id must be 1-64 characters of A-Z a-z 0-9 _ -, got ")
+    assert "\n" not in str(err.value)   # the value is shown escaped (repr), on one line
+    with pytest.raises(CommandError):
+        check_task_id(task_id)
+
+
+@pytest.mark.parametrize("task_id", ["t", "T_2026-01-01_0800", "x" * 64])
+def test_plain_task_ids_pass(task_id):
+    assert parse(good(id=task_id)).task_id == task_id == check_task_id(task_id)
 
 
 def test_duplicate_id_is_refused():

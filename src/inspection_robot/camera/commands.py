@@ -4,11 +4,12 @@ Values are checked against the spec's sets before the driver sees them; a driver
 ``failed`` with the driver's reason and marks the device unhealthy (diagnostics, sensor_status).
 Continuous zoom/focus commands take a duration in ms (0 = until camera_stop): the move starts,
 the command answers at once, and a timer stops it; a newer move or camera_stop supersedes it.
+capture_picture creates a new file inside the capture roots and never replaces one (the spec's
+data is a bare path: there is no field to ask for a replacement).
 """
-import os
 import threading
 
-from inspection_robot.files import confine_path, write_atomic
+from inspection_robot.files import new_file_path, write_atomic
 from inspection_robot.camera.driver import CameraError
 from inspection_robot.command import (CommandError, CommandTable, no_data, parse_choice,
                                       parse_float, parse_int)
@@ -39,7 +40,8 @@ def parse_focus_position(text):
 
 
 class CameraCommands(object):
-    """Builds the camera's CommandTable over ``driver``; ``roots`` confine capture paths."""
+    """Builds the camera's CommandTable over ``driver``; ``roots`` (the capture roots, see
+    files.capture_roots) confine capture paths."""
 
     def __init__(self, driver, optics, roots, health, timer_factory=threading.Timer):
         self._driver = driver
@@ -107,11 +109,10 @@ class CameraCommands(object):
         return ""
 
     def capture_picture(self, data):
-        path = confine_path(data, self._roots)
-        if os.path.isdir(path):
-            raise CommandError("path '%s' is a directory" % data)
+        """A new JPEG at ``data`` (relative: in the first root); the answer is the absolute path."""
+        path = new_file_path(data, self._roots)   # refused before the camera is asked
         jpeg = self._call(self._driver.capture_jpeg)
-        write_atomic(path, jpeg)
+        write_atomic(path, jpeg, replace=False)   # a file that appeared meanwhile is not replaced either
         return path
 
     def _start_move(self, kind, direction, data):

@@ -45,6 +45,9 @@ class CalibrationCommands(object):
         self.data_root = os.path.realpath(os.path.expanduser(data_root))
         self.preset_roots = [under(self.data_root, r) for r in preset_roots]
         self.picture_roots = [under(self.data_root, r) for r in picture_roots]
+        # errors name the roots as a client does (relative to the data root), never resolved
+        self.preset_root_names = [self._name(r) for r in self.preset_roots]
+        self.picture_root_names = [self._name(r) for r in self.picture_roots]
         self.optics = optics
         # one command at a time: an apply replaces the preset directory, and an edit saved into
         # the old one meanwhile would be lost (the service and its topic twin run on two threads)
@@ -87,7 +90,7 @@ class CalibrationCommands(object):
         preset = fields["preset"]
         if not isinstance(preset, str) or not preset:
             raise CommandError("preset must be the preset directory, e.g. presets/p1/20260101_120000")
-        path = confine_path(under(self.data_root, preset), self.preset_roots)
+        path = confine_path(preset, self.preset_roots, base=self.data_root, root_names=self.preset_root_names)
         try:
             load_info(path)
         except PresetError as err:
@@ -125,7 +128,7 @@ class CalibrationCommands(object):
 
     def _name(self, path):
         rel = os.path.relpath(path, self.data_root)
-        return path if rel.startswith("..") else rel
+        return path if rel == ".." or rel.startswith("../") else rel
 
     def _confined_specs(self, specs):
         if not isinstance(specs, list):
@@ -139,7 +142,8 @@ class CalibrationCommands(object):
                 if spec.get(name):
                     if not isinstance(spec[name], str):
                         raise CommandError("target %d: %s must be a path" % (i, name))
-                    spec[name] = confine_path(under(self.data_root, spec[name]), self.picture_roots)
+                    spec[name] = confine_path(spec[name], self.picture_roots, base=self.data_root,
+                                              root_names=self.picture_root_names)
             out.append(spec)
         return out
 

@@ -11,9 +11,11 @@ Layout of ``<preset_root>/<preset_id>/<YYYYMMDD_HHMMSS>/`` (documented in docs/i
 - ``zoom<k>.xml`` written by the calibration tool: every target's box (TL, TR, BR, BL) in
   ``zoom<k>.jpg``.
 
-A new preset directory is filled under a hidden temporary name and renamed at the end, so a
-failure never leaves half a preset; a calibration is written into a copy of the directory that
-replaces it in one rename (calibration.calibrate, files.DirUpdate), so it is whole or absent too.
+A new preset directory is filled under a hidden temporary name and renamed at the end (the parent
+folder fsynced), so a failure or a power cut never leaves half a preset; a calibration is written
+into a copy of the directory that replaces it in one rename (calibration.calibrate,
+files.DirUpdate), so it is whole or absent too. Only preset_scale (recording) and the calibration
+tool write here; the camera and the imager write into their own capture roots, never into a preset.
 """
 import configparser
 import io
@@ -24,7 +26,7 @@ import xml.etree.ElementTree as ET
 
 import numpy as np
 
-from inspection_robot.files import fsync_dir, write_atomic
+from inspection_robot.files import fsync_dir, rename_durable, write_atomic
 from inspection_robot.inspection import calibration_schema as schema
 from inspection_robot.inspection.calibration_schema import TARGET_KINDS
 
@@ -71,10 +73,11 @@ class PresetDirWriter(object):
         return os.path.join(self.path, name)
 
     def commit(self):
-        fsync_dir(self.path)        # the files' names, before the rename that publishes them
-        os.rename(self.path, self.final)
+        """Rename the filled directory to its final name, durably: its names fsynced first, then
+        the rename (rename_durable fsyncs the parent)."""
+        fsync_dir(self.path)
+        rename_durable(self.path, self.final)
         self.path = self.final
-        fsync_dir(self.parent)      # the rename itself
         return self.final
 
     def abort(self):

@@ -5,9 +5,8 @@ inspection.finder.Head) that takes pictures; this module decides the zoom ladder
 everything into a temporary directory and renames it to ``<root>/<preset_id>/<stamp>/``.
 """
 import os
-import shutil
 
-from inspection_robot.files import write_atomic
+from inspection_robot.files import FileError, write_atomic
 from inspection_robot.inspection.preset import PresetDirWriter, PresetInfo, zoom_picture_name
 
 MAX_WIDE_PICTURES = 6
@@ -50,7 +49,12 @@ def record_preset(head, root, preset_id, stamp, state, infrared=False, preset_ty
         arm_name = ""
         if arm_trajectory:
             arm_name = os.path.basename(arm_trajectory)
-            shutil.copyfile(arm_trajectory, writer.file(arm_name))
+            try:
+                with open(arm_trajectory, "rb") as f:
+                    trajectory = f.read()
+            except OSError as err:
+                raise FileError("cannot read the arm trajectory '%s': %s" % (arm_trajectory, err.strerror or err))
+            write_atomic(writer.file(arm_name), trajectory)   # fsynced like the pictures before the commit
         info = PresetInfo(preset_id, preset_type, infrared, stamp, state["pan_deg"], state["tilt_deg"],
                           state["zoom"], state.get("focus_position", 0), state["pose"], levels, width, height,
                           extra_data=extra_data, thermal_picture=thermal_picture, thermal_frame=thermal_frame,

@@ -10,7 +10,8 @@ Publishes:   camera_zoom (std_msgs/Float64, latched, on change)
              diagnostics (diagnostic_msgs/DiagnosticArray, hardware_id "camera", ~status_rate Hz)
 Parameters:  ~driver (sim | isapi | none | "package.module:Class" with ~driver_params, required),
              ~camera_optics ({width, height, zoom_hfov_deg}, required),
-             ~roots (folders capture paths must lie in, under data_root unless absolute; [captures, presets, pictures]),
+             ~roots (folders capture paths must lie in, under data_root unless absolute; [captures]; a root
+             overlapping presets, pictures, tasks ... is refused at start: files.capture_roots),
              ~image_rate (Hz, 1.0; 0 = no image topic), ~image_width (px, 640), ~status_rate (Hz, 2.0),
              ~jpeg_quality (0..100, 90), ~frame_id ("camera_optical_frame"),
              ~isapi/{url ("http://192.168.1.64"), user ("admin"), password (""), channel (1), timeout (s, 2.0),
@@ -29,6 +30,7 @@ from inspection_robot.camera.commands import CameraCommands, format_zoom
 from inspection_robot.camera.driver import CameraError, DeviceHealth, NoCamera
 from inspection_robot.camera.optics import ZoomOptics
 from inspection_robot.drivers import SIM, make_driver
+from inspection_robot.files import capture_roots
 from inspection_robot.ros.diagnostics import DeviceDiagnostics, probe_device
 from inspection_robot.ros.images import bgr_image_msg
 from inspection_robot.ros.node import init_node
@@ -136,7 +138,8 @@ def main():
     init_node(NODE)
     optics_params = rospy.get_param("~camera_optics")
     optics = ZoomOptics(optics_params["zoom_hfov_deg"], optics_params["width"], optics_params["height"])
-    roots = path_list_param("~roots", ["captures", "presets", "pictures"], data_root())
+    root = data_root()
+    roots = capture_roots(path_list_param("~roots", ["captures"], root), root)
     image_rate = float(rospy.get_param("~image_rate", 1.0))
     image_width = int(rospy.get_param("~image_width", 640))
     status_rate = float(rospy.get_param("~status_rate", 2.0))

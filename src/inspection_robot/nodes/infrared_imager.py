@@ -10,7 +10,8 @@ Publishes:   diagnostics (diagnostic_msgs/DiagnosticArray, hardware_id "thermal_
 Parameters:  ~driver (sim | none | vendor plug-in "package.module:Class", required; none = not fitted:
              every command fails "thermal not fitted (driver: none)" and diagnostics report ERROR),
              ~driver_params (dict of keyword arguments for a plug-in, {}),
-             ~width, ~height (px, 384, 288), ~roots (under data_root unless absolute, [thermal, presets, pictures]),
+             ~width, ~height (px, 384, 288), ~roots (under data_root unless absolute, [thermal];
+             a root overlapping presets, pictures, tasks ... is refused at start: files.capture_roots),
              ~measure_box_px (px, 16), ~status_rate (Hz, 1.0), ~image_rate (Hz, 1.0), ~jpeg_quality (90),
              ~sim/{world_file (required for sim), seed (0), noise_sigma (degC, 0.05), hfov_deg (25.0),
              unsupported (list of commands to refuse, [])}
@@ -30,6 +31,7 @@ from inspection_robot.ros.node import init_node
 from inspection_robot.ros.twin import CommandTwin
 from inspection_robot.thermal.commands import ThermalCommands
 from inspection_robot.thermal.driver import NoImager, ThermalError
+from inspection_robot.files import capture_roots
 from inspection_robot.ros.data_root import data_root, path_list_param
 
 NODE = "infrared_imager"
@@ -94,7 +96,8 @@ def main():
         raise ValueError("~width/~height must be >= 8 px, ~status_rate and ~image_rate > 0")
     driver = make_imager(rospy.get_param("~driver", ""), width, height)
     health = DeviceHealth()
-    roots = path_list_param("~roots", ["thermal", "presets", "pictures"], data_root())
+    root = data_root()
+    roots = capture_roots(path_list_param("~roots", ["thermal"], root), root)
     commands = ThermalCommands(driver, roots, health, width, height,
                                int(rospy.get_param("~measure_box_px", 16)), int(rospy.get_param("~jpeg_quality", 90)))
     InfraredNode(driver, commands, health, status_rate, image_rate)

@@ -31,7 +31,6 @@ Parameters:  ~map_file (map_server YAML, required), ~pose_topic ("sim/true_pose"
 """
 import json
 import math
-import os
 import threading
 import time
 import traceback
@@ -57,7 +56,7 @@ from inspection_robot.nav.follower import DONE, Approach, FollowerParams, PathFo
 from inspection_robot.nav.goal import parse_move_goal
 from inspection_robot.nav.gridmap import load_map
 from inspection_robot.nav.localization import LocalizationMonitor, location_target
-from inspection_robot.files import FileError, read_json, write_json_atomic
+from inspection_robot.files import FileError, read_json, rename_durable, write_json_atomic
 from inspection_robot.nav.planner import Planner, PlanningError
 from inspection_robot.nav.supervisor import FOLLOW, REPLAN, STOP, GoalAborted, GoalSupervisor
 from inspection_robot.nav.virtual_obstacles import VirtualObstacles
@@ -393,7 +392,7 @@ def main():
         obstacles.load()
     except (FileError, ValueError) as err:
         aside = cfg["virtual_obstacles_file"] + ".corrupt"
-        os.replace(cfg["virtual_obstacles_file"], aside)
+        rename_durable(cfg["virtual_obstacles_file"], aside)
         rospy.logerr("move_base: virtual obstacles not loaded (file moved to %s), starting without them: %s",
                      aside, err)
     localization = LocalizationMonitor(cfg["max_xy_std"], cfg["max_yaw_std"], cfg["pose_timeout"])

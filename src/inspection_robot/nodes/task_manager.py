@@ -42,7 +42,7 @@ from inspection_robot.task.action import END_CANCELED, END_SUCCEEDED, check_goal
 from inspection_robot.task.checks import Reachability, resolve_preset
 from inspection_robot.task.patrol import Patrol, PatrolConfig
 from inspection_robot.task.report import summary, write_reports
-from inspection_robot.task.spec import parse_task
+from inspection_robot.task.spec import check_task_id, parse_task
 from inspection_robot.task.store import ResultStore, StoreError
 from inspection_robot.ros.data_root import data_root, path_param
 
@@ -227,7 +227,8 @@ class TaskManager(object):
             raise CommandError("cannot write the report: %s" % err)
 
     def _write_report(self, task_id):
-        return write_reports(os.path.join(self._reports_dir, task_id), self.store.task(task_id),
+        # the id names the folder: an id stored before ids were restricted ('..') must not escape reports/
+        return write_reports(os.path.join(self._reports_dir, check_task_id(task_id)), self.store.task(task_id),
                              self.store.readings(task_id=task_id, limit=10 ** 9), self.store.steps(task_id))
 
     def _on_finished(self, task_id):
@@ -237,7 +238,7 @@ class TaskManager(object):
         try:
             report = self._write_report(task_id)["report.html"]
             rospy.loginfo("%s: task %s ended, report %s" % (NODE_NAME, task_id, report))
-        except (OSError, StoreError) as err:
+        except (CommandError, OSError, StoreError) as err:   # FileError is a CommandError
             rospy.logerr("%s: cannot write the report of %s: %s" % (NODE_NAME, task_id, err))
         self._end_goal(task_id, report)
 

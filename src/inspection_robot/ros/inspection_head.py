@@ -1,13 +1,20 @@
 """ROS side of the inspection head: terrace_control, camera_control and infrared_control calls,
 and the robot's heading from nav_status. Shared by preset_scale and find_scale (not a node).
+
+The camera and the imager write only new files inside their own capture roots; a picture for a
+preset or a find result is taken there under a fresh hidden name (``.staging/``, not listed by
+file_control) and moved by its owner, this process, to where it belongs (files.move_file).
 """
 import itertools
 import math
+import os
 import threading
 import time
+import uuid
 
 import rospy
 
+from inspection_robot.files import FileError, move_file
 from inspection_robot.lazy import lazy_import
 from inspection_robot.inspection.finder import FindError
 from inspection_robot.interface import ACK_SUCCESS, ANGLE_CENTI_DEG
@@ -114,15 +121,29 @@ class RosHead(object):
             rospy.logwarn_throttle(30.0, "inspection: cannot turn the OSD off: %s" % err)
 
     def capture(self, path):
-        self.camera.call("capture_picture", path)
+        _take(self.camera, "capture_picture", path)
         image = cv2.imread(path, cv2.IMREAD_COLOR)
         if image is None:
             raise FindError("camera_control wrote no readable picture at %s" % path)
         return image
 
     def capture_thermal(self, picture_path, frame_path):
-        self.infrared.call("capture_picture", picture_path)
-        self.infrared.call("save_temperature", frame_path)
+        _take(self.infrared, "capture_picture", picture_path)
+        _take(self.infrared, "save_temperature", frame_path)
+
+
+def _take(device, cmd, path):
+    """``device`` writes a new file in its first root (the name keeps ``path``'s extension, which
+    chooses save_temperature's format); it is then moved to ``path``."""
+    staged = device.call(cmd, ".staging/%s%s" % (uuid.uuid4().hex, os.path.splitext(path)[1]))
+    try:
+        move_file(staged, path)
+    except FileError as err:
+        try:
+            os.unlink(staged)   # useless without its owner; do not leave it in the capture root
+        except OSError:
+            pass
+        raise FindError("%s %s: %s" % (device.name, cmd, err))
 
 
 class HeadingWatcher(object):

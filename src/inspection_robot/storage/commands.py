@@ -6,16 +6,23 @@ Every command takes a JSON object. ``path`` is relative to the data root (``pres
 absolute, and must resolve (after ``..`` and symlinks) inside one of the allowed roots; ``""``
 lists the roots themselves. A read returns at most ``max_chunk_bytes`` bytes, read with one seek,
 so the memory a request needs is bounded whatever the file's size; the client loops on
-``offset`` until ``eof``. Hidden entries (in-progress writes: ``.name.*.tmp``, ``.tmp_*``) are
-not listed. Nothing here writes.
+``offset`` until ``eof``. Hidden entries (in-progress writes: ``.name.*.tmp``, ``.tmp_*``,
+``.staging``) are not listed. Nothing here writes.
+
+A listing never looks through a link that leaves the roots: an entry is lstat'ed, and a symbolic
+link whose target resolves outside the roots (or nowhere) is listed as ``"type": "link"`` with
+the link's own size and mtime; a link inside the roots is listed as what it points to. Error
+messages name the path as the client gave it and the roots relative to the data root, never a
+resolved absolute path (which would tell a client the robot's layout).
 """
 import base64
 import hashlib
 import json
 import os
+from stat import S_ISDIR, S_ISLNK
 
 from inspection_robot.command import CommandError, CommandTable, parse_json
-from inspection_robot.files import FileError, confine_path, under
+from inspection_robot.files import FileError, confine_path, inside, shown, under
 
 DEFAULT_MAX_CHUNK_BYTES = 262144
 DEFAULT_MAX_ENTRIES = 1000
@@ -57,31 +64,34 @@ class FileCommands(object):
         self.roots = [os.path.realpath(under(self.data_root, r)) for r in roots]
         if not self.roots:
             raise ValueError("file_control needs at least one root")
+        self.root_names = [self.relative(r) for r in self.roots]
         self.max_chunk_bytes = int(max_chunk_bytes)
         self.max_entries = int(max_entries)
         self.table = CommandTable({"list": self.list, "stat": self.stat, "read": self.read})
 
     def resolve(self, path):
-        """The absolute path of a client's ``path``; FileError outside the roots."""
-        if path == "":
-            raise FileError("empty path")
-        return confine_path(under(self.data_root, path), self.roots)
+        """The absolute real path of a client's ``path``; FileError (naming ``path``) outside the roots."""
+        return confine_path(path, self.roots, base=self.data_root, root_names=self.root_names)
 
     def relative(self, path):
         """How a client names ``path``: relative to the data root when inside it."""
         rel = os.path.relpath(path, self.data_root)
-        return path if rel.startswith("..") else rel
+        return path if rel == ".." or rel.startswith("../") else rel
 
-    def _entry(self, path, name=None):
+    def _entry(self, path, shown_as, name=None):
+        """{name, type, size, mtime} of ``path``; errors name it ``shown_as`` (the client's path).
+        A link leaving the roots is not followed (type "link", the link's own size and mtime)."""
         try:
-            info = os.stat(path)
+            info = os.lstat(path)
+            if os.path.islink(path) and inside(os.path.realpath(path), self.roots):
+                info = os.stat(path)
         except FileNotFoundError:
-            raise FileError("no such file or directory: '%s'" % self.relative(path))
+            raise FileError("no such file or directory: '%s'" % shown(shown_as))
         except OSError as err:
-            raise FileError("cannot stat '%s': %s" % (self.relative(path), err.strerror))
-        kind = "dir" if os.path.isdir(path) else "file"
+            raise FileError("cannot stat '%s': %s" % (shown(shown_as), err.strerror))
+        kind = "dir" if S_ISDIR(info.st_mode) else "link" if S_ISLNK(info.st_mode) else "file"
         return {"name": name if name is not None else os.path.basename(path), "type": kind,
-                "size": info.st_size if kind == "file" else 0, "mtime": round(info.st_mtime, 3)}
+                "size": 0 if kind == "dir" else info.st_size, "mtime": round(info.st_mtime, 3)}
 
     def list(self, data):
         """{"path": dir, "offset": n} -> {"path", "entries": [{name, type, size, mtime}], "total", "offset",
@@ -90,21 +100,22 @@ class FileCommands(object):
         path = fields.get("path", "")
         offset = _count(fields, "offset", 0, 0, 1 << 31)
         if path == "":
-            entries = [self._entry(root, self.relative(root)) for root in self.roots if os.path.isdir(root)]
+            entries = [self._entry(root, name, name) for root, name in zip(self.roots, self.root_names)
+                       if os.path.isdir(root)]
             return self._page("", entries, offset)
         folder = self.resolve(path)
         if not os.path.exists(folder):
-            raise FileError("no such directory: '%s'" % path)
+            raise FileError("no such directory: '%s'" % shown(path))
         if not os.path.isdir(folder):
-            raise FileError("not a directory: '%s' (use stat or read)" % path)
+            raise FileError("not a directory: '%s' (use stat or read)" % shown(path))
         try:
             names = sorted(n for n in os.listdir(folder) if not n.startswith("."))
         except OSError as err:
-            raise FileError("cannot list '%s': %s" % (path, err.strerror))
+            raise FileError("cannot list '%s': %s" % (shown(path), err.strerror))
         entries = []
         for name in names[offset:offset + self.max_entries]:
             try:
-                entries.append(self._entry(os.path.join(folder, name)))
+                entries.append(self._entry(os.path.join(folder, name), name))
             except FileError:
                 continue  # removed while listing
         return self._page(self.relative(folder), entries, offset, total=len(names))
@@ -118,12 +129,13 @@ class FileCommands(object):
 
     def stat(self, data):
         """{"path"} -> {"path", "type", "size", "mtime", "sha256" (files)}."""
-        path = self.resolve(_fields(data, ("path",))["path"])
-        out = self._entry(path)
+        given = _fields(data, ("path",))["path"]
+        path = self.resolve(given)
+        out = self._entry(path, given)
         out["path"] = self.relative(path)
         del out["name"]
         if out["type"] == "file":
-            out["sha256"] = _sha256(path)
+            out["sha256"] = _sha256(path, given)
         return _json(out)
 
     def read(self, data):
@@ -133,31 +145,32 @@ class FileCommands(object):
         path = self.resolve(fields["path"])
         offset = _count(fields, "offset", 0, 0, 1 << 62)
         length = _count(fields, "length", self.max_chunk_bytes, 1, self.max_chunk_bytes)
+        given = shown(fields["path"])
         if os.path.isdir(path):
-            raise FileError("'%s' is a directory (use list)" % fields["path"])
+            raise FileError("'%s' is a directory (use list)" % given)
         try:
             with open(path, "rb") as f:
                 size = os.fstat(f.fileno()).st_size
                 if offset > size:
-                    raise FileError("offset %d beyond the end of '%s' (%d bytes)" % (offset, fields["path"], size))
+                    raise FileError("offset %d beyond the end of '%s' (%d bytes)" % (offset, given, size))
                 f.seek(offset)
                 chunk = f.read(length)
         except FileNotFoundError:
-            raise FileError("no such file: '%s'" % fields["path"])
+            raise FileError("no such file: '%s'" % given)
         except OSError as err:
-            raise FileError("cannot read '%s': %s" % (fields["path"], err.strerror))
+            raise FileError("cannot read '%s': %s" % (given, err.strerror))
         return _json({"path": self.relative(path), "offset": offset, "length": len(chunk), "size": size,
                       "eof": offset + len(chunk) >= size, "data": base64.b64encode(chunk).decode("ascii")})
 
 
-def _sha256(path):
+def _sha256(path, given):
     digest = hashlib.sha256()
     try:
         with open(path, "rb") as f:
             for block in iter(lambda: f.read(HASH_BLOCK_BYTES), b""):
                 digest.update(block)
     except OSError as err:
-        raise FileError("cannot read '%s': %s" % (path, err.strerror))
+        raise FileError("cannot read '%s': %s" % (shown(given), err.strerror))
     return digest.hexdigest()
 
 

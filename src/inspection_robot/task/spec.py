@@ -15,7 +15,9 @@ from inspection_robot.command import CommandError, parse_json
 PRIORITY_ROUTINE = "routine"
 PRIORITY_SPECIAL = "special"
 PRIORITIES = (PRIORITY_ROUTINE, PRIORITY_SPECIAL)
-TASK_ID_PATTERN = re.compile(r"^[A-Za-z0-9_.-]{1,64}$")
+# A task id names its report folder (tasks/reports/<id>/): no '.' (so never '.' or '..'), matched
+# with fullmatch (a '$' would let a trailing newline through).
+TASK_ID_PATTERN = re.compile(r"[A-Za-z0-9_-]{1,64}")
 MAX_STOPS = 200
 MAX_PRESETS_PER_STOP = 20
 MAX_RETRIES = 10
@@ -101,6 +103,13 @@ def _short(value):
     return text if len(text) <= 40 else text[:40] + "..."
 
 
+def check_task_id(task_id):
+    """``task_id`` if it is 1-64 characters of A-Z a-z 0-9 _ -, else CommandError."""
+    if not isinstance(task_id, str) or not TASK_ID_PATTERN.fullmatch(task_id):
+        raise CommandError("task id must be 1-64 characters of A-Z a-z 0-9 _ -, got %s" % _short(task_id))
+    return task_id
+
+
 def parse_band(value, what):
     """An alarm band [low, high] (the normal range of the value)."""
     if not isinstance(value, list) or len(value) != 2:
@@ -114,9 +123,7 @@ def parse_band(value, what):
 def parse_task(data, resolve_preset, reachable, default_retries, known_ids=()):
     """Parse and check the JSON text ``data``; returns a Task or raises CommandError."""
     obj = _object(parse_json(data, "task"), "task", TASK_KEYS)
-    task_id = obj.get("id")
-    if not isinstance(task_id, str) or not TASK_ID_PATTERN.match(task_id):
-        raise CommandError("task id must be 1-64 characters of A-Z a-z 0-9 _ . -, got %s" % _short(task_id))
+    task_id = check_task_id(obj.get("id"))
     if task_id in known_ids:
         raise CommandError("duplicate task id '%s' (ids are never reused)" % task_id)
     priority = obj.get("priority", PRIORITY_ROUTINE)

@@ -4,6 +4,8 @@ Pixel coordinates ("x,y") are thermal-frame pixels, x right and y down from the 
 (0,0). The measurement area of get_max_temperature is a square of ``measure_box_px`` pixels
 centred on the spot set by set_measure_spot (default: the frame centre), clipped to the frame.
 Temperatures are degC with two decimals. Radiometric files: see ``save_radiometric``.
+save_temperature and capture_picture create a new file inside the imager's roots and never
+replace one, as the camera's capture_picture.
 """
 import io
 import os
@@ -11,7 +13,7 @@ import os
 import numpy as np
 
 from inspection_robot.lazy import lazy_import
-from inspection_robot.files import confine_path, write_atomic
+from inspection_robot.files import new_file_path, write_atomic
 from inspection_robot.command import CommandError, CommandTable, no_data, parse_int, split_fields
 from inspection_robot.command import failed
 from inspection_robot.interface import INFRARED_COMMANDS, UNSUPPORTED
@@ -44,12 +46,13 @@ def hottest_point(frame):
 
 def save_radiometric(path, frame):
     """Write a radiometric frame. ``.png``: 16-bit single-channel PNG, pixel = temperature in
-    centikelvin (degC = p / 100 - 273.15; 0..655.35 K). ``.npy``: float32 array in degC."""
+    centikelvin (degC = p / 100 - 273.15; 0..655.35 K). ``.npy``: float32 array in degC.
+    An existing file at ``path`` is never replaced (FileError)."""
     extension = os.path.splitext(path)[1].lower()
     if extension == ".npy":
         stream = io.BytesIO()
         np.save(stream, frame.astype(np.float32))
-        write_atomic(path, stream.getvalue())
+        write_atomic(path, stream.getvalue(), replace=False)
         return
     if extension != ".png":
         raise CommandError("radiometric file must end in .png (16-bit centikelvin) or .npy (float32 degC): '%s'"
@@ -58,7 +61,7 @@ def save_radiometric(path, frame):
     ok, buf = cv2.imencode(".png", counts.astype(np.uint16))
     if not ok:
         raise CommandError("PNG encoding failed")
-    write_atomic(path, buf.tobytes())
+    write_atomic(path, buf.tobytes(), replace=False)
 
 
 def load_radiometric(path):
@@ -118,10 +121,7 @@ class ThermalCommands(object):
         return (parse_int(x_text, "x", 0, self.width - 1), parse_int(y_text, "y", 0, self.height - 1))
 
     def _target(self, data):
-        path = confine_path(data, self._roots)
-        if os.path.isdir(path):
-            raise CommandError("path '%s' is a directory" % data)
-        return path
+        return new_file_path(data, self._roots)   # refused before the imager is asked
 
     def save_temperature(self, data):
         path = self._target(data)
@@ -134,7 +134,7 @@ class ThermalCommands(object):
         ok, buf = cv2.imencode(".jpg", false_colour(self._frame()), [cv2.IMWRITE_JPEG_QUALITY, self._jpeg_quality])
         if not ok:
             raise CommandError("JPEG encoding failed")
-        write_atomic(path, buf.tobytes())
+        write_atomic(path, buf.tobytes(), replace=False)
         return path
 
     def live_view(self):

@@ -249,6 +249,7 @@ class Soak(object):
             and (not only or any(word in name for word in only)))
         self.respawn_times = []   # (node, {"process": s, "registered": s, "ready": s} after the kill)
         self.loops = 0
+        self._captures = 0
         self._round = []
         self._direction = 1
         rospy.wait_for_service("sim/inject_fault", 60.0)
@@ -290,12 +291,22 @@ class Soak(object):
         target = "%d,%d" % (self.rng.randrange(-17000, 17000, 100), self.rng.randrange(-3000, 3000, 100))
         self.check(lambda: self.b.call("/terrace_control", "set_angle", target)[0] == "success"
                    and self.b.call("/terrace_control", "get_angle") == ("success", target), "PTZ set/get angle")
-        picture = "soak/soak_%d.jpg" % (self.loops % 20)   # relative: under the data root's captures/
-        self.check(lambda: self.b.call("/camera_control", "capture_picture", picture)[0] == "success",
-                   "camera capture")
+        self.check(lambda: self.capture("soak")[0] == "success", "camera capture")
         self.check(lambda: self.b.call("/infrared_control", "get_max_temperature")[0] == "success",
                    "thermal reading")
         self.virtual_obstacles()
+
+    def capture(self, what):
+        """capture_picture to a fresh name (captures are never replaced) under the data root's
+        captures/soak/; the picture is removed once taken, so a long soak does not fill the disk."""
+        self._captures += 1
+        ack, data = self.b.call("/camera_control", "capture_picture", "soak/%s_%d.jpg" % (what, self._captures))
+        if ack == "success":
+            try:
+                os.unlink(data)   # the answer is the absolute path written (the soak runs on the robot)
+            except OSError:
+                pass
+        return ack, data
 
     def check(self, request, what):
         self.availability.recovered("patrol loop %d: %s" % (self.loops, what), self.time_until(request, 15.0))
@@ -318,7 +329,7 @@ class Soak(object):
         for tilt in (-2000, 0, 2000):
             for pan in range(-18000, 18000, 3000):
                 self.b.call("/terrace_control", "set_angle", "%d,%d" % (pan, tilt))
-                self.b.call("/camera_control", "capture_picture", "soak/soak_warmup.jpg")
+                self.capture("soak_warmup")
 
     # --- the faults ---------------------------------------------------------------------------
     def fault(self):
@@ -352,13 +363,14 @@ class Soak(object):
         self.camera.set_fault(fault)
         try:
             for _ in range(self.rng.randint(1, 3)):
-                for cmd, data in (("capture_picture", "soak/soak_fault.jpg"), ("get_zoom_level", "")):
-                    ack, reason = self.b.call("/camera_control", cmd, data)
+                for cmd, request in (("capture_picture", lambda: self.capture("soak_fault")),
+                                     ("get_zoom_level", lambda: self.b.call("/camera_control", "get_zoom_level"))):
+                    ack, reason = request()
                     self.reasons.answered("%s during %s" % (cmd, fault), ack, reason, CAMERA_FAULT_REASONS[fault])
         finally:
             self.camera.set_fault(None)
         self.availability.recovered("camera after %s" % fault, self.time_until(
-            lambda: self.b.call("/camera_control", "capture_picture", "soak/soak_fault.jpg")[0] == "success"))
+            lambda: self.capture("soak_fault")[0] == "success"))
         self.liveness.unchanged("/camera_node", pid, self.o.pid("/camera_node"))
 
     def kill_node(self):
