@@ -8,7 +8,10 @@
   ``$ROS_HOME/inspection_robot/tasks/results.sqlite``, e.g. after ``make patrol``): for its newest
   finished task, seconds per stop in drive / find / read / overhead (the rest of the stop's wall
   time: task_manager, ROS round trips, the ack wait), and ``patrol_manager_share``: task_manager's
-  own time (steps x the p50 above) over the patrol's duration, goal < 2 %.
+  own time (steps x the p50 above) over the patrol's duration, goal < 2 %; and
+  ``patrol_time_bound``: its wall time (first step to last) over its lower bound, the planned route
+  (``planned_length_m``) at task_manager's ``velocity_x`` plus the measured inspection time of
+  every preset, goal <= 1.25.
 
 Prints one JSON line per figure. Timings on the shared 2-core machine are noisy.
 """
@@ -21,8 +24,10 @@ import tempfile
 import time
 
 import numpy as np
+import yaml
 
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "src"))
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, os.path.join(ROOT, "src"))
 
 from inspection_robot.task.patrol import (OUTCOME_OK, STEP_INSPECT, Inspection, Patrol,  # noqa: E402
                                           PatrolConfig)
@@ -92,10 +97,30 @@ def real_patrol(path, step_s):
                           "drive_s": round(e["move"], 2), "find_s": round(e["find"], 2), "read_s": round(e["read"], 2),
                           "overhead_s": round(wall - e["move"] - e["find"] - e["read"], 2),
                           "wall_s": round(wall, 2)}))
+    patrol_time_bound(task, steps)
     manager_steps = sum(1 for s in steps if s["kind"] in ("move", "inspect", "home"))  # find/read are parts
     share = manager_steps * step_s / total * 100.0 if total > 0 else 0.0
     print(json.dumps({"bench": "patrol_manager_share", "task": task["task_id"], "patrol_s": round(total, 1),
                       "steps": manager_steps, "percent": round(share, 3), "goal_percent": 2.0}))
+
+
+def patrol_time_bound(task, steps):
+    """The patrol's wall time against its lower bound: the planned route at task_manager's drive
+    speed plus the measured time of every preset's inspection (head, zoom, find, read)."""
+    planned = task["spec"].get("planned_length_m")
+    if not planned or not steps:
+        print(json.dumps({"bench": "patrol_time_bound", "skipped": "task %s has no planned length" % task["task_id"]}))
+        return
+    with open(os.path.join(ROOT, "config", "task_manager.yaml")) as f:
+        speed = float(yaml.safe_load(f)["velocity_x"])
+    inspect_s = sum(s["ended"] - s["started"] for s in steps if s["kind"] == "inspect")
+    drive_s = sum(s["ended"] - s["started"] for s in steps if s["kind"] in ("move", "home"))
+    wall = max(s["ended"] for s in steps) - min(s["started"] for s in steps)
+    bound = planned / speed + inspect_s
+    print(json.dumps({"bench": "patrol_time_bound", "task": task["task_id"], "order": task["spec"].get("order"),
+                      "planned_m": planned, "speed_m_s": speed, "drive_bound_s": round(planned / speed, 1),
+                      "drive_s": round(drive_s, 1), "inspect_s": round(inspect_s, 1), "wall_s": round(wall, 1),
+                      "bound_s": round(bound, 1), "ratio": round(wall / bound, 3), "goal": 1.25}))
 
 
 def main():

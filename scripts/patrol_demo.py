@@ -46,7 +46,7 @@ def main():
           % (preset_count(), len(YARD_STOPS)))
     dirs, targets = client.record_yard(args.world, progress=lambda p, t: print("  %-20s %s" % (p, ", ".join(t))))
     client.teleport(world.start_pose)
-    task = build_task("patrol_%s" % time.strftime("%Y%m%d_%H%M%S"), dirs, targets, world)
+    task = build_task("patrol_%s" % time.strftime("%Y%m%d_%H%M%S"), dirs, targets, world, order="shortest")
     client.submit(task)
     print("patrol: task %s submitted" % task["id"])
 

@@ -29,10 +29,15 @@ from inspection_robot.files import write_atomic
 from inspection_robot.inspection.calibration_commands import CalibrationCommands
 from inspection_robot.inspection.preset import PresetInfo
 from inspection_robot.msg import GeneralAck, GeneralAction, GeneralCmd, GeneralGoal, GeneralTopic, RobotStatus
+from inspection_robot.task.checks import Reachability
+from inspection_robot.task.route import plan_route
+from inspection_robot.task.spec import ORDER_SHORTEST, Task
 from rostest_helpers import Latest, TwinClient, wait_for, wait_subscribed
 
 PRESET = "act_lamp"
 FAR_STOPS = [(20.0, 21.4), (10.0, 5.0)]
+HOME = (5.0, 5.0)   # config/task_manager.yaml home_pose
+MAP = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "config", "maps", "substation.yaml")
 
 
 def make_preset(data_root):
@@ -50,8 +55,8 @@ def make_preset(data_root):
     assert reply.ack == "success", reply.data
 
 
-def task(task_id, stops, priority="routine"):
-    return json.dumps({"id": task_id, "priority": priority, "retries": 0,
+def task(task_id, stops, priority="routine", order="given"):
+    return json.dumps({"id": task_id, "priority": priority, "retries": 0, "order": order,
                        "stops": [{"name": "s%d" % i, "pose": {"x": x, "y": y, "yaw": 0.0}, "presets": [PRESET]}
                                  for i, (x, y) in enumerate(stops)]})
 
@@ -216,6 +221,27 @@ class TaskActionTest(unittest.TestCase):
         self.assertEqual((status["task_id"], status["reason"], status["last_ended"]), ("", "", ended))
         position = self.robot.last.position
         self.assertLess(abs(position[0] - 5.0) + abs(position[1] - 5.0), 0.5, position)   # ~home_pose
+
+    # --- 5 --------------------------------------------------------------------------------------
+    def test_5_shortest_order_planned_with_the_planners_lengths(self):
+        """task_manager orders the stops by move_base's path lengths from the robot to home, and
+        reports the planned length: the same answer as the pure planning on the same map."""
+        self.wait_idle()
+        stops = [(36.0, 14.5), (15.5, 10.0), (26.0, 21.4), (20.0, 15.0)]   # far, near, middle, near-middle
+        pose = self.robot.wait(lambda m: len(m.position) == 2, 10.0, "robot pose").position
+        reach = Reachability(MAP, rospy.get_param("/move_base/robot_radius"), HOME)
+        expected = plan_route(Task("x", "routine", 0, [{"name": "s%d" % i, "x": x, "y": y}
+                                                       for i, (x, y) in enumerate(stops)], ORDER_SHORTEST),
+                              tuple(pose), HOME, reach.path_length)
+        self.assertEqual(self.tasks.call("submit", task("shortest", stops, order=ORDER_SHORTEST)).ack, "success")
+        status = json.loads(self.status.wait(lambda m: json.loads(m.data)["task_id"] == "shortest", 30.0,
+                                             "shortest task status").data)
+        self.assertEqual(status["stop_name"], expected.stops[0]["name"])
+        self.assertAlmostEqual(status["planned_length_m"], expected.planned_length_m, delta=1.0)
+        given = sum(reach.path_length(a, b) for a, b in zip([tuple(pose)] + stops, stops + [HOME]))
+        self.assertLess(status["planned_length_m"], given - 10.0)   # the typed order is much longer
+        self.assertEqual(self.tasks.call("cancel", "shortest").ack, "success")
+        self.wait_idle()
 
 
 if __name__ == "__main__":

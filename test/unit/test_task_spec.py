@@ -49,6 +49,7 @@ def test_a_good_task_is_resolved_with_bands_from_the_task_over_the_preset():
     (good(id=""), "task id must be 1-64 characters"),
     (good(id="a/b"), "task id must be 1-64 characters"),
     (good(priority="urgent"), "priority must be one of routine|special"),
+    (good(order="fastest"), "order must be one of given|shortest"),
     (good(retries=-1), "retries out of range [0, 10]: -1"),
     (good(stops=[]), "stops must be a non-empty list"),
     (good(extra=1), "task: unknown key(s) extra"),

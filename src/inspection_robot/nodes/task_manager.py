@@ -40,6 +40,7 @@ from inspection_robot.ros.worker import RequestWorker
 from inspection_robot.task.action import END_CANCELED, END_SUCCEEDED, check_goal_type, goal_end, goal_feedback, \
     goal_refused
 from inspection_robot.task.checks import Reachability, resolve_preset
+from inspection_robot.task.route import plan_route
 from inspection_robot.task.patrol import Patrol, PatrolConfig
 from inspection_robot.task.report import summary, write_reports
 from inspection_robot.task.spec import check_task_id, parse_task
@@ -137,6 +138,8 @@ class TaskManager(object):
         # parsed outside the lock: checking presets and the map must not stall the patrol loop
         task = parse_task(data, lambda name: resolve_preset(self._preset_root, name), self._reachable,
                           self._default_retries, known)
+        pose, home = self._pose, self.patrol.config.home_pose
+        plan_route(task, (pose or home)[:2], home[:2], self._reachable.path_length)
         with self._lock:
             self.patrol.submit(task, time.time())
             if goal is not None:

@@ -80,7 +80,8 @@ def yaw_quaternion(yaw):
     return {"x": 0.0, "y": 0.0, "z": math.sin(yaw / 2.0), "w": math.cos(yaw / 2.0)}
 
 
-def build_task(task_id, directories, target_names, world, priority="routine", stops=None, retries=1):
+def build_task(task_id, directories, target_names, world, priority="routine", stops=None, retries=1,
+               order="given"):
     """The task JSON object for ``stops`` (default the whole yard) with the world's alarm bands."""
     out = []
     for name, (x, y, yaw), presets in (stops or YARD_STOPS):
@@ -90,7 +91,7 @@ def build_task(task_id, directories, target_names, world, priority="routine", st
             entries.append({"preset": directories[preset_id],
                             "alarms": dict((t, b) for t, b in bands.items() if b is not None)})
         out.append({"name": name, "pose": {"x": x, "y": y, "yaw": yaw}, "precision": 0, "presets": entries})
-    return {"id": task_id, "priority": priority, "retries": retries, "stops": out}
+    return {"id": task_id, "priority": priority, "retries": retries, "order": order, "stops": out}
 
 
 class PatrolClient(object):

@@ -10,6 +10,8 @@ from inspection_robot.files import confine_path
 from inspection_robot.inspection.preset import PRESET_INI, PresetError, load_preset
 from inspection_robot.nav.costmap import Costmap
 from inspection_robot.nav.gridmap import MapError, load_map
+from inspection_robot.nav.planner import Planner, PlanningError
+from inspection_robot.nav.tour import TourError
 from inspection_robot.task.spec import ResolvedPreset
 
 
@@ -64,12 +66,24 @@ class Reachability(object):
         if virtual_wait_s is None:
             self._virtual_known.set()
         self._lock = threading.Lock()
+        self._planner = None  # made at the first path_length (planning shares the costmap and its lock)
 
     def set_virtual(self, cells):
         """The current virtual layer: a boolean array of the map's shape (ValueError otherwise)."""
         with self._lock:
             self.costmap.set_virtual_cells(cells)
         self._virtual_known.set()
+
+    def path_length(self, start_xy, goal_xy):
+        """The planner's path length (m) between two points on the current costmap (map and virtual
+        obstacles, as move_base plans); TourError when there is none."""
+        with self._lock:
+            if self._planner is None:
+                self._planner = Planner(self.costmap)
+            try:
+                return self._planner.plan(start_xy, goal_xy).length
+            except PlanningError as err:
+                raise TourError(str(err))
 
     def __call__(self, x, y):
         if not self._virtual_known.wait(self._virtual_wait_s):

@@ -370,7 +370,8 @@ class Patrol(object):
                 "state": STATE_PAUSED if self.holds and self.running is None else STATE_RUNNING,
                 "stop": key[0] + 1, "stops": len(run.task.stops), "stop_name": stop["name"], "preset": key[1] + 1,
                 "presets": len(stop["presets"]), "done": len(run.done), "total": len(keys),
-                "last_result": run.last_result, "eta_s": round(self._eta(run), 1)}
+                "last_result": run.last_result, "eta_s": round(self._eta(run), 1),
+                "planned_length_m": run.task.planned_length_m}
 
     def _eta(self, run):
         remaining = run.remaining()

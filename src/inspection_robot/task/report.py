@@ -35,7 +35,8 @@ def summary(task_row, readings, steps):
     return {"task_id": task_row["task_id"], "priority": task_row["priority"], "state": task_row["state"],
             "reason": task_row["reason"], "submitted": task_row["submitted"], "ended": ended,
             "duration_s": round(ended - task_row["submitted"], 1) if ended else None,
-            "stops": len(task_row["spec"]["stops"]), "counts": counts,
+            "stops": len(task_row["spec"]["stops"]), "order": task_row["spec"].get("order", "given"),
+            "planned_length_m": task_row["spec"].get("planned_length_m"), "counts": counts,
             "time_by_step_s": dict((k, round(v, 2)) for k, v in step_split(steps).items())}
 
 
@@ -86,7 +87,7 @@ tr.alarm td{background:#f8c0c0;font-weight:bold} tr.failed td{background:#eee;co
 img{max-width:240px;max-height:160px}
 </style></head><body>
 <h1>Patrol report %(id)s</h1>
-<p>priority %(priority)s, state <b>%(state)s</b> %(reason)s; %(stops)d stops; %(readings)d readings:
+<p>priority %(priority)s, state <b>%(state)s</b> %(reason)s; %(stops)d stops (%(route)s); %(readings)d readings:
 %(read)d read, <b>%(alarms)d alarm(s)</b>, %(failed)d failed; duration %(duration)s s</p>
 <table><tr><th>stop</th><th>preset</th><th>target</th><th>value</th><th>normal band</th><th>alarm</th>
 <th>confidence</th><th>time</th><th>reason</th><th>picture</th></tr>
@@ -94,4 +95,6 @@ img{max-width:240px;max-height:160px}
 </table></body></html>
 """ % {"id": esc(info["task_id"]), "priority": esc(info["priority"]), "state": esc(info["state"]),
        "reason": esc(info["reason"]), "stops": info["stops"], "readings": counts["readings"], "read": counts["read"],
+       "route": esc("%s order, planned route %s" % (info["order"], "%.1f m" % info["planned_length_m"]
+                                                    if info["planned_length_m"] is not None else "not measured")),
        "alarms": counts["alarms"], "failed": counts["failed"], "duration": info["duration_s"], "body": "\n".join(body)}

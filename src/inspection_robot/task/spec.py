@@ -22,7 +22,10 @@ MAX_STOPS = 200
 MAX_PRESETS_PER_STOP = 20
 MAX_RETRIES = 10
 MAX_COORDINATE_M = 100000.0
-TASK_KEYS = ("id", "priority", "retries", "stops")
+TASK_KEYS = ("id", "priority", "retries", "order", "stops")
+ORDER_GIVEN = "given"        # stops visited as listed
+ORDER_SHORTEST = "shortest"  # task_manager orders them by the planner's path lengths (task/route.py)
+ORDERS = (ORDER_GIVEN, ORDER_SHORTEST)
 STOP_KEYS = ("name", "pose", "precision", "presets")
 PRESET_KEYS = ("preset", "alarms", "foreign")
 
@@ -35,19 +38,24 @@ class Task(object):
     """A checked task. ``stops``: [{"name", "x", "y", "yaw", "precision", "presets": [
     {"preset", "directory", "targets", "alarms", "foreign"}]}] (the stored, resolved form)."""
 
-    def __init__(self, task_id, priority, retries, stops):
+    def __init__(self, task_id, priority, retries, stops, order=ORDER_GIVEN, planned_length_m=None):
         self.task_id = task_id
         self.priority = priority
         self.retries = retries
         self.stops = stops
+        self.order = order
+        self.planned_length_m = planned_length_m  # the route's planned length (task/route.py), None until planned
 
     def to_dict(self):
-        return {"id": self.task_id, "priority": self.priority, "retries": self.retries, "stops": self.stops}
+        return {"id": self.task_id, "priority": self.priority, "retries": self.retries, "order": self.order,
+                "planned_length_m": self.planned_length_m, "stops": self.stops}
 
     @classmethod
     def from_dict(cls, d):
-        """The stored form back (already checked at submission)."""
-        return cls(d["id"], d["priority"], d["retries"], d["stops"])
+        """The stored form back (already checked at submission; tasks stored before ``order`` existed
+        were given in order and not measured)."""
+        return cls(d["id"], d["priority"], d["retries"], d["stops"], d.get("order", ORDER_GIVEN),
+                   d.get("planned_length_m"))
 
     def preset_keys(self):
         """Every (stop index, preset index), in patrol order (0-based)."""
@@ -130,6 +138,9 @@ def parse_task(data, resolve_preset, reachable, default_retries, known_ids=()):
     if priority not in PRIORITIES:
         raise CommandError("priority must be one of %s, got %s" % ("|".join(PRIORITIES), _short(priority)))
     retries = _integer(obj.get("retries", default_retries), "retries", 0, MAX_RETRIES)
+    order = obj.get("order", ORDER_GIVEN)
+    if order not in ORDERS:
+        raise CommandError("order must be one of %s, got %s" % ("|".join(ORDERS), _short(order)))
     stops = obj.get("stops")
     if not isinstance(stops, list) or not stops:
         raise CommandError("stops must be a non-empty list")
@@ -141,7 +152,7 @@ def parse_task(data, resolve_preset, reachable, default_retries, known_ids=()):
         if reason:
             raise CommandError("stop %d (%s): pose (%.2f, %.2f) is unreachable: %s"
                                % (i + 1, stop["name"], stop["x"], stop["y"], reason))
-    return Task(task_id, priority, retries, parsed)
+    return Task(task_id, priority, retries, parsed, order)
 
 
 def _parse_stop(stop, index, resolve_preset):

@@ -1,0 +1,37 @@
+"""A patrol's route: the order of its stops and the length the robot will drive.
+
+With ``order: "shortest"`` the stops are put in the order that makes the path from the robot
+through every stop to the home pose shortest, measured with the planner's path lengths along the
+yard's free space (nav/tour.py), not straight lines. Either way the route's planned length is
+measured and kept with the task, so a report can compare what was driven with what was planned.
+Pure module: ``path_length(a_xy, b_xy)`` (metres, TourError when there is no path) is passed in.
+"""
+from inspection_robot.command import CommandError
+from inspection_robot.nav.tour import TourError, order_points
+from inspection_robot.task.spec import ORDER_SHORTEST
+
+
+def plan_route(task, start_xy, end_xy, path_length):
+    """Order ``task.stops`` (when its order is shortest) and set ``task.planned_length_m``: the length
+    from ``start_xy`` (the robot) through every stop to ``end_xy`` (home). CommandError names the
+    two places with no path between them."""
+    points = [tuple(start_xy)] + [(stop["x"], stop["y"]) for stop in task.stops] + [tuple(end_xy)]
+    names = ["the robot"] + ["stop '%s'" % stop["name"] for stop in task.stops] + ["the home pose"]
+    lengths = {}
+
+    def measure(i, j):
+        key = (min(i, j), max(i, j))
+        if key not in lengths:
+            try:
+                lengths[key] = float(path_length(points[key[0]], points[key[1]]))
+            except TourError as err:
+                raise CommandError("no path from %s to %s: %s" % (names[key[0]], names[key[1]], err))
+        return lengths[key]
+
+    if task.order == ORDER_SHORTEST:
+        order, length, _planned = order_points(points, measure)
+        task.stops = [task.stops[i - 1] for i in order[1:-1]]
+    else:
+        length = sum(measure(i, i + 1) for i in range(len(points) - 1))
+    task.planned_length_m = round(length, 2)
+    return task

@@ -1,0 +1,58 @@
+"""task.route: stops ordered by path length when asked, the planned length kept either way."""
+import os
+
+import pytest
+
+from inspection_robot.command import CommandError
+from inspection_robot.nav.tour import TourError
+from inspection_robot.task.checks import Reachability
+from inspection_robot.task.route import plan_route
+from inspection_robot.task.spec import ORDER_GIVEN, ORDER_SHORTEST, Task
+
+MAP = os.path.join(os.path.dirname(__file__), "..", "..", "config", "maps", "substation.yaml")
+
+
+def stop(name, x, y):
+    return {"name": name, "x": x, "y": y, "yaw": 0.0, "precision": 0, "presets": []}
+
+
+def manhattan(a, b):
+    """Roads along the axes: the order by straight lines is not the order by roads."""
+    return abs(a[0] - b[0]) + abs(a[1] - b[1])
+
+
+def test_shortest_reorders_the_stops_given_keeps_them():
+    stops = [stop("far", 10, 0), stop("near", 1, 0), stop("middle", 5, 0)]
+    shortest = plan_route(Task("t", "routine", 1, list(stops), ORDER_SHORTEST), (0, 0), (0, 0), manhattan)
+    assert [s["name"] for s in shortest.stops] == ["near", "middle", "far"]
+    assert shortest.planned_length_m == 20.0
+    given = plan_route(Task("t", "routine", 1, list(stops), ORDER_GIVEN), (0, 0), (0, 0), manhattan)
+    assert [s["name"] for s in given.stops] == ["far", "near", "middle"]
+    assert given.planned_length_m == 10 + 9 + 4 + 5
+
+
+def test_a_stop_without_path_is_named():
+    def blocked(a, b):
+        if (5, 5) in (tuple(a), tuple(b)):
+            raise TourError("goal (5.00, 5.00) is not reachable (enclosed by obstacles)")
+        return manhattan(a, b)
+    task = Task("t", "routine", 1, [stop("a", 1, 0), stop("island", 5, 5)], ORDER_SHORTEST)
+    with pytest.raises(CommandError, match="no path from .*stop 'island'.*enclosed by obstacles"):
+        plan_route(task, (0, 0), (0, 0), blocked)
+
+
+def test_stored_tasks_round_trip_and_old_ones_load():
+    task = plan_route(Task("t", "routine", 1, [stop("a", 1, 0)], ORDER_SHORTEST), (0, 0), (0, 0), manhattan)
+    again = Task.from_dict(task.to_dict())
+    assert (again.order, again.planned_length_m) == (ORDER_SHORTEST, 2.0)
+    old = Task.from_dict({"id": "o", "priority": "routine", "retries": 1, "stops": []})
+    assert (old.order, old.planned_length_m) == (ORDER_GIVEN, None)
+
+
+def test_planner_lengths_on_the_yard_follow_the_free_space():
+    reach = Reachability(MAP, 0.4, (5.0, 5.0))
+    straight = ((5.0 - 15.5) ** 2 + (5.0 - 10.0) ** 2) ** 0.5
+    length = reach.path_length((5.0, 5.0), (15.5, 10.0))
+    assert straight <= length < straight * 1.5
+    with pytest.raises(TourError, match="outside the map"):
+        reach.path_length((5.0, 5.0), (-500.0, 5.0))
