@@ -1,11 +1,15 @@
 """calibrate_preset --from-world: calibration from the simulated world's ground truth."""
+import json
 import math
 import os
 
+import cv2
+import numpy as np
 import pytest
 import yaml
 
 from inspection_robot.camera.optics import ZoomOptics
+from inspection_robot.inspection.calibration_commands import CalibrationCommands
 from inspection_robot.inspection.preset import CALIB_INI, load_preset
 from inspection_robot.inspection.recorder import record_preset
 from inspection_robot.tools.calibrate_preset import run
@@ -64,3 +68,42 @@ def test_from_world_argument_errors(tmp_path):
     with pytest.raises(SystemExit):
         run([str(tmp_path)])
     assert run([str(tmp_path / "missing"), "--from-world"]) == 1
+
+
+def test_calibration_checks_itself_against_the_operators_value(tmp_path):
+    """calibration_control reads the calibration picture at once: the reader's value beside the
+    operator's, a calibration more than 2 % of full scale off refused by name unless forced, and a
+    picture with no gauge to read refused when a value is expected; nothing written when refused."""
+    path = _record(tmp_path)
+    assert run([path, "--from-world", "--only", "breaker_1/sf6_pressure"]) == 0
+    optics = ZoomOptics(yaml.safe_load(open(OPTICS))["camera_optics"]["zoom_hfov_deg"], WIDTH, HEIGHT)
+    commands = CalibrationCommands(str(tmp_path), ["."], ["."], optics)
+    preset = os.path.relpath(path, str(tmp_path))
+
+    def call(cmd, **fields):
+        reply = commands.table.dispatch(cmd, json.dumps(dict(fields, preset=preset)))
+        return reply.ack, (json.loads(reply.data) if reply.ack == "success" else reply.data)
+    ack, got = call("get")
+    target = dict(got["targets"][0])
+    spec = {k: target[k] for k in ("kind", "name", "box", "start_angle", "end_angle", "start_value", "end_value",
+                                   "centre", "radius", "unit") if k in target}
+    truth = World.load(WORLD).faces["breaker_1/sf6_pressure"].value
+    full_scale = abs(spec["end_value"] - spec["start_value"])
+    ack, out = call("upload", targets=[spec], expected=[truth])
+    assert ack == "success" and out["self_check"][0]["apart_fs_pct"] < 2.0, out
+    assert abs(out["self_check"][0]["read"] - truth) < 0.02 * full_scale
+    before = open(os.path.join(path, CALIB_INI)).read()
+    ack, out = call("upload", targets=[spec], expected=[truth + 0.1 * full_scale])
+    assert ack == "failed" and out.startswith("calibration refused, nothing written: target 0 "
+                                              "(breaker_1/sf6_pressure): the reader reads") and "force: true" in out
+    assert open(os.path.join(path, CALIB_INI)).read() == before
+    ack, out = call("upload", targets=[spec], expected=[truth + 0.1 * full_scale], force=True)
+    assert ack == "success" and out["self_check"][0]["apart_fs_pct"] > 9.0
+    ack, out = call("upload", targets=[spec], expected=[truth, 1.0])
+    assert ack == "failed" and "expected has 2 value(s) for 1 target(s)" in out
+    assert call("apply", expected="10")[0] == "failed"
+    cv2.imwrite(os.path.join(path, "zoom0.jpg"), np.full((HEIGHT, WIDTH, 3), 128, np.uint8))   # blank
+    before = open(os.path.join(path, CALIB_INI)).read()
+    ack, out = call("upload", targets=[spec], expected=[truth])
+    assert ack == "failed" and "the reader cannot read the calibration picture" in out, out
+    assert open(os.path.join(path, CALIB_INI)).read() == before

@@ -3,7 +3,7 @@
 'use strict';
 const test = require('node:test');
 const assert = require('node:assert');
-const { decodeStatus, bits, byteArray, needleAngle, boxQuad, sortReadings, readingText } =
+const { decodeStatus, bits, byteArray, needleAngle, boxQuad, sortReadings, readingText, selfCheckText } =
   require('../../web/console/decode.js');
 
 const quiet = {
@@ -72,4 +72,13 @@ test('a reading in words', () => {
   assert.strictEqual(readingText({ status: 'read', value: 2, unit: '', low: null, high: null }), '2');
   assert.strictEqual(readingText({ status: 'failed', value: null, reason: 'find_scale failed' }),
     'failed: find_scale failed');
+});
+
+test('a calibration self-check in words', () => {
+  assert.strictEqual(selfCheckText({ read: 0.600928, confidence: 90.6, expected: 0.6, apart_fs_pct: 0.09, reason: '' }),
+    'the robot reads 0.6009 (91 %), you 0.6: 0.09 % of full scale apart');
+  assert.strictEqual(selfCheckText({ read: 3.5, confidence: 40, expected: null, apart_fs_pct: null, reason: 'two pointers' }),
+    'the robot reads 3.5 (40 %) (two pointers)');
+  assert.strictEqual(selfCheckText({ read: null, confidence: null, expected: 1, apart_fs_pct: null, reason: 'no needle' }),
+    'the robot cannot read it: no needle');
 });

@@ -984,10 +984,21 @@
     // One edit after the other, then apply: the first refusal stops the chain with the robot's text.
     steps.reduce((chain, [cmd, fields]) => chain.then(() => control('calibration_control', cmd,
       Object.assign({ preset, target }, fields))), Promise.resolve())
-      .then(() => control('calibration_control', 'apply', { preset }))
+      .then((lastEdit) => {
+        // the robot reads the picture itself; with the value the operator sees it refuses a wrong calibration
+        const apply = { preset };
+        const shown = $('calib-expected').value;
+        if (shown !== '' && kind === 'pointer') {
+          apply.expected = JSON.parse(lastEdit).draft.map((_t, i) => (i === target ? Number(shown) : null));
+        }
+        if ($('calib-force').checked) apply.force = true;
+        return control('calibration_control', 'apply', apply);
+      })
       .then((text) => {
         const answer = JSON.parse(text);
-        calibMessage('applied: ' + answer.targets + ' target(s) (' + answer.kinds.join(', ') + ')');
+        const checks = (answer.self_check || []).filter((c) => c.target === target).map(RobotDecode.selfCheckText);
+        calibMessage('applied: ' + answer.targets + ' target(s) (' + answer.kinds.join(', ') + ')' +
+          (checks.length ? '; ' + checks.join('; ') : ''));
         return control('calibration_control', 'get', { preset }).then((got) => {
           calib.targets = JSON.parse(got).targets;
           drawCalib();

@@ -116,6 +116,15 @@
     return Number(row.value.toPrecision(4)) + (row.unit ? ' ' + row.unit : '') + band;
   }
 
+  /* One calibration self-check entry (calibration_control apply/upload) in words. */
+  function selfCheckText(check) {
+    if (check.read === null) return 'the robot cannot read it: ' + check.reason;
+    let text = 'the robot reads ' + Number(check.read.toPrecision(4)) + ' (' + Math.round(check.confidence) + ' %)';
+    if (check.expected !== null) text += ', you ' + check.expected + ': ' + check.apart_fs_pct + ' % of full scale apart';
+    return text + (check.reason ? ' (' + check.reason + ')' : '');
+  }
+
+  exports.selfCheckText = selfCheckText;
   exports.MODES = MODES;
   exports.needleAngle = needleAngle;
   exports.boxQuad = boxQuad;

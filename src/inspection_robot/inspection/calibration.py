@@ -16,8 +16,10 @@ import numpy as np
 from inspection_robot.lazy import lazy_import
 from inspection_robot.files import DirUpdate, write_atomic, write_json_atomic
 from inspection_robot.inspection import calibration_schema as schema
-from inspection_robot.inspection.preset import TARGET_KINDS, PresetError, Target, load_info, write_calibration
-from inspection_robot.inspection.readers import lamp_patch, switch_patch
+from inspection_robot.inspection.preset import (TARGET_KINDS, PresetError, Target, load_info, write_calibration,
+                                                zoom_picture_name)
+from inspection_robot.inspection.readers import PointerReader, ReadFailed, lamp_patch, switch_patch
+from inspection_robot.inspection.reading import read_pointer
 
 cv2 = lazy_import("cv2")   # on first use: a node registers before its ~360 libraries load
 
@@ -83,9 +85,10 @@ def build_targets(preset_dir, specs, optics):
     return info, targets, patches
 
 
-def calibrate(preset_dir, specs, optics, draft=None):
+def calibrate(preset_dir, specs, optics, draft=None, check=None):
     """Write the calibration of ``preset_dir``; returns the Target list. Raises PresetError and
-    writes nothing when any target is bad.
+    writes nothing when any target is bad, or when ``check(preset_dir, targets)`` (a SelfCheck)
+    refuses the built targets.
 
     All or nothing: the reference patches, zoom<k>.xml, preset_calib_info.ini and (``draft`` not
     None) the draft are written into a copy of the preset directory that replaces it in one rename
@@ -93,6 +96,8 @@ def calibrate(preset_dir, specs, optics, draft=None):
     """
     preset_dir = os.path.realpath(preset_dir)
     info, targets, patches = build_targets(preset_dir, specs, optics)
+    if check is not None:
+        check(preset_dir, targets)
     encoded = {}
     for name, patch in sorted(patches.items()):
         ok, data = cv2.imencode(".png", patch)
@@ -107,6 +112,74 @@ def calibrate(preset_dir, specs, optics, draft=None):
             write_json_atomic(update.file(DRAFT_FILE), draft)
         update.commit()
     return targets
+
+
+SELF_CHECK_FS = 0.02   # the reader may differ from the operator's expected value by this share of full scale
+
+
+class SelfCheck(object):
+    """Reads every pointer target on the calibration picture (zoom0.jpg) as soon as its calibration
+    is built, before it is written: the operator sees what the reader makes of the meter they just
+    calibrated, beside the value they see (``results``). With ``expected`` (one value or None per
+    target, calibration order) a reading more than SELF_CHECK_FS of full scale away, or no reading
+    at all, refuses the calibration with the reason, unless ``force``: a wrong scale point, a box
+    on the wrong meter or a pivot the reader cannot use shows at calibration, not in a patrol.
+    """
+
+    def __init__(self, expected=None, force=False, reader=None):
+        self.expected = expected
+        self.force = bool(force)
+        self._reader = reader
+        self.results = []
+
+    def __call__(self, preset_dir, targets):
+        expected = self.expected or [None] * len(targets)
+        if len(expected) != len(targets):
+            raise PresetError("expected has %d value(s) for %d target(s): give one per target (null for none)"
+                              % (len(expected), len(targets)))
+        picture = os.path.join(preset_dir, zoom_picture_name(0))
+        image = cv2.imread(picture, cv2.IMREAD_COLOR) if os.path.isfile(picture) else None
+        problems = []
+        for i, (target, value) in enumerate(zip(targets, expected)):
+            if target.kind != "pointer":
+                if value is not None:
+                    problems.append("target %d (%s) is a %s: expected values are for pointer targets"
+                                    % (i, target.name, target.kind))
+                continue
+            entry = self._read(i, target, image, value)
+            self.results.append(entry)
+            if value is None:
+                continue
+            if entry["read"] is None:
+                problems.append("target %d (%s): the reader cannot read the calibration picture: %s"
+                                % (i, target.name, entry["reason"]))
+            elif entry["apart_fs_pct"] > 100.0 * SELF_CHECK_FS:
+                problems.append("target %d (%s): the reader reads %.4g on the calibration picture, you expect %.4g: "
+                                "%.1f %% of full scale apart (at most %g %%); check the scale points, the box and "
+                                "the pivot" % (i, target.name, entry["read"], value, entry["apart_fs_pct"],
+                                               100.0 * SELF_CHECK_FS))
+        if problems and not self.force:
+            raise PresetError("; ".join(problems) + " (force: true applies it anyway)")
+
+    def _read(self, index, target, image, expected):
+        entry = {"target": index, "name": target.name, "read": None, "confidence": None, "expected": expected,
+                 "apart_fs_pct": None, "reason": ""}
+        if image is None:
+            entry["reason"] = "zoom0.jpg missing or unreadable"
+            return entry
+        if self._reader is None:
+            self._reader = PointerReader()
+        try:
+            reading = read_pointer(self._reader, target, image, target.boxes[0])
+        except ReadFailed as err:
+            entry["reason"] = str(err)
+            return entry
+        entry.update(read=round(float(reading.value), 6), confidence=round(float(reading.confidence), 1),
+                     reason=reading.detail.get("reason", ""))
+        if expected is not None:
+            full_scale = abs(target.scale.end_value - target.scale.start_value)
+            entry["apart_fs_pct"] = round(100.0 * abs(reading.value - expected) / full_scale, 2)
+        return entry
 
 
 # --- the calibration tool's operations, one target at a time ----------------------------------

@@ -37,6 +37,9 @@ def _plain(value):
     return value
 
 
+SELF_CHECK_FIELDS = ("expected", "force")   # optional fields of apply and upload (calibration.SelfCheck)
+
+
 class CalibrationCommands(object):
     """``data_root``: the robot's data root; ``preset_roots``: where presets may be calibrated;
     ``picture_roots``: where reference pictures may be read; ``optics``: camera.optics.ZoomOptics."""
@@ -76,14 +79,14 @@ class CalibrationCommands(object):
         return run
 
     # --- helpers ---------------------------------------------------------------------------------
-    def _fields(self, data, allowed):
+    def _fields(self, data, allowed, optional=()):
         fields = parse_json(data)
         if not isinstance(fields, dict):
             raise CommandError('data must be a JSON object, e.g. {"preset": "presets/p1/20260101_120000"}')
-        unknown = sorted(set(fields) - set(allowed) - {"preset"})
+        known = set(allowed) | set(optional) | {"preset"}
+        unknown = sorted(set(fields) - known)
         if unknown:
-            raise CommandError("unknown field(s) %s (allowed: %s)"
-                               % (", ".join(unknown), ", ".join(sorted(set(allowed) | {"preset"}))))
+            raise CommandError("unknown field(s) %s (allowed: %s)" % (", ".join(unknown), ", ".join(sorted(known))))
         missing = [name for name in ("preset",) + tuple(allowed) if name not in fields]
         if missing:
             raise CommandError("missing field(s) %s" % ", ".join(missing))
@@ -147,15 +150,26 @@ class CalibrationCommands(object):
             out.append(spec)
         return out
 
-    def _calibrate(self, path, specs, draft=None):
+    def _calibrate(self, path, specs, fields, draft=None):
+        check = self._self_check(fields)
         try:
-            targets = calibration.calibrate(path, self._confined_specs(specs), self.optics, draft)
+            targets = calibration.calibrate(path, self._confined_specs(specs), self.optics, draft, check)
         except PresetError as err:
             raise CommandError("calibration refused, nothing written: %s" % err)
         except FileError as err:
             raise CommandError("calibration not written, the preset is unchanged: %s" % err)
         return json.dumps({"preset": self._name(path), "targets": len(targets),
-                           "kinds": [t.kind for t in targets]}, sort_keys=True)
+                           "kinds": [t.kind for t in targets], "self_check": check.results}, sort_keys=True)
+
+    @staticmethod
+    def _self_check(fields):
+        expected, force = fields.get("expected"), fields.get("force", False)
+        if expected is not None and not (isinstance(expected, list) and all(
+                v is None or isinstance(v, (int, float)) and not isinstance(v, bool) for v in expected)):
+            raise CommandError("expected must be a list with one number (or null) per target, in calibration order")
+        if not isinstance(force, bool):
+            raise CommandError("force must be true or false")
+        return calibration.SelfCheck(expected, force)
 
     # --- commands --------------------------------------------------------------------------------
     def get(self, data):
@@ -185,12 +199,12 @@ class CalibrationCommands(object):
         return json.dumps({"preset": self._name(path), "draft": []})
 
     def apply(self, data):
-        """{"preset"}: calibrate the preset from its draft."""
-        path, _fields = self._fields(data, ())
-        return self._calibrate(path, self._draft(path))
+        """{"preset", "expected"?, "force"?}: calibrate the preset from its draft (SelfCheck)."""
+        path, fields = self._fields(data, (), SELF_CHECK_FIELDS)
+        return self._calibrate(path, self._draft(path), fields)
 
     def upload(self, data):
-        """{"preset", "targets": [spec, ...]}: calibrate from a complete target list (the tool's
-        YAML as JSON); on success the list also becomes the draft."""
-        path, fields = self._fields(data, ("targets",))
-        return self._calibrate(path, fields["targets"], draft=fields["targets"])
+        """{"preset", "targets": [spec, ...], "expected"?, "force"?}: calibrate from a complete target
+        list (the tool's YAML as JSON); on success the list also becomes the draft."""
+        path, fields = self._fields(data, ("targets",), SELF_CHECK_FIELDS)
+        return self._calibrate(path, fields["targets"], fields, draft=fields["targets"])

@@ -174,9 +174,7 @@ class ScaleReader(object):
         p = target.params
         if target.kind == "pointer":
             self._check_same_gauge(preset, target, image, quad)
-            return self.pointer.read(image, quad, target.scale, p.get("centre", (0.5, 0.5)), p.get("radius", 0.45),
-                                     p.get("aspect", 1.0), p.get("pointer_colour", ""), p.get("ignore_colour", ""),
-                                     p.get("marks") or None)
+            return read_pointer(self.pointer, target, image, quad)
         if target.kind == "lamp":
             refs = None
             if p.get("on_reference"):
@@ -248,6 +246,15 @@ class ScaleReader(object):
             evidence = max([f.confidence for f in found]) if found else min(100.0, best[1].inliers)
             outcome.foreign_possibility.append(round(float(evidence), 1))
             outcome.foreign_picture_path.append(_save(annotated, out_dir, "%s_foreign_%02d.jpg" % (stamp, j)))
+
+
+def read_pointer(reader, target, image, quad):
+    """A pointer target's Reading in ``image`` at ``quad`` with the calibration's dial parameters
+    (ReadFailed when there is no needle to read)."""
+    p = target.params
+    return reader.read(image, quad, target.scale, p.get("centre", (0.5, 0.5)), p.get("radius", 0.45),
+                       p.get("aspect", 1.0), p.get("pointer_colour", ""), p.get("ignore_colour", ""),
+                       p.get("marks") or None)
 
 
 def _equipment_region(region, points, shape):

@@ -14,7 +14,7 @@ import tempfile
 import cv2
 import numpy as np
 
-from inspection_robot.inspection.calibration import calibrate
+from inspection_robot.inspection.calibration import SelfCheck, calibrate
 from inspection_robot.inspection.preset import PresetError, load_info
 from inspection_robot.camera.optics import focal_for_hfov
 from inspection_robot.sim.render import PinholeCamera, Renderer, ThermalRenderer, ground_truth
@@ -132,13 +132,16 @@ def world_specs(world, head, switch_picture_path=None, hot_spot_box_px=None):
 
 
 def calibrate_from_world(preset_dir, world, optics, thermal_hfov_deg=25.0, thermal_size=(384, 288), names=None,
-                         seed=5):
+                         seed=5, check=None):
     """Calibrate a recorded preset from the world's ground truth (the calibration tool's --from-world).
 
     The view is rebuilt from preset.ini (robot pose, pan/tilt, zoom, picture size); every face the
     view sees well becomes a target (``names``: only these ids), switch references are rendered
     open and closed, and infrared presets add their visible hot spots as thermal targets.
-    Returns the Target list; raises PresetError (nothing written) when no target is in view.
+    Returns the Target list; raises PresetError (nothing written) when no target is in view, or
+    when the reader disagrees with the world's value of a pointer on the calibration picture
+    (``check``: a calibration.SelfCheck to use, its expected values set here; its results say
+    what the reader read).
     """
     info = load_info(preset_dir)
     width, height = (info.width, info.height) if info.width > 0 else (optics.width, optics.height)
@@ -155,6 +158,9 @@ def calibrate_from_world(preset_dir, world, optics, thermal_hfov_deg=25.0, therm
             specs = [s for s in specs if s["name"] in set(names)]
         if not specs:
             raise PresetError("no face or hot spot of the world is in view of preset %s" % preset_dir)
-        return calibrate(preset_dir, specs, optics)
+        # the world knows every needle's value: the calibration checks itself against it
+        check = check or SelfCheck()
+        check.expected = [world.faces[s["name"]].value if s["kind"] == "pointer" else None for s in specs]
+        return calibrate(preset_dir, specs, optics, check=check)
     finally:
         shutil.rmtree(scratch, ignore_errors=True)

@@ -29,7 +29,7 @@ import yaml
 
 from inspection_robot.camera.optics import ZoomOptics
 from inspection_robot.command import CommandError
-from inspection_robot.inspection.calibration import calibrate
+from inspection_robot.inspection.calibration import SelfCheck, calibrate
 from inspection_robot.inspection.calibration_commands import CalibrationCommands
 from inspection_robot.inspection.preset import PresetError
 from inspection_robot.sim.inspection_sim import calibrate_from_world
@@ -77,6 +77,7 @@ def run(argv=None):
     args = parser.parse_args(argv)
     if sum(x is not None for x in (args.from_world, args.targets_yaml, args.command)) != 1:
         parser.error("give one of TARGETS_YAML, --from-world or --command")
+    check = SelfCheck()
     try:
         if not args.optics:
             raise PresetError("no optics file found; pass --optics")
@@ -92,16 +93,21 @@ def run(argv=None):
             names = [n for n in args.only.split(",") if n] or None
             targets = calibrate_from_world(args.preset_dir, World.load(world_file), optics,
                                            thermal_hfov_deg=args.thermal_hfov, thermal_size=args.thermal_size,
-                                           names=names)
+                                           names=names, check=check)
         else:
             with open(args.targets_yaml) as f:
                 specs = (yaml.safe_load(f) or {}).get("targets", [])
-            targets = calibrate(args.preset_dir, specs, optics)
+            targets = calibrate(args.preset_dir, specs, optics, check=check)
     except (OSError, yaml.YAMLError, KeyError, ValueError, PresetError, WorldError, CommandError) as err:
         sys.stderr.write("calibrate_preset: %s\n" % (err,))
         return 1
     for i, target in enumerate(targets):
         sys.stdout.write("target_%d %s %s\n" % (i, target.kind, target.name))
+    for result in check.results:   # what the reader makes of each meter on the calibration picture
+        sys.stdout.write("self-check target_%d %s: read %s (confidence %s)%s%s\n" % (
+            result["target"], result["name"], result["read"], result["confidence"],
+            "" if result["expected"] is None else ", expected %s, %s %% of full scale apart"
+            % (result["expected"], result["apart_fs_pct"]), ": " + result["reason"] if result["reason"] else ""))
     sys.stdout.write("calibrated %d target(s) in %s\n" % (len(targets), args.preset_dir))
     return 0
 
