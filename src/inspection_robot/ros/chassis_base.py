@@ -99,8 +99,9 @@ class RosChassis(ChassisDriver):
         with self._lock:
             new, cleared = self._inputs.reports()
         for problem in new:
-            rospy.logerr("%s: driver ros: %s/%s: %s; robot held stopped (drive fault, circuit_status b0)"
-                         % (self._node, PARAM, problem.setting, problem.text))
+            rospy.logerr("%s: driver ros: %s/%s (%s): %s; robot held stopped (drive fault, circuit_status b0)"
+                         % (self._node, PARAM, problem.setting,
+                            rospy.resolve_name(getattr(self.settings, problem.setting)), problem.text))
         for setting in cleared:
             rospy.loginfo("%s: driver ros: %s/%s %r reporting again"
                           % (self._node, PARAM, setting, getattr(self.settings, setting)))
