@@ -229,6 +229,8 @@ class RosBaseTest(unittest.TestCase):
             rospy.sleep(0.05)   # pacing a command stream
         wait_for(lambda: any(t >= t0 for t, _m in list(self.silent.cmd_vel.messages)), 2.0, "silent cmd_vel")
         self.assertEqual(self.silent.moving_commands_since(0.0), [])
+        ack = self.silent.control("enable_charge", expect="failed")
+        self.assertIn("charge relay not wired: set ros_base/charge_relay_service", ack.data)
 
     def test_z_killed_base_stops_and_raises_the_fault(self):
         self.assertTrue(self.drive(3.0, lambda: self.odom.last.twist.twist.linear.x > 0.2), "not moving")
