@@ -26,7 +26,7 @@ Device = namedtuple("Device", "node config builtin")
 builtin: built-in real driver names of this device."""
 
 DEVICES = OrderedDict([
-    ("chassis", Device("robot_control", "config/robot_control.yaml", ())),
+    ("chassis", Device("robot_control", "config/robot_control.yaml", ("ros",))),
     ("head", Device("cloud_terrace", "config/cloud_terrace.yaml", ("pelco",))),
     ("arm", Device("robot_arm", "config/robot_arm.yaml", ())),
     ("camera", Device("camera_node", "config/camera_node.yaml", ("isapi",))),

@@ -277,7 +277,10 @@ class MotionController(object):
         return handler
 
     def _charge(self, closed):
-        self.driver.set_charge_relay(closed)
+        try:
+            self.driver.set_charge_relay(closed)
+        except ChassisError as err:
+            raise CommandError("charge relay: %s" % err)
         self._chassis = self.driver.state()
         return "charge relay %s" % ("closed" if closed else "open")
 
@@ -320,7 +323,10 @@ class MotionController(object):
         return "calibrated"
 
     def _imu_reset(self):
-        self.driver.imu_reset()
+        try:
+            self.driver.imu_reset()
+        except ChassisError as err:
+            raise CommandError(str(err))
         return "reset"
 
     def _imu_query(self):

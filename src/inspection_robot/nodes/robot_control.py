@@ -24,8 +24,11 @@ Services:    imu_control (ControlService): twin of imu_cmd/imu_ack
              sim only: sim/inject_fault (ControlService): cmd = fault (hard_estop, bumper, fall_left,
                  fall_right, motor_disconnect, joystick_link_lost, stepper_comm, low_battery) or
                  condition (at_dock, charger_off), data 1|0; query; set_pose "x,y,yaw"; set_soc "%"
-Parameters:  ~driver (sim | none | "package.module:Class", required; see inspection_robot.drivers),
+Parameters:  ~driver (sim | ros | none | "package.module:Class", required; see inspection_robot.drivers),
              ~driver_params ({}): vendor constructor kwargs
+             ~ros_base ({}): with driver ros, the base's topics, services and timeouts
+                 (motion.ros_base.SETTINGS; cmd_vel out, odom / battery_state / Bool inputs in,
+                 charge relay SetBool service or Bool topic; odom_timeout 0.5 s, battery_timeout 5 s)
              ~rate (Hz, 50.0) control cycle; ~status_rate (Hz, 10.0)
              ~cmd_timeout (s, 0.5)
              ~max_velocity_x (m/s, 1.0), ~max_velocity_yaw (rad/s, 1.0)
@@ -49,8 +52,11 @@ from inspection_robot.drivers import SIM, make_driver
 from inspection_robot.interface import ACK_SUCCESS, VOICE_LANGUAGES
 from inspection_robot.motion.chassis import NoChassis
 from inspection_robot.motion.controller import MotionController
+from inspection_robot.motion.ros_base import PARAM as ROS_BASE_PARAM
+from inspection_robot.motion.ros_base import parse_settings
 from inspection_robot.motion.velocity import VelocityLimits
 from inspection_robot.msg import ControlStatus, GeneralAck, GeneralCmd, MoveCmd, ObstacleStatus, RobotStatus, VoiceCmd
+from inspection_robot.ros.chassis_base import RosChassis
 from inspection_robot.ros.node import init_node
 from inspection_robot.ros.twin import CommandTwin, control_response
 from inspection_robot.srv import ControlService
@@ -282,7 +288,11 @@ def main():
         return SimChassis.from_world(time.monotonic, rospy.get_param("~sim_world/world", {}),
                                      **rospy.get_param("~sim", {}))
 
-    driver = make_driver("chassis", driver_spec, {SIM: simulator}, rospy.get_param("~driver_params", {}), NoChassis)
+    def ros_base():
+        return RosChassis(parse_settings(rospy.get_param("~" + ROS_BASE_PARAM, {})), time.monotonic, NODE_NAME)
+
+    driver = make_driver("chassis", driver_spec, {SIM: simulator, "ros": ros_base},
+                         rospy.get_param("~driver_params", {}), NoChassis)
     sim = driver if driver_spec == SIM else None
     controller = MotionController(driver, limits, cmd_timeout, time.monotonic, log=_log)
     node = RobotControl(controller, rate_hz, status_rate_hz, str(rospy.get_param("~odom_frame", "odom")),
