@@ -70,18 +70,17 @@ class ThermalIsapiTest(unittest.TestCase):
         self.assertEqual(self.call("set_measure_spot", "205,100"), ("success", ""))
         self.assertEqual(self.call("get_max_temperature"), ("success", "95.25"))
         self.assertEqual(self.call("set_measure_spot", "300,200"), ("success", ""))
-        self.assertEqual(self.call("get_max_temperature"), ("success", "%.2f" % self.fake.thermal_frame[192:208,
-                                                                                                     292:308].max()))
+        area = self.fake.thermal_frame[192:208, 292:308]   # measure_box_px 16 around (300, 200)
+        self.assertEqual(self.call("get_max_temperature"), ("success", "%.2f" % area.max()))
         self.assertEqual(self.call("save_temperature", self.out("t.png")), ("success", self.out("t.png")))
         self.assertTrue(np.allclose(load_radiometric(self.out("t.png")), self.fake.thermal_frame, atol=0.006))
         self.assertEqual(self.call("capture_picture", self.out("p.jpg")), ("success", self.out("p.jpg")))
-        with open(self.out("p.jpg"), "rb") as stream:
+        with open(self.out("p.jpg"), "rb") as stream:   # the JPEG of jpegPicWithAppendData, as sent
             self.assertEqual(stream.read(), self.fake.thermal_picture)
         self.assertEqual(self.call("auto_focus"), ("failed", "unsupported"))   # the fake has a fixed lens
         self.assertGreater(self.fake.challenges, 0)   # digest challenges were answered
         paths = [path for _, path, _ in self.fake.requests]
         self.assertIn("/ISAPI/Thermal/channels/2/thermometry/jpegPicWithAppendData?format=json", paths)
-        self.assertIn("/ISAPI/Streaming/channels/201/picture", paths)
         self.assertIn("/ISAPI/Thermal/channels/2/thermometry/basicParam", paths)   # the status probe
         hottest = Latest("thermal/hottest", GeneralTopic)
         image = Latest("thermal/image_raw", Image)

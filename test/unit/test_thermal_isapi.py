@@ -4,6 +4,7 @@ camera (401, garbage, timeout, unsupported functions, restart)."""
 import json
 import os
 
+import cv2
 import numpy as np
 import pytest
 
@@ -131,7 +132,6 @@ def test_driver_reads_the_matrix_picture_and_probe(fake):
     assert fake.challenges >= 1
     paths = [path for _, path, _ in fake.requests]
     assert "/ISAPI/Thermal/channels/2/thermometry/jpegPicWithAppendData?format=json" in paths
-    assert "/ISAPI/Streaming/channels/201/picture" in paths
 
 
 def test_driver_errors_name_the_setting_to_fix(fake):
@@ -144,7 +144,7 @@ def test_driver_errors_name_the_setting_to_fix(fake):
         imager.frame()
     with pytest.raises(ThermalError, match="malformed XML.*~isapi/host and ~isapi/port"):
         imager.probe()
-    with pytest.raises(ThermalError, match="sent no JPEG"):
+    with pytest.raises(ThermalError, match="no radiometric picture"):
         imager.capture_jpeg()
     fake.set_fault("timeout")
     with pytest.raises(ThermalUnreachable, match="unreachable.*timed out.*~isapi/host"):
@@ -187,6 +187,17 @@ def test_commands_answer_unsupported_for_what_the_camera_lacks(fake, tmp_path):
     assert not os.path.exists(str(tmp_path / "q.png"))
     assert table.dispatch("save_temperature", "q.png").ack == "failed"
     assert not os.path.exists(str(tmp_path / "q.png"))   # nothing written
+
+
+def test_picture_is_the_matrixs_own_or_false_colour(fake, tmp_path):
+    table = ThermalCommands(IsapiImager(fake.url, "admin", "pw"), [str(tmp_path)], DeviceHealth(), 384, 288).table
+    fake.thermal_picture = visible_picture()   # 320x180: not pixel for pixel the 384x288 matrix
+    picture = cv2.imread(table.dispatch("capture_picture", "a.jpg").data)
+    assert picture.shape == (288, 384, 3)   # the matrix in false colour instead
+    fake.radiometric = False   # no matrix: the camera's streaming picture, whatever its size
+    with open(table.dispatch("capture_picture", "b.jpg").data, "rb") as stream:
+        assert stream.read() == visible_picture()
+    assert fake.requests[-1][1] == "/ISAPI/Streaming/channels/201/picture"
 
 
 def test_frame_size_other_than_configured_names_the_settings(fake, tmp_path):

@@ -40,8 +40,8 @@ class ThermalDriver(object):
         raise NotImplementedError
 
     def capture_jpeg(self):
-        """The imager's own picture as JPEG bytes (its palette and overlays), or None when it has
-        none: capture_picture then writes a false-colour picture of ``frame()``."""
+        """The imager's own picture as JPEG bytes (its palette), pixel for pixel the frame's when the
+        imager delivers frames, or None: capture_picture then writes a false-colour picture of ``frame()``."""
         return None
 
     def auto_focus(self):

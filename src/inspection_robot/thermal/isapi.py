@@ -7,7 +7,7 @@ are the visible camera's, inspection_robot.isapi):
 | what | method and path | answer |
 |---|---|---|
 | temperature matrix | GET /ISAPI/Thermal/channels/c/thermometry/jpegPicWithAppendData?format=json | multipart |
-| picture | GET /ISAPI/Streaming/channels/c01/picture | JPEG (the camera's palette) |
+| picture without a matrix | GET /ISAPI/Streaming/channels/c01/picture | JPEG (the camera's palette) |
 | auto_focus | PUT /ISAPI/PTZCtrl/channels/c/onepushfoucs/start (sic: Hikvision's spelling) | ResponseStatus |
 | probe | GET /ISAPI/Thermal/channels/c/thermometry/basicParam | ThermometryBasicParam |
 
@@ -29,11 +29,14 @@ from collections import namedtuple
 import numpy as np
 
 from inspection_robot.files import read_secret_file
+from inspection_robot.lazy import lazy_import
 from inspection_robot.interface import INFRARED_COMMANDS
 from inspection_robot.isapi import JPEG_MAGIC, NOT_SUPPORTED, IsapiClient, IsapiErrors, IsapiHints, \
     multipart_parts, response_status
 from inspection_robot.thermal.driver import ThermalDriver, ThermalError, ThermalRefused, ThermalUnreachable, \
     ThermalUnsupported
+
+cv2 = lazy_import("cv2")   # on first use: a node registers before its ~360 libraries load
 
 ERRORS = IsapiErrors(ThermalError, ThermalUnreachable, ThermalRefused, ThermalUnsupported)
 HINTS = IsapiHints("thermal imager", "infrared_imager ~isapi/host and ~isapi/port",
@@ -188,15 +191,22 @@ class IsapiImager(ThermalDriver):
         return self.picture().matrix
 
     def capture_jpeg(self):
-        path = "/ISAPI/Streaming/channels/%d01/picture" % self._channel
+        """The thermal JPEG of jpegPicWithAppendData: the picture of the temperature matrix, pixel for
+        pixel, so boxes drawn on it fit the frame. None (false colour of the matrix) when its size
+        differs; the streaming picture on a camera without the matrix."""
         try:
-            payload = self._http.request("GET", path, timeout=self._picture_timeout).payload
+            picture = self.picture()
         except ThermalUnsupported:
-            return None   # no picture endpoint: capture_picture colours the temperature matrix
-        if not payload.startswith(JPEG_MAGIC):
-            raise ThermalError("thermal imager %s sent no JPEG for %s (check %s)"
-                               % (self._http.base, path, DEVICE_HINT))
-        return payload
+            path = "/ISAPI/Streaming/channels/%d01/picture" % self._channel
+            payload = self._http.request("GET", path, timeout=self._picture_timeout).payload
+            if not payload.startswith(JPEG_MAGIC):
+                raise ThermalError("thermal imager %s sent no JPEG for %s (check %s)"
+                                   % (self._http.base, path, DEVICE_HINT))
+            return payload
+        image = cv2.imdecode(np.frombuffer(picture.jpeg, np.uint8), cv2.IMREAD_UNCHANGED)
+        if image is None or image.shape[:2] != picture.matrix.shape:
+            return None
+        return picture.jpeg
 
     def auto_focus(self):
         self._http.put("/ISAPI/PTZCtrl/channels/%d/onepushfoucs/start" % self._channel, "")
