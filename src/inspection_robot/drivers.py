@@ -30,7 +30,7 @@ DEVICES = OrderedDict([
     ("head", Device("cloud_terrace", "config/cloud_terrace.yaml", ("pelco",))),
     ("arm", Device("robot_arm", "config/robot_arm.yaml", ())),
     ("camera", Device("camera_node", "config/camera_node.yaml", ("isapi",))),
-    ("thermal", Device("infrared_imager", "config/infrared_imager.yaml", ())),
+    ("thermal", Device("infrared_imager", "config/infrared_imager.yaml", ("isapi",))),
     ("sensor3d", Device("obstacle_detector", "config/obstacle_detector.yaml", ("pointcloud",))),
 ])
 

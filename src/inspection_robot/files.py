@@ -16,7 +16,9 @@ Every module that takes a path from a caller or saves a file other code may read
   a reader or a crash sees all of them or none;
 - ``rename_durable(src, dst)``: the one rename of product data (preset commits, files set aside):
   the rename, then an fsync of the folder(s) it changed (``fsync_dir``);
-- ``write_json_atomic`` / ``read_json``: small JSON state files (virtual obstacles, last pose).
+- ``write_json_atomic`` / ``read_json``: small JSON state files (virtual obstacles, last pose);
+- ``read_secret_file(path, setting)``: a token or password kept out of parameters and command lines
+  (``ps`` shows those), in a file only the robot's user may read.
 
 Every failure raises :class:`FileError` (a CommandError, so a command handler that lets it pass
 fails that one request with the message as the reason). Messages name a path as the caller gave
@@ -384,3 +386,24 @@ def standalone_data_root(environ, namespace):
     ros_home = environ.get("ROS_HOME") or os.path.join(os.path.expanduser("~"), ".ros")
     name = namespace.strip("/").replace("/", "_") or "robot"
     return os.path.join(ros_home, "inspection_robot", name)
+
+
+def read_secret_file(path, setting, stat_fn=os.stat, open_fn=open):
+    """The secret in ``path`` (surrounding whitespace stripped). ValueError naming ``setting`` (the
+    parameter that gave the path) when the file is missing, readable or writable by group or
+    others, or empty."""
+    try:
+        mode = stat_fn(path).st_mode
+    except OSError as err:
+        raise ValueError("%s %s: %s" % (setting, path, err.strerror))
+    if mode & (stat.S_IRWXG | stat.S_IRWXO):
+        raise ValueError("%s %s is accessible by group/others (mode %03o): chmod 600 it, owned by "
+                         "the robot's user" % (setting, path, stat.S_IMODE(mode)))
+    try:
+        with open_fn(path) as f:
+            secret = f.read().strip()
+    except (OSError, UnicodeDecodeError) as err:
+        raise ValueError("%s %s: %s" % (setting, path, getattr(err, "strerror", None) or err))
+    if not secret:
+        raise ValueError("%s %s is empty" % (setting, path))
+    return secret

@@ -22,8 +22,9 @@ import math
 import os
 import secrets
 import socket
-import stat
 from urllib.parse import urlsplit
+
+from inspection_robot.files import read_secret_file
 
 INSECURE_WARNING = ("INSECURE: the backend link listens on %s without authentication (insecure:=true): anyone "
                     "who can reach this port can take backend control and drive the robot")
@@ -44,20 +45,12 @@ def is_loopback(address):
 
 
 def read_token_file(path, stat_fn=os.stat, open_fn=open):
-    """The token in ``path`` (surrounding whitespace stripped); AccessError when the file is readable
-    or writable by group or others, or empty."""
+    """The token in ``path`` (files.read_secret_file); AccessError when the file is readable or
+    writable by group or others, or empty."""
     try:
-        mode = stat_fn(path).st_mode
-    except OSError as err:
-        raise AccessError("~auth_token_file %s: %s" % (path, err.strerror))
-    if mode & (stat.S_IRWXG | stat.S_IRWXO):
-        raise AccessError("~auth_token_file %s is accessible by group/others (mode %03o): chmod 600 it, owned by "
-                          "the robot's user" % (path, stat.S_IMODE(mode)))
-    with open_fn(path) as f:
-        token = f.read().strip()
-    if not token:
-        raise AccessError("~auth_token_file %s is empty" % path)
-    return token
+        return read_secret_file(path, "~auth_token_file", stat_fn, open_fn)
+    except ValueError as err:
+        raise AccessError(str(err))
 
 
 def listen_check(address, authenticated, client_certificates, insecure):

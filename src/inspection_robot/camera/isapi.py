@@ -17,13 +17,11 @@ camera's other fields are preserved):
 | OSD | /ISAPI/System/Video/inputs/channels/c/overlays | every ``enabled`` |
 | picture | GET /ISAPI/Streaming/channels/c01/picture, else the snapshot URL | JPEG |
 """
-import urllib.error
 import urllib.parse
-import urllib.request
-import xml.etree.ElementTree as ElementTree
 
 import numpy as np
 
+from inspection_robot.isapi import JPEG_MAGIC, IsapiClient, IsapiErrors, IsapiHints, find_all
 from inspection_robot.lazy import lazy_import
 from inspection_robot.camera.driver import CameraDriver, CameraError
 
@@ -31,15 +29,6 @@ cv2 = lazy_import("cv2")   # on first use: a node registers before its ~360 libr
 
 FOCUS_STYLES = {"auto": "AUTO", "manual": "MANUAL", "semiauto": "SEMIAUTOMATIC"}
 CONTINUOUS_SPEED = 60
-JPEG_MAGIC = b"\xff\xd8"
-
-
-def _local(tag):
-    return tag.rsplit("}", 1)[-1]
-
-
-def _find_all(root, name):
-    return [el for el in root.iter() if _local(el.tag) == name]
 
 
 class CameraUnreachable(CameraError):
@@ -50,88 +39,34 @@ class CameraRefused(CameraError):
     """The camera refused the credentials (HTTP 401 after the digest challenge)."""
 
 
+ERRORS = IsapiErrors(CameraError, CameraUnreachable, CameraRefused, CameraError)
+HINTS = IsapiHints("camera", "camera_node ~isapi/url", "camera_node ~isapi/user and ~isapi/password")
+
+
 class IsapiCamera(CameraDriver):
     def __init__(self, url, user, password, channel=1, timeout=2.0, snapshot_url="/onvif-http/snapshot?Profile_1"):
-        self._base = url.rstrip("/")
+        base = url.rstrip("/")
         self._channel = int(channel)
-        self._timeout = float(timeout)
-        self._snapshot_url = urllib.parse.urljoin(self._base + "/", snapshot_url.lstrip("/")) \
+        self._snapshot_url = urllib.parse.urljoin(base + "/", snapshot_url.lstrip("/")) \
             if not snapshot_url.startswith("http") else snapshot_url
-        passwords = urllib.request.HTTPPasswordMgrWithDefaultRealm()
-        passwords.add_password(None, self._base, user, password)
-        passwords.add_password(None, self._snapshot_url, user, password)
-        self._digest = urllib.request.HTTPDigestAuthHandler(passwords)
-        self._opener = urllib.request.build_opener(self._digest)
+        self._http = IsapiClient(base, user, password, timeout, ERRORS, HINTS, (self._snapshot_url,))
+        self._base = self._http.base
 
-    # --- transport --------------------------------------------------------------------------
-    def _request(self, method, path_or_url, body=None, accept_jpeg=False):
-        url = path_or_url if path_or_url.startswith("http") else self._base + path_or_url
-        data = None if body is None else body.encode("utf-8")
-        request = urllib.request.Request(url, data=data, method=method)
-        if data is not None:
-            request.add_header("Content-Type", "application/xml; charset=UTF-8")
-        # urllib counts digest retries per handler and resets the count only after a success: once
-        # the camera refused the credentials, every later challenge would fail at once ("digest auth
-        # failed") even after the camera accepts them again. Each request gets its own count.
-        self._digest.reset_retry_count()
-        try:
-            with self._opener.open(request, timeout=self._timeout) as response:
-                payload = response.read()
-        except urllib.error.HTTPError as err:
-            if err.code == 401:
-                raise CameraRefused("camera %s refused the credentials (HTTP 401, digest)" % self._base)
-            where = url[len(self._base):] if url.startswith(self._base) else url
-            raise CameraError("camera %s answered HTTP %d to %s %s" % (self._base, err.code, method, where))
-        except (urllib.error.URLError, OSError) as err:
-            reason = getattr(err, "reason", err)
-            raise CameraUnreachable("camera unreachable at %s: %s" % (self._base, reason))
-        return payload
+    # --- transport (inspection_robot.isapi) --------------------------------------------------
+    def _request(self, method, path_or_url, body=None):
+        return self._http.request(method, path_or_url, body).payload
 
     def _get_xml(self, path):
-        payload = self._request("GET", path)
-        try:
-            root = ElementTree.fromstring(payload)
-        except ElementTree.ParseError as err:
-            raise CameraError("camera %s sent malformed XML for %s: %s" % (self._base, path, err))
-        # keep the camera's default namespace as a plain xmlns attribute (no ns0: prefixes on PUT)
-        namespace = root.tag[1:].split("}", 1)[0] if root.tag.startswith("{") else None
-        for element in root.iter():
-            element.tag = _local(element.tag)
-        if namespace:
-            root.set("xmlns", namespace)
-        return root
-
-    def _put_xml(self, path, root):
-        self._check_status(self._request("PUT", path, ElementTree.tostring(root, encoding="unicode")), path)
+        return self._http.get_xml(path)
 
     def _check_status(self, payload, path):
-        """ISAPI answers PUTs with a ResponseStatus; statusCode 1 is OK."""
-        try:
-            root = ElementTree.fromstring(payload)
-        except ElementTree.ParseError:
-            return
-        codes = _find_all(root, "statusCode")
-        if codes and codes[0].text not in ("1", None):
-            status = _find_all(root, "statusString")
-            reason = status[0].text if status else codes[0].text
-            raise CameraError("camera %s refused %s: %s" % (self._base, path, reason))
+        self._http.check_status(payload, path)
 
     def _read(self, path, name):
-        elements = _find_all(self._get_xml(path), name)
-        if not elements or elements[0].text is None:
-            raise CameraError("camera %s does not report %s in %s" % (self._base, name, path))
-        return elements[0].text.strip()
+        return self._http.read(path, name)
 
     def _update(self, path, values):
-        """Read ``path``, set each element named in ``values`` (all occurrences), write it back."""
-        root = self._get_xml(path)
-        for name, value in values.items():
-            elements = _find_all(root, name)
-            if not elements:
-                raise CameraError("camera %s does not support %s in %s" % (self._base, name, path))
-            for element in elements:
-                element.text = str(value)
-        self._put_xml(path, root)
+        self._http.update(path, values)
 
     def _ptz(self, leaf):
         return "/ISAPI/PTZCtrl/channels/%d/%s" % (self._channel, leaf)
@@ -154,8 +89,8 @@ class IsapiCamera(CameraDriver):
 
     def set_zoom(self, zoom):
         status = self._get_xml(self._ptz("status"))
-        elevation = _find_all(status, "elevation")
-        azimuth = _find_all(status, "azimuth")
+        elevation = find_all(status, "elevation")
+        azimuth = find_all(status, "azimuth")
         body = ("<PTZData><AbsoluteHigh><elevation>%s</elevation><azimuth>%s</azimuth>"
                 "<absoluteZoom>%d</absoluteZoom></AbsoluteHigh></PTZData>"
                 % (elevation[0].text if elevation else "0", azimuth[0].text if azimuth else "0",

@@ -7,12 +7,15 @@ Subscribes:  infrared_cmd (GeneralCmd) -> answers on infrared_ack (GeneralAck), 
 Publishes:   diagnostics (diagnostic_msgs/DiagnosticArray, hardware_id "thermal_imager", ~status_rate Hz)
              thermal/image_raw (sensor_msgs/Image, bgr8 false colour, ~image_rate Hz, only with subscribers)
              thermal/hottest (GeneralTopic, JSON {"x", "y", "temperature"} of the same frame)
-Parameters:  ~driver (sim | none | vendor plug-in "package.module:Class", required; none = not fitted:
+Parameters:  ~driver (sim | isapi | none | vendor plug-in "package.module:Class", required; none = not fitted:
              every command fails "thermal not fitted (driver: none)" and diagnostics report ERROR),
              ~driver_params (dict of keyword arguments for a plug-in, {}),
              ~width, ~height (px, 384, 288), ~roots (under data_root unless absolute, [thermal];
              a root overlapping presets, pictures, tasks ... is refused at start: files.capture_roots),
              ~measure_box_px (px, 16), ~status_rate (Hz, 1.0), ~image_rate (Hz, 1.0), ~jpeg_quality (90),
+             ~isapi/{host (required for isapi), port (80), user ("admin"), password_file (required for
+             isapi: file holding the password, mode 600), channel (2), timeout (s, 2.0),
+             picture_timeout (s, 5.0)} (Hikvision thermographic camera, thermal.isapi),
              ~sim/{world_file (required for sim), seed (0), noise_sigma (degC, 0.05), hfov_deg (25.0),
              unsupported (list of commands to refuse, [])}
 """
@@ -72,6 +75,10 @@ class InfraredNode(object):
 
 
 def make_imager(spec, width, height):
+    def isapi():
+        from inspection_robot.thermal.isapi import imager_from_settings
+        return imager_from_settings(rospy.get_param("~isapi", {}))
+
     def simulator():
         from inspection_robot.ros.sim_view import SimView
         from inspection_robot.sim.render import ThermalRenderer
@@ -83,7 +90,8 @@ def make_imager(spec, width, height):
         return SimulatedImager(renderer, SimView(world), world.sensor_height, width, height,
                                float(params.get("hfov_deg", 25.0)), list(params.get("unsupported", [])))
 
-    return make_driver("thermal", spec, {SIM: simulator}, rospy.get_param("~driver_params", {}), NoImager)
+    return make_driver("thermal", spec, {"isapi": isapi, SIM: simulator}, rospy.get_param("~driver_params", {}),
+                       NoImager)
 
 
 def main():

@@ -1,15 +1,25 @@
-"""A local stand-in for a Hikvision camera's ISAPI web service, for testing the real driver.
+"""A local stand-in for a Hikvision camera's ISAPI web service, for testing the real drivers.
 
-Serves the documents camera.isapi reads and writes, with HTTP digest authentication (MD5,
+A bi-spectrum camera: the visible channel (``channel``, 1) serves the documents camera.isapi reads
+and writes; the thermal channel (``thermal_channel``, 2) serves what thermal.isapi reads, bytes as
+the camera sends them: ThermometryBasicParam, the thermal picture, and jpegPicWithAppendData as a
+multipart body (JSON description, thermal JPEG, little-endian temperature matrix of
+``temperature_data_length`` 4 = float32 degC or 2 = uint16 Kelvin x ``scale``, visible JPEG).
+``radiometric=False`` answers jpegPicWithAppendData, ``thermal_focus=False`` (a fixed lens, the
+default) answers onepushfoucs/start with ResponseStatus notSupport (HTTP 403), as a camera without
+the function. Requests are served with with HTTP digest authentication (MD5,
 qop=auth) exactly as the camera does: a request without valid credentials gets ``401`` and a
 ``WWW-Authenticate: Digest`` challenge. PUTs answer an ISAPI ResponseStatus. The picture
 endpoint can be switched off (``picture_endpoint=False``) to exercise the snapshot fallback.
 Binds 127.0.0.1, port 0 by default (any free port); ``stop()`` makes the camera unreachable and
 ``start()`` on the same port brings it back. ``set_fault("401")`` makes it refuse every request
 (even with the right credentials, as a camera whose password was changed), ``set_fault("timeout")``
-makes it accept connections and never answer until ``set_fault(None)``.
+makes it accept connections and never answer until ``set_fault(None)``, ``set_fault("garbage")``
+answers every request at once with HTTP 200 and bytes that are neither XML, JSON nor a picture (a
+device at that address that is no camera).
 """
 import hashlib
+import json
 import os
 import re
 import threading
@@ -21,7 +31,9 @@ import numpy as np
 
 NS = "http://www.hikvision.com/ver20/XMLSchema"
 REALM = "IP Camera(C00000001)"
-FAULTS = (None, "401", "timeout")
+FAULTS = (None, "401", "timeout", "garbage")
+GARBAGE = b"\x00\x17<<garbage\xff\xfe not a camera \x89PNG\r\n"
+BOUNDARY = "boundary"
 
 
 def _md5(text):
@@ -54,6 +66,51 @@ def default_documents(channel=1):
             for path, xml in docs.items()}
 
 
+def thermal_documents(channel=2):
+    basic = ("<ThermometryBasicParam><id>%d</id><enabled>true</enabled><streamOverlay>true</streamOverlay>"
+             "<pictureOverlay>false</pictureOverlay><temperatureRange>-20-150</temperatureRange>"
+             "<temperatureUnit>degreeCentigrade</temperatureUnit><distanceUnit>meter</distanceUnit>"
+             "</ThermometryBasicParam>" % channel)
+    return {"/ISAPI/Thermal/channels/%d/thermometry/basicParam" % channel:
+            '<?xml version="1.0" encoding="UTF-8"?>\n' + basic.replace(">", ' version="2.0" xmlns="%s">' % NS, 1)}
+
+
+def sample_thermal_frame(width=384, height=288):
+    """A radiometric scene: 18..24 degC left to right, a 95.25 degC hot spot centred on (200, 100)."""
+    frame = np.tile(np.linspace(18.0, 24.0, width, dtype=np.float32), (height, 1))
+    cv2.circle(frame, (200, 100), 6, 95.25, -1)
+    return frame
+
+
+def thermal_picture(frame):
+    scaled = np.clip((frame - frame.min()) * (255.0 / max(float(np.ptp(frame)), 1e-6)), 0, 255).astype(np.uint8)
+    return cv2.imencode(".jpg", cv2.applyColorMap(scaled, cv2.COLORMAP_JET))[1].tobytes()
+
+
+def temperature_matrix_bytes(frame, data_length=4, scale=10.0, offset=0.0):
+    """The matrix as jpegPicWithAppendData carries it (little-endian, row by row)."""
+    if data_length == 4:
+        return frame.astype("<f4").tobytes()
+    return np.round((frame.astype(np.float64) + 273.15 - offset) * scale).astype("<u2").tobytes()
+
+
+def picture_with_append_data(frame, jpeg, visible_jpeg, channel, data_length=4, scale=10.0, offset=0.0):
+    """(body, Content-Type) of a jpegPicWithAppendData answer."""
+    height, width = frame.shape
+    matrix = temperature_matrix_bytes(frame, data_length, scale, offset)
+    meta = {"channel": channel, "jpegPicLen": len(jpeg), "jpegPicWidth": width, "jpegPicHeight": height,
+            "p2pDataLen": len(matrix), "isFreezedata": False, "temperatureDataLength": data_length}
+    if data_length == 2:
+        meta.update(scale=scale, offset=offset)
+    description = json.dumps({"JpegPictureWithAppendData": meta}).encode("utf-8")
+    body = b""
+    for kind, part in (("application/json", description), ("image/jpeg", jpeg),
+                       ("application/octet-stream", matrix), ("image/jpeg", visible_jpeg)):
+        body += (("--%s\r\nContent-Type: %s\r\nContent-Length: %d\r\n\r\n" % (BOUNDARY, kind, len(part)))
+                 .encode("latin-1") + part + b"\r\n")
+    return body + ("--%s--\r\n" % BOUNDARY).encode("latin-1"), "multipart/form-data; boundary=%s" % BOUNDARY
+
+
 def test_picture(width=320, height=180):
     img = np.full((height, width, 3), 90, np.uint8)
     cv2.circle(img, (width // 2, height // 2), min(width, height) // 3, (240, 240, 240), -1)
@@ -62,13 +119,23 @@ def test_picture(width=320, height=180):
 
 
 class FakeIsapiCamera(object):
-    def __init__(self, user="admin", password="secret12", port=0, channel=1, picture=None, picture_endpoint=True):
+    def __init__(self, user="admin", password="secret12", port=0, channel=1, picture=None, picture_endpoint=True,
+                 thermal_channel=2, thermal_frame=None, temperature_data_length=4, radiometric=True,
+                 thermal_focus=False):
         self.user, self.password = user, password
         self.channel = channel
         self.port = int(port)
         self.picture = picture if picture is not None else test_picture()
         self.picture_endpoint = picture_endpoint
         self.documents = default_documents(channel)
+        self.thermal_channel = thermal_channel
+        self.documents.update(thermal_documents(thermal_channel))
+        self.thermal_frame = thermal_frame if thermal_frame is not None else sample_thermal_frame()
+        self.thermal_picture = thermal_picture(self.thermal_frame)
+        self.temperature_data_length = temperature_data_length
+        self.radiometric = radiometric
+        self.thermal_focus = thermal_focus
+        self.focus_pushes = 0
         self.lock = threading.Lock()
         self.challenges = 0
         self.requests = []          # (method, path, body) of every authenticated request
@@ -98,7 +165,8 @@ class FakeIsapiCamera(object):
         return self
 
     def set_fault(self, fault):
-        """None: answer normally; "401": refuse every request; "timeout": accept and never answer."""
+        """None: answer normally; "401": refuse every request; "timeout": accept and never answer;
+        "garbage": answer every request with bytes that mean nothing."""
         if fault not in FAULTS:
             raise ValueError("fault must be one of %s, got %r" % (FAULTS, fault))
         self.fault = fault
@@ -160,17 +228,24 @@ class _Handler(BaseHTTPRequestHandler):
         self.end_headers()
         self.wfile.write(body)
 
-    def _status(self, path, code=1, text="OK"):
+    def _status(self, path, code=1, text="OK", sub_status=None):
         body = ('<?xml version="1.0" encoding="UTF-8"?>\n<ResponseStatus version="2.0" xmlns="%s">'
                 "<requestURL>%s</requestURL><statusCode>%d</statusCode><statusString>%s</statusString>"
-                "</ResponseStatus>" % (NS, path, code, text))
-        self._send(200 if code == 1 else 400, body.encode("utf-8"))
+                "%s</ResponseStatus>" % (NS, path, code, text,
+                                         "<subStatusCode>%s</subStatusCode>" % sub_status if sub_status else ""))
+        self._send(200 if code == 1 else 403 if sub_status == "notSupport" else 400, body.encode("utf-8"))
+
+    def _not_supported(self, path):
+        self._status(path, 4, "Invalid Operation", "notSupport")
 
     def _authenticate(self):
         fake = self.fake
         if fake.fault == "timeout":
             fake.hold()              # the client times out; then this connection is closed unanswered
             self.close_connection = True
+            return False
+        if fake.fault == "garbage":
+            self._send(200, GARBAGE, "text/html")
             return False
         if fake.fault != "401" and fake.authorized(self.command, self.headers.get("Authorization")):
             return True
@@ -193,7 +268,16 @@ class _Handler(BaseHTTPRequestHandler):
         with fake.lock:
             fake.requests.append(("GET", self.path, body))
             doc = fake.documents.get(path)
-        if path == "/ISAPI/Streaming/channels/%d01/picture" % fake.channel:
+        thermal = "/ISAPI/Thermal/channels/%d/thermometry/" % fake.thermal_channel
+        if path == thermal + "jpegPicWithAppendData":
+            if not fake.radiometric:
+                return self._not_supported(path)
+            body, content_type = picture_with_append_data(fake.thermal_frame, fake.thermal_picture, fake.picture,
+                                                          fake.thermal_channel, fake.temperature_data_length)
+            self._send(200, body, content_type)
+        elif path == "/ISAPI/Streaming/channels/%d01/picture" % fake.thermal_channel:
+            self._send(200, fake.thermal_picture, "image/jpeg")
+        elif path == "/ISAPI/Streaming/channels/%d01/picture" % fake.channel:
             if fake.picture_endpoint:
                 self._send(200, fake.picture, "image/jpeg")
             else:
@@ -214,7 +298,11 @@ class _Handler(BaseHTTPRequestHandler):
         prefix = "/ISAPI/PTZCtrl/channels/%d/" % fake.channel
         with fake.lock:
             fake.requests.append(("PUT", self.path, body))
-            if path == prefix + "absolute":
+            if path == "/ISAPI/PTZCtrl/channels/%d/onepushfoucs/start" % fake.thermal_channel:
+                if not fake.thermal_focus:
+                    return self._not_supported(path)
+                fake.focus_pushes += 1
+            elif path == prefix + "absolute":
                 match = re.search(r"<absoluteZoom>(\d+)</absoluteZoom>", body)
                 if not match:
                     return self._status(path, 4, "Invalid XML Content")

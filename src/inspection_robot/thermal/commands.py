@@ -5,7 +5,9 @@ Pixel coordinates ("x,y") are thermal-frame pixels, x right and y down from the 
 centred on the spot set by set_measure_spot (default: the frame centre), clipped to the frame.
 Temperatures are degC with two decimals. Radiometric files: see ``save_radiometric``.
 save_temperature and capture_picture create a new file inside the imager's roots and never
-replace one, as the camera's capture_picture.
+replace one, as the camera's capture_picture. capture_picture writes the imager's own JPEG where
+the driver has one (``capture_jpeg``), else a false-colour picture of the frame. A request the
+imager reports it cannot do (ThermalUnsupported) answers ``failed``/``unsupported``.
 """
 import io
 import os
@@ -17,7 +19,7 @@ from inspection_robot.files import new_file_path, write_atomic
 from inspection_robot.command import CommandError, CommandTable, no_data, parse_int, split_fields
 from inspection_robot.command import failed
 from inspection_robot.interface import INFRARED_COMMANDS, UNSUPPORTED
-from inspection_robot.thermal.driver import ThermalError
+from inspection_robot.thermal.driver import ThermalError, ThermalUnsupported
 
 cv2 = lazy_import("cv2")   # on first use: a node registers before its ~360 libraries load
 
@@ -103,6 +105,9 @@ class ThermalCommands(object):
     def _call(self, method, *args):
         try:
             result = method(*args)
+        except ThermalUnsupported:
+            self._health.success()   # the imager answered: it cannot do this one
+            raise CommandError(UNSUPPORTED)
         except ThermalError as err:
             self._health.failure(err)
             raise CommandError(str(err))
@@ -112,7 +117,8 @@ class ThermalCommands(object):
     def _frame(self):
         frame = self._call(self._driver.frame)
         if frame.shape != (self.height, self.width):
-            raise CommandError("imager delivered a %dx%d frame, expected %dx%d"
+            raise CommandError("imager delivered a %dx%d frame, expected %dx%d: set infrared_imager ~width and "
+                               "~height to the imager's resolution"
                                % (frame.shape[1], frame.shape[0], self.width, self.height))
         return frame
 
@@ -131,10 +137,13 @@ class ThermalCommands(object):
 
     def capture_picture(self, data):
         path = self._target(data)
-        ok, buf = cv2.imencode(".jpg", false_colour(self._frame()), [cv2.IMWRITE_JPEG_QUALITY, self._jpeg_quality])
-        if not ok:
-            raise CommandError("JPEG encoding failed")
-        write_atomic(path, buf.tobytes(), replace=False)
+        picture = self._call(self._driver.capture_jpeg) or None   # _call answers "" for None
+        if picture is None:
+            ok, buf = cv2.imencode(".jpg", false_colour(self._frame()), [cv2.IMWRITE_JPEG_QUALITY, self._jpeg_quality])
+            if not ok:
+                raise CommandError("JPEG encoding failed")
+            picture = buf.tobytes()
+        write_atomic(path, picture, replace=False)
         return path
 
     def live_view(self):

@@ -2,14 +2,28 @@
 
 A driver delivers radiometric frames (float32 degC per pixel) and may support only a subset of
 the spec's commands (vendors differ): ``supports(command)`` says which; the command table answers
-the rest ``failed``/``unsupported``. Vendor plug-ins are classes named "package.module:Class"
-(parameter ``~driver``), constructed with keyword arguments from ``~driver_params``.
+the rest ``failed``/``unsupported``, and so does a request the device itself reports it cannot do
+(``ThermalUnsupported``: a fixed lens asked to focus, a camera without a temperature matrix).
+Built-in: ``isapi`` (thermal.isapi, Hikvision). Vendor plug-ins are classes named
+"package.module:Class" (parameter ``~driver``), constructed with keyword arguments from ``~driver_params``.
 """
 from inspection_robot.drivers import not_fitted_reason
 
 
 class ThermalError(Exception):
     """The imager could not carry out a request; the message is the reason."""
+
+
+class ThermalUnreachable(ThermalError):
+    """No exchange with the imager (connection refused or reset, timeout)."""
+
+
+class ThermalRefused(ThermalError):
+    """The imager refused the credentials."""
+
+
+class ThermalUnsupported(ThermalError):
+    """The imager reports that it cannot do this (the command answers ``failed``/``unsupported``)."""
 
 
 class ThermalDriver(object):
@@ -24,6 +38,11 @@ class ThermalDriver(object):
     def frame(self):
         """The current radiometric frame: 2-D float32 array, degC."""
         raise NotImplementedError
+
+    def capture_jpeg(self):
+        """The imager's own picture as JPEG bytes (its palette), pixel for pixel the frame's when the
+        imager delivers frames, or None: capture_picture then writes a false-colour picture of ``frame()``."""
+        return None
 
     def auto_focus(self):
         raise NotImplementedError
