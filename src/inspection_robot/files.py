@@ -28,6 +28,7 @@ import ctypes
 import errno
 import json
 import os
+import re
 import shutil
 import stat
 import tempfile
@@ -48,6 +49,24 @@ def shown(path):
     text = "".join(c if c.isprintable() else repr(c)[1:-1] for c in str(path))
     if len(text) > SHOWN_PATH_CHARS:
         text = "%s...(%d characters)" % (text[:SHOWN_PATH_CHARS], len(path))
+    return text
+
+
+def hide_root(text, data_root):
+    """A failure reason fit for a client: ``data_root``'s location (as given and resolved) taken out.
+
+    Paths inside it become data-root-relative, as file_control names them (``presets/p1/...``), the
+    root itself ``.``. Every node's refusals pass through here (ros/twin.py and the action and topic
+    nodes), so no reason, whatever it quotes (a resolved path, an OS error), tells a client on the
+    station network where the robot keeps its files.
+    """
+    text = str(text)
+    roots = set()
+    if data_root:
+        roots = {os.path.abspath(os.path.expanduser(data_root)), os.path.realpath(os.path.expanduser(data_root))}
+    for root in sorted(roots - {os.sep}, key=len, reverse=True):
+        text = re.sub(re.escape(root) + r"(?:/+|(?![\w-]))",
+                      lambda match: "" if match.group(0).endswith("/") else ".", text)
     return text
 
 

@@ -242,3 +242,28 @@ def test_dir_update_refuses_a_missing_folder(tmp_path):
     with pytest.raises(FileError) as err:
         files.DirUpdate(str(tmp_path / "nowhere"))
     assert "no such directory" in str(err.value)
+
+
+def test_hide_root_takes_the_data_root_out_of_a_reason(tmp_path):
+    root = str(tmp_path / "data")
+    os.makedirs(root)
+    link = str(tmp_path / "link")
+    os.symlink(root, link)
+    reason = ("path '/etc/passwd' is outside the allowed roots (%s/captures, %s/thermal); cannot read '%s/presets/p1': "
+              "[Errno 2] No such file or directory: '%s'" % (root, link, root, link))
+    shown = files.hide_root(reason, link)   # given as a link: the resolved root goes too
+    assert shown == ("path '/etc/passwd' is outside the allowed roots (captures, thermal); cannot read 'presets/p1': "
+                     "[Errno 2] No such file or directory: '.'")
+    assert root not in shown and link not in shown
+    # a sibling folder whose name starts like the root is not the root
+    assert files.hide_root("%sx/a" % root, root) == "%sx/a" % root
+    assert files.hide_root("no root here", "") == "no root here"
+    assert files.hide_root("/a/b", "/") == "/a/b"
+
+
+def test_every_confined_path_refusal_of_a_camera_names_no_absolute_root(tmp_path):
+    """camera_node and infrared_imager name their roots as given (absolute); the twin hides the data root."""
+    root = str(tmp_path)
+    with pytest.raises(FileError) as err:
+        files.new_file_path("/etc/x.jpg", [os.path.join(root, "captures")])
+    assert files.hide_root(str(err.value), root) == "path '/etc/x.jpg' is outside the allowed roots (captures)"

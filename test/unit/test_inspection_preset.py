@@ -8,7 +8,7 @@ import yaml
 from inspection_robot.sim import fixtures as S
 from inspection_robot.inspection.calibration import derive_zoom_boxes
 from inspection_robot.inspection.preset import CALIB_INI, PresetDirWriter, PresetError, PresetInfo, \
-    load_preset
+    check_preset_id, load_preset
 from inspection_robot.tools.calibrate_preset import run as calibrate_cli
 
 SIZE = (480, 270)
@@ -47,6 +47,19 @@ def test_writer_is_atomic(tmp_path):
         PresetDirWriter(root, "p1", "20260101_000000")
     with pytest.raises(PresetError):
         PresetDirWriter(root, "../evil", "20260101_000001")
+
+
+@pytest.mark.parametrize("preset_id", ["", ".", "..", ".hidden", "a/b", "../x", "a\n", "a\x00b", "\t", "a" * 129])
+def test_a_preset_id_that_cannot_name_its_folder_is_refused_before_anything_is_written(tmp_path, preset_id):
+    # "a\n" once made a folder with a newline in its name and broke preset.ini (security suite, #28.5)
+    with pytest.raises(PresetError, match="invalid preset_id"):
+        PresetDirWriter(str(tmp_path), preset_id, "20260101_000000")
+    assert os.listdir(str(tmp_path)) == []
+
+
+def test_preset_ids_in_use_stay_valid():
+    for preset_id in ("cabinet_1", "transformer-1", "p1", "a" * 128, "表计_1", "gauge 2"):
+        assert check_preset_id(preset_id) is None
 
 
 def test_commit_fsyncs_the_preset_folder_so_the_rename_survives_a_power_cut(tmp_path, monkeypatch):

@@ -26,7 +26,7 @@ import xml.etree.ElementTree as ET
 
 import numpy as np
 
-from inspection_robot.files import fsync_dir, rename_durable, write_atomic
+from inspection_robot.files import fsync_dir, rename_durable, shown, write_atomic
 from inspection_robot.inspection import calibration_schema as schema
 from inspection_robot.inspection.calibration_schema import TARGET_KINDS
 
@@ -37,6 +37,19 @@ CALIB_VERSION = 1
 
 class PresetError(Exception):
     """A missing or corrupt preset or calibration; the message is the reason."""
+
+
+MAX_PRESET_ID_CHARS = 128
+
+
+def check_preset_id(preset_id):
+    """PresetError unless ``preset_id`` can name the preset's folder: not empty, at most
+    MAX_PRESET_ID_CHARS, no ``/``, no leading ``.`` (``.``, ``..`` and hidden in-progress folders), no
+    control or unprintable character (a newline would also break preset.ini)."""
+    if (not isinstance(preset_id, str) or not preset_id or "/" in preset_id or preset_id.startswith(".")
+            or len(preset_id) > MAX_PRESET_ID_CHARS or not preset_id.isprintable()):
+        raise PresetError("invalid preset_id '%s' (1-%d printable characters, no '/', not starting with '.')"
+                          % (shown(preset_id), MAX_PRESET_ID_CHARS))
 
 
 def zoom_picture_name(index):
@@ -60,8 +73,7 @@ class PresetDirWriter(object):
     """
 
     def __init__(self, root, preset_id, stamp):
-        if not preset_id or "/" in preset_id or preset_id in (".", "..") or "\x00" in preset_id:
-            raise PresetError("invalid preset_id '%s'" % (preset_id,))
+        check_preset_id(preset_id)
         self.parent = os.path.join(root, preset_id)
         self.final = os.path.join(self.parent, stamp)
         if os.path.exists(self.final):

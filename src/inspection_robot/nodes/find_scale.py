@@ -31,7 +31,7 @@ import rospy
 from inspection_robot.lazy import lazy_import
 from inspection_robot.camera.optics import ZoomOptics, focal_for_hfov
 from inspection_robot.command import CommandError, parse_json
-from inspection_robot.files import confine_path
+from inspection_robot.files import confine_path, hide_root
 from inspection_robot.inspection.finder import Cancelled, Finder, FindError, ThermalGeometry
 from inspection_robot.inspection.locate import Locator
 from inspection_robot.inspection.preset import PresetError, load_preset
@@ -64,11 +64,12 @@ def parse_goal(goal_type, data, preset_roots):
 
 
 class FindScaleNode(object):
-    def __init__(self, finder, head, heading, preset_root):
+    def __init__(self, finder, head, heading, preset_root, data_root):
         self._finder = finder
         self._head = head
         self._heading = heading
         self._preset_root = preset_root
+        self._data_root = data_root   # taken out of every refusal (files.hide_root)
         finder.is_cancelled = self._cancel_requested
         finder.feedback = self._feedback
         self._server = actionlib.SimpleActionServer("find_scale_action", GeneralAction, self._execute,
@@ -100,7 +101,8 @@ class FindScaleNode(object):
 
     def _fail(self, reason):
         rospy.logwarn("find_scale: failed: %s" % reason)
-        self._server.set_aborted(GeneralResult(ret_code=FIND_RESULT_FAILED, data=json.dumps({"reason": reason})))
+        self._server.set_aborted(GeneralResult(ret_code=FIND_RESULT_FAILED,
+                                               data=json.dumps({"reason": hide_root(reason, self._data_root)})))
 
     def _run(self, goal):
         kind, path = parse_goal(goal.type, goal.data, [self._preset_root])
@@ -148,5 +150,5 @@ def main():
                     max_moves=max_moves, centre_tolerance=centre_tolerance, thermal=thermal)
     for folder in (preset_root, picture_root):
         os.makedirs(folder, exist_ok=True)
-    FindScaleNode(finder, head, HeadingWatcher(), preset_root)
+    FindScaleNode(finder, head, HeadingWatcher(), preset_root, root)
     rospy.spin()

@@ -24,9 +24,9 @@ import rospy
 
 from inspection_robot.camera.optics import ZoomOptics
 from inspection_robot.command import CommandError
-from inspection_robot.files import confine_path
+from inspection_robot.files import confine_path, hide_root, shown
 from inspection_robot.inspection.finder import FindError
-from inspection_robot.inspection.preset import PresetError
+from inspection_robot.inspection.preset import PresetError, check_preset_id
 from inspection_robot.inspection.recorder import record_preset
 from inspection_robot.interface import ACK_FAILED, ACK_SUCCESS
 from inspection_robot.ros.node import init_node
@@ -39,13 +39,14 @@ NODE_NAME = "preset_scale"
 
 
 class PresetScaleNode(object):
-    def __init__(self, head, heading, preset_root, min_zoom, arm_default, arm_roots):
+    def __init__(self, head, heading, preset_root, min_zoom, arm_default, arm_roots, data_root):
         self._head = head
         self._heading = heading
         self._preset_root = preset_root
         self._min_zoom = min_zoom
         self._arm_default = arm_default
         self._arm_roots = arm_roots
+        self._data_root = data_root   # taken out of every refusal (files.hide_root)
         self._pub = rospy.Publisher("preset_scale_ack", PresetScaleAck, queue_size=10)
         self._worker = RequestWorker(NODE_NAME, self._serve,
                                      lambda msg: self._publish(msg, ACK_FAILED, "busy: request queue full"), 10)
@@ -65,16 +66,15 @@ class PresetScaleNode(object):
 
     def record(self, msg):
         """Record one preset; returns its directory."""
+        check_preset_id(msg.preset_id)   # before anything is asked of the devices
         preset_id = msg.preset_id
-        if not preset_id or "/" in preset_id or preset_id.startswith(".") or len(preset_id) > 128:
-            raise CommandError("invalid preset_id '%s'" % preset_id)
         fields = msg.extra_data.split(",") if msg.extra_data else []
         arm_file = None
         if fields and fields[0] == "1":
             arm_file = confine_path(fields[1] if len(fields) > 1 and fields[1] else self._arm_default,
                                     self._arm_roots)
             if not os.path.isfile(arm_file):
-                raise CommandError("arm trajectory file not found: %s" % arm_file)
+                raise CommandError("arm trajectory file not found: %s" % shown(arm_file))
         pose = self._heading.latest()
         if pose is None:
             raise CommandError("no robot pose yet (nav_status)")
@@ -87,6 +87,8 @@ class PresetScaleNode(object):
                              min_zoom=self._min_zoom, arm_trajectory=arm_file)
 
     def _publish(self, request, result, directory):
+        if result != ACK_SUCCESS:
+            directory = hide_root(directory, self._data_root)
         ack = PresetScaleAck(sender=NODE_NAME, receiver=request.sender, trans_id=request.trans_id, result=result,
                              directory=directory)
         ack.header.stamp = rospy.Time.now()
@@ -106,5 +108,5 @@ def main():
         raise ValueError("~service_timeout must be positive")
     os.makedirs(preset_root, exist_ok=True)
     PresetScaleNode(RosHead(NODE_NAME, service_timeout), HeadingWatcher(),
-                    preset_root, optics.min_zoom, arm_default, arm_roots)
+                    preset_root, optics.min_zoom, arm_default, arm_roots, root)
     rospy.spin()

@@ -18,6 +18,7 @@ import traceback
 
 import rospy
 
+from inspection_robot.files import hide_root
 from inspection_robot.inspection.locate import Locator
 from inspection_robot.inspection.reading import ReadError, ScaleReader, result_text
 from inspection_robot.interface import ACK_FAILED, ACK_SUCCESS
@@ -30,8 +31,9 @@ NODE_NAME = "read_scale"
 
 
 class ReadScaleNode(object):
-    def __init__(self, reader, queue_size):
+    def __init__(self, reader, queue_size, data_root):
         self._reader = reader
+        self._data_root = data_root   # taken out of every refusal (files.hide_root)
         self._pub = rospy.Publisher("read_scale_ack", ReadScaleAck, queue_size=10)
         self._worker = RequestWorker(NODE_NAME, lambda msg: self._publish(self.serve(msg)),
                                      lambda msg: self._publish(self._failed(msg, "busy: request queue full")),
@@ -70,7 +72,7 @@ class ReadScaleNode(object):
     def _failed(self, msg, reason):
         ack = self._ack(msg)
         ack.result = ACK_FAILED
-        ack.foreign_result = reason
+        ack.foreign_result = hide_root(reason, self._data_root)
         return ack
 
     def _publish(self, ack):
@@ -90,5 +92,5 @@ def main():
     for folder in (preset_root, picture_root):
         os.makedirs(folder, exist_ok=True)
     reader = ScaleReader([preset_root], [picture_root, preset_root] + extra, picture_root, Locator(detector))
-    ReadScaleNode(reader, queue_size)
+    ReadScaleNode(reader, queue_size, root)
     rospy.spin()

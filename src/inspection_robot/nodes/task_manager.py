@@ -32,6 +32,7 @@ import rospy
 from nav_msgs.msg import OccupancyGrid
 
 from inspection_robot.command import CommandError, CommandTable, no_data, parse_json
+from inspection_robot.files import hide_root
 from inspection_robot.msg import GeneralAction, GeneralFeedback, GeneralResult, GeneralTopic, RobotStatus
 from inspection_robot.ros.node import init_node
 from inspection_robot.ros.task_steps import StepRunner
@@ -54,12 +55,13 @@ QUERY_KEYS = ("task_id", "from", "to", "limit")
 
 class TaskManager(object):
     def __init__(self, store, reports_dir, patrol_config, preset_root, reachable, runner_factory, default_retries,
-                 status_period):
+                 status_period, data_root=""):
         self._lock = threading.RLock()
         self._wake = threading.Condition(self._lock)
         self.store = store
         self._reports_dir = reports_dir
         self._preset_root = preset_root
+        self._data_root = data_root   # taken out of task_action's refusals (files.hide_root; the twin does its own)
         self._reachable = reachable
         self._default_retries = default_retries
         self._status_period = status_period
@@ -169,12 +171,13 @@ class TaskManager(object):
             check_goal_type(request.type)
             self._submit(request.data, goal)
         except CommandError as err:
-            ret_code, data = goal_refused(str(err))
-            goal.set_rejected(GeneralResult(ret_code=ret_code, data=data), str(err))
+            reason = hide_root(err, self._data_root)
+            ret_code, data = goal_refused(reason)
+            goal.set_rejected(GeneralResult(ret_code=ret_code, data=data), reason)
             rospy.logwarn("%s: task_action goal from %s refused: %s" % (NODE_NAME, request.sender or "?", err))
         except Exception as err:  # boundary: a bug refuses this goal, the node lives on
             rospy.logerr("%s: task_action goal raised %s\n%s" % (NODE_NAME, err, traceback.format_exc()))
-            ret_code, data = goal_refused("internal error: %s" % (err,))
+            ret_code, data = goal_refused(hide_root("internal error: %s" % (err,), self._data_root))
             goal.set_rejected(GeneralResult(ret_code=ret_code, data=data), "internal error")
 
     def _on_cancel(self, goal):
@@ -361,6 +364,6 @@ def main():
         raise ValueError("~status_period must be positive, got %r" % status_period)
     manager = TaskManager(store, os.path.join(tasks_dir, "reports"), config, preset_root, reachable,
                           lambda pose: StepRunner(NODE_NAME, velocity[0], velocity[1], timeouts, pose), retries,
-                          status_period)
+                          status_period, root)
     rospy.loginfo("%s: results in %s" % (NODE_NAME, store.path))
     manager.spin()

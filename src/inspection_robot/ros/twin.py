@@ -5,14 +5,16 @@ CommandTable. Service calls run in rospy's per-call thread; topic commands go to
 RequestWorker so the subscriber callback returns at once and commands run in arrival order.
 A node with only the topic pair (move_base's virtual obstacles) passes ``service=None``.
 While the joystick holds the robot (mode 2) every request from another sender is answered
-``failed``/``busy`` without reaching the table.
+``failed``/``busy`` without reaching the table. Failure reasons leave with the data root's location
+taken out (files.hide_root): a client learns the path it sent, never where the robot keeps files.
 """
 import threading
 import traceback
 
 import rospy
 
-from inspection_robot.command import failed
+from inspection_robot.command import Reply, failed
+from inspection_robot.files import hide_root
 from inspection_robot.interface import ACK_SUCCESS, BUSY, MODE_JOY, SENDER_JOY
 from inspection_robot.msg import ControlStatus, GeneralAck, GeneralCmd
 from inspection_robot.ros.worker import RequestWorker
@@ -57,6 +59,7 @@ class CommandTwin(object):
         self._node_name = node_name
         self._modes = ModeWatcher() if busy_when_joystick else None
         self._lock = threading.Lock()  # one command at a time reaches the device
+        self._data_root = rospy.get_param("data_root", "")  # the namespace's; read once, here
         self._ack_pub = rospy.Publisher(ack_topic, GeneralAck, queue_size=50)
         self._worker = RequestWorker(node_name + ": " + cmd_topic, self._run_topic_command, self._refuse,
                                      queue_size)
@@ -77,8 +80,9 @@ class CommandTwin(object):
         except Exception as err:  # boundary: a bug in one command must not kill the node
             rospy.logerr("%s: command %s(%r) raised: %s\n%s", self._node_name, cmd, data, err,
                          traceback.format_exc())
-            return failed("internal error: %s" % (err,))
+            return failed(hide_root("internal error: %s" % (err,), self._data_root))
         if reply.ack != ACK_SUCCESS:
+            reply = Reply(reply.ack, hide_root(reply.data, self._data_root))
             # identical failures (a sender repeating one bad command) are logged once a second
             rospy.logwarn_throttle_identical(1.0, "%s: %s(%r) from %r failed: %s"
                                              % (self._node_name, cmd, data[:80], sender, reply.data))

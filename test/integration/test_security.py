@@ -1,0 +1,719 @@
+#!/usr/bin/env python3
+"""rostest: the backend link's security suite (docs/operations.md, "Backend link security").
+
+The whole simulated robot, attacked over the websocket as a client on the station network would:
+authentication (missing, wrong, replayed, raw token in clear, guessing until blocked, idling),
+slow-loris handshakes and oversize frames while another client is served, path and id fuzzing of
+every command that takes one, NaN / Infinity / 1e400 / huge numbers in every numeric field of every
+JSON command and of move_cmd. Every case must get a clear refusal that does not reveal where the
+data root is, and in the end the robot has not moved, no file of the data root changed except
+those this test laid out itself, and no node died. The browser origin hijack is test_console.py's
+test_0 (a real Chromium page), not repeated here. rospy is used only to observe (true pose,
+chassis commands, node pids) and to lay out a preset as preset_scale would.
+"""
+import copy
+import hashlib
+import itertools
+import json
+import math
+import os
+import queue
+import shutil
+import socket
+import sqlite3
+import stat
+import tempfile
+import threading
+import time
+import unittest
+import xmlrpc.client
+
+import cv2
+import numpy as np
+import rosgraph
+import roslibpy
+import roslibpy.actionlib
+import rosnode
+import rospy
+import rostest
+from geometry_msgs.msg import PoseWithCovarianceStamped, TwistStamped
+from sensor_msgs.msg import JointState
+
+from inspection_robot.bridge.client import CLOSED, RawClient
+from inspection_robot.files import write_atomic
+from inspection_robot.inspection.preset import PresetInfo
+from inspection_robot.msg import RobotStatus
+from rostest_helpers import Latest, wait_for
+
+TOKEN = "secsuite-token"
+PRESET = "presets/sec_p1/20260101_120000"
+BOX = [800, 400, 1100, 400, 1100, 700, 800, 700]
+TRANS_IDS = itertools.count(1)
+# numbers no command may take: JSON has no NaN or Infinity, 1e400 overflows, 70 digits cost
+# quadratic time to convert
+NON_FINITE = ["NaN", "Infinity", "-Infinity", "1e400", "-1e400", "1" + "0" * 70, "-" + "1" * 70]
+# finite but far outside every range a calibration or a file read takes
+HUGE = ["1e300", "-1e300", "1" + "0" * 60]
+NUMBER_REASONS = ("must be a finite number", "is too long")
+# what a refusal of a path or id may say (docs/interface.md, Common conventions and the sections)
+PATH_REASONS = ("outside the allowed roots", "contains '..'", "NUL byte", "control or unprintable", "too long",
+                "has a name of", "already exists", "is a directory", "empty path", "invalid preset_id",
+                "task id must be", "no such", "not found", "missing", "not a directory", "must be",
+                "not in the preset directory")
+
+
+def station_address():
+    """A non-loopback address of this machine (how a station on the network reaches the robot), or None."""
+    candidates = set()
+    try:
+        candidates.update(info[4][0] for info in socket.getaddrinfo(socket.gethostname(), None, socket.AF_INET))
+    except socket.gaierror:
+        pass
+    probe = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    try:
+        probe.connect(("192.0.2.1", 9))   # no packet is sent: only the route's source address is looked up
+        candidates.add(probe.getsockname()[0])
+    except OSError:
+        pass
+    finally:
+        probe.close()
+    usable = sorted(a for a in candidates if not a.startswith("127.") and a != "0.0.0.0")
+    return usable[0] if usable else None
+
+
+def sha256(path):
+    with open(path, "rb") as f:
+        return hashlib.sha256(f.read()).hexdigest()
+
+
+def sqlite_rows(path):
+    """Every row of every table of an SQLite file: its content, whatever its WAL and pages look like."""
+    db = sqlite3.connect("file:%s?mode=ro" % path, uri=True)
+    try:
+        tables = [r[0] for r in db.execute("SELECT name FROM sqlite_master WHERE type = 'table' ORDER BY name")]
+        # sorted, not by rowid: INSERT OR REPLACE of an unchanged value gives the row a new rowid; an
+        # empty holds list is what no holds row says (test_7's server mode sets and clears the mode hold)
+        return tuple((t, tuple(sorted((row for row in db.execute('SELECT * FROM "%s"' % t).fetchall()
+                                       if not (t == "meta" and row == ("holds", "[]"))), key=repr)))
+                     for t in tables)
+    finally:
+        db.close()
+
+
+def snapshot(root):
+    """Every entry under ``root`` (links not followed): kind, size and sha256 of files, link targets.
+    An SQLite store counts by its rows (task_manager rewrites its WAL and pages, e.g. an unchanged
+    holds value, without changing its content)."""
+    tree = {}
+    for folder, dirs, files in os.walk(root):
+        for name in dirs + files:
+            path = os.path.join(folder, name)
+            info = os.lstat(path)
+            rel = os.path.relpath(path, root)
+            if name.endswith((".sqlite-wal", ".sqlite-shm")):
+                continue
+            if name.endswith(".sqlite"):
+                tree[rel] = ("sqlite", hashlib.sha256(repr(sqlite_rows(path)).encode()).hexdigest())
+            elif stat.S_ISLNK(info.st_mode):
+                tree[rel] = ("link", os.readlink(path))
+            elif stat.S_ISDIR(info.st_mode):
+                tree[rel] = ("dir",)
+            else:
+                tree[rel] = ("file", info.st_size, sha256(path))
+    return tree
+
+
+def numeric_paths(value, path=()):
+    """The place of every number (not bool) in a JSON value."""
+    if isinstance(value, dict):
+        for key in sorted(value):
+            yield from numeric_paths(value[key], path + (key,))
+    elif isinstance(value, list):
+        for index, item in enumerate(value):
+            yield from numeric_paths(item, path + (index,))
+    elif isinstance(value, (int, float)) and not isinstance(value, bool):
+        yield path
+
+
+def with_literal(value, path, literal):
+    """JSON text of ``value`` with the number at ``path`` replaced by the raw text ``literal``."""
+    marker = "@@secsuite@@"
+    changed = copy.deepcopy(value)
+    holder = changed
+    for key in path[:-1]:
+        holder = holder[key]
+    holder[path[-1]] = marker
+    return json.dumps(changed).replace('"%s"' % marker, literal)
+
+
+def place(path):
+    return ".".join(str(p) for p in path)
+
+
+class SecurityTest(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        rospy.init_node("test_security")
+        cls.refusals = []   # (what, value, reason) of every refusal, printed at the end
+        cls.port = cls._bridge_port("rosbridge_websocket")
+        cls.auth_port = cls._bridge_port("rosbridge_auth")
+        cls.root = rospy.get_param("/data_root")
+        cls.real_root = os.path.realpath(cls.root)
+        cls.true_pose = Latest("/sim/true_pose", PoseWithCovarianceStamped)
+        cls.chassis = Latest("/sim/chassis_cmd", TwistStamped, queue_size=5000)
+        cls.head = Latest("/terrace_state", JointState)
+        cls.status = Latest("/robot_status", RobotStatus)
+        cls.ros = roslibpy.Ros("127.0.0.1", cls.port)
+        cls.ros.run(timeout=20)
+        services = ("/camera_control", "/infrared_control", "/arm_control", "/file_control", "/calibration_control",
+                    "/task_control")
+        for name in services:
+            wait_for(lambda: name in cls.ros.get_services(), 60.0, name)
+        cls.service = dict((name, roslibpy.Service(cls.ros, name, "inspection_robot/ControlService"))
+                           for name in services)
+        cls.nodes = cls._node_pids()
+        cls.outside = tempfile.mkdtemp(prefix="secsuite_outside_")
+        cls._lay_out()
+        cls.pose0 = cls.true_pose.wait(timeout=30.0, what="/sim/true_pose").pose.pose
+        cls.head0 = cls.head.wait(timeout=30.0, what="/terrace_state").position
+        # move_base saves the pose every 5 s (its own file): in the snapshot it shows the robot did not move
+        wait_for(lambda: os.path.exists(os.path.join(cls.root, "nav", "last_pose.json")), 15.0, "nav/last_pose.json")
+        cls.before = snapshot(cls.root)
+        cls.outside_before = snapshot(cls.outside)
+
+    @classmethod
+    def tearDownClass(cls):
+        print("\n%d refusals:" % len(cls.refusals))
+        for what, value, reason in cls.refusals:
+            print("  %-48s %-40r -> %s" % (what, value if len(repr(value)) < 60 else repr(value)[:56] + "...", reason))
+        cls.ros.terminate()
+        shutil.rmtree(cls.outside, ignore_errors=True)
+
+    @staticmethod
+    def _bridge_port(node):
+        return int(wait_for(lambda: rospy.get_param("/%s/actual_port" % node, None), 60.0, node + " port"))
+
+    @staticmethod
+    def _node_pids():
+        """pid of every node of the launch (a respawned node comes back with another pid)."""
+        expected = {"/camera_node", "/infrared_imager", "/file_server", "/task_manager", "/move_base",
+                    "/robot_control", "/preset_scale", "/find_scale", "/read_scale", "/robot_arm", "/cloud_terrace",
+                    "/rosbridge_websocket", "/rosbridge_auth", "/status_control", "/robot_voice"}
+        wait_for(lambda: expected <= set(rosnode.get_node_names()), 60.0, "every node of sim.launch")
+        master = rosgraph.Master("/test_security")
+        pids = {}
+        for name in rosnode.get_node_names():
+            if name == rospy.get_name():
+                continue
+            pids[name] = xmlrpc.client.ServerProxy(master.lookupNode(name)).getPid("/test_security")[2]
+        return pids
+
+    @classmethod
+    def _lay_out(cls):
+        """A preset as preset_scale records it, calibrated through calibration_control (its owner);
+        links out of the roots, a dangling one, and a file in captures, as a careless operator could leave."""
+        rng = np.random.RandomState(7)
+        jpeg = cv2.imencode(".jpg", rng.randint(0, 255, (1080, 1920, 3)).astype(np.uint8))[1].tobytes()
+        preset = os.path.join(cls.root, PRESET)
+        info = PresetInfo("sec_p1", "meter", False, "20260101_120000", 0.0, 0.0, 1.0, 0x4000, (0.0, 0.0, 0.0),
+                          [1.0], 1920, 1080)
+        write_atomic(os.path.join(preset, "preset.ini"), info.to_ini())
+        write_atomic(os.path.join(preset, "zoom0.jpg"), jpeg)
+        for folder in ("captures", "thermal", "arm", "pictures", "tasks"):
+            os.makedirs(os.path.join(cls.root, folder), exist_ok=True)
+            os.symlink(cls.outside, os.path.join(cls.root, folder, "escape"))
+            os.symlink(os.path.join(cls.outside, "nothing_yet.jpg"), os.path.join(cls.root, folder, "dangling"))
+        os.symlink(cls.outside, os.path.join(cls.root, "presets", "escape"))
+        write_atomic(os.path.join(cls.root, "captures", "existing.jpg"), jpeg)
+        write_atomic(os.path.join(cls.outside, "secret.txt"), b"not for the link\n")
+        # a fake preset outside the roots: reachable only through presets/escape
+        write_atomic(os.path.join(cls.outside, "preset.ini"), info.to_ini())
+        write_atomic(os.path.join(cls.outside, "zoom0.jpg"), jpeg)
+        for cmd, fields in (("mark_box", {"target": 0, "box": BOX}),
+                            ("set_zero", {"target": 0, "angle": -135, "value": 0}),
+                            ("set_full_scale", {"target": 0, "angle": 135, "value": 1.6}),
+                            ("apply", {})):
+            fields["preset"] = PRESET
+            ack, out = cls._call("/calibration_control", cmd, json.dumps(fields))
+            assert ack == "success", "%s: %s" % (cmd, out)
+
+    @classmethod
+    def _call(cls, service, cmd, data):
+        trans_id = next(TRANS_IDS)
+        reply = cls.service[service].call(roslibpy.ServiceRequest(
+            {"sender": "server", "trans_id": trans_id, "cmd": cmd, "data": data}), timeout=20)
+        assert reply["trans_id"] == trans_id, reply
+        return reply["ack"], reply["data"]
+
+    # ------------------------------------------------------------------ helpers
+    def assert_refused(self, what, value, ack, reason, expected=()):
+        """``ack`` failed with a reason that says something (one of ``expected`` when given) and does
+        not name the data root."""
+        self.refusals.append((what, value, reason))
+        self.assertEqual(ack, "failed", "%s %r was accepted: %s" % (what, value, reason))
+        self.assertTrue(reason.strip(), "%s %r: empty reason" % (what, value))
+        for root in {self.root, self.real_root}:
+            self.assertNotIn(root, reason, "%s %r: the reason names the data root: %s" % (what, value, reason))
+        if expected:
+            self.assertTrue(any(e in reason for e in expected),
+                            "%s %r: unclear reason %r (expected one of %s)" % (what, value, reason, expected))
+
+    def assert_tree_unchanged(self, what):
+        after = snapshot(self.root)
+        changed = sorted(set(self.before.items()) ^ set(after.items()))
+        self.assertEqual(changed, [], "after %s the data root changed: %s" % (what, changed[:10]))
+        self.assertEqual(snapshot(self.outside), self.outside_before, "after %s a file appeared outside" % what)
+
+    def topic_command(self, topic, msg_type, ack_topic, ack_type, fields, timeout=20.0):
+        """Publish a command on ``topic`` (repeated every 0.5 s: the first publish through a new bridge
+        topic may precede the ROS connection) until its ack (same trans_id) arrives; returns the ack."""
+        trans_id = next(TRANS_IDS)
+        key = (topic, ack_topic)
+        if key not in self._topics:
+            listener = roslibpy.Topic(self.ros, ack_topic, ack_type)
+            acks = queue.Queue()
+            listener.subscribe(acks.put)
+            self._topics[key] = (roslibpy.Topic(self.ros, topic, msg_type), acks)
+        publisher, acks = self._topics[key]
+        message = dict(fields, sender="server", trans_id=trans_id)
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            publisher.publish(roslibpy.Message(message))
+            end = time.monotonic() + 0.5
+            while time.monotonic() < end:
+                try:
+                    ack = acks.get(timeout=max(0.01, end - time.monotonic()))
+                except queue.Empty:
+                    break
+                if ack.get("trans_id") == trans_id:
+                    return ack
+        raise AssertionError("no %s for trans_id %d on %s" % (ack_topic, trans_id, topic))
+
+    _topics = {}
+
+    def action_result(self, action, goal_type, data, timeout=20.0):
+        """Send one goal over the websocket; its result (re-sent as a new goal if nothing came back:
+        the first goal through a new bridge topic may precede the ROS connection)."""
+        client = self._actions.get(action)
+        if client is None:
+            client = self._actions[action] = roslibpy.actionlib.ActionClient(self.ros, action,
+                                                                             "inspection_robot/GeneralAction")
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            goal = roslibpy.actionlib.Goal(client, roslibpy.Message({"sender": "server", "trans_id": next(TRANS_IDS),
+                                                                     "type": goal_type, "data": data}))
+            goal.send()
+            try:
+                return goal.wait(3.0)
+            except Exception:  # roslibpy raises its own timeout error type, which varies by version
+                goal.cancel()
+        raise AssertionError("no result from %s" % action)
+
+    _actions = {}
+
+    def raw_auth(self, address=None, timeout=5.0):
+        return self.raw(address, timeout)
+
+    def raw(self, address=None, timeout=5.0, port=None):
+        client = RawClient("ws://%s:%d" % (address or "127.0.0.1", port or self.auth_port), timeout=timeout)
+        self.addCleanup(client.close)
+        return client
+
+    def closed_with(self, client, fragment, timeout=10.0):
+        """The error status the bridge sent ``client`` before closing it; fails unless it contains ``fragment``."""
+        deadline = time.monotonic() + timeout
+        statuses = []
+        while time.monotonic() < deadline:
+            try:
+                frame = client.recv(max(0.01, deadline - time.monotonic()))
+            except queue.Empty:
+                break
+            if frame is CLOSED:
+                joined = " | ".join(statuses)
+                self.assertIn(fragment, joined)
+                self.refusals.append(("bridge auth", fragment, joined))
+                return joined
+            message = json.loads(frame)
+            if message.get("op") == "status":
+                statuses.append(message["msg"])
+        raise AssertionError("connection not closed within %.0f s (statuses: %s)" % (timeout, statuses))
+
+    def mac_auth(self, client, token=TOKEN):
+        """rosauth's MAC over this connection's nonce; returns the auth message sent."""
+        client.send({"op": "auth_challenge", "id": "c"})
+        challenge = client.recv_message(lambda m: m.get("op") == "auth_challenge")
+        t = challenge["t"]
+        mac = hashlib.sha512((token + "backend" + "robot" + challenge["nonce"] + str(t) + "server"
+                              + str(t + 3600)).encode()).hexdigest()
+        auth = {"op": "auth", "mac": mac, "client": "backend", "dest": "robot", "rand": challenge["nonce"],
+                "t": t, "level": "server", "end": t + 3600}
+        client.send(auth)
+        return auth
+
+    def served(self, client):
+        """``client`` (authenticated) gets an answer from the bridge."""
+        client.send({"op": "call_service", "service": "/rosapi/get_time", "id": "alive"})
+        reply = client.recv_message(lambda m: m.get("id") == "alive", timeout=10.0)
+        self.assertTrue(reply["result"], reply)
+
+    # ------------------------------------------------------------------ 1: authentication
+    def test_1_auth(self):
+        # the first op is not auth: refused and closed
+        intruder = self.raw()
+        intruder.send({"op": "publish", "topic": "/mode_cmd", "msg": {"cmd": "acquire", "data": "server"}})
+        self.closed_with(intruder, "Not authenticated: the first message must be an auth op")
+        # an unauthenticated connection that only idles is closed after ~auth_timeout (2 s)
+        idler = self.raw()
+        start = time.monotonic()
+        self.closed_with(idler, "Not authenticated within 2 s", timeout=6.0)
+        self.assertLess(time.monotonic() - start, 5.0)
+        # a friend on the robot authenticates with the MAC and is served throughout
+        friend = self.raw()
+        self.mac_auth(friend)
+        self.served(friend)
+
+        station = station_address()
+        attacker = station or "127.0.0.1"
+        # a backend on the station authenticates; its auth message is captured by an eavesdropper
+        backend = self.raw(attacker)
+        captured = self.mac_auth(backend)
+        self.served(backend)
+        # 1st failure: the captured message replayed on a new connection
+        replay = self.raw(attacker)
+        replay.send(captured)
+        self.closed_with(replay, "rand must be the nonce of this connection's auth_challenge")
+        # 2nd failure: the token itself in clear from the station network (accepted only from the robot or TLS)
+        if station is not None:
+            clear = self.raw(attacker)
+            clear.send({"op": "auth", "mac": TOKEN})
+            self.closed_with(clear, "the token itself is accepted only over TLS (wss) or from the robot")
+        else:
+            print("no non-loopback address on this machine: the token-in-clear case is not tried")
+            wrong = self.raw(attacker)
+            self.mac_auth(wrong, token="guess-0")
+            self.closed_with(wrong, "wrong mac")
+        # 3rd failure: a wrong token (its MAC does not match); ~auth_max_failures is 3
+        guesser = self.raw(attacker)
+        self.mac_auth(guesser, token="secsuite-tokem")
+        self.closed_with(guesser, "wrong mac")
+        # blocked now: even the right MAC from that address is refused at once
+        blocked = self.raw(attacker)
+        self.closed_with(blocked, "Too many failed authentications from %s" % attacker)
+        if station is not None:
+            # other addresses are unaffected; the authenticated connections stay up
+            other = self.raw()
+            self.mac_auth(other)
+            self.served(other)
+        self.served(friend)
+        self.served(backend)
+
+    # ------------------------------------------------------------------ 2: slow clients, big frames
+    def test_2_slow_loris_and_oversize_frames(self):
+        friend = self.raw()
+        self.mac_auth(friend)
+        self.served(friend)
+        # slow-loris: 20 connections sending their headers one line a second; ~handshake_timeout is 2 s
+        slow = []
+        for _ in range(20):
+            sock = socket.create_connection(("127.0.0.1", self.auth_port), timeout=5.0)
+            sock.sendall(b"GET / HTTP/1.1\r\nHost: 127.0.0.1\r\n")
+            slow.append(sock)
+        start = time.monotonic()
+        open_ = list(slow)
+        while open_ and time.monotonic() - start < 8.0:
+            for sock in list(open_):
+                try:
+                    sock.sendall(b"X-Slow-%d: 1\r\n" % int(time.monotonic() * 1000))
+                except OSError:
+                    open_.remove(sock)
+            self.served(friend)   # served while they trickle
+            time.sleep(0.5)
+        dropped = time.monotonic() - start
+        self.assertEqual(open_, [], "slow handshakes still open after %.1f s" % dropped)
+        self.assertLess(dropped, 6.0)
+        for sock in slow:
+            sock.close()
+        self.refusals.append(("bridge slow-loris", "20 header trickles", "dropped after %.1f s" % dropped))
+        # an oversize frame (~max_message_size 100000) closes that connection with 1009 only
+        big = self.raw()
+        self.mac_auth(big)
+        self.served(big)
+        big.send({"op": "publish", "topic": "/secsuite_big", "msg": {"data": "x" * 200000}})
+        wait_for(lambda: big.close_code is not None, 10.0, "the oversize frame's close")
+        self.assertEqual(big.close_code, 1009)
+        self.assertIn("message too big", big.close_reason)
+        self.refusals.append(("bridge oversize frame", "200 kB", "%s %s" % (big.close_code, big.close_reason)))
+        # also before authenticating
+        stranger = self.raw()
+        stranger.send("x" * 200000)
+        wait_for(lambda: stranger.close_code is not None, 10.0, "the oversize frame's close")
+        self.assertEqual(stranger.close_code, 1009)
+        self.served(friend)
+
+    # ------------------------------------------------------------------ 3: paths and ids
+    def bad_paths(self, prefix, name, reader=False):
+        """Paths no command may act on: ``prefix`` is how the command's own root is named (relative
+        paths of capture commands are inside their root, file_control's inside the data root)."""
+        values = ["..", "../..", "../../etc/passwd", "/etc/passwd", "/etc", os.path.join(self.outside, name),
+                  prefix + "../../../etc/passwd", prefix + "escape/" + name, prefix + "escape",
+                  prefix + "a\x00b" + name, prefix + "a\nb" + name, prefix + name + "\n", prefix + "\t" + name,
+                  prefix + "a" * 5000, prefix + "/".join(["a"] * 2600), "../presets/escape/preset.ini"]
+        if prefix:   # data-root-relative: another owner's file and a link out of its folder
+            values += ["presets/escape/preset.ini"] + ([] if reader else [PRESET + "/preset.ini"])
+        if not reader:
+            values += [prefix + "dangling", os.path.join(self.root, PRESET, "preset.ini"),
+                       "../" + PRESET + "/preset.ini", ""]
+        return values
+
+    def fuzz_service(self, service, cmd, values, make_data, expected=PATH_REASONS):
+        for value in values:
+            ack, reason = self._call(service, cmd, make_data(value))
+            self.assert_refused("%s %s" % (service[1:], cmd), value, ack, reason, expected)
+
+    def test_3_paths_of_capture_and_arm_commands(self):
+        creator = self.bad_paths("", "x.jpg") + ["existing.jpg", ".", "escape/../existing.jpg"]
+        self.fuzz_service("/camera_control", "capture_picture", creator, lambda p: p)
+        for cmd, ext in (("capture_picture", ".jpg"), ("save_temperature", ".png"), ("save_temperature", ".npy")):
+            self.fuzz_service("/infrared_control", cmd, self.bad_paths("", "x" + ext) + ["."], lambda p: p)
+        arm = self.bad_paths("", "orbit.yaml")
+        arm.remove("")   # "" names the default trajectory
+        self.fuzz_service("/arm_control", "record_orbit", arm, lambda p: p)
+        self.fuzz_service("/arm_control", "play_orbit", arm, lambda p: p + ",+")
+        self.fuzz_service("/arm_control", "stop_orbit", arm, lambda p: p)
+        self.assert_tree_unchanged("capture and arm path fuzzing")
+
+    def test_4_paths_of_file_and_calibration_commands(self):
+        reader = self.bad_paths("captures/", "secret.txt", reader=True) + ["captures/dangling", ""]
+        for cmd in ("stat", "read"):
+            self.fuzz_service("/file_control", cmd, reader, lambda p: json.dumps({"path": p}))
+        reader.remove("")   # "" lists the roots
+        self.fuzz_service("/file_control", "list", reader, lambda p: json.dumps({"path": p}))
+        presets = self.bad_paths("presets/", "p1") + ["presets/escape", "captures", "presets/sec_p1"]
+        for cmd, extra in (("get", {}), ("clear_draft", {}), ("apply", {}), ("remove_target", {"target": 0})):
+            self.fuzz_service("/calibration_control", cmd, presets, lambda p: json.dumps(dict(extra, preset=p)))
+        self.fuzz_service("/calibration_control", "upload", presets, lambda p: json.dumps(
+            {"preset": p, "targets": [{"kind": "pointer", "box": BOX, "start_angle": -135, "end_angle": 135,
+                                       "start_value": 0, "end_value": 1.6}]}))
+        pictures = self.bad_paths("captures/", "x.jpg", reader=True) + ["captures/dangling"]
+        for key in ("open_picture", "closed_picture"):
+            other = "closed_picture" if key == "open_picture" else "open_picture"
+            self.fuzz_service("/calibration_control", "upload", pictures, lambda p: json.dumps(
+                {"preset": PRESET, "targets": [{"kind": "switch", "box": BOX, key: p,
+                                                other: "captures/existing.jpg"}]}))
+        references = ["..", "../preset.ini", "/etc/passwd", "a/b.png", "a\nb.png", "a\x00.png", "a" * 300,
+                      "escape", "zoom0.jpg/.."]
+        self.fuzz_service("/calibration_control", "upload", references, lambda p: json.dumps(
+            {"preset": PRESET, "targets": [{"kind": "lamp", "box": BOX, "colour": "red", "on_reference": p,
+                                            "off_reference": "zoom0.jpg"}]}))
+        self.assert_tree_unchanged("file and calibration path fuzzing")
+
+    def test_5_paths_and_ids_of_inspection_and_task_commands(self):
+        presets = self.bad_paths("", "p1") + ["escape", "../captures", "sec_p1/../../captures"]
+        for value in presets:
+            result = self.action_result("/find_scale_action", "find_scale", json.dumps({"preset_path": value}))
+            self.assertEqual(result["ret_code"], "1", "find_scale %r: %s" % (value, result))
+            self.assert_refused("find_scale_action preset_path", value, "failed",
+                                json.loads(result["data"])["reason"], PATH_REASONS)
+        for value in presets:
+            ack = self.topic_command("/read_scale_cmd", "inspection_robot/ReadScaleCmd", "/read_scale_ack",
+                                     "inspection_robot/ReadScaleAck",
+                                     {"directory": value, "foreign_detect": 0, "filename": ["zoom0.jpg"],
+                                      "roi_vertex": BOX})
+            self.assert_refused("read_scale_cmd directory", value, ack["result"], self._read_reason(ack),
+                                PATH_REASONS)
+        for value in self.bad_paths("", "x.jpg", reader=True) + ["dangling", "captures/dangling"]:
+            ack = self.topic_command("/read_scale_cmd", "inspection_robot/ReadScaleCmd", "/read_scale_ack",
+                                     "inspection_robot/ReadScaleAck",
+                                     {"directory": "sec_p1/20260101_120000", "foreign_detect": 0,
+                                      "filename": [value], "roi_vertex": BOX})
+            self.assert_refused("read_scale_cmd filename", value, ack["result"], self._read_reason(ack), PATH_REASONS)
+        preset_ids = [".", "..", "a\n", "a/b", "../x", "a\x00b", "\t", "a" * 200, "", ".hidden"]
+        for value in preset_ids:
+            ack = self.topic_command("/preset_scale_cmd", "inspection_robot/PresetScaleCmd", "/preset_scale_ack",
+                                     "inspection_robot/PresetScaleAck", {"preset_id": value, "type": "meter"})
+            self.assert_refused("preset_scale_cmd preset_id", value, ack["result"], ack["directory"], PATH_REASONS)
+        arm_paths = [p for p in self.bad_paths("", "orbit.yaml") if p]
+        for value in arm_paths:
+            ack = self.topic_command("/preset_scale_cmd", "inspection_robot/PresetScaleCmd", "/preset_scale_ack",
+                                     "inspection_robot/PresetScaleAck",
+                                     {"preset_id": "sec_never", "type": "meter", "extra_data": "1," + value})
+            self.assert_refused("preset_scale_cmd extra_data", value, ack["result"], ack["directory"], PATH_REASONS)
+        task_ids = [".", "..", "a\n", "a" * 65, "../x", "a/b", "", "a\x00", "a b", "é"]
+        for value in task_ids:
+            task = {"id": value, "stops": [{"pose": {"x": 1.0, "y": 1.0, "yaw": 0.0}, "presets": ["sec_none"]}]}
+            ack, reason = self._call("/task_control", "submit", json.dumps(task))
+            self.assert_refused("task_control submit id", value, ack, reason, ("task id must be",))
+            result = self.action_result("/task_action", "patrol", json.dumps(task))
+            self.assertEqual(result["ret_code"], "3", result)
+            self.assert_refused("task_action goal id", value, "failed", json.loads(result["data"])["reason"],
+                                ("task id must be",))
+            ack, reason = self._call("/task_control", "report", value)
+            self.assert_refused("task_control report", value, ack, reason, ("task id must be", "unknown task"))
+            ack, reason = self._call("/task_control", "cancel", value)
+            self.assert_refused("task_control cancel", value, ack, reason, ("no running or suspended task",
+                                                                            "no task to cancel", "task id must be"))
+        for n, value in enumerate(presets):
+            task = {"id": "sec_preset_%d" % n, "stops": [{"pose": {"x": 1.0, "y": 1.0, "yaw": 0.0},
+                                                          "presets": [value]}]}
+            ack, reason = self._call("/task_control", "submit", json.dumps(task))
+            if ack == "success":
+                self._call("/task_control", "cancel", "")
+            self.assert_refused("task_control submit preset", value, ack, reason,
+                                PATH_REASONS + ("preset must be a non-empty string",))
+        for value in ["../../etc/passwd", "a/b", "..", "a\n", "/etc/passwd"]:
+            ack = self.topic_command("/voice_cmd", "inspection_robot/VoiceCmd", "/voice_ack",
+                                     "inspection_robot/GeneralAck", {"language": "english", "data": [value]})
+            # robot_voice strips surrounding whitespace: "a\n" is the clip "a", which does not exist
+            self.assert_refused("voice_cmd clip", value, ack["ack"], ack["data"],
+                                ("not a number markup nor a clip", "not found"))
+        self.assert_tree_unchanged("inspection and task path and id fuzzing")
+
+    @staticmethod
+    def _read_reason(ack):
+        # ReadScaleAck carries no reason field of its own: read_scale puts it in foreign_result
+        return ack.get("foreign_result") or ""
+
+    # ------------------------------------------------------------------ 4: numbers
+    def fuzz_numbers(self, what, payload, send, literals=NON_FINITE, expected=NUMBER_REASONS):
+        """Each number of ``payload`` in turn replaced by each of ``literals``; ``send(text)`` returns
+        (ack, reason)."""
+        paths = list(numeric_paths(payload))
+        self.assertTrue(paths, what)
+        for path in paths:
+            for literal in literals:
+                ack, reason = send(with_literal(payload, path, literal))
+                self.assert_refused("%s %s" % (what, place(path)), literal, ack, reason, expected)
+
+    def test_6_numbers_of_every_json_command(self):
+        pose = self.pose0.position
+        task = {"id": "sec_numbers", "priority": "routine", "retries": 1,
+                "stops": [{"name": "s", "pose": {"x": 1.0, "y": 2.0, "yaw": 0.5}, "precision": 0,
+                           "presets": [{"preset": "sec_none", "alarms": {"t": [0.0, 500.0]}, "foreign": False}]}]}
+        for cmd, payload in (("submit", task),
+                             ("query_results", {"task_id": "x", "from": 0, "to": 2000000000, "limit": 10})):
+            self.fuzz_numbers("task_control " + cmd, payload, lambda text: self._call("/task_control", cmd, text))
+
+        def task_action(text):
+            result = self.action_result("/task_action", "patrol", text)
+            ack = "failed" if result["ret_code"] == "3" else result["ret_code"]
+            return ack, json.loads(result["data"])["reason"]
+        self.fuzz_numbers("task_action goal", task, task_action, literals=NON_FINITE[:4])
+
+        for cmd, payload in (("list", {"path": "captures", "offset": 0}),
+                             ("read", {"path": "captures/existing.jpg", "offset": 0, "length": 100})):
+            self.fuzz_numbers("file_control " + cmd, payload, lambda text: self._call("/file_control", cmd, text))
+            self.fuzz_numbers("file_control " + cmd, payload, lambda text: self._call("/file_control", cmd, text),
+                              literals=HUGE, expected=("out of range", "must be an integer"))
+        pointer = {"kind": "pointer", "box": BOX, "start_angle": -135, "end_angle": 135, "start_value": 0,
+                   "end_value": 1.6, "centre": [0.5, 0.5], "radius": 0.45, "aspect": 1.0, "normal": [0, 1.6],
+                   "scale_table": [[0, -135], [0.8, 0], [1.6, 135]], "marks": [[0, 0.2, 0.8], [1.6, 0.8, 0.8]]}
+        thermal = {"kind": "thermal", "box": BOX, "thermal_box": [10, 10, 50, 10, 50, 50, 10, 50]}
+        edits = (("mark_box", {"target": 0, "box": BOX}),
+                 ("set_meter_type", {"target": 0, "kind": "pointer"}),
+                 ("set_zero", {"target": 0, "angle": -135, "value": 0}),
+                 ("set_full_scale", {"target": 0, "angle": 135, "value": 1.6}),
+                 ("set_values", {"target": 0, "values": dict((k, pointer[k]) for k in (
+                     "centre", "radius", "aspect", "normal", "scale_table", "marks"))}),
+                 ("remove_target", {"target": 0}),
+                 ("upload", {"targets": [pointer, thermal]}))
+        for cmd, fields in edits:
+            payload = dict(fields, preset=PRESET)
+            self.fuzz_numbers("calibration_control " + cmd, payload,
+                              lambda text: self._call("/calibration_control", cmd, text))
+            self.fuzz_numbers("calibration_control " + cmd, payload,
+                              lambda text: self._call("/calibration_control", cmd, text), literals=HUGE, expected=())
+
+        obstacle = {"id": "sec_v", "points": [[1.0, 1.0], [2.0, 1.0], [2.0, 2.0]], "closed": True}
+        for cmd in ("add", "modify"):
+            def virtual(text):
+                ack = self.topic_command("/virtual_obstacle_cmd", "inspection_robot/GeneralCmd",
+                                         "/virtual_obstacle_ack", "inspection_robot/GeneralAck",
+                                         {"cmd": cmd, "data": text})
+                return ack["ack"], ack["data"]
+            self.fuzz_numbers("virtual_obstacle_cmd " + cmd, obstacle, virtual)
+
+        goal = {"goal_pose": {"position": {"x": pose.x, "y": pose.y, "z": 0},
+                              "orientation": {"x": 0, "y": 0, "z": 0, "w": 1}},
+                "with_direction": 1, "precision": 1, "move_style": 0, "velocity_x": 0.8, "velocity_yaw": 0.5}
+
+        def move(text):
+            result = self.action_result("/move_action", "move", text)
+            return ("failed" if result["ret_code"] != "0" else "success"), json.loads(result["data"]).get("reason", "")
+        self.fuzz_numbers("move_action goal", goal, move, literals=NON_FINITE[:4] + NON_FINITE[5:6])
+        self.assert_tree_unchanged("number fuzzing of the JSON commands")
+
+    def test_7_numbers_of_motion_topics(self):
+        """move_cmd with NaN / Infinity / 1e400 / null while the backend holds server mode: nothing moves."""
+        heartbeat = roslibpy.Topic(self.ros, "/server_status", "inspection_robot/GeneralTopic")
+        stop = threading.Event()
+
+        def beat():
+            while not stop.wait(0.2):
+                heartbeat.publish(roslibpy.Message({"sender": "server", "data": "alive"}))
+        thread = threading.Thread(target=beat)
+        thread.daemon = True
+        thread.start()
+        try:
+            wait_for(lambda: self.topic_command("/mode_cmd", "inspection_robot/GeneralCmd", "/mode_ack",
+                                                "inspection_robot/GeneralAck",
+                                                {"cmd": "acquire", "data": "server"})["ack"] == "success",
+                     20.0, "server mode", period=0.5)
+            raw = RawClient("ws://127.0.0.1:%d" % self.port)
+            self.addCleanup(raw.close)
+            raw.send({"op": "set_level", "level": "error"})
+            self.chassis.clear()
+            statuses = []
+            for field in ("velocity_x", "velocity_yaw"):
+                for literal in ("NaN", "Infinity", "-Infinity", "1e400", "null"):
+                    text = ('{"op": "publish", "topic": "/move_cmd", "msg": {"sender": "server", "%s": %s, '
+                            '"wheel_control": 0}}' % (field, literal))
+                    for _ in range(10):
+                        raw.send(text)
+            for field, literal in (("wheel_control", "1e400"), ("wheel_control", "NaN"), ("wheel_control", "256"),
+                                   ("trans_id", "1" + "0" * 70)):
+                raw.send('{"op": "publish", "topic": "/move_cmd", "id": "bad", "msg": {"%s": %s}}' % (field, literal))
+                statuses.append(raw.recv_message(lambda m: m.get("op") == "status", timeout=5.0)["msg"])
+                self.refusals.append(("bridge publish move_cmd " + field, literal, statuses[-1]))
+            for literal in ("NaN", "Infinity", "1e400", "1" + "0" * 70):
+                raw.send('{"op": "publish", "topic": "/preset_rotate", "id": "rot", "msg": {"width": 1920, '
+                         '"height": 1080, "delta_x": %s, "delta_y": 0}}' % literal)
+                status = raw.recv_message(lambda m: m.get("op") == "status", timeout=5.0)["msg"]
+                self.refusals.append(("bridge publish preset_rotate delta_x", literal, status))
+            location = roslibpy.Topic(self.ros, "/location_cmd", "inspection_robot/GeneralCmd")
+            for data in ("nan,0,0", "inf,0,0", "0,0,nan", "1e400,0,0", "-inf,-inf,-inf", "1" + "0" * 70 + ",0,0"):
+                location.publish(roslibpy.Message({"sender": "server", "cmd": "set_location", "data": data}))
+            # the bridge and robot_control took them (a later good command still arrives): then nothing moved
+            self.served_main(raw)
+            time.sleep(1.0)   # robot_control's move_cmd watchdog is 0.5 s: any motion would show by now
+            moving = [m for _t, m in self.chassis.messages
+                      if m.twist.linear.x != 0 or m.twist.angular.z != 0 or not math.isfinite(m.twist.linear.x)
+                      or not math.isfinite(m.twist.angular.z)]
+            self.assertEqual(moving, [], "the chassis was commanded to move")
+            for status in statuses:
+                self.assertTrue(status, status)
+        finally:
+            stop.set()
+            thread.join(2.0)
+            self.topic_command("/mode_cmd", "inspection_robot/GeneralCmd", "/mode_ack", "inspection_robot/GeneralAck",
+                               {"cmd": "release", "data": ""})
+
+    def served_main(self, client):
+        client.send({"op": "call_service", "service": "/rosapi/get_time", "id": "alive"})
+        self.assertTrue(client.recv_message(lambda m: m.get("id") == "alive", timeout=10.0)["result"])
+
+    # ------------------------------------------------------------------ 5: afterwards
+    def test_9_nothing_moved_nothing_written_nobody_died(self):
+        pose = self.true_pose.wait(timeout=5.0).pose.pose
+        self.assertAlmostEqual(pose.position.x, self.pose0.position.x, delta=1e-3)
+        self.assertAlmostEqual(pose.position.y, self.pose0.position.y, delta=1e-3)
+        self.assertAlmostEqual(pose.orientation.z, self.pose0.orientation.z, delta=1e-3)
+        self.assertEqual(self.head.last.position, self.head0)
+        status = self.status.wait(lambda m: len(m.position) == 2, 5.0, "robot_status")
+        # the NaN / Infinity locations sent in test_7 were refused: the pose the robot reports is finite
+        self.assertTrue(all(math.isfinite(v) for v in list(status.position) + [status.orientation]), status)
+        self.assert_tree_unchanged("the whole suite")
+        self.assertEqual(self._node_pids(), self.nodes, "a node died or was respawned")
+
+
+if __name__ == "__main__":
+    rostest.rosrun("inspection_robot", "test_security", SecurityTest)
