@@ -2,7 +2,8 @@
 """rostest: the backend link's security suite (docs/operations.md, "Backend link security").
 
 The whole simulated robot, attacked over the websocket as a client on the station network would:
-authentication (missing, wrong, replayed, raw token in clear, guessing until blocked, idling),
+authentication (missing, wrong, replayed, guessing until blocked from another loopback address,
+idling; the raw token in clear from a non-loopback peer is refused in test_bridge_protocol.py),
 slow-loris handshakes and oversize frames while another client is served, path and id fuzzing of
 every command that takes one, NaN / Infinity / 1e400 / huge numbers in every numeric field of every
 JSON command and of move_cmd. Every case must get a clear refusal that does not reveal where the
@@ -62,23 +63,7 @@ PATH_REASONS = ("outside the allowed roots", "contains '..'", "NUL byte", "contr
                 "not in the preset directory")
 
 
-def station_address():
-    """A non-loopback address of this machine (how a station on the network reaches the robot), or None."""
-    candidates = set()
-    try:
-        candidates.update(info[4][0] for info in socket.getaddrinfo(socket.gethostname(), None, socket.AF_INET))
-    except socket.gaierror:
-        pass
-    probe = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-    try:
-        probe.connect(("192.0.2.1", 9))   # no packet is sent: only the route's source address is looked up
-        candidates.add(probe.getsockname()[0])
-    except OSError:
-        pass
-    finally:
-        probe.close()
-    usable = sorted(a for a in candidates if not a.startswith("127.") and a != "0.0.0.0")
-    return usable[0] if usable else None
+ATTACKER = "127.0.0.2"   # another loopback address: another peer for the bridge's per-address limits
 
 
 def sha256(path):
@@ -314,8 +299,9 @@ class SecurityTest(unittest.TestCase):
     def raw_auth(self, address=None, timeout=5.0):
         return self.raw(address, timeout)
 
-    def raw(self, address=None, timeout=5.0, port=None):
-        client = RawClient("ws://%s:%d" % (address or "127.0.0.1", port or self.auth_port), timeout=timeout)
+    def raw(self, source=None, timeout=5.0, port=None):
+        """A websocket client of the auth bridge (127.0.0.1), from ``source`` (a loopback address)."""
+        client = RawClient("ws://127.0.0.1:%d" % (port or self.auth_port), timeout=timeout, source_ip=source)
         self.addCleanup(client.close)
         return client
 
@@ -372,8 +358,7 @@ class SecurityTest(unittest.TestCase):
         self.mac_auth(friend)
         self.served(friend)
 
-        station = station_address()
-        attacker = station or "127.0.0.1"
+        attacker = ATTACKER
         # a backend on the station authenticates; its auth message is captured by an eavesdropper
         backend = self.raw(attacker)
         captured = self.mac_auth(backend)
@@ -382,16 +367,10 @@ class SecurityTest(unittest.TestCase):
         replay = self.raw(attacker)
         replay.send(captured)
         self.closed_with(replay, "rand must be the nonce of this connection's auth_challenge")
-        # 2nd failure: the token itself in clear from the station network (accepted only from the robot or TLS)
-        if station is not None:
-            clear = self.raw(attacker)
-            clear.send({"op": "auth", "mac": TOKEN})
-            self.closed_with(clear, "the token itself is accepted only over TLS (wss) or from the robot")
-        else:
-            print("no non-loopback address on this machine: the token-in-clear case is not tried")
-            wrong = self.raw(attacker)
-            self.mac_auth(wrong, token="guess-0")
-            self.closed_with(wrong, "wrong mac")
+        # 2nd failure: a guessed token (the token in clear from a non-loopback peer: test_bridge_protocol.py)
+        wrong = self.raw(attacker)
+        self.mac_auth(wrong, token="guess-0")
+        self.closed_with(wrong, "wrong mac")
         # 3rd failure: a wrong token (its MAC does not match); ~auth_max_failures is 3
         guesser = self.raw(attacker)
         self.mac_auth(guesser, token="secsuite-tokem")
@@ -399,11 +378,10 @@ class SecurityTest(unittest.TestCase):
         # blocked now: even the right MAC from that address is refused at once
         blocked = self.raw(attacker)
         self.closed_with(blocked, "Too many failed authentications from %s" % attacker)
-        if station is not None:
-            # other addresses are unaffected; the authenticated connections stay up
-            other = self.raw()
-            self.mac_auth(other)
-            self.served(other)
+        # other addresses are unaffected; the authenticated connections stay up
+        other = self.raw()
+        self.mac_auth(other)
+        self.served(other)
         self.served(friend)
         self.served(backend)
 

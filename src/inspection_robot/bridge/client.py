@@ -24,9 +24,11 @@ CLOSED = object()
 
 class RawClient(object):
     """Connects to ``url`` (ws:// or wss://); frames are read with :meth:`recv`. ``headers``: extra
-    handshake headers (an ``Origin`` to act as a browser page)."""
+    handshake headers (an ``Origin`` to act as a browser page); ``source_ip``: the local address to
+    connect from (another loopback address acts as another peer)."""
 
-    def __init__(self, url, timeout=5.0, ssl_options=None, max_message_size=64 * 1024 * 1024, headers=None):
+    def __init__(self, url, timeout=5.0, ssl_options=None, max_message_size=64 * 1024 * 1024, headers=None,
+                 source_ip=None):
         self.url = url
         self.frames = queue.Queue()
         self.close_code = None
@@ -35,7 +37,8 @@ class RawClient(object):
         self._conn = None
         self._loop = None
         self._ready = threading.Event()
-        self._request = tornado.httpclient.HTTPRequest(url, ssl_options=ssl_options, headers=headers)
+        self._request = tornado.httpclient.HTTPRequest(url, ssl_options=ssl_options, headers=headers,
+                                                       network_interface=source_ip)
         self._max = max_message_size
         self._thread = threading.Thread(target=self._run, name="raw_ws_client")
         self._thread.daemon = True
