@@ -56,7 +56,9 @@ def test_step_by_step_like_the_tool(robot):
     pictures = {"open_picture": "captures/open.png", "closed_picture": "captures/closed.png"}
     assert call(commands, "set_values", target=1, values=pictures)[0] == "success"
     ack, out = call(commands, "apply")
+    check = out.pop("self_check")
     assert (ack, out) == ("success", {"preset": PRESET, "targets": 2, "kinds": ["pointer", "switch"]})
+    assert [(c["target"], c["name"]) for c in check] == [(0, "oil")]   # pointers only
     preset = load_preset(str(root / PRESET))
     assert [t.kind for t in preset.targets] == ["pointer", "switch"]
     assert preset.targets[0].params["end_value"] == 1.6 and preset.targets[0].name == "oil"
