@@ -7,8 +7,10 @@ Then what a careless backend sends (junk velocities, huge numbers, bad JSON, dat
 taken): each gets a clear ``failed``, nothing moves, no node restarts; query_status is spoken.
 rospy is used only to read the bridge's port, the simulator's true pose and the nodes' pids.
 """
+import importlib.util
 import json
 import math
+import os
 import threading
 import time
 import unittest
@@ -23,6 +25,11 @@ import rostest
 from geometry_msgs.msg import PoseWithCovarianceStamped
 
 from rostest_helpers import Latest, wait_for
+
+_SPEC = importlib.util.spec_from_file_location("runtime_graph", os.path.join(
+    os.path.dirname(os.path.abspath(__file__)), "..", "..", "scripts", "runtime_graph.py"))
+runtime_graph = importlib.util.module_from_spec(_SPEC)
+_SPEC.loader.exec_module(runtime_graph)
 
 
 class Heartbeat(object):
@@ -129,6 +136,18 @@ class SystemSimTest(unittest.TestCase):
         self.assertEqual((ack["ack"], ack["data"]), ("success", "server"))
         self.wait_status(lambda s: s["mode"] == 1, 5.0, "mode 1")
         return heartbeat
+
+    def test_0_the_runtime_picture_is_current(self):
+        """docs/runtime.dot (docs/architecture.md) is the graph of this very robot: the nodes of
+        sim.launch and what they publish, subscribe to, serve and act on, as the master knows it."""
+        live = runtime_graph.live_source()
+        with open(runtime_graph.DOT_FILE) as f:
+            documented = f.read()
+        if live != documented:
+            missing = sorted(set(live.splitlines()) - set(documented.splitlines()))
+            extra = sorted(set(documented.splitlines()) - set(live.splitlines()))
+            self.fail("docs/runtime.dot is stale (run scripts/runtime_graph.py against sim.launch): not drawn %s; "
+                      "drawn but gone %s" % (missing[:10], extra[:10]))
 
     def test_backend_session(self):
         # acquire backend remote control and drive forward for a second
