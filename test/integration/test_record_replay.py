@@ -149,7 +149,7 @@ class RecordReplayTest(unittest.TestCase):
         env = dict(os.environ, ROS_MASTER_URI="http://127.0.0.1:%d" % port)
         out = os.path.join(cls.dir, "replayed.bag")
         launch = subprocess.Popen(["roslaunch", "-p", str(port), "inspection_robot", "replay.launch", "bag:=" + bag,
-                                   "bridge:=false", "pause:=true", "player_required:=false", "delay:=0.5"],
+                                   "bridge:=false", "pause:=true", "at_end:=hold", "delay:=0.5"],
                                   env=env, stdout=subprocess.DEVNULL, stderr=subprocess.STDOUT,
                                   start_new_session=True)
         capture = None
