@@ -249,3 +249,14 @@ def test_the_picture_of_a_run_with_an_unplaced_alarm_and_a_far_obstacle(tmp_path
     bag_report.plot_run(summary, None, virtual, out, "made-up run")
     with open(out, "rb") as f:
         assert f.read(8) == b"\x89PNG\r\n\x1a\n"
+
+
+def test_replay_player_arguments_and_whom_it_may_end():
+    from inspection_robot.nodes import replay_player
+    assert replay_player.split_args(["--at-end", "exit", "--clock", "a.bag", "__name:=replay_player"]) == (
+        "exit", ["--clock", "a.bag", "__name:=replay_player"])
+    for bad in ([], ["--clock"], ["--at-end", "later"]):
+        with pytest.raises(ValueError, match="--at-end exit\\|hold"):
+            replay_player.split_args(bad)
+    assert not replay_player.launched_by_roslaunch(os.getpid())   # pytest, not roslaunch: never signalled
+    assert not replay_player.launched_by_roslaunch(2 ** 22 + 1)   # no such process

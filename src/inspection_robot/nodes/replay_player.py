@@ -60,8 +60,8 @@ def main():
             continue
     parent = os.getppid()
     if at_end == "exit" and launched_by_roslaunch(parent):
-        print("replay_player: %s; ending the replay" % ("end of the bag" if code == 0 else
-                                                          "rosbag play failed (status %d)" % code), flush=True)
+        why = "end of the bag" if code == 0 else "rosbag play failed (status %d)" % code
+        print("replay_player: %s; ending the replay" % why, flush=True)
         os.kill(parent, signal.SIGINT)
     elif code == 0:
         print("replay_player: end of the bag; the last state stays shown until Ctrl-C", flush=True)
