@@ -310,3 +310,22 @@ def test_record_is_off_in_simulation_and_on_on_the_robot():
     assert record_default("robot.launch") == ["true"]
     core = ElementTree.parse(os.path.join(root, "launch", "core.launch")).getroot()
     assert any(i.get("file", "").endswith("/launch/include/record.launch") for i in core.iter("include"))
+
+
+def test_transitions_of_offline_warn_and_mode_compare_field_by_field():
+    from inspection_robot.recording.compare import transition_differences, transitions
+    live = [(t, {"offline_warn": ow, "mode": m}) for t, ow, m in (
+        (0.0, 1, 0), (1.0, 1, 0), (3.0, 0, 0), (3.5, 0, 1), (5.0, 0, 0), (9.0, 1, 0), (12.0, 0, 0))]
+    fields = ("offline_warn", "mode")
+    assert transitions(live, fields, start=1.5, end=10.0) == [
+        (1.5, (1, 0)), (3.0, (0, 0)), (3.5, (0, 1)), (5.0, (0, 0)), (9.0, (1, 0))]
+    # the replay: backend mode while offline, a state the live robot never had
+    wrong = [(t, {"offline_warn": ow, "mode": m}) for t, ow, m in (
+        (1.5, 1, 0), (3.5, 1, 1), (3.9, 0, 1), (5.0, 0, 0), (9.0, 1, 0))]
+    problems = transition_differences(transitions(live, fields, 1.5, 10.0), transitions(wrong, fields))
+    assert problems and "states differ" in problems[0]
+    late = [(t, {"offline_warn": ow, "mode": m}) for t, ow, m in (
+        (1.5, 1, 0), (3.1, 0, 0), (3.6, 0, 1), (5.9, 0, 0), (9.0, 1, 0))]
+    assert transition_differences(transitions(live, fields, 1.5, 10.0), transitions(late, fields), 0.5) == [
+        "(0, 0): live at 5.000 s, replay at 5.900 s"]
+    assert transition_differences(transitions(live, fields, 1.5, 10.0), transitions(late, fields), 1.0) == []
