@@ -192,3 +192,19 @@ INFRARED_COMMANDS = (
 
 # --- voice -----------------------------------------------------------------------------------
 VOICE_LANGUAGES = ("chinese", "english")
+
+# --- interface topics (docs/interface.md, relative names) -------------------------------------
+# Every topic of the interface, named in full: bag_recorder subscribes to each by name when it
+# starts (not by pattern), so a topic a backend advertises later is recorded from its first message.
+# The *_cmd/*_ack pairs of every commanded node; location_cmd has no ack (the spec defines none).
+COMMAND_TOPICS = tuple("%s_%s" % (name, kind) for name in (
+    "mode", "control", "imu", "terrace", "arm", "camera", "infrared", "virtual_obstacle", "file", "calibration",
+    "charge", "task", "preset_scale", "read_scale", "voice") for kind in ("cmd", "ack")) + ("location_cmd", "move_cmd")
+ACTION_NAMES = ("move_action", "find_scale_action", "task_action")
+ACTION_TOPICS = ("goal", "cancel", "status", "feedback", "result")   # actionlib's topics of each action
+INTERFACE_TOPICS = (
+    "server_status", "preset_rotate",                                 # published only by a backend
+    "robot_status", "control_status", "nav_status", "robot_odom", "odom", "tf", "tf_static", "diagnostics",
+    "obstacle_status", "plan", "map", "virtual_obstacle_map", "virtual_obstacles",
+    "task_status", "charge_status", "terrace_state", "camera_zoom", "client_count",
+) + COMMAND_TOPICS + tuple("%s/%s" % (a, t) for a in ACTION_NAMES for t in ACTION_TOPICS)

@@ -1,8 +1,13 @@
 """Shared helpers for the rostest scripts: waiting for conditions with a deadline, never sleeping blind."""
 import itertools
+import os
+import signal
+import socket
+import subprocess
 import threading
 import time
 
+import rosgraph
 import rospy
 
 from inspection_robot.msg import GeneralAck, GeneralCmd
@@ -127,3 +132,68 @@ class TwinClient(object):
     def both(self):
         """(name, callable) for the service twin and the topic twin; both return .ack/.data."""
         return (("service", self.call), ("topic", self.topic))
+
+
+def free_port():
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def replay_bag(bag, out, log_path, at_end="hold", timeout=300.0):
+    """Plays ``bag`` with replay.launch (no bridge, paused until status_control and a capture are
+    subscribed) on a second ROS master and records the replayed robot_status into ``out``.
+
+    ``at_end`` hold: waits until the player has gone, then stops the launch; exit: waits for the
+    launch to end by itself. Returns the launch's exit status (None when this helper stopped it);
+    its output is in ``log_path``."""
+    port = free_port()
+    env = dict(os.environ, ROS_MASTER_URI="http://127.0.0.1:%d" % port)
+    # our own master, which outlives the launch: the capture below must close its bag while the
+    # master still answers (a launch that ends by itself would take its master along)
+    core = subprocess.Popen(["rosmaster", "--core", "-p", str(port)], env=env, stdout=subprocess.DEVNULL,
+                            stderr=subprocess.STDOUT, start_new_session=True)
+    launch = capture = code = None
+    try:
+        master = rosgraph.Master("/replay_probe", master_uri=env["ROS_MASTER_URI"])
+
+        def graph():
+            try:
+                return master.getSystemState()
+            except (socket.error, OSError, rosgraph.MasterException):
+                return None
+        wait_for(graph, 60.0, "replay master")
+        with open(log_path, "wb") as log:
+            launch = subprocess.Popen(["roslaunch", "inspection_robot", "replay.launch", "bag:=" + bag, "bridge:=false",
+                                       "pause:=true", "at_end:=" + at_end, "delay:=0.5"],
+                                      env=env, stdout=log, stderr=subprocess.STDOUT, start_new_session=True)
+        capture = subprocess.Popen(["rosbag", "record", "-O", out, "/robot_status", "__name:=replay_capture"],
+                                   env=env, stdout=subprocess.DEVNULL, stderr=subprocess.STDOUT)
+
+        def subscribed(topic, node):
+            state = graph()
+            return state and any(t == topic and node in nodes for t, nodes in state[1])
+        wait_for(lambda: all(subscribed(t, n) for t, n in (
+            ("/control_status", "/status_control"), ("/nav_status", "/status_control"),
+            ("/robot_odom", "/status_control"), ("/recorded/server_status", "/status_control"),
+            ("/robot_status", "/replay_capture"))), 60.0, "replay nodes subscribed")
+        subprocess.check_call(["rosservice", "call", "/replay_player/pause_playback", "false"], env=env,
+                              stdout=subprocess.DEVNULL, timeout=30)
+        if at_end == "exit":
+            code = wait_for(lambda: launch.poll() is not None and (launch.returncode,), timeout,
+                            "the replay to end by itself", period=0.5)[0]
+        else:
+            def player_done():
+                state = graph()
+                return state and not any("/replay_player" in nodes for _t, nodes in state[0])
+            wait_for(player_done, timeout, "the end of the replay", period=0.5)
+    finally:
+        for proc in (capture, launch, core):
+            if proc is not None and proc.poll() is None:
+                proc.send_signal(signal.SIGINT)
+                try:
+                    proc.wait(30)
+                except subprocess.TimeoutExpired:
+                    proc.kill()
+                    proc.wait()
+    return code

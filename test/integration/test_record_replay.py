@@ -9,15 +9,11 @@ the bag holds, and the heartbeat loss raising offline_warn at the same bag time.
 import glob
 import json
 import os
-import signal
-import socket
-import subprocess
 import threading
 import unittest
 
 import actionlib
 import rosbag
-import rosgraph
 import rosnode
 import rospy
 import rostest
@@ -26,7 +22,7 @@ from inspection_robot.interface import LIGHT_SOFT_ESTOP, MODE_SERVER, MODE_TASK
 from inspection_robot.msg import GeneralAck, GeneralAction, GeneralCmd, GeneralGoal, GeneralTopic, MoveCmd, RobotStatus
 from inspection_robot.recording.compare import compare_runs, rising_edges
 from inspection_robot.tools.bag_report import status_fields
-from rostest_helpers import Latest, wait_for, wait_subscribed
+from rostest_helpers import Latest, replay_bag, wait_for, wait_subscribed
 
 WALL = {"id": "record_test_wall", "points": [[30.0, 30.0], [31.0, 30.0]], "closed": False}   # far from the drive
 
@@ -36,22 +32,15 @@ POS_TOL = 0.1             # m
 STATUS_INPUTS = ["/control_status", "/nav_status", "/robot_odom", "/server_status"]
 
 
-def free_port():
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
 def bag_stream(path, topic):
     with rosbag.Bag(path) as bag:
         return [(m.header.stamp.to_sec(), status_fields(m)) for _t, m, _s in bag.read_messages(topics=[topic])]
 
 
 def inputs_start(path):
-    """Bag time from which the bag holds every input of status_control: rosbag record subscribes to each
-    topic when it discovers it (regex mode), so one input (e.g. nav_status of a move_base that is
-    still loading its map) may start later than the recorded robot_status; before that a replay
-    cannot rebuild it."""
+    """Bag time from which the bag holds every input of status_control: an input (e.g. nav_status of a
+    move_base that is still loading its map) may start later than the recorded robot_status; before
+    that a replay cannot rebuild it."""
     first = {}
     with rosbag.Bag(path) as bag:
         for topic, _msg, t in bag.read_messages(topics=STATUS_INPUTS):
@@ -145,49 +134,8 @@ class RecordReplayTest(unittest.TestCase):
     @classmethod
     def replay(cls, bag):
         """Plays ``bag`` with replay.launch on a second master; returns the bag of replayed robot_status."""
-        port = free_port()
-        env = dict(os.environ, ROS_MASTER_URI="http://127.0.0.1:%d" % port)
         out = os.path.join(cls.dir, "replayed.bag")
-        launch = subprocess.Popen(["roslaunch", "-p", str(port), "inspection_robot", "replay.launch", "bag:=" + bag,
-                                   "bridge:=false", "pause:=true", "player_required:=false", "delay:=0.5"],
-                                  env=env, stdout=subprocess.DEVNULL, stderr=subprocess.STDOUT,
-                                  start_new_session=True)
-        capture = None
-        try:
-            master = rosgraph.Master("/test_record_replay_probe", master_uri=env["ROS_MASTER_URI"])
-
-            def graph():
-                try:
-                    return master.getSystemState()
-                except (socket.error, OSError, rosgraph.MasterException):
-                    return None
-            wait_for(graph, 60.0, "replay master")
-            capture = subprocess.Popen(["rosbag", "record", "-O", out, "/robot_status", "__name:=replay_capture"],
-                                       env=env, stdout=subprocess.DEVNULL, stderr=subprocess.STDOUT)
-
-            def subscribed(topic, node):
-                state = graph()
-                return state and any(t == topic and node in nodes for t, nodes in state[1])
-            wait_for(lambda: all(subscribed(t, n) for t, n in (
-                ("/control_status", "/status_control"), ("/nav_status", "/status_control"),
-                ("/robot_odom", "/status_control"), ("/recorded/server_status", "/status_control"),
-                ("/robot_status", "/replay_capture"))), 60.0, "replay nodes subscribed")
-            subprocess.check_call(["rosservice", "call", "/replay_player/pause_playback", "false"], env=env,
-                                  stdout=subprocess.DEVNULL, timeout=30)
-
-            def player_done():
-                state = graph()
-                return state and not any("/replay_player" in nodes for _t, nodes in state[0])
-            wait_for(player_done, 300.0, "the end of the replay", period=0.5)
-        finally:
-            for proc in (capture, launch):
-                if proc is not None and proc.poll() is None:
-                    proc.send_signal(signal.SIGINT)
-                    try:
-                        proc.wait(30)
-                    except subprocess.TimeoutExpired:
-                        proc.kill()
-                        proc.wait()
+        replay_bag(bag, out, os.path.join(cls.dir, "replay.log"))
         return out
 
     def test_the_run_did_what_the_scenario_says(self):

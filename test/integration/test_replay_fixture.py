@@ -2,13 +2,15 @@
 """rostest (replay_fixture.test): replay.launch plays the fixture bag with use_sim_time;
 status_control must rebuild the recorded robot_status field by field, raise offline_warn at the
 recorded bag time, the latched map must come back, and a backend on the websocket must see it and
-get its virtual obstacle query answered from the recorded list (changes refused) as on the robot."""
+get its virtual obstacle query answered from the recorded list (changes refused) as on the robot,
+and the bridge must serve the operator console as on the robot."""
 import json
 import os
 import queue
 import sys
 import time
 import unittest
+import urllib.request
 
 import rosgraph
 import rospy
@@ -50,6 +52,7 @@ class ReplayFixtureTest(unittest.TestCase):
         cls.map = Latest("map", OccupancyGrid, queue_size=2)
         port = int(wait_for(lambda: rospy.get_param("rosbridge_websocket/actual_port", None), 60.0, "bridge port"))
         # A backend's view: a plain rosbridge v2 client (JSON frames) on the replay's websocket.
+        cls.port = port
         cls.client = RawClient("ws://127.0.0.1:%d" % port, timeout=20.0)
         cls.client.send({"op": "subscribe", "topic": "/robot_status", "type": "inspection_robot/RobotStatus"})
         cls.client.send({"op": "subscribe", "topic": "/virtual_obstacle_ack", "type": "inspection_robot/GeneralAck"})
@@ -159,6 +162,11 @@ class ReplayFixtureTest(unittest.TestCase):
         self.assertTrue(offline and server_mode)
         far = [m for m in self.backend if abs(m["position"][0] - 8.0) < 0.05 and m["position"][1] > 5.5]
         self.assertTrue(far, "the end of the drive at (8, 5.6)")
+
+    def test_the_console_is_served(self):
+        with urllib.request.urlopen("http://127.0.0.1:%d/console/" % self.port, timeout=10.0) as reply:
+            self.assertEqual(reply.status, 200)
+            self.assertIn(b"<html", reply.read().lower())
 
     def test_virtual_obstacle_query_is_answered_from_the_recording(self):
         listing = make_bag_fixture.FIXTURE_VIRTUAL_OBSTACLES

@@ -174,3 +174,89 @@ def test_the_executable_runs_by_name_without_traceback(tmp_path):
     proc = subprocess.run([exe, str(tmp_path / "none.bag")], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                           universal_newlines=True, timeout=60)
     assert proc.returncode == 1 and "no such bag file" in proc.stderr and "Traceback" not in proc.stderr
+
+
+# --- the picture's pure parts: positions never printed as nan, everything in the legend in view ---
+NAN = float("nan")
+
+
+def test_an_event_without_a_position_says_so():
+    from inspection_robot.recording.summary import Event, RunAnalyzer, format_summary, where_text
+    assert where_text(1.04, -2.0) == "at (1.0, -2.0)"
+    assert where_text(NAN, NAN) == "position unknown"
+    analyzer = RunAnalyzer()
+    status = {"offline_warn": 1, "mode": 0, "velocity_x": 0.0, "velocity_yaw": 0.0, "position": [NAN, NAN],
+              "battery_quantity": 80, "motor_status": [0] * 8, "other_status": [0]}
+    status.update({f: 0 for f in ("light_status", "stop_status", "circuit_status", "nav_status", "sensor_status",
+                                  "battery_status")})
+    analyzer.add_status(100.0, status)
+    analyzer.add_status(103.0, dict(status, position=[1.0, 2.0]))
+    text = format_summary(analyzer.finish())
+    assert "backend link lost (offline_warn)" in text and "position unknown" in text
+    assert "nan" not in text.lower()
+    events = [Event(0, NAN, NAN, "a"), Event(1, 1.0, 2.0, "b")]
+    assert bag_report.legend_label("alarms", events) == "alarms (2; 1 at an unknown position)"
+    assert bag_report.legend_label("alarms", events[1:]) == "alarms (1)"
+
+
+def test_the_view_holds_every_point_and_a_far_virtual_obstacle():
+    (x_lo, x_hi), (y_lo, y_hi) = bag_report.view_bounds([(0.0, 0.0), (2.0, 1.0), (NAN, NAN)],
+                                                        [(30.0, 31.0, 30.0, 30.1), None])
+    assert x_lo < 0.0 and x_hi > 31.0 and y_lo < 0.0 and y_hi > 30.1
+    assert bag_report.view_bounds([(NAN, NAN)]) is None
+    (x_lo, x_hi), _y = bag_report.view_bounds([(5.0, 5.0)])
+    assert (x_lo, x_hi) == (-1.0, 11.0)   # a short run: 6 m of the yard around it
+
+
+def test_the_occupied_cells_of_a_grid_bound_the_virtual_obstacle():
+    from nav_msgs.msg import OccupancyGrid
+    grid = OccupancyGrid()
+    grid.info.width, grid.info.height, grid.info.resolution = 10, 5, 0.5
+    grid.info.origin.position.x, grid.info.origin.position.y = -1.0, 2.0
+    cells = [0] * 50
+    cells[2 * 10 + 7] = 100   # row 2, column 7
+    grid.data = cells
+    assert bag_report.occupied_bounds(grid) == (2.5, 3.0, 3.0, 3.5)
+    grid.data = [0] * 50
+    assert bag_report.occupied_bounds(grid) is None
+
+
+@pytest.mark.parametrize("x,y,ha,va", [(9.0, 9.0, "right", "top"), (1.0, 1.0, "left", "bottom"),
+                                       (9.0, 1.0, "right", "bottom"), (1.0, 9.0, "left", "top")])
+def test_labels_point_toward_the_middle_of_the_view(x, y, ha, va):
+    bounds = ((0.0, 10.0), (0.0, 10.0))
+    dx, dy, got_ha, got_va = bag_report.label_offset(x, y, bounds)
+    assert (got_ha, got_va) == (ha, va)
+    assert (dx < 0) == (x > 5.0) and (dy > 0) == (y < 5.0)
+    _dx, dy2, _ha, _va = bag_report.label_offset(x, y, bounds, stacked=2)
+    assert abs(dy2) == abs(dy) + 22   # stacked labels move further from the point, same direction
+
+
+def test_the_picture_of_a_run_with_an_unplaced_alarm_and_a_far_obstacle(tmp_path):
+    from nav_msgs.msg import OccupancyGrid
+    from inspection_robot.recording.summary import Event, RunSummary, Stop
+    summary = RunSummary()
+    summary.t, summary.x, summary.y = [0.0, 1.0, 2.0], [0.0, 1.0, 2.0], [0.0, 0.0, 0.0]
+    summary.speed, summary.battery, summary.mode = [0.0, 0.5, 0.0], [80, 80, 80], [0, 0, 0]
+    summary.stops = [Stop(0.0, 0.0, 0.0, 3.0)]
+    summary.alarms = [Event(0.0, NAN, NAN, "backend link lost (offline_warn)"), Event(1.0, 1.0, 0.0, "bumper")]
+    virtual = OccupancyGrid()
+    virtual.info.width, virtual.info.height, virtual.info.resolution = 100, 100, 0.5
+    cells = [0] * 10000
+    cells[90 * 100 + 90] = 100
+    virtual.data = cells
+    out = str(tmp_path / "run.png")
+    bag_report.plot_run(summary, None, virtual, out, "made-up run")
+    with open(out, "rb") as f:
+        assert f.read(8) == b"\x89PNG\r\n\x1a\n"
+
+
+def test_replay_player_arguments_and_whom_it_may_end():
+    from inspection_robot.nodes import replay_player
+    assert replay_player.split_args(["--at-end", "exit", "--clock", "a.bag", "__name:=replay_player"]) == (
+        "exit", ["--clock", "a.bag", "__name:=replay_player"])
+    for bad in ([], ["--clock"], ["--at-end", "later"]):
+        with pytest.raises(ValueError, match="--at-end exit\\|hold"):
+            replay_player.split_args(bad)
+    assert not replay_player.launched_by_roslaunch(os.getpid())   # pytest, not roslaunch: never signalled
+    assert not replay_player.launched_by_roslaunch(2 ** 22 + 1)   # no such process

@@ -8,48 +8,63 @@ import cv2
 import numpy as np
 import pytest
 
-from inspection_robot.interface import LIGHT_SOFT_ESTOP, MODE_SERVER, MODE_TASK, NAV_OBSTACLE_3D
+from inspection_robot.interface import INTERFACE_TOPICS, LIGHT_SOFT_ESTOP, MODE_SERVER, MODE_TASK, NAV_OBSTACLE_3D
 from inspection_robot.recording.compare import compare_runs, rising_edges, status_difference
 from inspection_robot.recording.recorder import (RecorderError, bags_to_delete, compress_image, disk_verdict,
                                                  enforce_budget, list_bags, record_command)
 from inspection_robot.recording.summary import OFFLINE_ALARM, RunAnalyzer, format_summary, mode_time, reading_text
 
 
-def pattern_of(argv):
-    return re.compile(argv[argv.index("--regex") + 1])
+def topics_of(argv):
+    return argv[argv.index("__name:=run_record") + 1:]
 
 
 @pytest.mark.parametrize("ns,prefix", [("/", "/"), ("/robot_7/", "/robot_7/")])
-def test_record_command_matches_the_interface_topics_in_the_namespace(ns, prefix):
+def test_record_command_names_every_interface_topic_in_the_namespace(ns, prefix):
     argv = record_command("/data/bags", "run", ns, 100, 500, executable="/usr/lib/rosbag/record")
     assert argv[0] == "/usr/lib/rosbag/record"
     assert argv[argv.index("--size") + 1] == "100" and "--split" in argv and "--repeat-latched" in argv
     assert argv[argv.index("--min-space") + 1] == "500M"
     assert argv[argv.index("-o") + 1] == "/data/bags/run"
-    regex = pattern_of(argv)
+    assert "--regex" not in argv   # by name: subscribed at start, nothing lost to the master polling
+    topics = topics_of(argv)
     wanted = ["robot_status", "control_status", "nav_status", "robot_odom", "tf", "server_status", "plan",
               "map", "virtual_obstacle_map", "obstacle_status", "move_action/goal", "move_action/feedback",
-              "find_scale_action/result", "task_action/goal", "task_action/feedback",
-              "control_cmd", "control_ack", "virtual_obstacle_cmd", "mode_cmd",
-              "move_cmd", "task_status", "task_cmd", "task_ack", "read_scale_cmd", "read_scale_ack",
-              "virtual_obstacles", "virtual_obstacle_ack",
-              "charge_status", "charge_cmd", "charge_ack", "diagnostics"]
+              "find_scale_action/result", "task_action/goal", "task_action/feedback", "task_action/cancel",
+              "control_cmd", "control_ack", "virtual_obstacle_cmd", "mode_cmd", "mode_ack", "preset_rotate",
+              "move_cmd", "location_cmd", "task_status", "task_cmd", "task_ack", "read_scale_cmd", "read_scale_ack",
+              "preset_scale_cmd", "preset_scale_ack", "virtual_obstacles", "virtual_obstacle_ack", "voice_cmd",
+              "charge_status", "charge_cmd", "charge_ack", "diagnostics", "file_cmd", "calibration_ack"]
     for topic in wanted:
-        assert regex.match(prefix + topic), topic
+        assert prefix + topic in topics, topic
+    assert len(set(topics)) == len(topics)
+    assert all(t.startswith(prefix) for t in topics)
     for topic in ["camera/image_raw", "camera/camera_info", "obstacle_cloud", "sim/chassis_cmd", "sim/true_pose",
                   "rosout"]:
-        assert not regex.match(prefix + topic), topic
-    other = "/robot_8/robot_status" if ns != "/" else "/robot_8/robot_status"
-    assert not regex.match(other)
+        assert prefix + topic not in topics, topic
+
+
+def test_every_command_topic_of_the_interface_doc_is_recorded():
+    """docs/interface.md's topic tables name the *_cmd/*_ack topics; each must be in INTERFACE_TOPICS."""
+    doc = open(os.path.join(os.path.dirname(__file__), "..", "..", "docs", "interface.md")).read()
+    named = set(re.findall(r"^\| ([a-z_]+_(?:cmd|ack))(?: / ([a-z_]+_(?:cmd|ack)))? \| topic", doc, re.M))
+    documented = {n for pair in named for n in pair if n}
+    assert len(documented) > 20
+    assert documented - set(INTERFACE_TOPICS) == set()
 
 
 def test_images_are_recorded_compressed_only_when_asked():
-    plain = pattern_of(record_command("/d", "run", "/", 100, 500))
-    with_images = record_command("/d", "run", "/", 100, 500, image_topics=["camera/image_raw"])
-    assert not plain.match("/camera/image_raw/compressed")
-    assert pattern_of(with_images).match("/camera/image_raw/compressed")
-    assert not pattern_of(with_images).match("/camera/image_raw")
-    assert with_images[with_images.index("--exclude") + 1] == ".*image_raw$"
+    plain = topics_of(record_command("/d", "run", "/", 100, 500))
+    with_images = topics_of(record_command("/d", "run", "/", 100, 500, image_topics=["camera/image_raw"],
+                                           extra_topics=["/sim/true_pose", "robot_status"]))
+    assert "/camera/image_raw/compressed" not in plain
+    assert with_images == plain + ["/sim/true_pose", "/camera/image_raw/compressed"]
+
+
+@pytest.mark.parametrize("extra", [["camera/image_raw"], [""], ["a b"], ["/"]])
+def test_a_topic_that_cannot_be_recorded_is_refused(extra):
+    with pytest.raises(RecorderError, match="raw images|cannot be recorded"):
+        record_command("/d", "run", "/", 100, 500, extra_topics=extra)
 
 
 @pytest.mark.parametrize("kwargs,needle", [({"split_size_mb": 0}, "split_size_mb"),
@@ -295,3 +310,22 @@ def test_record_is_off_in_simulation_and_on_on_the_robot():
     assert record_default("robot.launch") == ["true"]
     core = ElementTree.parse(os.path.join(root, "launch", "core.launch")).getroot()
     assert any(i.get("file", "").endswith("/launch/include/record.launch") for i in core.iter("include"))
+
+
+def test_transitions_of_offline_warn_and_mode_compare_field_by_field():
+    from inspection_robot.recording.compare import transition_differences, transitions
+    live = [(t, {"offline_warn": ow, "mode": m}) for t, ow, m in (
+        (0.0, 1, 0), (1.0, 1, 0), (3.0, 0, 0), (3.5, 0, 1), (5.0, 0, 0), (9.0, 1, 0), (12.0, 0, 0))]
+    fields = ("offline_warn", "mode")
+    assert transitions(live, fields, start=1.5, end=10.0) == [
+        (1.5, (1, 0)), (3.0, (0, 0)), (3.5, (0, 1)), (5.0, (0, 0)), (9.0, (1, 0))]
+    # the issue's replay: backend mode while offline, a state the live robot never had
+    wrong = [(t, {"offline_warn": ow, "mode": m}) for t, ow, m in (
+        (1.5, 1, 0), (3.5, 1, 1), (3.9, 0, 1), (5.0, 0, 0), (9.0, 1, 0))]
+    problems = transition_differences(transitions(live, fields, 1.5, 10.0), transitions(wrong, fields))
+    assert problems and "states differ" in problems[0]
+    late = [(t, {"offline_warn": ow, "mode": m}) for t, ow, m in (
+        (1.5, 1, 0), (3.1, 0, 0), (3.6, 0, 1), (5.9, 0, 0), (9.0, 1, 0))]
+    assert transition_differences(transitions(live, fields, 1.5, 10.0), transitions(late, fields), 0.5) == [
+        "(0, 0): live at 5.000 s, replay at 5.900 s"]
+    assert transition_differences(transitions(live, fields, 1.5, 10.0), transitions(late, fields), 1.0) == []

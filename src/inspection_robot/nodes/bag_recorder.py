@@ -1,7 +1,8 @@
 """bag_recorder: records the robot's interface topics with rosbag into split bags under a disk budget.
 
 Runs rosbag's ``record`` executable as a child process (recording.recorder builds its command
-line): the interface topics of docs/operations.md "Recording", split every ~split_size_mb, lz4
+line): every interface topic by name (interface.INTERFACE_TOPICS, subscribed at its start, so nothing
+a backend sends in its first second is lost), split every ~split_size_mb, lz4
 compressed, latched topics (map, virtual obstacles, plan...) repeated at the start of every split.
 Every ~check_period it deletes the oldest closed bags until the folder fits ~budget_mb (never the
 bag being written) and checks the free space: below ~min_free_mb it stops the recorder cleanly

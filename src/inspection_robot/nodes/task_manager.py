@@ -302,7 +302,8 @@ class TaskManager(object):
         rospy.loginfo("%s: %s %s stop %d preset %d" % (NODE_NAME, step.task_id, step.kind, step.stop + 1,
                                                        step.preset_index + 1))
         try:
-            outcome, detail, timings = self._runner.run(step, lambda: self._interrupt_wanted(step))
+            outcome, detail, timings = self._runner.run(step, lambda: self._interrupt_wanted(step),
+                                                        lambda fraction: self._drive_progress(step, fraction))
         except Exception as err:  # boundary: a bug in one step fails that step, the patrol goes on
             rospy.logerr("%s: %s step raised %s\n%s" % (NODE_NAME, step.kind, err, traceback.format_exc()))
             outcome, detail, timings = "failed", "internal error: %s" % (err,), {}
@@ -321,6 +322,10 @@ class TaskManager(object):
                                                              outcome, detail))
             self._overhead_s += time.monotonic() - tick
             self._publish_status(force=True)
+
+    def _drive_progress(self, step, fraction):
+        with self._lock:   # eta_s falls with it; the status timer publishes the change
+            self.patrol.drive_progress(step, fraction)
 
     def _interrupt_wanted(self, step):
         with self._lock:

@@ -93,3 +93,31 @@ def rising_edges(stream, field):
             edges.append(t)
         before = value
     return edges
+
+
+def transitions(stream, fields, start=None, end=None):
+    """[(t, values)] of a status stream: its state at ``start`` (the last status at or before it, else
+    the first after it) and every change of the ``fields`` tuple up to ``end``; ``values`` a tuple."""
+    out = []
+    for t, status in stream:
+        if end is not None and t > end:
+            break
+        values = tuple(_as_list(status[f]) for f in fields)
+        if start is not None and t <= start:
+            out = [(start, values)]
+        elif not out or out[-1][1] != values:
+            out.append((t, values))
+    return out
+
+
+def transition_differences(live, replayed, time_tol=0.5):
+    """Texts of the differences between two transitions lists: the same states in the same order,
+    each change within ``time_tol`` s (the first entry is the window's start state: value only)."""
+    problems = []
+    if [v for _t, v in live] != [v for _t, v in replayed]:
+        problems.append("states differ: live %s, replay %s" % ([v for _t, v in live], [v for _t, v in replayed]))
+        return problems
+    for i, ((t_live, values), (t_replay, _v)) in enumerate(zip(live, replayed)):
+        if i and abs(t_live - t_replay) > time_tol:
+            problems.append("%s: live at %.3f s, replay at %.3f s" % (values, t_live, t_replay))
+    return problems

@@ -2,23 +2,17 @@
 budget (oldest closed bags go first, never the one being written) and the disk-full verdict.
 
 Bags are written by Debian's/Noetic's ``rosbag record`` (a child process); this module only decides
-what it is told and what is deleted. Topic names are regular expressions over *resolved* names
-(the robot's namespace is a prefix), so a topic that appears later (e.g. the task topics) is
-picked up when it is advertised (rosbag record polls the master in regex mode).
+what it is told and what is deleted. Every topic is named in full (interface.INTERFACE_TOPICS,
+resolved in the robot's namespace): rosbag record then subscribes to each at its start, and the
+master tells it about a publisher that appears later (a backend advertising server_status or
+mode_cmd over the websocket) as it tells every other subscriber, so the recorder connects as soon
+as the robot's own nodes do and misses nothing. In ``--regex`` mode it would only poll the master
+(about once a second) and lose what a backend sends in its first second.
 """
 import os
-import re
 
-# The interface topics (relative names; docs/operations.md "Recording"). Regex fragments.
-INTERFACE_TOPICS = (
-    "robot_status", "control_status", "nav_status", "robot_odom", "odom", "tf", "tf_static",
-    "server_status", "diagnostics", "obstacle_status", "plan", "map", "virtual_obstacle_map",
-    "virtual_obstacles",
-    "move_action/.*", "find_scale_action/.*", "task_action/.*",
-    "[A-Za-z0-9_]+_cmd", "[A-Za-z0-9_]+_ack",
-    "task_status", "charge_status",
-    "terrace_state", "camera_zoom", "client_count",
-)
+from inspection_robot.interface import INTERFACE_TOPICS
+
 # Raw images never go into a bag (about 1 MB each); with record_images they are recorded as the
 # JPEG CompressedImage topics that bag_recorder publishes at ``<topic>/compressed``.
 IMAGE_SUFFIX = "/compressed"
@@ -30,30 +24,40 @@ class RecorderError(ValueError):
     """A recorder parameter that cannot work (negative size, empty directory...)."""
 
 
-def topic_pattern(namespace, names):
-    """One anchored regex matching every name in ``names`` (regex fragments) under ``namespace``."""
-    ns = "/" + namespace.strip("/") if namespace.strip("/") else ""
-    return "^%s/(%s)$" % (re.escape(ns), "|".join(names))
+def recorded_topics(namespace, image_topics=(), extra_topics=()):
+    """Absolute names of every recorded topic: the interface topics, ``extra_topics`` and the JPEG
+    ``<topic>/compressed`` of each of ``image_topics``, all relative to ``namespace`` (a leading
+    ``/`` is ignored, as for every interface topic), without duplicates, in that order."""
+    ns = "/" + namespace.strip("/") + "/" if namespace.strip("/") else "/"
+    names = list(INTERFACE_TOPICS) + list(extra_topics) + [t.rstrip("/") + IMAGE_SUFFIX for t in image_topics]
+    out = []
+    for name in names:
+        relative = str(name).strip().strip("/")
+        if not relative or any(c.isspace() for c in relative) or "//" in relative:
+            raise RecorderError("topic name %r cannot be recorded" % (name,))
+        full = ns + relative
+        if full.endswith("image_raw"):
+            raise RecorderError("%s: raw images are never recorded (set ~record_images, recorded as JPEG)" % full)
+        if full not in out:
+            out.append(full)
+    return out
 
 
 def record_command(directory, prefix, namespace, split_size_mb, min_free_mb, image_topics=(),
                    extra_topics=(), executable="record"):
-    """argv of rosbag's ``record`` executable (``executable``: its path) for the interface topics
-    (+ the compressed ``image_topics``). The C++ executable is run directly: the ``rosbag record``
-    wrapper cannot pass ``--min-space``, whose default (1 GB) would silently stop a bag."""
+    """argv of rosbag's ``record`` executable (``executable``: its path) for recorded_topics. The C++
+    executable is run directly: the ``rosbag record`` wrapper cannot pass ``--min-space``, whose
+    default (1 GB) would silently stop a bag."""
     if not directory:
         raise RecorderError("bag directory is empty")
     if split_size_mb <= 0:
         raise RecorderError("split_size_mb must be positive, got %r" % (split_size_mb,))
     if min_free_mb < 0:
         raise RecorderError("min_free_mb must not be negative, got %r" % (min_free_mb,))
-    names = list(INTERFACE_TOPICS) + [re.escape(t.strip("/")) for t in extra_topics]
-    names += [re.escape(t.strip("/") + IMAGE_SUFFIX) for t in image_topics]
-    return [executable, "--regex", topic_pattern(namespace, names),
-            "--exclude", ".*image_raw$",      # never a raw image, whatever a regex matches
-            "--lz4", "--repeat-latched", "--split", "--size", str(int(split_size_mb)),
+    topics = recorded_topics(namespace, image_topics, extra_topics)
+    return [executable, "--lz4", "--repeat-latched", "--split", "--size", str(int(split_size_mb)),
             "--min-space", "%dM" % int(min_free_mb),
-            "-o", os.path.join(directory, prefix), "__name:=%s_record" % prefix]
+            "-o", os.path.join(directory, prefix), "__name:=%s_record" % prefix] + topics
 
 
 def list_bags(directory):

@@ -266,6 +266,13 @@ def reading_text(reading):
     return "%s: %s = %s (%s)" % (source, reading.target, value_text(reading), state or "?")
 
 
+def where_text(x, y):
+    """``at (1.0, 2.0)``, or ``position unknown`` for an event before the robot had a pose (never nan)."""
+    if not (math.isfinite(x) and math.isfinite(y)):
+        return "position unknown"
+    return "at (%.1f, %.1f)" % (x, y)
+
+
 def _clock(seconds):
     seconds = max(0, int(round(seconds)))
     return "%d:%02d:%02d" % (seconds // 3600, seconds // 60 % 60, seconds % 60)
@@ -274,7 +281,7 @@ def _clock(seconds):
 def _events(title, events, limit=10):
     lines = ["%s: %d" % (title, len(events))]
     for e in events[:limit]:
-        lines.append("  %s  %-40s at (%.1f, %.1f)" % (_clock(e.t), e.text, e.x, e.y))
+        lines.append("  %s  %-40s %s" % (_clock(e.t), e.text, where_text(e.x, e.y)))
     if len(events) > limit:
         lines.append("  ... and %d more" % (len(events) - limit))
     return lines
@@ -299,7 +306,7 @@ def format_summary(summary, bag_name=""):
              "goals: %d" % len(s.goals)]
     lines.append("stops: %d" % len(s.stops))
     for stop in s.stops[:10]:
-        lines.append("  %s  %.0f s at (%.1f, %.1f)" % (_clock(stop.t), stop.duration, stop.x, stop.y))
+        lines.append("  %s  %.0f s %s" % (_clock(stop.t), stop.duration, where_text(stop.x, stop.y)))
     if len(s.stops) > 10:
         lines.append("  ... and %d more" % (len(s.stops) - 10))
     alarmed = sum(1 for r in s.readings if r.alarm == READING_ALARM)

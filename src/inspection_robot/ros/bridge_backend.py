@@ -132,6 +132,13 @@ def publisher_queue_depth(publisher):
     return depth
 
 
+def known_topic_types(master):
+    """The master's (topic, type) pairs without the ones of type ``*``: a topic that only a
+    type-agnostic subscriber wants (bag_recorder subscribes to every interface topic by name before
+    anyone publishes it) has no type yet, and a client may advertise it with its own."""
+    return [(name, type_name) for name, type_name in master.getTopicTypes() if type_name != rosgraph.names.ANYTYPE]
+
+
 class EarlyMessageReplay(rospy.SubscribeListener):
     """Hands messages published in the first ``window`` s of a publisher to late-connecting subscribers.
 
@@ -193,7 +200,7 @@ class RosBackend(object):
             if topic in table:
                 return table[topic].type_name
         resolved = rospy.resolve_name(topic)
-        for name, type_name in self._master.getTopicTypes():
+        for name, type_name in known_topic_types(self._master):
             if name == resolved:
                 return type_name
         return None
@@ -443,7 +450,7 @@ class RosGraph(object):
         return rospy.resolve_name(name) if name else name
 
     def topic_types(self):
-        return [(name, type_name) for name, type_name in self._master.getTopicTypes()]
+        return known_topic_types(self._master)
 
     def system_state(self):
         return self._master.getSystemState()

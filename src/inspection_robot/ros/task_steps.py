@@ -2,8 +2,9 @@
 
 move / home: move_action goal; inspect: find_scale_action (find_scale, or find_both when foreign
 objects are asked) then read_scale_cmd and its read_scale_ack (matched by trans_id). Each wait
-polls ``interrupted()`` every 0.1 s and cancels the running goal when it says so. Returns
-(outcome, detail, timings) where timings = {"find": s, "read": s} for inspections.
+polls ``interrupted()`` every 0.1 s and cancels the running goal when it says so. A drive hands
+the share of its path already driven (move_action feedback, task.drive_progress) to ``progress``.
+Returns (outcome, detail, timings) where timings = {"find": s, "read": s} for inspections.
 """
 import itertools
 import json
@@ -17,6 +18,7 @@ from actionlib.action_client import CommState
 
 from inspection_robot.interface import FIND_RESULT_SUCCESS, MOVE_GOAL_TYPE, MOVE_RESULT_SUCCESS
 from inspection_robot.msg import GeneralAction, GeneralGoal, ReadScaleAck, ReadScaleCmd
+from inspection_robot.task.drive_progress import DriveProgress
 from inspection_robot.task.patrol import (OUTCOME_FAILED, OUTCOME_INTERRUPTED, OUTCOME_OK, STEP_INSPECT,
                                           Inspection)
 
@@ -50,19 +52,27 @@ class StepRunner(object):
         # a respawned task_manager must not take an old ack for its own request
         self._trans_ids = itertools.count(int(time.time() * 10) % 1000000000)
 
-    def run(self, step, interrupted):
+    def run(self, step, interrupted, progress=lambda fraction: None):
+        """``progress(fraction)``: called from actionlib's thread as a drive advances (0..1)."""
         if step.kind == STEP_INSPECT:
             return self._inspect(step, interrupted)
-        return self._move(step, interrupted) + ({},)
+        return self._move(step, interrupted, progress) + ({},)
 
     # --- move ----------------------------------------------------------------------------------
-    def _move(self, step, interrupted):
+    def _move(self, step, interrupted, progress):
         data = json.dumps({"goal_pose": {"position": {"x": step.x, "y": step.y, "z": 0.0},
                                          "orientation": {"x": 0.0, "y": 0.0, "z": math.sin(step.yaw / 2.0),
                                                          "w": math.cos(step.yaw / 2.0)}},
                            "precision": step.precision, "with_direction": 1, "move_style": 0,
                            "velocity_x": self._velocity[0], "velocity_yaw": self._velocity[1]})
-        result = self._goal(self.move, "move_action", MOVE_GOAL_TYPE, data, self._timeouts["move"], interrupted)
+        drive = DriveProgress()
+
+        def on_feedback(_handle, feedback):
+            fraction = drive.feed(feedback.event_code, feedback.data)
+            if fraction is not None:
+                progress(fraction)
+        result = self._goal(self.move, "move_action", MOVE_GOAL_TYPE, data, self._timeouts["move"], interrupted,
+                            on_feedback)
         if isinstance(result, tuple):
             return result
         if result.ret_code == MOVE_RESULT_SUCCESS:
@@ -132,11 +142,11 @@ class StepRunner(object):
             return self._acks.pop(cmd.trans_id)
 
     # --- shared goal wait ------------------------------------------------------------------------
-    def _goal(self, client, name, goal_type, data, timeout, interrupted):
+    def _goal(self, client, name, goal_type, data, timeout, interrupted, feedback=None):
         """The action's result, or (outcome, reason) when it did not finish normally."""
         if not client.wait_for_server(rospy.Duration(5.0)):
             return OUTCOME_FAILED, "%s server not available" % name
-        handle = client.send_goal(GeneralGoal(type=goal_type, data=data))
+        handle = client.send_goal(GeneralGoal(type=goal_type, data=data), feedback_cb=feedback)
         deadline = time.monotonic() + timeout
         cancelled = None
         while handle.get_comm_state() != CommState.DONE:

@@ -104,6 +104,7 @@ class Patrol(object):
         self.active = None
         self.suspended = None
         self.running = None
+        self.running_fraction = 0.0  # share of the running drive already driven (move_action feedback)
         self.returning_home = False
         self.home_error = ""
         self.last_result = None
@@ -241,11 +242,18 @@ class Patrol(object):
             return bool(self.holds) or self.active is None or self.active.task.task_id != step.task_id
         return False
 
+    def drive_progress(self, step, fraction):
+        """The running drive ``step`` has driven ``fraction`` (0..1) of its planned path: eta_s counts
+        only the rest of it, so the ETA falls during a drive instead of standing still."""
+        if step is self.running and step.kind == STEP_MOVE and fraction == fraction:
+            self.running_fraction = min(1.0, max(0.0, float(fraction)))
+
     def step_done(self, step, outcome, detail, started, now):
         """Record the end of ``step``: outcome ok (detail: an Inspection for inspect steps), failed
         (detail: the reason) or interrupted. Readings are committed before this returns."""
         if step is self.running:
             self.running = None
+            self.running_fraction = 0.0
         reason = detail if outcome != OUTCOME_OK else ""
         self.store.add_step(step.task_id, step.stop, step.preset_index, step.kind, outcome, started, now, reason)
         if outcome == OUTCOME_OK:
@@ -376,6 +384,9 @@ class Patrol(object):
     def _eta(self, run):
         remaining = run.remaining()
         moves = len(set(i for i, _j in remaining)) - (1 if remaining and run.at_stop == remaining[0][0] else 0)
+        driving = self.running is not None and self.running.kind == STEP_MOVE and \
+            self.running.task_id == run.task.task_id
+        moves -= self.running_fraction if driving else 0.0   # the driven part of the running drive
         return moves * self._mean(STEP_MOVE, self.config.move_estimate_s) + \
             len(remaining) * self._mean(STEP_INSPECT, self.config.preset_estimate_s)
 

@@ -17,6 +17,7 @@ A missing, truncated or foreign bag, or a topic of an unexpected type, ends with
 Run it with ``scripts/rosenv bag_report ...`` or ``rosrun inspection_robot bag_report ...``.
 """
 import argparse
+import math
 import os
 import struct
 import sys
@@ -237,31 +238,39 @@ def plot_run(summary, grid, virtual, out_path, title):
         vshade, vextent = grid_image(virtual)
         mask = np.ma.masked_where(vshade > 0.5, np.ones_like(vshade))
         ax.imshow(mask, cmap="autumn", alpha=0.8, origin="lower", extent=vextent, interpolation="nearest")
-        ax.plot([], [], color="red", lw=4, label="virtual obstacle")
-    ax.plot(xs, ys, color="tab:blue", lw=2, label="driven path (%.1f m)" % summary.distance)
+        ax.plot([], [], color="red", lw=4, label="virtual obstacle")   # view_bounds keeps its cells in view
+    ax.plot(xs, ys, color="tab:blue", lw=2, label="driven path (%.1f m)" % summary.distance, zorder=2)
     finite = np.isfinite(xs) & np.isfinite(ys)
-    if finite.any():
-        ax.plot(xs[finite][0], ys[finite][0], "o", color="green", ms=10, label="start")
-        ax.plot(xs[finite][-1], ys[finite][-1], "s", color="black", ms=9, label="end")
     markers = (("goals", summary.goals, "*", "tab:green", 16), ("stops", summary.stops, "o", "orange", 10),
                ("readings", summary.readings, "D", "tab:cyan", 8),
                ("alarms", summary.alarms, "^", "red", 12), ("3-D obstacles", summary.obstacles, "x", "magenta", 11))
     for label, events, marker, color, size in markers:
         if events:
             ax.plot([e.x for e in events], [e.y for e in events], marker, color=color, ms=size, ls="none",
-                    mec="black" if marker != "x" else color, label="%s (%d)" % (label, len(events)))
+                    mec="black" if marker != "x" else color, label=legend_label(label, events), zorder=3)
+    if finite.any():   # above the stop markers: the run starts and ends at rest, i.e. at a stop
+        ax.plot(xs[finite][0], ys[finite][0], "o", color="green", ms=7, mec="white", mew=1.5, label="start",
+                zorder=5)
+        ax.plot(xs[finite][-1], ys[finite][-1], "s", color="black", ms=6, mec="white", mew=1.5, label="end",
+                zorder=5)
+    bounds = view_bounds(list(zip(xs[finite], ys[finite])) + [
+        (e.x, e.y) for group in (summary.goals, summary.stops, summary.readings, summary.alarms, summary.obstacles)
+        for e in group], [occupied_bounds(virtual)] if virtual is not None else [])
+    if bounds is not None:
+        ax.set_xlim(*bounds[0])
+        ax.set_ylim(*bounds[1])
     for i, stop in enumerate(summary.stops[:30]):
-        ax.annotate("S%d" % (i + 1), (stop.x, stop.y), xytext=(6, 6), textcoords="offset points", fontsize=9)
+        _label(ax, "S%d" % (i + 1), stop.x, stop.y, bounds, 0, fontsize=9)
     for label, x, y, alarm in _reading_labels(summary.readings[:MAX_LISTED]):   # R<i>: line i of the list below
-        ax.annotate(label, (x, y), xytext=(-8, 8), textcoords="offset points", ha="right", fontsize=8,
-                    color="darkred" if alarm else "teal")
+        _label(ax, label, x, y, bounds, 1, fontsize=8, color="darkred" if alarm else "teal")
     placed = []
-    for alarm in summary.alarms[:12]:   # labels at the same spot are stacked, not drawn over each other
+    for alarm in summary.alarms[:12]:   # labels at one spot are stacked (stop, reading, alarms), not overlaid
+        if not (np.isfinite(alarm.x) and np.isfinite(alarm.y)):
+            continue
         below = sum(1 for p in placed if abs(p[0] - alarm.x) < 0.5 and abs(p[1] - alarm.y) < 0.5)
         placed.append((alarm.x, alarm.y))
-        ax.annotate("%s (%.0f s)" % (alarm.text, alarm.t), (alarm.x, alarm.y), xytext=(8, -12 - 11 * below),
-                    textcoords="offset points", fontsize=8, color="darkred")
-    _zoom(ax, xs[finite], ys[finite], summary)
+        _label(ax, "%s (%.0f s)" % (alarm.text, alarm.t), alarm.x, alarm.y, bounds, below + 2, fontsize=8,
+               color="darkred")
     ax.set_xlabel("x (m, map)")
     ax.set_ylabel("y (m, map)")
     ax.set_aspect("equal", adjustable="datalim")
@@ -330,18 +339,59 @@ def _lists(ax, summary):
             transform=ax.transAxes)
 
 
-def _zoom(ax, xs, ys, summary):
-    """Show the driven area (with every marker) plus a margin, not the whole yard map."""
-    px = list(xs) + [e.x for group in (summary.goals, summary.alarms, summary.obstacles) for e in group]
-    py = list(ys) + [e.y for group in (summary.goals, summary.alarms, summary.obstacles) for e in group]
-    pts = [(a, b) for a, b in zip(px, py) if a == a and b == b]
-    if not pts:
-        return
-    lo_x, hi_x = min(p[0] for p in pts), max(p[0] for p in pts)
-    lo_y, hi_y = min(p[1] for p in pts), max(p[1] for p in pts)
-    margin = max(6.0, 0.15 * max(hi_x - lo_x, hi_y - lo_y))   # some of the yard around a short run
-    ax.set_xlim(lo_x - margin, hi_x + margin)
-    ax.set_ylim(lo_y - margin, hi_y + margin)
+def legend_label(name, events):
+    """``alarms (3)``, or ``alarms (3; 1 at an unknown position)`` when some cannot be drawn."""
+    unknown = sum(1 for e in events if not (math.isfinite(e.x) and math.isfinite(e.y)))
+    return "%s (%d%s)" % (name, len(events), "; %d at an unknown position" % unknown if unknown else "")
+
+
+def occupied_bounds(grid):
+    """(x_min, x_max, y_min, y_max) in metres of the occupied cells of an OccupancyGrid, or None."""
+    import numpy as np
+    info = grid.info
+    cells = np.asarray(grid.data, dtype=np.int16).reshape(info.height, info.width)
+    rows, cols = np.nonzero(cells > 50)
+    if not len(rows):
+        return None
+    x0, y0, res = info.origin.position.x, info.origin.position.y, info.resolution
+    return (x0 + cols.min() * res, x0 + (cols.max() + 1) * res, y0 + rows.min() * res, y0 + (rows.max() + 1) * res)
+
+
+def view_bounds(points, boxes=(), min_margin=6.0):
+    """((x_lo, x_hi), (y_lo, y_hi)) of the map view: every finite point and every box (x_min, x_max,
+    y_min, y_max; None ignored) plus a margin (``min_margin`` m or 15 % of the size), so the driven
+    area and everything the legend lists are drawn, not the whole yard. None when nothing is known."""
+    xs = [x for x, y in points if math.isfinite(x) and math.isfinite(y)]
+    ys = [y for x, y in points if math.isfinite(x) and math.isfinite(y)]
+    for box in boxes:
+        if box is not None:
+            xs += [box[0], box[1]]
+            ys += [box[2], box[3]]
+    if not xs:
+        return None
+    margin = max(min_margin, 0.15 * max(max(xs) - min(xs), max(ys) - min(ys)))
+    return (min(xs) - margin, max(xs) + margin), (min(ys) - margin, max(ys) + margin)
+
+
+def label_offset(x, y, bounds, stacked=0, step=11):
+    """(dx, dy, ha, va) in points placing a label next to (x, y) toward the middle of the view, so it
+    stays inside the axes: left of a point in the right half, above a point in the lower half.
+    ``stacked`` labels already at that spot push this one further away (``step`` points each)."""
+    if bounds is None:
+        return 6, 6 + step * stacked, "left", "bottom"
+    (x_lo, x_hi), (y_lo, y_hi) = bounds
+    right = x > (x_lo + x_hi) / 2.0
+    low = y < (y_lo + y_hi) / 2.0
+    dx, ha = (-8, "right") if right else (8, "left")
+    dy, va = (6 + step * stacked, "bottom") if low else (-6 - step * stacked, "top")
+    return dx, dy, ha, va
+
+
+def _label(ax, text, x, y, bounds, stacked, **style):
+    if not (math.isfinite(x) and math.isfinite(y)):
+        return   # no position: listed in the text and under the plots, not drawn
+    dx, dy, ha, va = label_offset(x, y, bounds, stacked)
+    ax.annotate(text, (x, y), xytext=(dx, dy), textcoords="offset points", ha=ha, va=va, zorder=6, **style)
 
 
 def run(argv=None):
