@@ -174,7 +174,7 @@ class ScaleReader(object):
                 image = images[path]
                 _check_quad(quad, image.shape, "box %d" % i)
                 try:
-                    reading = self._read_one(preset, target, image, quad)
+                    reading = self.read_target(preset, target, image, quad)
                 except ReadFailed as err:
                     raise ReadError("box %d: %s" % (i, err))
                 annotated = image.copy()
@@ -187,7 +187,9 @@ class ScaleReader(object):
                                                                      reading.confidence, " uncertain" if why else ""))
             outcome.picture_path.append(_save(annotated, out_dir, "%s_read_%02d.jpg" % (stamp, i)))
 
-    def _read_one(self, preset, target, image, quad):
+    def read_target(self, preset, target, image, quad):
+        """One pointer, lamp or switch target of ``preset`` read in ``quad`` of ``image`` (also the
+        bench's replay of a reviewed reading); ReadFailed when it cannot be read."""
         p = target.params
         if target.kind == "pointer":
             self._check_same_gauge(preset, target, image, quad)
