@@ -386,5 +386,5 @@ def test_reports_have_every_reading_and_highlight_alarms(env, tmp_path):
                                          "alarms": 1, "checks": 0}
     with open(paths["report.html"]) as f:
         page = f.read()
-    assert page.index('<tr class="alarm read">') < page.index('<tr class="none read">')
+    assert page.index('<tr class="alarm">') < page.index('<tr class="none">')
     assert "file:///pic/0_0_0.jpg" in page

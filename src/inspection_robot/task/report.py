@@ -91,9 +91,10 @@ def _table_rows(rows):
         band = "" if r["low"] is None else "%s .. %s" % (_fmt(r["low"]), _fmt(r["high"]))
         picture = ('<a href="file://%s"><img src="file://%s" alt="%s"></a>'
                    % (esc(r["picture"]), esc(r["picture"]), esc(r["target_name"])) if r["picture"] else "")
-        body.append('<tr class="%s %s"><td>%d %s</td><td>%s</td><td>%s (%s)</td><td>%s</td><td>%s</td><td>%s</td>'
+        body.append('<tr class="%s%s"><td>%d %s</td><td>%s</td><td>%s (%s)</td><td>%s</td><td>%s</td><td>%s</td>'
                     '<td>%s</td><td>%s</td><td>%s</td><td>%s</td></tr>'
-                    % (esc(r["alarm"]), esc(r["status"]), r["stop"] + 1, esc(r["stop_name"]),
+                    % (esc(r["alarm"]), "" if r["status"] == STATUS_READ else " " + esc(r["status"]),
+                       r["stop"] + 1, esc(r["stop_name"]),
                        esc(preset_label(r["preset"])), esc(r["target_name"]), esc(r["kind"]), esc(_value_text(r)),
                        band, esc(r["alarm"]), _fmt(r["confidence"], 3),
                        time.strftime("%Y-%m-%d %H:%M:%S", time.localtime(r["time"])), esc(r["reason"]), picture))
