@@ -15,6 +15,12 @@ through read_scale's core (ScaleReader): accuracy, the share flagged uncertain, 
 are not a gauge, which must fail. BENCH_REAL_CENTRE_OFF=f calibrates the centre f tick radii off the
 labelled pivot (a dial's centre clicked as the pivot), BENCH_REAL_HUB=0 reads without the hub search.
 
+Field part (when ``<data_root>/corrections/`` holds files, BENCH_CORRECTIONS_DIR overrides the
+folder): every uncertain patrol reading an operator confirmed or corrected (task_manager's
+``review``, docs/interface.md "Uncertain readings and their review") is read again from its picture
+and box with its preset's calibration and scored against the operator's true value: the field set
+grows with every review. Only pointer targets with a known picture and box are scored.
+
 Prints one JSON line per figure: mean abs error (% of full scale), share within 1 % and 1.5 %
 FS, find success rate, mean ROI IoU, time per find and per read.
 """
@@ -262,6 +268,46 @@ def real_cases(photo_dir, tmp):
     return out
 
 
+def correction_cases(folder):
+    """Read every correction file's picture again (its box, its preset's calibration); the result
+    dicts with the error against the operator's true value (% FS)."""
+    from inspection_robot.inspection.preset import PresetError, load_preset
+    from inspection_robot.inspection.reading import ScaleReader
+    reader = ScaleReader([], [], folder, pointer=PointerReader())
+    out = []
+    for name in sorted(n for n in os.listdir(folder) if n.endswith(".json")):
+        with open(os.path.join(folder, name)) as f:
+            case = json.load(f)
+        if case.get("kind") != "pointer" or not case.get("picture") or len(case.get("roi") or []) != 8:
+            continue
+        image = cv2.imread(case["picture"], cv2.IMREAD_COLOR)
+        try:
+            preset = load_preset(case["preset"])
+            target = preset.targets[case["target"]]
+        except (PresetError, IndexError) as err:
+            out.append({"id": name, "failed": "preset: %s" % err})
+            continue
+        if image is None:
+            out.append({"id": name, "failed": "picture missing: %s" % case["picture"]})
+            continue
+        t0 = time.perf_counter()
+        try:
+            reading = reader.read_target(preset, target, image, np.array(case["roi"], float).reshape(4, 2))
+        except ReadFailed as err:
+            out.append({"id": name, "failed": str(err), "t": time.perf_counter() - t0})
+            continue
+        out.append({"id": name, "failed": "", "value": reading.value, "truth": case["true_value"],
+                    "error": target.scale.error_percent_fs(reading.value, case["true_value"]),
+                    "uncertain": bool(reading.detail.get("reason")), "t": time.perf_counter() - t0})
+    return out
+
+
+def report_corrections(rows):
+    print(json.dumps(dict(_accuracy("inspection_field_corrections", rows), files=len(rows),
+                          failed=sum(1 for r in rows if r["failed"]),
+                          still_uncertain=sum(1 for r in rows if r.get("uncertain")))))
+
+
 def _accuracy(name, rows):
     errors = np.array([r["error"] for r in rows if r.get("error") is not None and not r["failed"]])
     if not len(errors):
@@ -341,6 +387,12 @@ def main():
     else:
         print(json.dumps({"bench": "inspection_real", "skipped": "no photos in %s (run scripts/real_gauges.py)"
                           % photo_dir}))
+    corrections = os.environ.get("BENCH_CORRECTIONS_DIR") or os.path.join(
+        os.environ.get("ROS_HOME", os.path.expanduser("~/.ros")), "inspection_robot", "corrections")
+    if os.path.isdir(corrections):
+        report_corrections(correction_cases(corrections))
+    else:
+        print(json.dumps({"bench": "inspection_field_corrections", "skipped": "no folder %s" % corrections}))
     world_count = int(os.environ.get("BENCH_INSPECTION_WORLD_CASES", "40"))
     if world_count > 0:
         tmp = tempfile.mkdtemp(prefix="bench_inspection_")

@@ -40,7 +40,8 @@ TARGETS = [{"name": "t%d" % k, "kind": "pointer", "unit": "MPa"} for k in range(
 
 def synthetic(folder, stops=50, presets=3):
     store = ResultStore(os.path.join(folder, "bench.sqlite"))
-    config = PatrolConfig(retry_delay_s=1.0, home_pose=(0.0, 0.0, 0.0), move_estimate_s=20.0, preset_estimate_s=10.0)
+    config = PatrolConfig(retry_delay_s=1.0, home_pose=(0.0, 0.0, 0.0), move_estimate_s=20.0, preset_estimate_s=10.0,
+                          uncertain_retries=1)
     patrol = Patrol(store, config, time.time())
     patrol.set_mode(0)
     task = parse_task(json.dumps({"id": "bench", "stops": [

@@ -6,7 +6,8 @@ virtual obstacle (then edited and deleted), a click on the picture turning the h
 preset directory, a goal sent and cancelled; a meter box and needle points drawn on the preset's
 picture becoming its calibration (after the robot's refusal of a bad one is shown); a patrol started,
 paused, cancelled, resumed and sent home from the page as task_status reports it, its reading listed
-with its annotated picture; and a second, authenticated bridge where the page asks for the token, refuses a
+with its annotated picture; two uncertain readings settled from the review panel (one corrected, one
+confirmed) and found in the store; and a second, authenticated bridge where the page asks for the token, refuses a
 wrong one and shows a dropped link. Any JavaScript error fails the test.
 Screenshots go to <package>/test_logs/console/.
 """
@@ -26,6 +27,8 @@ from playwright.sync_api import sync_playwright
 from sensor_msgs.msg import JointState
 
 from inspection_robot.msg import GeneralAck, GeneralCmd, GeneralTopic, MoveCmd, RobotStatus
+from inspection_robot.task.patrol import Inspection, reading_rows
+from inspection_robot.task.store import ResultStore
 from rostest_helpers import Latest, control_proxy, wait_for, wait_subscribed
 
 CHROMIUM = "/usr/bin/chromium"
@@ -447,6 +450,61 @@ class ConsoleTest(unittest.TestCase):
         self.assertFalse(status["reason"].startswith("return home failed"), status["reason"])
         home = self.true_pose.last.pose.pose.position
         self.assertLess(math.hypot(home.x - 5.0, home.y - 5.0), 0.5)   # config/task_manager.yaml home_pose
+
+    # ------------------------------------------------------------------ review of uncertain readings
+    def test_9b_uncertain_readings_reviewed_from_the_page(self):
+        self.assertIsNotNone(self.calibrated_preset, "test_8 calibrates the preset whose picture is reviewed")
+        store_path = json.loads(self.task(lambda s: s.get("store"), "task_status with the store").data)["store"]
+        data_root = os.path.dirname(os.path.dirname(store_path))
+        # Two readings read_scale doubted, recorded as task_manager records them (the sim's gauges read
+        # confidently): one outside its band (a check alarm), one inside.
+        task_id = "console_review_%d" % int(time.time() * 1000)
+        picture = os.path.join(self.calibrated_preset, "zoom0.jpg")
+        preset = {"directory": self.calibrated_preset, "foreign": False, "alarms": {"console_gauge": [0.0, 1.0]},
+                  "targets": [{"name": "console_gauge", "kind": "pointer", "unit": "MPa"}]}
+        rows = []
+        for index, value in enumerate((1.3, 0.4)):
+            inspection = Inspection([value], [35.0], [picture], (1.0, 2.0, 0.0), None, ["glare over 30 % of the dial"],
+                                    [{"picture": picture, "roi": [10, 10, 90, 10, 90, 90, 10, 90]}])
+            rows += reading_rows(task_id, 0, "here", index, preset, inspection, "", time.time())
+        store = ResultStore(store_path)
+        self.assertEqual(store.add_readings(rows), 2)
+        store.close()
+        queue = self.task_control("review_queue", {"task_id": task_id})
+        self.assertEqual([(r["alarm"], r["value"]) for r in queue], [("check", 1.3), ("normal", 0.4)])
+        corrected, confirmed = (r["id"] for r in queue)
+        self.open_console()
+        self.wait_connected()
+        item = "document.querySelector('.review-item[data-id=\"%d\"]')"
+        self.wait_page(item % corrected + " !== null && " + item % confirmed + " !== null", "both in the review queue")
+        self.assertIn("CHECK", self.page.inner_text(".review-item[data-id='%d']" % corrected))
+        self.assertIn("glare over 30 % of the dial", self.page.inner_text(".review-item[data-id='%d']" % corrected))
+        self.wait_page("(%s.querySelector('img') || {}).naturalWidth > 0" % (item % corrected), "the picture shown")
+        # No reviewer name: the page asks for it and sends nothing.
+        self.page.click(".review-item[data-id='%d'] .review-confirm" % confirmed)
+        self.wait_page("document.getElementById('review-result').textContent.includes('reviewer')", "name asked")
+        self.page.fill("#review-by", "console_operator")
+        self.page.fill(".review-item[data-id='%d'] .review-value" % corrected, "0.85")
+        self.page.click(".review-item[data-id='%d'] .review-correct" % corrected)
+        self.wait_page(item % corrected + " === null", "the corrected reading leaving the queue")
+        self.page.click(".review-item[data-id='%d'] .review-confirm" % confirmed)
+        self.wait_page(item % confirmed + " === null", "the confirmed reading leaving the queue")
+        self.assertEqual(self.task_control("review_queue", {"task_id": task_id}), [])
+        got = dict((r["id"], r) for r in self.task_control("query_results", {"task_id": task_id}))
+        self.assertEqual((got[corrected]["value"], got[corrected]["review_value"], got[corrected]["review_alarm"],
+                          got[corrected]["review_by"]), (1.3, 0.85, "normal", "console_operator"))
+        self.assertEqual((got[confirmed]["value"], got[confirmed]["review_value"], got[confirmed]["review_by"]),
+                         (0.4, 0.4, "console_operator"))
+        with open(os.path.join(data_root, "corrections", "%s.%d.json" % (task_id, corrected))) as f:
+            record = json.load(f)
+        self.assertEqual((record["true_value"], record["value"], record["picture"], record["preset"]),
+                         (0.85, 1.3, picture, self.calibrated_preset))
+
+    def task_control(self, cmd, query):
+        """task_control over ROS (not through the page): the JSON of a successful reply."""
+        reply = control_proxy("/task_control", 10.0)(sender="test_console", cmd=cmd, data=json.dumps(query))
+        self.assertEqual(reply.ack, "success", reply.data)
+        return json.loads(reply.data)
 
     # ------------------------------------------------------------------ authentication and a dropped link
     def test_7_token_asked_refused_accepted_and_link_loss_shown(self):

@@ -158,7 +158,8 @@ class TaskActionTest(unittest.TestCase):
         data = json.loads(result.data)
         self.assertEqual((result.ret_code, data["task_id"], data["state"], data["reason"]),
                          ("1", "short", "failed", "every preset failed"))
-        self.assertEqual(data["counts"], {"readings": 1, "read": 0, "failed": 1, "alarms": 0})
+        self.assertEqual(data["counts"], {"readings": 1, "read": 0, "uncertain": 0, "needs_review": 0, "failed": 1,
+                                          "alarms": 0, "checks": 0})
         self.assertTrue(os.path.isfile(data["report"]), data["report"])
         running = [d for code, d in feedback if code == "0"]
         self.assertTrue(running, feedback)

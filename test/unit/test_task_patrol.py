@@ -12,7 +12,8 @@ from inspection_robot.task.report import REPORT_FILES, write_reports
 from inspection_robot.task.spec import ResolvedPreset, parse_task
 from inspection_robot.task.store import ResultStore
 
-CONFIG = PatrolConfig(retry_delay_s=5.0, home_pose=(5.0, 5.0, 0.0), move_estimate_s=20.0, preset_estimate_s=10.0)
+CONFIG = PatrolConfig(retry_delay_s=5.0, home_pose=(5.0, 5.0, 0.0), move_estimate_s=20.0, preset_estimate_s=10.0,
+                      uncertain_retries=1)
 TARGETS = {"p_gauge": [{"name": "g", "kind": "pointer", "unit": "MPa"}],
            "p_lamp": [{"name": "lamp", "kind": "lamp", "unit": ""}, {"name": "sw", "kind": "switch", "unit": ""}]}
 
@@ -381,7 +382,8 @@ def test_reports_have_every_reading_and_highlight_alarms(env, tmp_path):
         assert len(f.read().strip().splitlines()) == 1 + 3
     with open(paths["report.json"]) as f:
         data = json.load(f)
-    assert data["summary"]["counts"] == {"readings": 3, "read": 3, "failed": 0, "alarms": 1}
+    assert data["summary"]["counts"] == {"readings": 3, "read": 3, "uncertain": 0, "needs_review": 0, "failed": 0,
+                                         "alarms": 1, "checks": 0}
     with open(paths["report.html"]) as f:
         page = f.read()
     assert page.index('<tr class="alarm">') < page.index('<tr class="none">')

@@ -109,7 +109,7 @@ def test_store_queries_by_task_and_time(tmp_path):
     store = ResultStore(str(tmp_path / "s.sqlite"))
     base = {"stop_name": "a", "preset": "/p", "target_name": "g", "kind": "pointer", "status": "read", "unit": "A",
             "alarm": "none", "low": None, "high": None, "confidence": 90.0, "picture": "", "x": 1.0, "y": 2.0,
-            "yaw": 0.0, "reason": ""}
+            "yaw": 0.0, "reason": "", "source_picture": "", "roi": ""}
     rows = [dict(base, task_id=t, stop=0, preset_index=j, target=0, value=float(j), time=100.0 + j)
             for t in ("a", "b") for j in range(3)]
     assert store.add_readings(rows) == 6

@@ -61,9 +61,9 @@ test('a drawn box as calibration\'s TL, TR, BR, BL quad', () => {
 
 test('readings: alarms first, then failures, newest first within each', () => {
   const rows = [{ id: 1, alarm: 'normal', time: 5 }, { id: 2, alarm: 'alarm', time: 1 }, { id: 3, alarm: 'failed', time: 9 },
-    { id: 4, alarm: 'alarm', time: 3 }, { id: 5, alarm: 'none', time: 7 }];
-  assert.deepStrictEqual(sortReadings(rows).map((r) => r.id), [4, 2, 3, 1, 5]);
-  assert.deepStrictEqual(rows.map((r) => r.id), [1, 2, 3, 4, 5]);   // not sorted in place
+    { id: 4, alarm: 'alarm', time: 3 }, { id: 5, alarm: 'none', time: 7 }, { id: 6, alarm: 'check', time: 8 }];
+  assert.deepStrictEqual(sortReadings(rows).map((r) => r.id), [4, 2, 6, 3, 1, 5]);
+  assert.deepStrictEqual(rows.map((r) => r.id), [1, 2, 3, 4, 5, 6]);   // not sorted in place
 });
 
 test('a reading in words', () => {
@@ -72,6 +72,12 @@ test('a reading in words', () => {
   assert.strictEqual(readingText({ status: 'read', value: 2, unit: '', low: null, high: null }), '2');
   assert.strictEqual(readingText({ status: 'failed', value: null, reason: 'find_scale failed' }),
     'failed: find_scale failed');
+  const doubted = { status: 'uncertain', value: 0.97, unit: 'MPa', low: 0.2, high: 0.8, reason: 'glare', review_time: null };
+  assert.strictEqual(readingText(doubted), '0.97 MPa [0.2, 0.8] uncertain: glare');
+  assert.strictEqual(readingText(Object.assign({}, doubted, { review_time: 5, review_by: 'li', review_value: 0.62 })),
+    '0.97 MPa [0.2, 0.8] uncertain: glare · reviewed by li: 0.62 MPa');
+  assert.strictEqual(readingText(Object.assign({}, doubted, { review_time: 5, review_by: 'li', review_value: 0.97 })),
+    '0.97 MPa [0.2, 0.8] uncertain: glare · reviewed by li: confirmed');
 });
 
 test('a calibration self-check in words', () => {

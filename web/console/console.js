@@ -1080,6 +1080,10 @@
       patrol.resultsKey = key;
       queryResults();
     }
+    if (key !== review.key) {   // a preset recorded (or the page just connected): the queue may have grown
+      review.key = key;
+      queryReview();
+    }
   }
 
   $('results-refresh').addEventListener('click', queryResults);
@@ -1114,7 +1118,7 @@
     const fresh = document.createElement('tbody');
     shown.forEach((r, i) => {
       const tr = fresh.insertRow();
-      tr.className = r.alarm === 'alarm' ? 'alarm' : r.status === 'failed' ? 'failed' : '';
+      tr.className = r.alarm === 'alarm' || r.alarm === 'check' ? r.alarm : r.status === 'failed' ? 'failed' : '';
       tr.insertCell().textContent = r.alarm;
       tr.insertCell().textContent = r.target_name || r.kind + ' ' + r.target;
       tr.insertCell().textContent = RobotDecode.readingText(r);
@@ -1132,6 +1136,120 @@
       }
     });
     body.parentNode.replaceChild(fresh, body);
+  }
+
+  // ------------------------------------------------------------------ review of uncertain readings
+  const REVIEW_LIMIT = 20;
+  const review = { key: null, querying: false, again: false };
+  window.consoleReview = { ids: () => Array.from(document.querySelectorAll('.review-item'), (e) => Number(e.dataset.id)) };
+
+  function reviewMessage(text, failed) {
+    $('review-result').textContent = text;
+    $('review-result').className = failed ? 'error' : '';
+  }
+
+  function queryReview() {
+    if (review.querying) {
+      review.again = true;
+      return;
+    }
+    review.querying = true;
+    control('task_control', 'review_queue', { limit: REVIEW_LIMIT }, true)
+      .then((text) => renderReview(JSON.parse(text)))
+      .catch((err) => reviewMessage('review queue refused: ' + err.message, true))
+      .then(() => {
+        review.querying = false;
+        if (review.again) {
+          review.again = false;
+          queryReview();
+        }
+      });
+  }
+  $('review-refresh').addEventListener('click', queryReview);
+
+  /** One item per reading: its annotated picture, the robot's value and reason, confirm / correct. */
+  function renderReview(rows) {
+    $('review-count').textContent = rows.length ? '(' + rows.length + (rows.length >= REVIEW_LIMIT ? '+' : '') + ')' : '';
+    const list = $('review-list');
+    const fresh = document.createElement('div');
+    fresh.id = 'review-list';
+    for (const r of rows) {
+      const item = document.createElement('div');
+      item.className = 'review-item';
+      item.dataset.id = r.id;
+      const figure = document.createElement('div');
+      if (r.picture) {
+        const img = document.createElement('img');
+        img.alt = r.picture;
+        figure.appendChild(img);
+        fetchPicture(r.picture).then((url) => { img.src = url; })
+          .catch((err) => { figure.textContent = 'picture: ' + err.message; });
+      } else {
+        figure.textContent = 'no picture';
+      }
+      const text = document.createElement('div');
+      text.className = 'review-text';
+      const what = document.createElement('div');
+      what.textContent = (r.target_name || r.kind + ' ' + r.target) + ' · ' + r.task_id + ' stop ' + (r.stop + 1)
+        + (r.stop_name ? ' (' + r.stop_name + ')' : '') + ' · ' + new Date(r.time * 1000).toLocaleString();
+      const value = document.createElement('div');
+      value.className = r.alarm === 'check' ? 'check' : '';
+      value.textContent = 'robot: ' + RobotDecode.readingText(r) + ' (confidence ' + r.confidence + ')'
+        + (r.alarm === 'check' ? ' · CHECK: outside its band' : '');
+      const form = document.createElement('form');
+      form.className = 'row';
+      const input = document.createElement('input');
+      input.type = 'number';
+      input.step = 'any';
+      input.required = true;
+      input.className = 'review-value';
+      input.placeholder = 'true value';
+      const correct = document.createElement('button');
+      correct.type = 'submit';
+      correct.className = 'review-correct';
+      correct.textContent = 'correct';
+      const confirm = document.createElement('button');
+      confirm.type = 'button';
+      confirm.className = 'review-confirm';
+      confirm.textContent = 'confirm ' + Number(r.value.toPrecision(4)) + (r.unit ? ' ' + r.unit : '');
+      confirm.addEventListener('click', () => settle(r, null, item));
+      form.addEventListener('submit', (event) => {
+        event.preventDefault();
+        settle(r, Number(input.value), item);
+      });
+      form.append(input, correct, confirm);
+      text.append(what, value, form);
+      item.append(figure, text);
+      fresh.appendChild(item);
+    }
+    list.parentNode.replaceChild(fresh, list);
+  }
+
+  /** review one reading: ``value`` the true value, or null to confirm the robot's. */
+  function settle(row, value, item) {
+    const by = $('review-by').value.trim();
+    if (!by) {
+      reviewMessage('type your name in "reviewer" first', true);
+      $('review-by').focus();
+      return;
+    }
+    if (value !== null && !Number.isFinite(value)) {
+      reviewMessage('the true value must be a number', true);
+      return;
+    }
+    item.querySelectorAll('button, input').forEach((e) => { e.disabled = true; });
+    control('task_control', 'review', { id: row.id, value, by })
+      .then((text) => {
+        const done = JSON.parse(text);
+        reviewMessage('reading ' + done.id + ' (' + done.target_name + '): '
+          + (value === null ? 'confirmed' : 'corrected to ' + done.review_value) + ' by ' + done.review_by);
+        queryReview();
+        if ($('results-task').value.trim() === row.task_id) queryResults();
+      })
+      .catch((err) => {
+        reviewMessage('review refused: ' + err.message, true);
+        item.querySelectorAll('button, input').forEach((e) => { e.disabled = false; });
+      });
   }
 
   // ------------------------------------------------------------------ start

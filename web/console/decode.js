@@ -101,19 +101,28 @@
     return [x0, y0, x1, y0, x1, y1, x0, y1].map((v) => Math.round(v * 10) / 10);
   }
 
-  const ALARM_ORDER = { alarm: 0, failed: 1, normal: 2, none: 3 };
-  const alarmRank = (row) => (row.alarm in ALARM_ORDER ? ALARM_ORDER[row.alarm] : 3);
+  // task_manager's alarm states, most urgent first (src/inspection_robot/task/states.py ALARM_ORDER)
+  const ALARM_ORDER = { alarm: 0, check: 1, failed: 2, normal: 3, none: 4 };
+  const alarmRank = (row) => (row.alarm in ALARM_ORDER ? ALARM_ORDER[row.alarm] : 4);
 
-  /** query_results rows, alarms first, then failures, then the rest; newest first within each. */
+  /** query_results rows, alarms and checks first, then failures, then the rest; newest first within each. */
   function sortReadings(rows) {
     return rows.slice().sort((a, b) => alarmRank(a) - alarmRank(b) || b.time - a.time);
   }
 
-  /** A reading's value in words: "0.788 MPa [0, 1]", or "failed: <reason>". */
+  /** A reading's value in words: "0.788 MPa [0, 1]", "failed: <reason>", an uncertain one
+      "0.97 MPa [0.2, 0.8] uncertain: <reason>" and a reviewed one "... reviewed by li: 0.62 MPa". */
   function readingText(row) {
     if (row.status === 'failed' || row.value === null) return 'failed: ' + row.reason;
     const band = row.low !== null && row.low !== undefined ? ' [' + row.low + ', ' + row.high + ']' : '';
-    return Number(row.value.toPrecision(4)) + (row.unit ? ' ' + row.unit : '') + band;
+    const number = (value) => Number(value.toPrecision(4)) + (row.unit ? ' ' + row.unit : '');
+    let text = number(row.value) + band;
+    if (row.status === 'uncertain') text += ' uncertain: ' + row.reason;
+    if (row.review_time !== null && row.review_time !== undefined) {
+      text += ' · reviewed by ' + row.review_by + ': '
+        + (row.review_value === row.value ? 'confirmed' : number(row.review_value));
+    }
+    return text;
   }
 
   /* One calibration self-check entry (calibration_control apply/upload) in words. */

@@ -27,6 +27,8 @@ from inspection_robot.charge.dock import is_docked, near_dock
 from inspection_robot.command import CommandError, CommandTable, no_data
 from inspection_robot.interface import BATTERY_CHARGING, LIGHT_CHARGE_RELAY, MODE_NAMES, MODE_TASK
 from inspection_robot.status.merge import STALE_CONTROL_STATUS, STALE_NAV_STATUS
+from inspection_robot.task.states import ENDED_STATES as TASK_ENDED_STATES, STATE_IDLE as TASK_IDLE, \
+    STATE_PAUSED as TASK_PAUSED
 
 IDLE = "idle"
 PAUSING = "pausing_task"
@@ -48,7 +50,7 @@ TRIGGER_MANUAL = "manual"
 TRIGGER_RECOVERED = "recovered"  # found on the dock with the relay closed (e.g. after a restart)
 
 # task_manager's task_status states in which the patrol sends no goal (charge_control may drive)
-TASK_QUIET_STATES = ("paused", "idle", "done", "cancelled", "failed")
+TASK_QUIET_STATES = (TASK_PAUSED, TASK_IDLE) + TASK_ENDED_STATES
 TASK_HOLD = "charge"  # data of task_control pause/resume
 PAUSE_RETRY_S = 1.0   # s between pause requests to a task_manager that does not answer (e.g. respawning)
 

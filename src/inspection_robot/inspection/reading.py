@@ -41,6 +41,23 @@ def result_text(outcome, success):
     return "%s: %s" % (RESULT_UNCERTAIN, "; ".join(reasons)) if reasons else success
 
 
+def uncertain_reasons(result, count, success):
+    """The reverse of result_text for ``count`` boxes: per box "" or the reason its reading is
+    uncertain. ValueError for a result that is neither ``success`` nor result_text's uncertain form."""
+    reasons = [""] * count
+    if result == success:
+        return reasons
+    prefix = RESULT_UNCERTAIN + ": "
+    parts = re.split(r"(?:^|; )box (\d+): ", result[len(prefix):]) if result.startswith(prefix) else [result]
+    if len(parts) < 3 or parts[0]:
+        raise ValueError("unexpected read_scale result '%s'" % result[:200])
+    for index, why in zip(parts[1::2], parts[2::2]):
+        if int(index) >= count or not why:
+            raise ValueError("read_scale result names box %s of %d: '%s'" % (index, count, result[:200]))
+        reasons[int(index)] = why
+    return reasons
+
+
 class ReadError(Exception):
     """The whole request cannot be served; the message is the reason."""
 
@@ -157,7 +174,7 @@ class ScaleReader(object):
                 image = images[path]
                 _check_quad(quad, image.shape, "box %d" % i)
                 try:
-                    reading = self._read_one(preset, target, image, quad)
+                    reading = self.read_target(preset, target, image, quad)
                 except ReadFailed as err:
                     raise ReadError("box %d: %s" % (i, err))
                 annotated = image.copy()
@@ -170,7 +187,9 @@ class ScaleReader(object):
                                                                      reading.confidence, " uncertain" if why else ""))
             outcome.picture_path.append(_save(annotated, out_dir, "%s_read_%02d.jpg" % (stamp, i)))
 
-    def _read_one(self, preset, target, image, quad):
+    def read_target(self, preset, target, image, quad):
+        """One pointer, lamp or switch target of ``preset`` read in ``quad`` of ``image`` (also the
+        bench's replay of a reviewed reading); ReadFailed when it cannot be read."""
         p = target.params
         if target.kind == "pointer":
             self._check_same_gauge(preset, target, image, quad)

@@ -1,7 +1,7 @@
 """task_manager: unattended patrols (docs/interface.md, "Patrol (task_manager)").
 
 Services:    task_control (ControlService): submit, pause, resume, cancel, return_home, query_status,
-             query_tasks, query_results, report (same table as task_cmd)
+             query_tasks, query_results, report, review_queue, review (same table as task_cmd)
 Subscribes:  task_cmd (GeneralCmd), robot_status (RobotStatus: mode, pose)
              read_scale_ack (ReadScaleAck)
              virtual_obstacle_map (nav_msgs/OccupancyGrid, latched by move_base): reachability at submission
@@ -9,11 +9,13 @@ Publishes:   task_ack (GeneralAck), task_status (GeneralTopic, latched, JSON), r
 Actions:     task_action (GeneralAction), server: goal type "patrol" = submit, feedback = progress
              move_action, find_scale_action (GeneralAction), client
 Parameters:  data_root (namespace: the robot's state directory): store and reports under
-             <data_root>/tasks/; ~preset_root (str, presets: relative to data_root unless absolute);
+             <data_root>/tasks/, review corrections in <data_root>/corrections/; ~preset_root (str,
+             presets: relative to data_root unless absolute);
              map_file, robot_radius: move_base's own (move_base/map_file, move_base/robot_radius) so
              reachability uses the map and inflation move_base plans with (~map_file and
              ~robot_radius override them where task_manager runs without move_base);
              ~home_pose ([x, y, yaw], [5, 5, 0]); ~retries (int, 1); ~retry_delay_s (s, 3.0);
+             ~uncertain_retries (int >= 0, 1): inspections again of a preset read uncertain;
              ~velocity_x (m/s, 0.8), ~velocity_yaw (rad/s, 0.8); ~move_timeout_s (300),
              ~find_timeout_s (90), ~read_timeout_s (60); ~move_estimate_s (20), ~preset_estimate_s (10):
              ETA before anything was measured; ~status_period (s, 1.0): task_status (and task_action
@@ -31,7 +33,7 @@ import numpy as np
 import rospy
 from nav_msgs.msg import OccupancyGrid
 
-from inspection_robot.command import CommandError, CommandTable, no_data, parse_json
+from inspection_robot.command import CommandError, CommandTable, no_data
 from inspection_robot.files import hide_root
 from inspection_robot.msg import GeneralAction, GeneralFeedback, GeneralResult, GeneralTopic, RobotStatus
 from inspection_robot.ros.node import init_node
@@ -44,22 +46,25 @@ from inspection_robot.task.checks import Reachability, resolve_preset
 from inspection_robot.task.route import plan_route
 from inspection_robot.task.patrol import Patrol, PatrolConfig
 from inspection_robot.task.report import summary, write_reports
+from inspection_robot.task.review import parse_query, review
 from inspection_robot.task.spec import check_task_id, parse_task
+from inspection_robot.task.states import ENDED_STATES
 from inspection_robot.task.store import ResultStore, StoreError
 from inspection_robot.ros.data_root import data_root, path_param
 
 NODE_NAME = "task_manager"
-MAX_QUERY_ROWS = 5000
 QUERY_KEYS = ("task_id", "from", "to", "limit")
+REVIEW_QUEUE_KEYS = ("task_id", "limit")
 
 
 class TaskManager(object):
     def __init__(self, store, reports_dir, patrol_config, preset_root, reachable, runner_factory, default_retries,
-                 status_period, data_root=""):
+                 status_period, corrections_dir, data_root=""):
         self._lock = threading.RLock()
         self._wake = threading.Condition(self._lock)
         self.store = store
         self._reports_dir = reports_dir
+        self._corrections_dir = corrections_dir
         self._preset_root = preset_root
         self._data_root = data_root   # taken out of task_action's refusals (files.hide_root; the twin does its own)
         self._reachable = reachable
@@ -80,6 +85,7 @@ class TaskManager(object):
             "return_home": no_data(self._changing(lambda _data: self.patrol.return_home(time.time()))),
             "query_status": no_data(lambda d: self._status_json()),
             "query_tasks": no_data(self._query_tasks), "query_results": self._query_results, "report": self._report,
+            "review_queue": self._review_queue, "review": self._review,
         })
         self._twin = CommandTwin(table, "task_control", "task_cmd", "task_ack", NODE_NAME, busy_when_joystick=False)
         self._status_sub = rospy.Subscriber("robot_status", RobotStatus, self._on_robot_status, queue_size=1)
@@ -209,20 +215,23 @@ class TaskManager(object):
                            for t in self.store.tasks()])
 
     def _query_results(self, data):
-        query = parse_json(data or "{}", "query")
-        if not isinstance(query, dict) or set(query) - set(QUERY_KEYS):
-            raise CommandError("query must be a JSON object with keys %s" % ", ".join(QUERY_KEYS))
-        for key in ("from", "to"):
-            if query.get(key) is not None and (isinstance(query[key], bool) or
-                                               not isinstance(query[key], (int, float))):
-                raise CommandError("%s must be a unix time in seconds" % key)
-        limit = query.get("limit", 1000)
-        if isinstance(limit, bool) or not isinstance(limit, int) or not 1 <= limit <= MAX_QUERY_ROWS:
-            raise CommandError("limit must be an integer in [1, %d]" % MAX_QUERY_ROWS)
-        task_id = query.get("task_id")
-        if task_id is not None and not isinstance(task_id, str):
-            raise CommandError("task_id must be a string")
-        return json.dumps(self.store.readings(task_id, query.get("from"), query.get("to"), limit))
+        query = parse_query(data, QUERY_KEYS, 1000)
+        return json.dumps(self.store.readings(query.get("task_id"), query.get("from"), query.get("to"),
+                                              query["limit"]))
+
+    def _review_queue(self, data):
+        query = parse_query(data, REVIEW_QUEUE_KEYS, 100)
+        return json.dumps(self.store.review_queue(query.get("task_id"), query["limit"]))
+
+    def _review(self, data):
+        with self._lock:   # one review at a time: two for one row must not race over its file
+            try:
+                row, path = review(self.store, self._corrections_dir, data, time.time())
+            except StoreError as err:
+                raise CommandError(str(err))
+        rospy.loginfo("%s: reading %d reviewed by %s: %s (robot %s), %s" % (
+            NODE_NAME, row["id"], row["review_by"], row["review_value"], row["value"], path))
+        return json.dumps(dict(row, correction=path))
 
     def _report(self, data):
         if self.store.task(data) is None:
@@ -253,7 +262,7 @@ class TaskManager(object):
         status = self.patrol.status()
         status["overhead_s"] = round(self._overhead_s, 3)
         status["store"] = self.store.path
-        if status["task_id"] and status["state"] in ("done", "cancelled", "failed"):
+        if status["task_id"] and status["state"] in ENDED_STATES:
             status["report"] = os.path.join(self._reports_dir, status["task_id"], "report.html")
         return json.dumps(status, sort_keys=True)
 
@@ -352,9 +361,14 @@ def main():
     home_pose = [float(v) for v in rospy.get_param("~home_pose", [5.0, 5.0, 0.0])]
     if len(home_pose) != 3:
         raise ValueError("~home_pose must be [x, y, yaw], got %r" % (home_pose,))
+    uncertain_retries = rospy.get_param("~uncertain_retries", 1)
+    if isinstance(uncertain_retries, bool) or not isinstance(uncertain_retries, int) \
+            or not 0 <= uncertain_retries <= 10:
+        raise ValueError("~uncertain_retries must be an integer in [0, 10], got %r" % (uncertain_retries,))
     config = PatrolConfig(retry_delay_s=float(rospy.get_param("~retry_delay_s", 3.0)), home_pose=tuple(home_pose),
                           move_estimate_s=float(rospy.get_param("~move_estimate_s", 20.0)),
-                          preset_estimate_s=float(rospy.get_param("~preset_estimate_s", 10.0)))
+                          preset_estimate_s=float(rospy.get_param("~preset_estimate_s", 10.0)),
+                          uncertain_retries=uncertain_retries)
     retries = int(rospy.get_param("~retries", 1))
     reachable = Reachability(os.path.expanduser(move_base_param("map_file")),
                              float(move_base_param("robot_radius")), home_pose[:2],
@@ -369,6 +383,6 @@ def main():
         raise ValueError("~status_period must be positive, got %r" % status_period)
     manager = TaskManager(store, os.path.join(tasks_dir, "reports"), config, preset_root, reachable,
                           lambda pose: StepRunner(NODE_NAME, velocity[0], velocity[1], timeouts, pose), retries,
-                          status_period, root)
+                          status_period, os.path.join(root, "corrections"), root)
     rospy.loginfo("%s: results in %s" % (NODE_NAME, store.path))
     manager.spin()

@@ -12,7 +12,8 @@ Definitions (docs/operations.md "bag_report"):
 - stop: the robot stood still (|velocity_x| and |velocity_yaw| under the thresholds) for at least
   ``min_stop_s``;
 - alarm: the rising edge of an alarm bit of robot_status (ALARM_BITS) or of offline_warn;
-- alarm also: a patrol reading whose alarm state is ``alarm`` (outside its band);
+- alarm also: a patrol reading whose alarm state is ``alarm`` (outside its band) or ``check`` (an
+  uncertain value outside its band);
 - fault: a ``*_ack`` answered ``failed``, an action result other than "0", a motor_status fault, a
   patrol reading that failed, a patrol task that ended ``failed``;
 - reading: each reading of task_status ``last_result`` (a new last_result is one that differs from
@@ -33,6 +34,8 @@ from inspection_robot.interface import (BATTERY_HIGH_TEMP, BATTERY_LINE_FAULT, B
                                         SENSOR_CAMERA_ALARM, SENSOR_THERMAL_ALARM, STOP_FRONT_COLLISION,
                                         STOP_LEFT_FALL, STOP_OBSTACLE, STOP_RIGHT_FALL)
 from inspection_robot.status.merge import STALE_NAV_STATUS
+from inspection_robot.task.states import (ALARM_ALARM, ALARM_CHECK, STATE_FAILED, STATUS_FAILED, STATUS_READ,
+                                          STATUS_UNCERTAIN)
 
 # (robot_status field, bit, alarm name): each rising edge is one alarm.
 ALARM_BITS = (
@@ -63,8 +66,7 @@ OFFLINE_ALARM = "backend link lost (offline_warn)"
 Event = collections.namedtuple("Event", "t x y text")
 # One meter reading: ``task`` the task id ("" for a backend's read_scale), ``value`` None when it failed.
 Reading = collections.namedtuple("Reading", "t x y task stop target value unit alarm status reason")
-TASK_ENDED = ("done", "failed", "cancelled")
-READING_ALARM = "alarm"   # task_status alarm state of a value outside its band
+READING_ALARMS = (ALARM_ALARM, ALARM_CHECK)   # a value outside its band (an uncertain one: check)
 ALARM_TEXT = {"none": "no band"}
 Stop = collections.namedtuple("Stop", "t x y duration")
 
@@ -154,7 +156,7 @@ class RunAnalyzer(object):
         """``values``: the numbers of a read_scale_ack that a backend asked for (scale + foreign_scale)."""
         values = [float(v) for v in values]
         self._at(t, lambda rel, x, y: self._s.readings.append(
-            Reading(rel, x, y, "", 0, source, values or None, "", "none", "read" if values else "failed",
+            Reading(rel, x, y, "", 0, source, values or None, "", "none", STATUS_READ if values else STATUS_FAILED,
                     "" if values else "no value")))
 
     def add_task_status(self, t, data):
@@ -165,7 +167,8 @@ class RunAnalyzer(object):
             result = status.get("last_result")
             readings = [] if result is None else [
                 (str(r["target"]), r.get("value"), str(r.get("unit", "")), str(r.get("alarm", "")),
-                 str(r.get("status", "")), str(result.get("reason", ""))) for r in result["readings"]]
+                 str(r.get("status", "")), str(r.get("reason", result.get("reason", ""))))
+                for r in result["readings"]]
             stop = int(result["stop"]) if result is not None else 0
             if not all(r[1] is None or (isinstance(r[1], (int, float)) and not isinstance(r[1], bool))
                        for r in readings):
@@ -181,7 +184,7 @@ class RunAnalyzer(object):
         if task_id:
             before = self._s.tasks.get(task_id)
             self._s.tasks[task_id] = (state, str(status.get("reason", "")))
-            if state == "failed" and (before is None or before[0] != "failed"):
+            if state == STATE_FAILED and (before is None or before[0] != STATE_FAILED):
                 self._at(t, lambda rel, x, y: self._s.faults.append(
                     Event(rel, x, y, "task %s failed: %s" % (task_id, status.get("reason", "")))))
         return None
@@ -190,9 +193,10 @@ class RunAnalyzer(object):
         s = self._s
         s.readings.append(reading)
         where = (reading.t, reading.x, reading.y)
-        if reading.alarm == READING_ALARM:
-            s.alarms.append(Event(*where, text="reading alarm: %s %s" % (reading.target, value_text(reading))))
-        if reading.status == "failed":
+        if reading.alarm in READING_ALARMS:
+            s.alarms.append(Event(*where, text="reading %s: %s %s" % (reading.alarm, reading.target,
+                                                                      value_text(reading))))
+        if reading.status == STATUS_FAILED:
             s.faults.append(Event(*where, text="reading failed: %s: %s" % (reading.target, reading.reason or "?")))
 
     def add_ack(self, t, topic, ack, data):
@@ -252,8 +256,8 @@ class RunAnalyzer(object):
 
 def value_text(reading):
     """``118.2 C``, ``0.5, 1.25`` (several values of one read), or ``failed``."""
-    if reading.status == "failed" or reading.value is None:
-        return "failed"
+    if reading.status == STATUS_FAILED or reading.value is None:
+        return STATUS_FAILED
     if isinstance(reading.value, list):
         return ", ".join("%g" % v for v in reading.value)
     return ("%g %s" % (reading.value, reading.unit)).strip()
@@ -262,7 +266,9 @@ def value_text(reading):
 def reading_text(reading):
     """One line of the summary and of the picture: where it was asked, what, the value and its state."""
     source = ("%s stop %d" % (reading.task, reading.stop)) if reading.task else "backend"
-    state = reading.reason if reading.status == "failed" else ALARM_TEXT.get(reading.alarm, reading.alarm)
+    state = reading.reason if reading.status == STATUS_FAILED else ALARM_TEXT.get(reading.alarm, reading.alarm)
+    if reading.status == STATUS_UNCERTAIN:
+        state = "%s, uncertain: %s" % (state, reading.reason)
     return "%s: %s = %s (%s)" % (source, reading.target, value_text(reading), state or "?")
 
 
@@ -309,8 +315,8 @@ def format_summary(summary, bag_name=""):
         lines.append("  %s  %.0f s %s" % (_clock(stop.t), stop.duration, where_text(stop.x, stop.y)))
     if len(s.stops) > 10:
         lines.append("  ... and %d more" % (len(s.stops) - 10))
-    alarmed = sum(1 for r in s.readings if r.alarm == READING_ALARM)
-    failed = sum(1 for r in s.readings if r.status == "failed")
+    alarmed = sum(1 for r in s.readings if r.alarm in READING_ALARMS)
+    failed = sum(1 for r in s.readings if r.status == STATUS_FAILED)
     readings = _events("readings", [Event(r.t, r.x, r.y, reading_text(r)) for r in s.readings], limit=40)
     readings[0] += " (%d alarm, %d failed)" % (alarmed, failed)
     lines += readings

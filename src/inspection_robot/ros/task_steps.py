@@ -1,10 +1,12 @@
 """task_manager's hands: runs one patrol step (task.patrol.Step) on the robot.
 
 move / home: move_action goal; inspect: find_scale_action (find_scale, or find_both when foreign
-objects are asked) then read_scale_cmd and its read_scale_ack (matched by trans_id). Each wait
-polls ``interrupted()`` every 0.1 s and cancels the running goal when it says so. A drive hands
-the share of its path already driven (move_action feedback, task.drive_progress) to ``progress``.
-Returns (outcome, detail, timings) where timings = {"find": s, "read": s} for inspections.
+objects are asked) then read_scale_cmd and its read_scale_ack (matched by trans_id): ``success`` and
+``uncertain: box <i>: <why>`` are readings (the Inspection carries each box's doubt), anything else
+fails the step with read_scale's reason. Each wait polls ``interrupted()`` every 0.1 s and cancels
+the running goal when it says so. A drive hands the share of its path already driven (move_action
+feedback, task.drive_progress) to ``progress``. Returns (outcome, detail, timings) where timings =
+{"find": s, "read": s} for inspections.
 """
 import itertools
 import json
@@ -16,7 +18,8 @@ import actionlib
 import rospy
 from actionlib.action_client import CommState
 
-from inspection_robot.interface import FIND_RESULT_SUCCESS, MOVE_GOAL_TYPE, MOVE_RESULT_SUCCESS
+from inspection_robot.inspection.reading import uncertain_reasons
+from inspection_robot.interface import ACK_FAILED, ACK_SUCCESS, FIND_RESULT_SUCCESS, MOVE_GOAL_TYPE, MOVE_RESULT_SUCCESS
 from inspection_robot.msg import GeneralAction, GeneralGoal, ReadScaleAck, ReadScaleCmd
 from inspection_robot.task.drive_progress import DriveProgress
 from inspection_robot.task.patrol import (OUTCOME_FAILED, OUTCOME_INTERRUPTED, OUTCOME_OK, STEP_INSPECT,
@@ -31,6 +34,20 @@ def _reason(data):
         return str(json.loads(data).get("reason", data))
     except (ValueError, AttributeError):
         return str(data)
+
+
+def _sources(targets, cmd):
+    """Per target the picture read_scale read and its box: {"picture", "roi": 8 numbers}."""
+    thermal = iter(range(0, len(cmd.roi_vertex_thermal), 8))
+    sources = []
+    for k, target in enumerate(targets):
+        if target["kind"] == "thermal":
+            start = next(thermal, None)
+            roi = list(cmd.roi_vertex_thermal[start:start + 8]) if start is not None else []
+            sources.append({"picture": cmd.filename[-1], "roi": roi})
+        else:
+            sources.append({"picture": cmd.filename[0], "roi": list(cmd.roi_vertex[8 * k:8 * k + 8])})
+    return sources
 
 
 class StepRunner(object):
@@ -105,17 +122,20 @@ class StepRunner(object):
         timings["read"] = time.monotonic() - started
         if isinstance(ack, tuple):
             return ack + (timings,)
-        if ack.result != "success":
-            return OUTCOME_FAILED, "read_scale: %s" % ack.foreign_result, timings
-        if len(ack.scale) != len(preset["targets"]):
+        if len(ack.scale) != len(preset["targets"]) and ack.result != ACK_FAILED:
             return OUTCOME_FAILED, "read_scale answered %d values for %d targets" % (
                 len(ack.scale), len(preset["targets"])), timings
+        try:
+            reasons = uncertain_reasons(ack.result, len(preset["targets"]), ACK_SUCCESS)
+        except ValueError:   # failed: read_scale puts its reason in foreign_result
+            return OUTCOME_FAILED, "read_scale %s: %s" % (ack.result, ack.foreign_result or "no reason given"), \
+                timings
         foreign = None
         if preset["foreign"] and ack.foreign_scale:
             foreign = (ack.foreign_scale[0], ack.foreign_possibility[0] if ack.foreign_possibility else 0.0,
                        ack.foreign_picture_path[0] if ack.foreign_picture_path else "")
         return OUTCOME_OK, Inspection(list(ack.scale), list(ack.possibility), list(ack.picture_path), self._pose(),
-                                      foreign), timings
+                                      foreign, reasons, _sources(preset["targets"], cmd)), timings
 
     def _on_read_ack(self, msg):
         with self._acks_changed:

@@ -15,13 +15,15 @@ Decisions (docs/interface.md, "Patrol as an action (task_action)"):
 import json
 
 from inspection_robot.command import CommandError
+from inspection_robot.task.states import (STATE_CANCELLED, STATE_DONE, STATE_FAILED, STATE_PAUSED, STATE_RUNNING,
+                                          STATE_SUSPENDED)
 
 TASK_GOAL_TYPE = "patrol"
 
 FEEDBACK_RUNNING = "0"
 FEEDBACK_PAUSED = "1"
 FEEDBACK_SUSPENDED = "2"
-FEEDBACK_CODES = {"running": FEEDBACK_RUNNING, "paused": FEEDBACK_PAUSED, "suspended": FEEDBACK_SUSPENDED}
+FEEDBACK_CODES = {STATE_RUNNING: FEEDBACK_RUNNING, STATE_PAUSED: FEEDBACK_PAUSED, STATE_SUSPENDED: FEEDBACK_SUSPENDED}
 
 RESULT_DONE = "0"
 RESULT_FAILED = "1"
@@ -32,8 +34,8 @@ RESULT_REFUSED = "3"
 END_SUCCEEDED = "succeeded"
 END_ABORTED = "aborted"
 END_CANCELED = "canceled"
-END_BY_STATE = {"done": (END_SUCCEEDED, RESULT_DONE), "failed": (END_ABORTED, RESULT_FAILED),
-                "cancelled": (END_CANCELED, RESULT_CANCELLED)}
+END_BY_STATE = {STATE_DONE: (END_SUCCEEDED, RESULT_DONE), STATE_FAILED: (END_ABORTED, RESULT_FAILED),
+                STATE_CANCELLED: (END_CANCELED, RESULT_CANCELLED)}
 
 # the keys of a feedback's data, in the order task_status has them
 FEEDBACK_KEYS = ("task_id", "priority", "state", "holds", "stop", "stops", "stop_name", "preset", "presets", "done",

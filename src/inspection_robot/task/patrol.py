@@ -4,8 +4,9 @@ Pure logic on an injected clock: no threads, no ROS. The node asks ``next_step(n
 (drive to a stop, inspect one preset, drive home), runs it, and reports ``step_done``; while it
 runs, ``interrupt_wanted(step)`` says whether to cancel it. Decisions:
 
-- Place: a task's progress is the set of presets that have rows in the results store (read or
-  failed), so a restarted task_manager resumes exactly where the last committed reading left it.
+- Place: a task's progress is the set of presets that have rows in the results store (read,
+  uncertain or failed), so a restarted task_manager resumes exactly where the last committed
+  reading left it.
 - Holds (``operator``, ``charge``, ``mode``): any hold stops the patrol between presets, never
   in the middle of one (a running drive is cancelled and driven again later; a running inspection
   finishes). The task is ``paused`` once no step runs. A hold is released only by its own
@@ -18,27 +19,25 @@ runs, ``interrupt_wanted(step)`` says whether to cancel it. Decisions:
 - Retries: a failed drive or inspection is retried ``retries`` times, ``retry_delay_s`` apart;
   then the preset (or every remaining preset of an unreachable stop) is recorded as failed with
   the reason and the patrol goes on. A failure while a hold is set counts as an interruption.
+- Uncertain readings (the reader gave a value but doubts it): the preset is inspected again
+  ``uncertain_retries`` times; a confident attempt is recorded as read, else the last uncertain
+  values are recorded with status ``uncertain`` and the reader's reason (also when the later
+  attempts fail). Outside its band such a value is a ``check`` alarm, never silence.
 """
 import math
 from collections import namedtuple
 
 from inspection_robot.command import CommandError
 from inspection_robot.task.spec import Task
+from inspection_robot.task.states import (ALARM_ALARM, ALARM_CHECK, STATE_CANCELLED, STATE_DONE, STATE_FAILED,
+                                          STATE_IDLE, STATE_PAUSED, STATE_RETURNING_HOME, STATE_RUNNING,
+                                          STATE_SUSPENDED, STATUS_FAILED, STATUS_READ, STATUS_UNCERTAIN, alarm_state)
 
 HOLD_OPERATOR = "operator"
 HOLD_CHARGE = "charge"
 HOLD_MODE = "mode"
 HOLD_BY_DATA = {"": HOLD_OPERATOR, "charge": HOLD_CHARGE}
 PERSISTENT_HOLDS = (HOLD_OPERATOR, HOLD_CHARGE)
-
-STATE_IDLE = "idle"
-STATE_RUNNING = "running"
-STATE_PAUSED = "paused"
-STATE_RETURNING_HOME = "returning_home"
-STATE_DONE = "done"
-STATE_CANCELLED = "cancelled"
-STATE_FAILED = "failed"
-STATE_SUSPENDED = "suspended"   # stored state of a routine task pre-empted by a special one
 
 STEP_MOVE = "move"
 STEP_INSPECT = "inspect"
@@ -48,29 +47,20 @@ OUTCOME_OK = "ok"
 OUTCOME_FAILED = "failed"
 OUTCOME_INTERRUPTED = "interrupted"
 
-ALARM_NORMAL = "normal"
-ALARM_ALARM = "alarm"
-ALARM_NONE = "none"      # no band for this target
-ALARM_FAILED = "failed"  # no reading
-
 MODE_TASK = 0
 
 # kind: move | inspect | home; stop / preset_index are 0-based (-1 when not applicable); preset: the
 # task's preset entry {"preset", "directory", "targets", "alarms", "foreign"} of an inspection
 Step = namedtuple("Step", "kind task_id stop preset_index x y yaw precision preset")
 # what the node measured: values/confidences/pictures per target (calibration order), pose (x, y, yaw)
-# or None, and optionally foreign = (count, confidence, picture)
-Inspection = namedtuple("Inspection", "values confidences pictures pose foreign")
-Inspection.__new__.__defaults__ = (None,)
-PatrolConfig = namedtuple("PatrolConfig", "retry_delay_s home_pose move_estimate_s preset_estimate_s")
-
-
-def alarm_state(value, band):
-    if value is None:
-        return ALARM_FAILED
-    if band is None:
-        return ALARM_NONE
-    return ALARM_NORMAL if band[0] <= value <= band[1] else ALARM_ALARM
+# or None, optionally foreign = (count, confidence, picture), reasons: per target "" or why the reader
+# doubts the value (read_scale's "uncertain: box <i>: <why>"), sources: per target the picture read
+# and its box (8 numbers), or None when not known
+Inspection = namedtuple("Inspection", "values confidences pictures pose foreign reasons sources")
+Inspection.__new__.__defaults__ = (None, None, None)
+# uncertain_retries: inspections again of a preset read uncertain before its uncertain values are kept
+PatrolConfig = namedtuple("PatrolConfig", "retry_delay_s home_pose move_estimate_s preset_estimate_s "
+                                          "uncertain_retries")
 
 
 class TaskRun(object):
@@ -81,6 +71,7 @@ class TaskRun(object):
         self.done = set(done)
         self.at_stop = None
         self.attempts = {}
+        self.uncertain = {}         # (stop, preset_index) -> (tries, the last uncertain Inspection)
         self.retry_at = None
         self.last_result = None     # result_summary of this task's last recorded preset
 
@@ -271,11 +262,26 @@ class Patrol(object):
             run.retry_at = None
             if step.kind == STEP_MOVE:
                 run.at_stop = step.stop
-            else:
+            elif not self._uncertain_again(run, step, detail, now):
+                run.uncertain.pop((step.stop, step.preset_index), None)
                 self._record(run, step.stop, step.preset_index, detail, "", now)
         elif outcome == OUTCOME_FAILED:
             self._failed(run, step, reason, now)
         self._advance(now)
+
+    def _uncertain_again(self, run, step, inspection, now):
+        """True when an inspection with uncertain values is to be tried again (``uncertain_retries``
+        times per preset, ``retry_delay_s`` apart); the last uncertain one is kept meanwhile, to be
+        recorded if the next attempts fail."""
+        if not any(inspection.reasons or ()):
+            return False
+        key = (step.stop, step.preset_index)
+        tries = run.uncertain.get(key, (0, None))[0]
+        if tries >= self.config.uncertain_retries:
+            return False
+        run.uncertain[key] = (tries + 1, inspection)
+        run.retry_at = now + self.config.retry_delay_s
+        return True
 
     def _failed(self, run, step, reason, now):
         key = (step.kind, step.stop, step.preset_index)
@@ -290,7 +296,9 @@ class Patrol(object):
                 if i == step.stop:
                     self._record(run, i, j, None, "stop unreachable: %s" % reason, now)
         else:
-            self._record(run, step.stop, step.preset_index, None, reason, now)
+            # an earlier attempt's uncertain values are better than none
+            kept = run.uncertain.pop((step.stop, step.preset_index), (0, None))[1]
+            self._record(run, step.stop, step.preset_index, kept, "" if kept else reason, now)
 
     def _home_done(self, outcome, reason):
         if outcome == OUTCOME_OK:
@@ -312,7 +320,7 @@ class Patrol(object):
         run = self.active
         if run is not None and run.next_key() is None:
             counts = [r["status"] for r in self.store.readings(task_id=run.task.task_id, limit=1000000)]
-            failed_all = counts and all(s == "failed" for s in counts)
+            failed_all = counts and all(s == STATUS_FAILED for s in counts)
             self._end(run, STATE_FAILED if failed_all else STATE_DONE,
                       "every preset failed" if failed_all else "", now)
 
@@ -396,18 +404,23 @@ class Patrol(object):
 
 
 def reading_rows(task_id, stop_index, stop_name, preset_index, preset, inspection, reason, now):
-    """The store rows of one preset: one per target (plus one for foreign objects when asked)."""
+    """The store rows of one preset: one per target (plus one for foreign objects when asked). A
+    value the reader doubts is kept with status ``uncertain`` and the reader's reason."""
     rows = []
     pose = inspection.pose if inspection is not None and inspection.pose else (None, None, None)
     for k, target in enumerate(preset["targets"]):
         band = preset["alarms"].get(target["name"])
         value = confidence = None
-        picture = ""
+        picture = doubt = ""
+        source = None
         if inspection is not None:
             value, confidence = float(inspection.values[k]), float(inspection.confidences[k])
             picture = inspection.pictures[k] if k < len(inspection.pictures) else ""
+            doubt = inspection.reasons[k] if inspection.reasons else ""
+            source = inspection.sources[k] if inspection.sources else None
         rows.append(_row(task_id, stop_index, stop_name, preset_index, preset, k, target["name"], target["kind"],
-                         value, target.get("unit", ""), band, confidence, picture, pose, now, reason))
+                         value, target.get("unit", ""), band, confidence, picture, pose, now, doubt or reason,
+                         bool(doubt), source))
     if preset.get("foreign"):
         foreign = inspection.foreign if inspection is not None else None
         value, confidence, picture = (float(foreign[0]), float(foreign[1]), foreign[2]) if foreign else (None, None, "")
@@ -418,21 +431,26 @@ def reading_rows(task_id, stop_index, stop_name, preset_index, preset, inspectio
 
 
 def _row(task_id, stop_index, stop_name, preset_index, preset, target, name, kind, value, unit, band, confidence,
-         picture, pose, now, reason):
+         picture, pose, now, reason, uncertain=False, source=None):
+    """``source``: {"picture": the picture read, "roi": its box (8 numbers)} or None."""
     if value is not None and not math.isfinite(value):
-        value, reason = None, "reading is not a finite number"
+        value, reason, uncertain = None, "reading is not a finite number", False
+    status = STATUS_FAILED if value is None else STATUS_UNCERTAIN if uncertain else STATUS_READ
     return {"task_id": task_id, "stop": stop_index, "stop_name": stop_name, "preset_index": preset_index,
             "preset": preset["directory"], "target": target, "target_name": name, "kind": kind,
-            "status": "read" if value is not None else "failed", "value": value, "unit": unit,
-            "alarm": alarm_state(value, band), "low": band[0] if band else None, "high": band[1] if band else None,
+            "status": status, "value": value, "unit": unit, "alarm": alarm_state(value, band, uncertain),
+            "low": band[0] if band else None, "high": band[1] if band else None,
             "confidence": confidence, "picture": picture, "x": pose[0], "y": pose[1], "yaw": pose[2], "time": now,
-            "reason": reason}
+            "reason": reason, "source_picture": source["picture"] if source else "",
+            "roi": ",".join("%.1f" % v for v in source["roi"]) if source else ""}
 
 
 def result_summary(rows):
-    """last_result of task_status: the preset just recorded, its values and alarms."""
+    """last_result of task_status: the preset just recorded, its values, alarms and doubts."""
     return {"stop": rows[0]["stop"] + 1, "preset": rows[0]["preset"],
             "readings": [{"target": r["target_name"], "value": r["value"], "unit": r["unit"], "alarm": r["alarm"],
-                          "status": r["status"]} for r in rows],
-            "alarms": sum(1 for r in rows if r["alarm"] == ALARM_ALARM),
-            "failed": sum(1 for r in rows if r["status"] == "failed"), "reason": rows[0]["reason"]}
+                          "status": r["status"], "reason": r["reason"]} for r in rows],
+            "alarms": sum(1 for r in rows if r["alarm"] in (ALARM_ALARM, ALARM_CHECK)),
+            "uncertain": sum(1 for r in rows if r["status"] == STATUS_UNCERTAIN),
+            "failed": sum(1 for r in rows if r["status"] == STATUS_FAILED),
+            "reason": next((r["reason"] for r in rows if r["status"] == STATUS_FAILED), "")}

@@ -1,8 +1,10 @@
 """Patrol reports: one folder per task with report.csv, report.json and report.html.
 
-The HTML page lists every reading with its annotated picture (linked by absolute path, the
-pictures stay where read_scale wrote them), alarms first and highlighted, failures with their
-reason. Files are written with files.write_atomic: a reader sees the old report or the new.
+The HTML page opens with the readings that need review (uncertain values nobody settled yet, with
+the reader's reason and the annotated picture), then lists every other reading with its picture
+(linked by absolute path, the pictures stay where read_scale wrote them), alarms and checks first
+and highlighted, failures with their reason. Files are written with files.write_atomic: a reader
+sees the old report or the new.
 """
 import csv
 import html
@@ -12,10 +14,17 @@ import os
 import time
 
 from inspection_robot.files import write_atomic
+from inspection_robot.task.states import (ALARM_ALARM, ALARM_CHECK, ALARM_ORDER, STATUS_FAILED, STATUS_READ,
+                                          STATUS_UNCERTAIN)
 from inspection_robot.task.store import READING_COLUMNS
 
 REPORT_FILES = ("report.csv", "report.json", "report.html")
-ALARM_ORDER = {"alarm": 0, "failed": 1, "normal": 2, "none": 3}
+ALARM_RANK = dict((alarm, i) for i, alarm in enumerate(ALARM_ORDER))
+
+
+def needs_review(row):
+    """An uncertain value nobody has confirmed or corrected yet."""
+    return row["status"] == STATUS_UNCERTAIN and row.get("review_time") is None
 
 
 def step_split(steps):
@@ -28,9 +37,12 @@ def step_split(steps):
 
 
 def summary(task_row, readings, steps):
-    counts = {"readings": len(readings), "read": sum(1 for r in readings if r["status"] == "read"),
-              "failed": sum(1 for r in readings if r["status"] == "failed"),
-              "alarms": sum(1 for r in readings if r["alarm"] == "alarm")}
+    counts = {"readings": len(readings), "read": sum(1 for r in readings if r["status"] == STATUS_READ),
+              "uncertain": sum(1 for r in readings if r["status"] == STATUS_UNCERTAIN),
+              "needs_review": sum(1 for r in readings if needs_review(r)),
+              "failed": sum(1 for r in readings if r["status"] == STATUS_FAILED),
+              "alarms": sum(1 for r in readings if r["alarm"] == ALARM_ALARM),
+              "checks": sum(1 for r in readings if r["alarm"] == ALARM_CHECK)}
     ended = task_row["ended"]
     return {"task_id": task_row["task_id"], "priority": task_row["priority"], "state": task_row["state"],
             "reason": task_row["reason"], "submitted": task_row["submitted"], "ended": ended,
@@ -64,37 +76,63 @@ def _fmt(value, digits=4):
     return "" if value is None else ("%.*g" % (digits, value))
 
 
-def render_html(info, readings):
+def _value_text(r):
+    """The robot's value, and the operator's when a review settled it."""
+    text = "%s %s" % (_fmt(r["value"], 6), r["unit"])
+    if r.get("review_time") is not None:
+        text += " (reviewed by %s: %s)" % (r["review_by"], "confirmed" if r["review_value"] == r["value"]
+                                           else "%s %s" % (_fmt(r["review_value"], 6), r["unit"]))
+    return text
+
+
+def _table_rows(rows):
     esc = html.escape
-    rows = sorted(readings, key=lambda r: (ALARM_ORDER.get(r["alarm"], 9), r["stop"], r["preset_index"], r["target"]))
     body = []
     for r in rows:
         band = "" if r["low"] is None else "%s .. %s" % (_fmt(r["low"]), _fmt(r["high"]))
         picture = ('<a href="file://%s"><img src="file://%s" alt="%s"></a>'
                    % (esc(r["picture"]), esc(r["picture"]), esc(r["target_name"])) if r["picture"] else "")
-        body.append('<tr class="%s"><td>%d %s</td><td>%s</td><td>%s (%s)</td><td>%s %s</td><td>%s</td><td>%s</td>'
+        body.append('<tr class="%s%s"><td>%d %s</td><td>%s</td><td>%s (%s)</td><td>%s</td><td>%s</td><td>%s</td>'
                     '<td>%s</td><td>%s</td><td>%s</td><td>%s</td></tr>'
-                    % (esc(r["alarm"]), r["stop"] + 1, esc(r["stop_name"]), esc(preset_label(r["preset"])),
-                       esc(r["target_name"]), esc(r["kind"]), _fmt(r["value"], 6), esc(r["unit"]), band,
-                       esc(r["alarm"]), _fmt(r["confidence"], 3),
+                    % (esc(r["alarm"]), "" if r["status"] == STATUS_READ else " " + esc(r["status"]),
+                       r["stop"] + 1, esc(r["stop_name"]),
+                       esc(preset_label(r["preset"])), esc(r["target_name"]), esc(r["kind"]), esc(_value_text(r)),
+                       band, esc(r["alarm"]), _fmt(r["confidence"], 3),
                        time.strftime("%Y-%m-%d %H:%M:%S", time.localtime(r["time"])), esc(r["reason"]), picture))
+    return "\n".join(body)
+
+
+def render_html(info, readings):
+    esc = html.escape
+    rows = sorted(readings, key=lambda r: (ALARM_RANK.get(r["alarm"], 9), r["stop"], r["preset_index"], r["target"]))
+    review = [r for r in rows if needs_review(r)]
+    rest = [r for r in rows if not needs_review(r)]
     counts = info["counts"]
+    head = ("<tr><th>stop</th><th>preset</th><th>target</th><th>value</th><th>normal band</th><th>alarm</th>"
+            "<th>confidence</th><th>time</th><th>reason</th><th>picture</th></tr>")
+    review_part = ("<h2>Needs review (%d)</h2>\n<p>Values the reader doubts: the reason says why. Confirm or "
+                   "correct each one (task_control <code>review</code>, or the console's review queue).</p>\n"
+                   "<table>%s\n%s\n</table>\n" % (len(review), head, _table_rows(review))) if review else ""
     return """<!DOCTYPE html>
 <html><head><meta charset="utf-8"><title>Patrol report %(id)s</title>
 <style>
 body{font-family:sans-serif;margin:1em} table{border-collapse:collapse} td,th{border:1px solid #999;padding:3px 6px}
-tr.alarm td{background:#f8c0c0;font-weight:bold} tr.failed td{background:#eee;color:#a00}
+tr.alarm td{background:#f8c0c0;font-weight:bold} tr.check td{background:#fde0b0;font-weight:bold}
+tr.uncertain td{font-style:italic} tr.failed td{background:#eee;color:#a00}
 img{max-width:240px;max-height:160px}
 </style></head><body>
 <h1>Patrol report %(id)s</h1>
 <p>priority %(priority)s, state <b>%(state)s</b> %(reason)s; %(stops)d stops (%(route)s); %(readings)d readings:
-%(read)d read, <b>%(alarms)d alarm(s)</b>, %(failed)d failed; duration %(duration)s s</p>
-<table><tr><th>stop</th><th>preset</th><th>target</th><th>value</th><th>normal band</th><th>alarm</th>
-<th>confidence</th><th>time</th><th>reason</th><th>picture</th></tr>
+%(read)d read, %(uncertain)d uncertain (%(needs_review)d need review), <b>%(alarms)d alarm(s)</b>,
+<b>%(checks)d check(s)</b>, %(failed)d failed; duration %(duration)s s</p>
+%(review)s<h2>Readings</h2>
+<table>%(head)s
 %(body)s
 </table></body></html>
 """ % {"id": esc(info["task_id"]), "priority": esc(info["priority"]), "state": esc(info["state"]),
        "reason": esc(info["reason"]), "stops": info["stops"], "readings": counts["readings"], "read": counts["read"],
        "route": esc("%s order, planned route %s" % (info["order"], "%.1f m" % info["planned_length_m"]
                                                     if info["planned_length_m"] is not None else "not measured")),
-       "alarms": counts["alarms"], "failed": counts["failed"], "duration": info["duration_s"], "body": "\n".join(body)}
+       "uncertain": counts["uncertain"], "needs_review": counts["needs_review"], "alarms": counts["alarms"],
+       "checks": counts["checks"], "failed": counts["failed"], "duration": info["duration_s"], "review": review_part,
+       "head": head, "body": _table_rows(rest)}

@@ -5,10 +5,16 @@ process and a power cut; a reading is committed before anyone is told about it. 
 UNIQUE (task_id, stop, preset_index, target) key: the patrol state machine derives what is left to
 do from the store itself (a preset with rows is done), so a restarted task_manager neither repeats
 nor loses a reading. One connection shared under a lock (the node's threads are few and short).
+
+Schema changes: columns added after the first release (ADDED_COLUMNS) are added to an older file
+when it is opened (``ALTER TABLE ... ADD COLUMN`` in one transaction), so every store opens; old
+rows get the columns' defaults (no source picture, not reviewed).
 """
 import json
 import sqlite3
 import threading
+
+from inspection_robot.task.states import STATUS_UNCERTAIN, UNFINISHED_STATES
 
 SCHEMA = """
 CREATE TABLE IF NOT EXISTS tasks (
@@ -21,18 +27,28 @@ CREATE TABLE IF NOT EXISTS readings (
     alarm TEXT NOT NULL, low REAL, high REAL, confidence REAL, picture TEXT NOT NULL,
     x REAL, y REAL, yaw REAL, time REAL NOT NULL, reason TEXT NOT NULL,
     UNIQUE (task_id, stop, preset_index, target));
-CREATE INDEX IF NOT EXISTS readings_time ON readings (time);
 CREATE TABLE IF NOT EXISTS steps (
     id INTEGER PRIMARY KEY AUTOINCREMENT, task_id TEXT NOT NULL, stop INTEGER NOT NULL,
     preset_index INTEGER NOT NULL, kind TEXT NOT NULL, outcome TEXT NOT NULL, started REAL NOT NULL,
     ended REAL NOT NULL, reason TEXT NOT NULL);
 CREATE TABLE IF NOT EXISTS meta (key TEXT PRIMARY KEY, value TEXT NOT NULL);
 """
+# readings columns added since the first schema, with their declarations: the picture read and its
+# box (for the bench's field set), the operator's review of an uncertain value (true value or the
+# robot's own when confirmed, its alarm, who, when)
+ADDED_COLUMNS = (("source_picture", "TEXT NOT NULL DEFAULT ''"), ("roi", "TEXT NOT NULL DEFAULT ''"),
+                 ("review_value", "REAL"), ("review_alarm", "TEXT NOT NULL DEFAULT ''"),
+                 ("review_by", "TEXT NOT NULL DEFAULT ''"), ("review_time", "REAL"))
+INDEXES = """
+CREATE INDEX IF NOT EXISTS readings_time ON readings (time);
+CREATE INDEX IF NOT EXISTS readings_review ON readings (status, review_time);
+"""
 READING_COLUMNS = ("id", "task_id", "stop", "stop_name", "preset_index", "preset", "target", "target_name", "kind",
                    "status", "value", "unit", "alarm", "low", "high", "confidence", "picture", "x", "y", "yaw",
-                   "time", "reason")
+                   "time", "reason") + tuple(name for name, _ in ADDED_COLUMNS)
+# what a patrol writes (the review columns are written by set_review only)
+WRITTEN_COLUMNS = tuple(c for c in READING_COLUMNS[1:] if not c.startswith("review_"))
 STEP_COLUMNS = ("task_id", "stop", "preset_index", "kind", "outcome", "started", "ended", "reason")
-UNFINISHED_STATES = ("running", "paused", "suspended")
 
 
 class StoreError(Exception):
@@ -48,8 +64,25 @@ class ResultStore(object):
             self._db.execute("PRAGMA journal_mode=WAL")
             self._db.execute("PRAGMA synchronous=FULL")
             self._db.executescript(SCHEMA)
+            self._migrate()
+            self._db.executescript(INDEXES)
         except sqlite3.Error as err:
             raise StoreError("cannot open the results store %s: %s" % (path, err))
+
+    def _migrate(self):
+        """Add the ADDED_COLUMNS an older store lacks, all or none."""
+        have = set(row[1] for row in self._db.execute("PRAGMA table_info(readings)"))
+        missing = [(name, declaration) for name, declaration in ADDED_COLUMNS if name not in have]
+        if not missing:
+            return
+        self._db.execute("BEGIN IMMEDIATE")
+        try:
+            for name, declaration in missing:
+                self._db.execute("ALTER TABLE readings ADD COLUMN %s %s" % (name, declaration))
+            self._db.execute("COMMIT")
+        except sqlite3.Error:
+            self._db.execute("ROLLBACK")
+            raise
 
     def close(self):
         with self._lock:
@@ -116,12 +149,12 @@ class ResultStore(object):
     def add_readings(self, rows):
         """Commit the readings of one preset in one transaction; returns how many were new."""
         statements = [("INSERT OR IGNORE INTO readings (%s) VALUES (%s)"
-                       % (", ".join(READING_COLUMNS[1:]), ", ".join("?" * (len(READING_COLUMNS) - 1))),
-                       tuple(row[c] for c in READING_COLUMNS[1:])) for row in rows]
+                       % (", ".join(WRITTEN_COLUMNS), ", ".join("?" * len(WRITTEN_COLUMNS))),
+                       tuple(row[c] for c in WRITTEN_COLUMNS)) for row in rows]
         return self._write(statements)
 
     def done_presets(self, task_id):
-        """{(stop, preset_index)} that already have readings (read or failed)."""
+        """{(stop, preset_index)} that already have readings (read, uncertain or failed)."""
         return set(self._query("SELECT DISTINCT stop, preset_index FROM readings WHERE task_id = ?", (task_id,)))
 
     def readings(self, task_id=None, since=None, until=None, limit=1000):
@@ -135,6 +168,27 @@ class ResultStore(object):
         rows = self._query("SELECT %s FROM readings%s ORDER BY id LIMIT ?" % (", ".join(READING_COLUMNS), where),
                            tuple(params) + (limit,))
         return [dict(zip(READING_COLUMNS, r)) for r in rows]
+
+    def reading(self, row_id):
+        """One reading row by its id, or None."""
+        rows = self._query("SELECT %s FROM readings WHERE id = ?" % ", ".join(READING_COLUMNS), (row_id,))
+        return dict(zip(READING_COLUMNS, rows[0])) if rows else None
+
+    # --- review of uncertain readings ------------------------------------------------------------
+    def review_queue(self, task_id=None, limit=100):
+        """Uncertain readings nobody reviewed yet, oldest first (optionally of one task)."""
+        clause, params = ("", ()) if task_id is None else (" AND task_id = ?", (task_id,))
+        rows = self._query("SELECT %s FROM readings WHERE status = ? AND review_time IS NULL%s ORDER BY id LIMIT ?"
+                           % (", ".join(READING_COLUMNS), clause), (STATUS_UNCERTAIN,) + params + (limit,))
+        return [dict(zip(READING_COLUMNS, r)) for r in rows]
+
+    def set_review(self, row_id, value, alarm, by, now):
+        """Settle an uncertain, unreviewed reading: its true ``value`` (the robot's own when the
+        operator confirmed it), that value's ``alarm``, who and when. The robot's value stays in
+        ``value``. Returns False (nothing written) when the row is not waiting for a review."""
+        return self._write([("UPDATE readings SET review_value = ?, review_alarm = ?, review_by = ?, review_time = ? "
+                             "WHERE id = ? AND status = ? AND review_time IS NULL",
+                             (value, alarm, by, now, row_id, STATUS_UNCERTAIN))]) == 1
 
     # --- step timings --------------------------------------------------------------------------
     def add_step(self, task_id, stop, preset_index, kind, outcome, started, ended, reason=""):

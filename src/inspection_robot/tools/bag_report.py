@@ -30,7 +30,8 @@ import rosbag
 
 from inspection_robot.msg import (ControlStatus, GeneralAck, GeneralActionGoal, GeneralActionResult, GeneralTopic,
                                   NavStatus, ObstacleStatus, ReadScaleAck, RobotStatus)
-from inspection_robot.recording.summary import READING_ALARM, RunAnalyzer, format_summary, reading_text
+from inspection_robot.recording.summary import READING_ALARMS, RunAnalyzer, format_summary, reading_text
+from inspection_robot.task.states import STATUS_FAILED
 
 STATUS_FIELDS = ("offline_warn", "mode", "velocity_x", "velocity_yaw", "position", "orientation", "nav_status",
                  "sensor_status", "wheel_status", "light_status", "stop_status", "circuit_status", "other_status",
@@ -310,7 +311,7 @@ def _reading_labels(readings, near_m=0.5):
             spot = [r.x, r.y, [], False]
             spots.append(spot)
         spot[2].append(i + 1)
-        spot[3] = spot[3] or r.alarm == READING_ALARM
+        spot[3] = spot[3] or r.alarm in READING_ALARMS
     return [("R%d" % n[0] if len(n) == 1 else "R%d-R%d" % (n[0], n[-1]) if n[-1] - n[0] == len(n) - 1
              else "R" + ",".join(str(k) for k in n), x, y, alarm) for x, y, n, alarm in spots]
 
@@ -323,8 +324,8 @@ def _lists(ax, summary):
     """The readings (value, unit, alarm state) and the alarms and faults, as text under the plots."""
     ax.axis("off")
     readings = ["readings: %d (%d alarm, %d failed)" % (
-        len(summary.readings), sum(1 for r in summary.readings if r.alarm == READING_ALARM),
-        sum(1 for r in summary.readings if r.status == "failed"))]
+        len(summary.readings), sum(1 for r in summary.readings if r.alarm in READING_ALARMS),
+        sum(1 for r in summary.readings if r.status == STATUS_FAILED))]
     readings += [_clip("R%-3d %5.0f s  %s" % (i + 1, r.t, reading_text(r)), 120)
                  for i, r in enumerate(summary.readings[:MAX_LISTED])]
     events = ["alarms: %d" % len(summary.alarms)] + [_clip("%5.0f s  %s" % (e.t, e.text), 80)

@@ -1,0 +1,43 @@
+"""The words of task_manager's interface that more than one module reads: task states (task_status
+``state``, the store's tasks), reading statuses and alarm states (result rows, reports, the console
+through query_results). One place: the patrol, the store, the reports, task_action, task_manager,
+charge_control and bag_report all import them (docs/interface.md, "Patrol (task_manager)").
+"""
+
+# --- task states (task_status "state"; tasks.state in the store) -----------------------------
+STATE_IDLE = "idle"
+STATE_RUNNING = "running"
+STATE_PAUSED = "paused"
+STATE_RETURNING_HOME = "returning_home"
+STATE_DONE = "done"
+STATE_CANCELLED = "cancelled"
+STATE_FAILED = "failed"
+STATE_SUSPENDED = "suspended"   # stored state of a routine task pre-empted by a special one
+ENDED_STATES = (STATE_DONE, STATE_CANCELLED, STATE_FAILED)
+UNFINISHED_STATES = (STATE_RUNNING, STATE_PAUSED, STATE_SUSPENDED)   # resumed after a restart
+
+# --- reading statuses (readings.status) --------------------------------------------------------
+STATUS_READ = "read"
+STATUS_UNCERTAIN = "uncertain"   # a value the reader doubts (its reason says why): needs review
+STATUS_FAILED = "failed"         # no value
+READING_STATUSES = (STATUS_READ, STATUS_UNCERTAIN, STATUS_FAILED)
+
+# --- alarm states (readings.alarm, readings.review_alarm) --------------------------------------
+ALARM_ALARM = "alarm"     # a value outside its band
+ALARM_CHECK = "check"     # an uncertain value outside its band: go and look, never silence
+ALARM_FAILED = "failed"   # no reading
+ALARM_NORMAL = "normal"
+ALARM_NONE = "none"       # no band for this target
+ALARM_ORDER = (ALARM_ALARM, ALARM_CHECK, ALARM_FAILED, ALARM_NORMAL, ALARM_NONE)   # most urgent first
+
+
+def alarm_state(value, band, uncertain=False):
+    """The alarm of ``value`` against ``band`` [low, high] (None: no band); ``uncertain`` values
+    outside the band are ``check``, not ``alarm``."""
+    if value is None:
+        return ALARM_FAILED
+    if band is None:
+        return ALARM_NONE
+    if band[0] <= value <= band[1]:
+        return ALARM_NORMAL
+    return ALARM_CHECK if uncertain else ALARM_ALARM
