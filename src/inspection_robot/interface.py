@@ -197,9 +197,19 @@ VOICE_LANGUAGES = ("chinese", "english")
 # Every topic of the interface, named in full: bag_recorder subscribes to each by name when it
 # starts (not by pattern), so a topic a backend advertises later is recorded from its first message.
 # The *_cmd/*_ack pairs of every commanded node; location_cmd has no ack (the spec defines none).
-COMMAND_TOPICS = tuple("%s_%s" % (name, kind) for name in (
-    "mode", "control", "imu", "terrace", "arm", "camera", "infrared", "virtual_obstacle", "file", "calibration",
-    "charge", "task", "preset_scale", "read_scale", "voice") for kind in ("cmd", "ack")) + ("location_cmd", "move_cmd")
+COMMAND_NAMES = ("mode", "control", "imu", "terrace", "arm", "camera", "infrared", "virtual_obstacle", "file",
+                 "calibration", "charge", "task", "preset_scale", "read_scale", "voice")
+COMMAND_TOPICS = tuple("%s_%s" % (name, kind) for name in COMMAND_NAMES for kind in ("cmd", "ack")) + \
+    ("location_cmd", "move_cmd")
+# What a backend publishes, with its message type (GeneralCmd unless named): rosbridge_websocket
+# advertises these when it starts, so every robot node (and the recorder) is subscribed before the
+# first client's first message, which a topic advertised only when a client asks would lose.
+BACKEND_TOPIC_TYPES = dict(
+    [("%s_cmd" % name, "inspection_robot/GeneralCmd") for name in COMMAND_NAMES] + [
+        ("location_cmd", "inspection_robot/GeneralCmd"), ("move_cmd", "inspection_robot/MoveCmd"),
+        ("preset_scale_cmd", "inspection_robot/PresetScaleCmd"), ("read_scale_cmd", "inspection_robot/ReadScaleCmd"),
+        ("voice_cmd", "inspection_robot/VoiceCmd"), ("server_status", "inspection_robot/GeneralTopic"),
+        ("preset_rotate", "inspection_robot/PresetRotate")])
 ACTION_NAMES = ("move_action", "find_scale_action", "task_action")
 ACTION_TOPICS = ("goal", "cancel", "status", "feedback", "result")   # actionlib's topics of each action
 INTERFACE_TOPICS = (

@@ -10,6 +10,7 @@ import unittest
 import actionlib
 import roslibpy
 import roslibpy.actionlib
+import rosgraph
 import rospy
 import rostest
 from std_msgs.msg import Int32, String
@@ -17,7 +18,8 @@ from std_msgs.msg import Int32, String
 from inspection_robot.bridge import cbor
 from inspection_robot.bridge.client import CLOSED, RawClient
 from inspection_robot.bridge.compression import png_decode
-from inspection_robot.msg import (GeneralAck, GeneralAction, GeneralCmd, GeneralFeedback, GeneralResult)
+from inspection_robot.interface import BACKEND_TOPIC_TYPES
+from inspection_robot.msg import GeneralAck, GeneralAction, GeneralCmd, GeneralFeedback, GeneralResult, GeneralTopic
 from inspection_robot.srv import ControlService, ControlServiceResponse
 from rostest_helpers import Latest, wait_for, wait_subscribed
 
@@ -204,6 +206,28 @@ class BridgeLinkTest(unittest.TestCase):
         self.assertEqual(json.loads(result["data"]), {"done": "move"})
         self.assertEqual(feedback[0]["event_code"], "progress")
         client.dispose()
+
+    # ------------------------------------------------------------------ the backend's topics
+    def test_backend_topics_are_advertised_before_any_client_and_shared(self):
+        """Every topic a backend publishes has the bridge's publisher from its start, so the robot is
+        subscribed before a client's first message; a client advertising it shares that publisher."""
+        state = rosgraph.Master("/test_bridge_link").getSystemState()[0]
+        publishers = {topic: nodes for topic, nodes in state}
+        for topic in BACKEND_TOPIC_TYPES:
+            self.assertIn("/rosbridge_websocket", publishers.get("/" + topic, []), topic)
+        received = Latest("/server_status", GeneralTopic)
+        received.wait_connected(5.0)
+        client = self.raw(self.url)
+        client.send({"op": "advertise", "topic": "/server_status", "type": "inspection_robot/GeneralTopic"})
+        client.send({"op": "publish", "topic": "/server_status", "msg": {"sender": "server", "data": "first"}})
+        self.assertEqual(received.wait(lambda m: m.data == "first", 5.0, "the first heartbeat").data, "first")
+        client.send({"op": "advertise", "topic": "/server_status", "type": "std_msgs/String"})
+        self.assertIn("already established with type inspection_robot/GeneralTopic", client.recv_message()["msg"])
+        client.send({"op": "unadvertise", "topic": "/server_status"})
+        client.close()
+        wait_for(lambda: "/rosbridge_websocket" in dict(
+            rosgraph.Master("/test_bridge_link").getSystemState()[0]).get("/server_status", []), 5.0,
+            "the bridge still publishing /server_status after the client left")
 
     # ------------------------------------------------------------------ rosapi
     def test_rosapi(self):

@@ -7,7 +7,8 @@ roslibjs/roslibpy clients and answers /rosapi/* calls in-process (see docs/inter
 Publishes:   client_count (std_msgs/Int32, latched): connected websocket clients
              diagnostics (diagnostic_msgs/DiagnosticArray, diagnostic_updater, 1 Hz): hardware_id
              backend_link, status "rosbridge_websocket: clients": send queues, drop counters
-             plus every topic a client advertises (any type)
+             the topics a backend publishes (interface.BACKEND_TOPIC_TYPES: server_status, every *_cmd, ...),
+             advertised at start; plus every other topic a client advertises (any type)
 Subscribes:  every topic a client subscribes to (one ROS subscriber per topic, shared)
 Services:    every service a client advertises; calls any ROS service for clients
 Parameters:  ~port (int, 9090; 0 = any free port), ~address (str, "127.0.0.1"; "" = all),
@@ -51,6 +52,7 @@ from inspection_robot.ros.bridge_backend import RosBackend, RosGraph
 from inspection_robot.ros.message_types import GenpyTypes
 from inspection_robot.bridge.rosapi import RosApi
 from inspection_robot.bridge.server import BridgeServer, LoopPoster, make_ssl_context
+from inspection_robot.interface import BACKEND_TOPIC_TYPES
 from inspection_robot.ros.node import init_node
 
 INSECURE_WARNING_PERIOD = 60.0  # s between warnings while insecure:=true leaves the link open
@@ -220,6 +222,7 @@ def main():
     codec = Codec(types)
     backend = RosBackend(types, codec, LoopPoster(loop, log).post, executor, params["service_timeout"],
                          params["subscriber_queue_size"], log)
+    backend.advertise_for_the_robot(BACKEND_TOPIC_TYPES)
     rosapi = RosApi(RosGraph(backend), types)
     authenticator = None
     if params["auth_token"]:

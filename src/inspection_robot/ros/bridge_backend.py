@@ -24,6 +24,7 @@ from inspection_robot.bridge.protocol import BridgeError, Outgoing
 
 MAX_BATCH = 256  # messages converted for one topic before the client's socket waits for a flush
 DIRECT_WRITE_BYTES = 65536  # largest write sent straight from the caller's thread (write_direct)
+_ROBOT = "robot"  # the owner of the topics the bridge advertises itself (advertise_for_the_robot): never leaves
 
 
 def type_conflict(topic, wanted, established):
@@ -227,6 +228,13 @@ class RosBackend(object):
         elif entry.type_name != type_name:
             raise type_conflict(topic, type_name, entry.type_name)
         entry.sessions.add(session)
+
+    def advertise_for_the_robot(self, topics, queue_size=100):
+        """Advertise ``topics`` ({name: type}) for as long as the bridge runs, before any client: the
+        robot's subscribers connect at once, so a client's first message on them is not lost while
+        they would connect to a publisher made at its request. Clients advertising them share it."""
+        for topic, type_name in sorted(topics.items()):
+            self.advertise(_ROBOT, rospy.resolve_name(topic), type_name, False, queue_size)
 
     def unadvertise(self, session, topic):
         entry = self._publishers.get(topic)
