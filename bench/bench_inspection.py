@@ -9,11 +9,19 @@ simulated yard's gauges: record a preset, calibrate it from ground truth, come b
 0.3 m / 5 deg, find with the full finder (heading correction, coarse-to-fine, re-centring), read.
 
 Real part (when the photos are present, see scripts/real_gauges.py): real photographs labelled by
-eye (bench/data/real_gauges.json), each one both the preset's picture and the live picture, read
-through read_scale's core (ScaleReader): accuracy, the share flagged uncertain, gross errors
-(> 10 % FS) not flagged, a reliability curve (accuracy per confidence band), and pictures that
-are not a gauge, which must fail. BENCH_REAL_CENTRE_OFF=f calibrates the centre f tick radii off the
-labelled pivot (a dial's centre clicked as the pivot), BENCH_REAL_HUB=0 reads without the hub search.
+eye (bench/data/real_gauges.json), split by source into a tuning and a test part (bench/real_set.py:
+the rule, fixed before tuning; only the test part counts), read through read_scale's core
+(ScaleReader). No oracle: a dial with several photos is calibrated on one and each other photo is
+found (feature matching from the calibration picture) and read ("cross"); a dial's only photo is
+read on its own picture ("same_picture", reported apart). Per part: accuracy, the share flagged
+uncertain, gross errors (> 10 % FS) not flagged, the share of good readings (<= 2 % FS) flagged,
+the figures per category (needle at the scale's start or end, drag pointers, off-centre pivots,
+reversed or non-linear scales, obliques), a reliability curve (accuracy per confidence band), and
+pictures that are not a gauge, which must fail. BENCH_REAL_DIAL_AXES=1 uses the hand-fitted dial
+ellipses (an oracle, off by default), BENCH_REAL_BOX=label places cross boxes from the labels (a
+perfect finder), BENCH_REAL_CENTRE_OFF=f calibrates the centre f tick radii off the labelled pivot
+(a dial's centre clicked as the pivot), BENCH_REAL_HUB=0 reads without the hub search,
+BENCH_REAL_VERBOSE=1 prints every photo's result.
 
 Field part (when ``<data_root>/corrections/`` holds files, BENCH_CORRECTIONS_DIR overrides the
 folder): every uncertain patrol reading an operator confirmed or corrected (task_manager's
@@ -40,11 +48,14 @@ from inspection_robot.inspection.geometry import quad_iou, transform_quad
 from inspection_robot.inspection.locate import LocateError, Locator
 from inspection_robot.inspection.readers import PointerReader, ReadFailed
 
+import real_set   # bench/real_set.py: the real set's split and protocol
+
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 W, H = 640, 360
 CASES = int(os.environ.get("BENCH_INSPECTION_CASES", "320"))   # 0: no synthetic part
-# 0: ignore the hand-fitted dial ellipses (``dial_axes``) of oblique photos, as a field calibration would
-USE_DIAL_AXES = os.environ.get("BENCH_REAL_DIAL_AXES", "1") != "0"
+# 1: use the hand-fitted dial ellipses (``dial_axes``) of oblique photos; off by default: a field
+# calibration has no such ellipse (an oracle)
+USE_DIAL_AXES = os.environ.get("BENCH_REAL_DIAL_AXES", "0") == "1"
 # 0: calibrate without the marks' positions (no ellipse fit: the reader's calibrated frame only)
 USE_MARKS = os.environ.get("BENCH_REAL_MARKS", "1") != "0"
 # > 0: the calibration clicks the centre this many tick radii off the labelled pivot, towards the
@@ -53,6 +64,10 @@ USE_MARKS = os.environ.get("BENCH_REAL_MARKS", "1") != "0"
 CENTRE_OFF = float(os.environ.get("BENCH_REAL_CENTRE_OFF", "0"))
 # 0: the reader does not look for the hub in the picture (PointerReader(find_hubs=False))
 FIND_HUBS = os.environ.get("BENCH_REAL_HUB", "1") != "0"
+# "find": a cross-protocol photo's box is located by feature matching (the robot's path); "label": moved
+# onto its labelled pivot and radius (a finder that is never wrong, to tell finder from reader errors)
+BOX_SOURCE = os.environ.get("BENCH_REAL_BOX", "find")
+FIND_DETECTOR = os.environ.get("BENCH_REAL_DETECTOR", "orb")    # config/find_scale.yaml's default
 
 
 def synthetic_case(rng, locator, reader):
@@ -180,7 +195,8 @@ def world_cases(rng, locator, reader, count, tmp):
 
 def label_spec(label, width, height):
     """A calibration target spec (calibration.build_targets' format) from a photo's labels: a box
-    1.15 tick radii around the pivot (clipped to the picture), the marks' angles as the scale.
+    1.15 tick radii around the pivot grown to hold every mark (clipped to the picture), the marks'
+    angles as the scale.
     ``dial_axes`` [sx, sy] (an oblique view: the round dial seen as an ellipse sx·R wide, sy·R
     high) makes the box that ellipse's bounding box with the physical aspect of a square, so the
     reader's rectification (the same one that undoes the finder's homography) sees a round dial;
@@ -194,8 +210,11 @@ def label_spec(label, width, height):
         middle = marks[len(marks) // 2] - (px, py)
         towards = middle if np.hypot(*ends) < 0.3 * r else ends     # a near-full circle: its middle mark
         px, py = np.array([px, py]) + CENTRE_OFF * r * towards / np.hypot(*towards)
-    x0, y0 = max(0.0, px - 1.15 * r * sx), max(0.0, py - 1.15 * r * sy)
-    x1, y1 = min(width - 1.0, px + 1.15 * r * sx), min(height - 1.0, py + 1.15 * r * sy)
+    mx, my = [float(x) for _, x, _ in label["marks"]], [float(y) for _, _, y in label["marks"]]
+    pad = 0.05 * r     # the box holds every mark, as an operator draws it round the whole scale
+    x0, y0 = max(0.0, min(px - 1.15 * r * sx, min(mx) - pad)), max(0.0, min(py - 1.15 * r * sy, min(my) - pad))
+    x1 = min(width - 1.0, max(px + 1.15 * r * sx, max(mx) + pad))
+    y1 = min(height - 1.0, max(py + 1.15 * r * sy, max(my) + pad))
     angles = [math.degrees(math.atan2((x - px) / sx, -(y - py) / sy)) % 360.0 for _, x, y in label["marks"]]
     values = [float(v) for v, _, _ in label["marks"]]
     spec = {"kind": "pointer", "name": label["id"], "box": [x0, y0, x1, y0, x1, y1, x0, y1],
@@ -228,44 +247,66 @@ def real_photo_preset(root, label, picture, optics_for):
         return writer.commit()
 
 
+def _label_box(calibration, live, box):
+    """The calibration box moved onto ``live``'s labelled pivot and scaled by the labelled radii: a
+    finder that is never wrong (BENCH_REAL_BOX=label), to tell finder errors from reader errors."""
+    scale = float(live["radius"]) / float(calibration["radius"])
+    return (np.asarray(box, float) - calibration["pivot"]) * scale + live["pivot"]
+
+
 def real_cases(photo_dir, tmp):
-    """Score every labelled photo present in ``photo_dir``; returns the result dicts (None when no photo)."""
+    """Score every scored photo present in ``photo_dir`` by its protocol (real_set.plan); returns the
+    result dicts. "cross": the dial's calibration photo makes the preset, the box is located in this
+    photo by feature matching (the finder's Locator), then read; "same": the photo is both."""
     from inspection_robot.inspection.geometry import flat_from_quads
     from inspection_robot.inspection.preset import load_preset
     from inspection_robot.inspection.reading import ReadError, ScaleReader
-    with open(os.path.join(ROOT, "bench", "data", "real_gauges.json")) as f:
-        doc = json.load(f)
+    doc = real_set.load()
+    roles = real_set.plan(doc)
+    seen = dict((s["repo"], s.get("seen_by_reader", False)) for s in doc["sources"])
     by_id = dict((p["id"], p) for p in doc["photos"])
     found = dict((os.path.splitext(n)[0], os.path.join(photo_dir, n)) for n in os.listdir(photo_dir))
     reader = ScaleReader([tmp], [tmp, photo_dir], os.path.join(tmp, "results"),
                          pointer=PointerReader(find_hubs=FIND_HUBS))
+    locator = Locator(FIND_DETECTOR)
     out = []
     for label in doc["photos"] + doc["negatives"]:
+        negative = "calibration_of" in label
+        role = "negative" if negative else roles.get(label["id"])
         picture = found.get(label["id"])
-        if picture is None:
+        if role in (None, "calibration") or picture is None:
             continue
-        calibration = by_id[label.get("calibration_of", label["id"])]
-        preset_dir = real_photo_preset(tmp, dict(calibration, id=label["id"]),
-                                       found[calibration["id"]] if "calibration_of" in label else picture,
+        calibration = by_id[label["calibration_of"]] if negative else real_set.calibration_photo(doc, label)
+        if calibration["id"] not in found:
+            continue
+        row = {"id": label["id"], "negative": negative, "role": role, "failed": "", "find_failed": "",
+               "part": real_set.part_of(doc, label), "repo": label["repo"], "seen": seen[label["repo"]],
+               "dial": real_set.dial_of(label), "categories": real_set.categories_of(label)}
+        preset_dir = real_photo_preset(tmp, dict(calibration, id=label["id"]), found[calibration["id"]],
                                        S.linear_optics)
         preset = load_preset(preset_dir)
-        box = flat_from_quads([preset.targets[0].boxes[0]])
+        quad = preset.targets[0].boxes[0]
         t0 = time.perf_counter()
+        if role == "cross" and BOX_SOURCE == "label":
+            quad = _label_box(calibration, label, quad)
+        elif role == "cross":
+            try:
+                quad = locator.locate(cv2.imread(found[calibration["id"]]), cv2.imread(picture), [quad]).quads[0]
+            except LocateError as err:
+                out.append(dict(row, find_failed=str(err), t=time.perf_counter() - t0))
+                continue
         try:
-            outcome = reader.read(preset_dir, 0, [picture], [], box, [], "20260102_000000")
+            outcome = reader.read(preset_dir, 0, [picture], [], flat_from_quads([quad]), [], "20260102_000000")
         except ReadError as err:
-            out.append({"id": label["id"], "negative": "calibration_of" in label, "failed": str(err),
-                        "t": time.perf_counter() - t0})
+            out.append(dict(row, failed=str(err), t=time.perf_counter() - t0))
             continue
         scale = preset.targets[0].scale
         error = scale.error_percent_fs(outcome.scale[0], label["truth"]) if "truth" in label else None
-        out.append({"id": label["id"], "negative": "calibration_of" in label, "failed": "", "error": error,
-                    "value": outcome.scale[0], "truth": label.get("truth"),
-                    "confidence": outcome.possibility[0], "uncertain": outcome.uncertain[0],
-                    "tags": label.get("tags", []), "at_end": label.get("truth") in (scale.start_value, scale.end_value),
-                    "label_uncertainty_pct_fs": 100.0 * label.get("uncertainty", 0.0) / scale.full_scale,
-                    "t": time.perf_counter() - t0})
-    return out
+        out.append(dict(row, error=error, value=outcome.scale[0], truth=label.get("truth"),
+                        confidence=outcome.possibility[0], uncertain=outcome.uncertain[0],
+                        label_uncertainty_pct_fs=100.0 * label.get("uncertainty", 0.0) / scale.full_scale,
+                        t=time.perf_counter() - t0))
+    return doc, out
 
 
 def correction_cases(folder):
@@ -308,40 +349,56 @@ def report_corrections(rows):
                           still_uncertain=sum(1 for r in rows if r.get("uncertain")))))
 
 
-def _accuracy(name, rows):
-    errors = np.array([r["error"] for r in rows if r.get("error") is not None and not r["failed"]])
-    if not len(errors):
-        return {"bench": name, "n": 0}
-    return {"bench": name, "n": len(errors), "mean_abs_error_pct_fs": round(float(errors.mean()), 3),
-            "median_pct_fs": round(float(np.median(errors)), 3),
-            "within_1pct_fs": round(float((errors <= 1.0).mean()), 4),
-            "within_2pct_fs": round(float((errors <= 2.0).mean()), 4),
-            "within_5pct_fs": round(float((errors <= 5.0).mean()), 4)}
+GOOD_PCT_FS = 2.0     # a reading this close to the truth is good: flagging it uncertain costs an operator a look
+GROSS_PCT_FS = 10.0   # farther than this is a gross error: acceptable only when flagged uncertain
 
 
-def report_real(rows):
+def _accuracy(name, rows, **extra):
+    """Accuracy figures of the rows that gave a number, and how the reader's flag sorted them."""
+    read = [r for r in rows if r.get("error") is not None]
+    figures = {"bench": name, "n": len(rows), "read": len(read), "failed": len([r for r in rows if r["failed"]]),
+               "find_failed": len([r for r in rows if r.get("find_failed")])}
+    figures.update(extra)
+    if not read:
+        return figures
+    errors = np.array([r["error"] for r in read])
+    good = [r for r in read if r["error"] <= GOOD_PCT_FS]
+    figures.update({"mean_abs_error_pct_fs": round(float(errors.mean()), 3),
+                    "median_pct_fs": round(float(np.median(errors)), 3),
+                    "within_1pct_fs": round(float((errors <= 1.0).mean()), 4),
+                    "within_2pct_fs": round(float((errors <= GOOD_PCT_FS).mean()), 4),
+                    "within_5pct_fs": round(float((errors <= 5.0).mean()), 4),
+                    "uncertain": len([r for r in read if r.get("uncertain")]),
+                    "gross_unflagged": len([r for r in read if r["error"] > GROSS_PCT_FS and not r.get("uncertain")]),
+                    "good_flagged_share": round(len([r for r in good if r.get("uncertain")]) / float(len(good)), 4)
+                    if good else None})
+    return figures
+
+
+def report_real(doc, rows):
     if os.environ.get("BENCH_REAL_VERBOSE"):
         for r in rows:
             print(json.dumps(dict((k, v) for k, v in r.items() if k not in ("t",))))
+    print(json.dumps(dict(real_set.summary(doc), bench="inspection_real_set", box=BOX_SOURCE,
+                          dial_axes=USE_DIAL_AXES)))
     photos = [r for r in rows if not r["negative"]]
-    read = [r for r in photos if not r["failed"]]
-    confident = [r for r in read if not r["uncertain"]]
-    copies = {"augmented_copy", "warped_copy", "second_dial"}     # derived copies; the second dial of a picture
-    print(json.dumps(dict(_accuracy("inspection_real_all", read), photos=len(photos),
-                          distinct_photos=len([r for r in photos if not copies & set(r["tags"])]),
-                          failed=len(photos) - len(read), uncertain=len(read) - len(confident),
-                          gross_unflagged=len([r for r in confident if r["error"] > 10.0]),
-                          mean_label_uncertainty_pct_fs=round(
-                              float(np.mean([r["label_uncertainty_pct_fs"] for r in photos])), 3))))
-    print(json.dumps(_accuracy("inspection_real_confident", confident)))
-    print(json.dumps(_accuracy("inspection_real_not_at_scale_end", [r for r in read if not r["at_end"]])))
-    for tag in ("drag_pointer", "broad_tail", "needle_tail", "compound", "nonlinear", "substation", "hidden_hub",
-                "off_centre_pivot", "oblique", "thermometer", "hand_held", "reversed_scale", "vacuum"):
-        print(json.dumps(_accuracy("inspection_real_" + tag, [r for r in read if tag in r["tags"]])))
-    for low, high in ((0, 25), (25, 50), (50, 75), (75, 90), (90, 101)):
-        band = [r for r in read if low <= r["confidence"] < high]
-        band_name = "%d-%d" % (low, min(high, 100))
-        print(json.dumps(dict(_accuracy("inspection_real_reliability", band), confidence=band_name)))
+    for part in real_set.PARTS:
+        mine = [r for r in photos if r["part"] == part]
+        prefix = "inspection_real_%s" % part
+        counts = "(the figure that counts)" if part == "test" else "(tune on this part only)"
+        print(json.dumps(_accuracy(prefix, mine, sources=len(set(r["repo"] for r in mine)), note=counts)))
+        print(json.dumps(_accuracy(prefix + "_cross", [r for r in mine if r["role"] == "cross"])))
+        print(json.dumps(_accuracy(prefix + "_same_picture", [r for r in mine if r["role"] == "same"])))
+        if part == "test":
+            unseen = [r for r in mine if not r["seen"]]
+            print(json.dumps(_accuracy(prefix + "_unseen_sources", unseen,
+                                       sources=len(set(r["repo"] for r in unseen)))))
+        for category in real_set.CATEGORIES:
+            print(json.dumps(_accuracy(prefix + "_" + category, [r for r in mine if category in r["categories"]])))
+        read = [r for r in mine if r.get("error") is not None]
+        for low, high in ((0, 25), (25, 50), (50, 75), (75, 90), (90, 101)):
+            band = [r for r in read if low <= r["confidence"] < high]
+            print(json.dumps(_accuracy(prefix + "_reliability", band, confidence="%d-%d" % (low, min(high, 100)))))
     negatives = [r for r in rows if r["negative"]]
     print(json.dumps({"bench": "inspection_real_not_a_gauge", "n": len(negatives),
                       "failed": len([r for r in negatives if r["failed"]]),
@@ -381,7 +438,7 @@ def main():
     if os.path.isdir(photo_dir):
         tmp = tempfile.mkdtemp(prefix="bench_inspection_real_")
         try:
-            report_real(real_cases(photo_dir, tmp))
+            report_real(*real_cases(photo_dir, tmp))
         finally:
             shutil.rmtree(tmp, ignore_errors=True)
     else:

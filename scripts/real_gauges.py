@@ -10,7 +10,8 @@ as <id><ext>, taking it from a local git copy of its repository at the labelled 
 
 ``--mirror DIR``: a directory holding repositories as DIR/<owner>+<name>/repo (the layout of the
 code-search mirror) or DIR/<owner>/<name>; ``--clone``: clone missing repositories from GitHub
-(needs network). Prints how many photos are ready and which are missing, exit 1 when none is.
+(needs network). Prints how many photos are ready and which are missing, and the set's size per
+part (bench/real_set.py: the tuning/test split); exit 1 when no photo is ready.
 """
 import argparse
 import json
@@ -19,7 +20,10 @@ import subprocess
 import sys
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-LABELS = os.path.join(ROOT, "bench", "data", "real_gauges.json")
+sys.path.insert(0, os.path.join(ROOT, "bench"))
+import real_set  # noqa: E402  (the labels' checks and split)
+
+LABELS = real_set.LABELS
 
 
 def default_cache():
@@ -45,8 +49,7 @@ def _clone(cache, repo):
 
 
 def prepare(cache, mirrors, clone):
-    with open(LABELS) as f:
-        doc = json.load(f)
+    doc = real_set.load(LABELS)
     os.makedirs(cache, exist_ok=True)
     ready, missing = 0, []
     for entry in doc["photos"] + doc["negatives"]:
@@ -81,6 +84,7 @@ def main(argv=None):
     args = parser.parse_args(argv)
     ready, missing = prepare(args.cache, args.mirror or ["/work/.mirror"], args.clone)
     print("%d photos ready in %s" % (ready, args.cache))
+    print(json.dumps(real_set.summary(real_set.load(LABELS))))
     for item in missing:
         print("missing: %s" % item)
     return 0 if ready else 1
