@@ -11,6 +11,7 @@ import os
 import queue
 import time
 import unittest
+import xmlrpc.client
 
 import rosbag
 import rosgraph
@@ -91,6 +92,14 @@ class BackendReplayTest(unittest.TestCase):
         wait_for(lambda: all(any(t == topic and "/run_record" in nodes for t, nodes in master.getSystemState()[1])
                              for topic in ("/server_status", "/mode_cmd", "/mode_ack", "/robot_status")),
                  60.0, "the recorder subscribed to the backend's topics", period=0.1)
+        # ... and is connected to the bridge's publishers of them (advertised at the bridge's start): a
+        # subscriber registered but not yet connected would miss the backend's first messages
+        bridge = xmlrpc.client.ServerProxy(rosnode.get_api_uri(master, "/rosbridge_websocket"))
+
+        def recorder_connected():
+            _code, _text, bus = bridge.getBusInfo("/test_backend_replay")
+            return {"/server_status", "/mode_cmd"} <= {c[4] for c in bus if c[1] == "/run_record" and c[2] == "o"}
+        wait_for(recorder_connected, 60.0, "the recorder connected to the bridge's backend topics", period=0.1)
         port = int(wait_for(lambda: rospy.get_param("rosbridge_websocket/actual_port", None), 60.0, "bridge port"))
         cls.run_live(Backend(port))
         active = glob.glob(os.path.join(cls.dir, "bags", "*.bag.active"))
