@@ -107,14 +107,19 @@ def main():
             print("docs/architecture.dot is stale: run scripts/import_graph.py", file=sys.stderr)
             return 1
         return 0
-    with open(DOT_FILE, "w") as f:
+    write_graph(source, DOT_FILE, SVG_FILE)
+    return 0
+
+
+def write_graph(source, dot_file, svg_file):
+    """Write the Graphviz text and, when ``dot`` is installed, render it as SVG (also for runtime_graph.py)."""
+    with open(dot_file, "w") as f:
         f.write(source)
     if shutil.which("dot"):
-        subprocess.check_call(["dot", "-Tsvg", DOT_FILE, "-o", SVG_FILE])
-        print("wrote %s and %s" % (DOT_FILE, SVG_FILE))
+        subprocess.check_call(["dot", "-Tsvg", dot_file, "-o", svg_file])
+        print("wrote %s and %s" % (dot_file, svg_file))
     else:
-        print("wrote %s (install graphviz to render the SVG)" % DOT_FILE)
-    return 0
+        print("wrote %s (install graphviz to render the SVG)" % dot_file)
 
 
 if __name__ == "__main__":

@@ -10,8 +10,6 @@ clients), rosout, the test's own node and anything not started by the launch fil
 """
 import argparse
 import os
-import shutil
-import subprocess
 import sys
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -100,13 +98,9 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--launch", default=SIM_LAUNCH, help="the launch file whose nodes are drawn")
     args = parser.parse_args()
-    with open(DOT_FILE, "w") as f:
-        f.write(live_source(args.launch))
-    if shutil.which("dot"):
-        subprocess.check_call(["dot", "-Tsvg", DOT_FILE, "-o", SVG_FILE])
-        print("wrote %s and %s" % (DOT_FILE, SVG_FILE))
-    else:
-        print("wrote %s (install graphviz to render the SVG)" % DOT_FILE)
+    sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+    from import_graph import write_graph
+    write_graph(live_source(args.launch), DOT_FILE, SVG_FILE)
     return 0
 
 
