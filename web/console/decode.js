@@ -102,8 +102,8 @@
   }
 
   // task_manager's alarm states, most urgent first (src/inspection_robot/task/states.py ALARM_ORDER)
-  const ALARM_ORDER = { alarm: 0, check: 1, failed: 2, normal: 3, none: 4 };
-  const alarmRank = (row) => (row.alarm in ALARM_ORDER ? ALARM_ORDER[row.alarm] : 4);
+  const ALARM_ORDER = { alarm: 0, check: 1, failed: 2, trend: 3, normal: 4, none: 5 };
+  const alarmRank = (row) => (row.alarm in ALARM_ORDER ? ALARM_ORDER[row.alarm] : 5);
 
   /** query_results rows, alarms and checks first, then failures, then the rest; newest first within each. */
   function sortReadings(rows) {

@@ -16,6 +16,7 @@ Parameters:  data_root (namespace: the robot's state directory): store and repor
              ~robot_radius override them where task_manager runs without move_base);
              ~home_pose ([x, y, yaw], [5, 5, 0]); ~retries (int, 1); ~retry_delay_s (s, 3.0);
              ~uncertain_retries (int >= 0, 1): inspections again of a preset read uncertain;
+             ~trend_window (10), ~trend_min_points (4), ~trend_horizon_days (7.0): the trend warning;
              ~velocity_x (m/s, 0.8), ~velocity_yaw (rad/s, 0.8); ~move_timeout_s (300),
              ~find_timeout_s (90), ~read_timeout_s (60); ~move_estimate_s (20), ~preset_estimate_s (10):
              ETA before anything was measured; ~status_period (s, 1.0): task_status (and task_action
@@ -49,11 +50,12 @@ from inspection_robot.task.report import summary, write_reports
 from inspection_robot.task.review import parse_query, review
 from inspection_robot.task.spec import check_task_id, parse_task
 from inspection_robot.task.states import ENDED_STATES
+from inspection_robot.task.trend import TrendConfig
 from inspection_robot.task.store import ResultStore, StoreError
 from inspection_robot.ros.data_root import data_root, path_param
 
 NODE_NAME = "task_manager"
-QUERY_KEYS = ("task_id", "from", "to", "limit")
+QUERY_KEYS = ("task_id", "target", "from", "to", "after_id", "limit")
 REVIEW_QUEUE_KEYS = ("task_id", "limit")
 
 
@@ -217,7 +219,7 @@ class TaskManager(object):
     def _query_results(self, data):
         query = parse_query(data, QUERY_KEYS, 1000)
         return json.dumps(self.store.readings(query.get("task_id"), query.get("from"), query.get("to"),
-                                              query["limit"]))
+                                              query["limit"], query.get("target"), query.get("after_id")))
 
     def _review_queue(self, data):
         query = parse_query(data, REVIEW_QUEUE_KEYS, 100)
@@ -365,10 +367,14 @@ def main():
     if isinstance(uncertain_retries, bool) or not isinstance(uncertain_retries, int) \
             or not 0 <= uncertain_retries <= 10:
         raise ValueError("~uncertain_retries must be an integer in [0, 10], got %r" % (uncertain_retries,))
+    trend = TrendConfig(int(rospy.get_param("~trend_window", 10)), int(rospy.get_param("~trend_min_points", 4)),
+                        float(rospy.get_param("~trend_horizon_days", 7.0)), 600.0)
+    if not 2 <= trend.min_points <= trend.window or not trend.horizon_days > 0:
+        raise ValueError("~trend_min_points must be in [2, ~trend_window] and ~trend_horizon_days positive")
     config = PatrolConfig(retry_delay_s=float(rospy.get_param("~retry_delay_s", 3.0)), home_pose=tuple(home_pose),
                           move_estimate_s=float(rospy.get_param("~move_estimate_s", 20.0)),
                           preset_estimate_s=float(rospy.get_param("~preset_estimate_s", 10.0)),
-                          uncertain_retries=uncertain_retries)
+                          uncertain_retries=uncertain_retries, trend=trend)
     retries = int(rospy.get_param("~retries", 1))
     reachable = Reachability(os.path.expanduser(move_base_param("map_file")),
                              float(move_base_param("robot_radius")), home_pose[:2],

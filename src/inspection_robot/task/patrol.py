@@ -29,9 +29,11 @@ from collections import namedtuple
 
 from inspection_robot.command import CommandError
 from inspection_robot.task.spec import Task
-from inspection_robot.task.states import (ALARM_ALARM, ALARM_CHECK, STATE_CANCELLED, STATE_DONE, STATE_FAILED,
-                                          STATE_IDLE, STATE_PAUSED, STATE_RETURNING_HOME, STATE_RUNNING,
-                                          STATE_SUSPENDED, STATUS_FAILED, STATUS_READ, STATUS_UNCERTAIN, alarm_state)
+from inspection_robot.task.states import (ALARM_ALARM, ALARM_CHECK, ALARM_NORMAL, ALARM_TREND, STATE_CANCELLED,
+                                          STATE_DONE, STATE_FAILED, STATE_IDLE, STATE_PAUSED, STATE_RETURNING_HOME,
+                                          STATE_RUNNING, STATE_SUSPENDED, STATUS_FAILED, STATUS_READ, STATUS_UNCERTAIN,
+                                          alarm_state)
+from inspection_robot.task.trend import DEFAULT_TREND, trend_text, trend_warning
 
 HOLD_OPERATOR = "operator"
 HOLD_CHARGE = "charge"
@@ -60,7 +62,7 @@ Inspection = namedtuple("Inspection", "values confidences pictures pose foreign 
 Inspection.__new__.__defaults__ = (None, None, None)
 # uncertain_retries: inspections again of a preset read uncertain before its uncertain values are kept
 PatrolConfig = namedtuple("PatrolConfig", "retry_delay_s home_pose move_estimate_s preset_estimate_s "
-                                          "uncertain_retries")
+                                          "uncertain_retries trend", defaults=(DEFAULT_TREND,))
 
 
 class TaskRun(object):
@@ -312,9 +314,21 @@ class Patrol(object):
         stop = run.task.stops[stop_index]
         rows = reading_rows(run.task.task_id, stop_index, stop["name"], preset_index, stop["presets"][preset_index],
                             inspection, reason, now)
+        for row in rows:
+            self._mark_trend(row)
         self.store.add_readings(rows)   # committed before it is announced
         run.done.add((stop_index, preset_index))
         self.last_result = run.last_result = result_summary(rows)
+
+    def _mark_trend(self, row):
+        """A normal reading whose meter drifts toward its band becomes a ``trend`` warning (task/trend.py)."""
+        if row["status"] != STATUS_READ or row["alarm"] != ALARM_NORMAL:
+            return
+        history = self.store.meter_values(row["target_name"], row["time"], self.config.trend.window - 1)
+        warning = trend_warning(history + [(row["time"], row["value"])], (row["low"], row["high"]), self.config.trend)
+        if warning is not None:
+            row["alarm"] = ALARM_TREND
+            row["reason"] = trend_text(warning, row["unit"])
 
     def _advance(self, now):
         run = self.active

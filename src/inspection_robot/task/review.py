@@ -23,7 +23,8 @@ def _is_number(value):
 
 
 def parse_query(data, keys, default_limit):
-    """The filters of a query: a dict with ``keys`` (a subset of task_id, from, to, limit) and the
+    """The filters of a query: a dict with ``keys`` (a subset of task_id, target, from, to, after_id,
+    limit) and the
     limit set (``default_limit`` when absent). ``data`` "" means no filter."""
     query = parse_json(data or "{}", "query")
     if not isinstance(query, dict) or set(query) - set(keys):
@@ -34,9 +35,12 @@ def parse_query(data, keys, default_limit):
     limit = query.get("limit", default_limit)
     if isinstance(limit, bool) or not isinstance(limit, int) or not 1 <= limit <= MAX_QUERY_ROWS:
         raise CommandError("limit must be an integer in [1, %d]" % MAX_QUERY_ROWS)
-    task_id = query.get("task_id")
-    if task_id is not None and not isinstance(task_id, str):
-        raise CommandError("task_id must be a string")
+    for key in ("task_id", "target"):
+        if query.get(key) is not None and not isinstance(query[key], str):
+            raise CommandError("%s must be a string" % key)
+    after_id = query.get("after_id")
+    if after_id is not None and (isinstance(after_id, bool) or not isinstance(after_id, int) or after_id < 0):
+        raise CommandError("after_id must be a row id (an integer >= 0)")
     query["limit"] = limit
     return query
 

@@ -26,9 +26,10 @@ READING_STATUSES = (STATUS_READ, STATUS_UNCERTAIN, STATUS_FAILED)
 ALARM_ALARM = "alarm"     # a value outside its band
 ALARM_CHECK = "check"     # an uncertain value outside its band: go and look, never silence
 ALARM_FAILED = "failed"   # no reading
+ALARM_TREND = "trend"     # inside its band but drifting toward it, to cross within days (task/trend.py)
 ALARM_NORMAL = "normal"
 ALARM_NONE = "none"       # no band for this target
-ALARM_ORDER = (ALARM_ALARM, ALARM_CHECK, ALARM_FAILED, ALARM_NORMAL, ALARM_NONE)   # most urgent first
+ALARM_ORDER = (ALARM_ALARM, ALARM_CHECK, ALARM_FAILED, ALARM_TREND, ALARM_NORMAL, ALARM_NONE)   # most urgent first
 
 
 def alarm_state(value, band, uncertain=False):

@@ -14,7 +14,7 @@ import json
 import sqlite3
 import threading
 
-from inspection_robot.task.states import STATUS_UNCERTAIN, UNFINISHED_STATES
+from inspection_robot.task.states import STATUS_READ, STATUS_UNCERTAIN, UNFINISHED_STATES
 
 SCHEMA = """
 CREATE TABLE IF NOT EXISTS tasks (
@@ -42,6 +42,7 @@ ADDED_COLUMNS = (("source_picture", "TEXT NOT NULL DEFAULT ''"), ("roi", "TEXT N
 INDEXES = """
 CREATE INDEX IF NOT EXISTS readings_time ON readings (time);
 CREATE INDEX IF NOT EXISTS readings_review ON readings (status, review_time);
+CREATE INDEX IF NOT EXISTS readings_meter ON readings (target_name, time);
 """
 READING_COLUMNS = ("id", "task_id", "stop", "stop_name", "preset_index", "preset", "target", "target_name", "kind",
                    "status", "value", "unit", "alarm", "low", "high", "confidence", "picture", "x", "y", "yaw",
@@ -157,10 +158,12 @@ class ResultStore(object):
         """{(stop, preset_index)} that already have readings (read, uncertain or failed)."""
         return set(self._query("SELECT DISTINCT stop, preset_index FROM readings WHERE task_id = ?", (task_id,)))
 
-    def readings(self, task_id=None, since=None, until=None, limit=1000):
-        """Readings filtered by task and time range [since, until] (unix s), in recording order."""
+    def readings(self, task_id=None, since=None, until=None, limit=1000, target=None, after_id=None):
+        """Readings filtered by task, meter (target name), time range [since, until] (unix s) and
+        row id (after ``after_id``: the next page), in recording order."""
         clauses, params = [], []
-        for clause, value in (("task_id = ?", task_id), ("time >= ?", since), ("time <= ?", until)):
+        for clause, value in (("task_id = ?", task_id), ("target_name = ?", target), ("time >= ?", since),
+                              ("time <= ?", until), ("id > ?", after_id)):
             if value is not None:
                 clauses.append(clause)
                 params.append(value)
@@ -168,6 +171,15 @@ class ResultStore(object):
         rows = self._query("SELECT %s FROM readings%s ORDER BY id LIMIT ?" % (", ".join(READING_COLUMNS), where),
                            tuple(params) + (limit,))
         return [dict(zip(READING_COLUMNS, r)) for r in rows]
+
+    def meter_values(self, target_name, before, limit):
+        """The newest ``limit`` (time, value) of a meter recorded before ``before`` (unix s): read
+        values, and uncertain ones an operator confirmed or corrected (the reviewed value)."""
+        rows = self._query("SELECT time, COALESCE(review_value, value) FROM readings "
+                           "WHERE target_name = ? AND time < ? AND (status = ? OR review_value IS NOT NULL) "
+                           "AND COALESCE(review_value, value) IS NOT NULL ORDER BY time DESC LIMIT ?",
+                           (target_name, before, STATUS_READ, max(0, int(limit))))
+        return [(float(t), float(v)) for t, v in rows]
 
     def reading(self, row_id):
         """One reading row by its id, or None."""

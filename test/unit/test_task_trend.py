@@ -1,0 +1,78 @@
+"""task.trend: a meter drifting toward its band warns before it is an alarm; the patrol marks it."""
+import json
+
+import pytest
+
+from inspection_robot.task.patrol import OUTCOME_OK, STEP_INSPECT, Inspection, Patrol, PatrolConfig
+from inspection_robot.task.spec import ResolvedPreset, parse_task
+from inspection_robot.task.store import ResultStore
+from inspection_robot.task.trend import DAY_S, DEFAULT_TREND, TrendConfig, fit_line, trend_text, trend_warning
+
+HOUR = 3600.0
+
+
+def daily(values, start=1.0e9):
+    return [(start + i * DAY_S, v) for i, v in enumerate(values)]
+
+
+def test_the_line_through_the_readings():
+    slope, now = fit_line(daily([10.0, 11.0, 12.0, 13.0]))
+    assert slope * DAY_S == pytest.approx(1.0) and now == pytest.approx(13.0)
+    assert fit_line([(5.0, 2.0), (5.0, 4.0)]) == (0.0, 3.0)
+
+
+def test_rising_and_falling_meters_warn_before_their_band():
+    rising = trend_warning(daily([80.0, 83.0, 86.0, 89.0, 92.0]), [0.0, 100.0])
+    assert rising["limit"] == "high" and rising["days"] == pytest.approx(8.0 / 3.0, abs=0.01)
+    assert rising["slope_per_day"] == pytest.approx(3.0)
+    falling = trend_warning(daily([0.5, 0.45, 0.4, 0.35]), [0.2, 1.0])
+    assert falling["limit"] == "low" and falling["days"] == pytest.approx(3.0, abs=0.01)
+    assert trend_text(rising, "C") == "trend: rising 3 C/day, reaches its high limit in 2.7 days"
+
+
+@pytest.mark.parametrize("points,band,why", [
+    (daily([80.0, 80.2, 79.9, 80.1]), [0.0, 100.0], "flat"),
+    (daily([50.0, 52.0, 54.0, 56.0]), [0.0, 100.0], "22 days away, beyond the 7-day horizon"),
+    (daily([95.0, 98.0, 101.0, 104.0]), [0.0, 100.0], "outside already: an alarm"),
+    (daily([80.0, 85.0, 90.0]), [0.0, 100.0], "too few readings"),
+    ([(1.0e9 + i * 60.0, 80.0 + i) for i in range(5)], [0.0, 100.0], "five minutes of readings"),
+    (daily([80.0, 85.0, 90.0, 95.0]), None, "no band"),
+    (daily([90.0, 85.0, 80.0, 75.0]), [0.0, 100.0], "moving away from the high limit, low one 15 days away"),
+])
+def test_no_warning(points, band, why):
+    assert trend_warning(points, band) is None, why
+
+
+def test_only_the_newest_window_counts():
+    old_jump = daily([10.0, 90.0] + [50.0] * 10)
+    assert trend_warning(old_jump, [0.0, 100.0], TrendConfig(10, 4, 7.0, 600.0)) is None
+
+
+def resolve(name):
+    return ResolvedPreset("/presets/" + name, [{"name": "oil", "kind": "pointer", "unit": "C"}], {})
+
+
+def test_the_patrol_marks_a_drifting_meter_and_the_store_keeps_its_history(tmp_path):
+    store = ResultStore(str(tmp_path / "r.sqlite"))
+    now = [1.0e9]
+    patrol = Patrol(store, PatrolConfig(1.0, (0.0, 0.0, 0.0), 20.0, 10.0, 1), now[0])
+    patrol.set_mode(0)
+    assert patrol.config.trend == DEFAULT_TREND
+    alarms = []
+    for day, value in enumerate([70.0, 75.0, 80.0, 85.0, 90.0]):
+        now[0] = 1.0e9 + day * DAY_S
+        patrol.submit(parse_task(json.dumps({"id": "d%d" % day, "stops": [
+            {"pose": {"x": 1.0, "y": 1.0, "yaw": 0.0}, "presets": [{"preset": "p", "alarms": {"oil": [0, 100]}}]}]}),
+            resolve, lambda x, y: None, 0), now[0])
+        while True:
+            step = patrol.next_step(now[0])
+            if step is None:
+                break
+            detail = Inspection([value], [90.0], ["/pic.jpg"], (1.0, 1.0, 0.0)) if step.kind == STEP_INSPECT else ""
+            patrol.step_done(step, OUTCOME_OK, detail, now[0], now[0] + 1.0)
+        (row,) = store.readings(task_id="d%d" % day)
+        alarms.append(row["alarm"])
+    assert alarms == ["normal", "normal", "normal", "trend", "trend"]   # 4 readings needed; 85 -> 100 in 3 days
+    assert row["reason"] == "trend: rising 5 C/day, reaches its high limit in 2.0 days"
+    assert [v for _t, v in store.meter_values("oil", now[0] + 10.0, 3)] == [90.0, 85.0, 80.0]   # newest first
+    assert store.meter_values("oil", 1.0e9, 10) == []   # before the first reading
