@@ -446,7 +446,7 @@ class ConsoleTest(unittest.TestCase):
         status = json.loads(self.task(lambda s: s["state"] != "returning_home", "home reached", 60.0).data)
         self.assertFalse(status["reason"].startswith("return home failed"), status["reason"])
         home = self.true_pose.last.pose.pose.position
-        self.assertLess(math.hypot(home.x - 5.0, home.y - 5.0), 0.5)   # config/task_manager.yaml home_pose
+        self.assertLess(math.hypot(home.x - 5.0, home.y - 5.0), 0.5)   # config/sim_site.yaml task_manager/home_pose
 
     # ------------------------------------------------------------------ authentication and a dropped link
     def test_7_token_asked_refused_accepted_and_link_loss_shown(self):

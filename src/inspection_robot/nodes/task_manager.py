@@ -13,7 +13,7 @@ Parameters:  data_root (namespace: the robot's state directory): store and repor
              map_file, robot_radius: move_base's own (move_base/map_file, move_base/robot_radius) so
              reachability uses the map and inflation move_base plans with (~map_file and
              ~robot_radius override them where task_manager runs without move_base);
-             ~home_pose ([x, y, yaw], [5, 5, 0]); ~retries (int, 1); ~retry_delay_s (s, 3.0);
+             ~home_pose ([x, y, yaw] m, rad; a site setting, no default); ~retries (int, 1); ~retry_delay_s (s, 3.0);
              ~velocity_x (m/s, 0.8), ~velocity_yaw (rad/s, 0.8); ~move_timeout_s (300),
              ~find_timeout_s (90), ~read_timeout_s (60); ~move_estimate_s (20), ~preset_estimate_s (10):
              ETA before anything was measured; ~status_period (s, 1.0): task_status (and task_action
@@ -34,7 +34,7 @@ from nav_msgs.msg import OccupancyGrid
 from inspection_robot.command import CommandError, CommandTable, no_data, parse_json
 from inspection_robot.files import hide_root
 from inspection_robot.msg import GeneralAction, GeneralFeedback, GeneralResult, GeneralTopic, RobotStatus
-from inspection_robot.ros.node import init_node
+from inspection_robot.ros.node import init_node, site_param
 from inspection_robot.ros.task_steps import StepRunner
 from inspection_robot.ros.twin import CommandTwin
 from inspection_robot.ros.worker import RequestWorker
@@ -344,7 +344,7 @@ def main():
     tasks_dir = os.path.join(root, "tasks")
     os.makedirs(tasks_dir, exist_ok=True)
     preset_root = path_param("~preset_root", "presets", root)
-    home_pose = [float(v) for v in rospy.get_param("~home_pose", [5.0, 5.0, 0.0])]
+    home_pose = [float(v) for v in site_param("~home_pose")]
     if len(home_pose) != 3:
         raise ValueError("~home_pose must be [x, y, yaw], got %r" % (home_pose,))
     config = PatrolConfig(retry_delay_s=float(rospy.get_param("~retry_delay_s", 3.0)), home_pose=tuple(home_pose),
