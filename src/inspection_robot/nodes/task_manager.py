@@ -35,6 +35,7 @@ from inspection_robot.command import CommandError, CommandTable, no_data, parse_
 from inspection_robot.files import hide_root
 from inspection_robot.msg import GeneralAction, GeneralFeedback, GeneralResult, GeneralTopic, RobotStatus
 from inspection_robot.ros.node import init_node, site_param
+from inspection_robot.version import version
 from inspection_robot.ros.task_steps import StepRunner
 from inspection_robot.ros.twin import CommandTwin
 from inspection_robot.ros.worker import RequestWorker
@@ -235,7 +236,8 @@ class TaskManager(object):
     def _write_report(self, task_id):
         # the id names the folder: an id stored before ids were restricted ('..') must not escape reports/
         return write_reports(os.path.join(self._reports_dir, check_task_id(task_id)), self.store.task(task_id),
-                             self.store.readings(task_id=task_id, limit=10 ** 9), self.store.steps(task_id))
+                             self.store.readings(task_id=task_id, limit=10 ** 9), self.store.steps(task_id),
+                             version())
 
     def _on_finished(self, task_id):
         """A task ended: its report is written at once (a failure is logged, the patrol goes on),

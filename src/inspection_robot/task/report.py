@@ -1,5 +1,6 @@
 """Patrol reports: one folder per task with report.csv, report.json and report.html.
 
+The JSON summary and the HTML heading name the robot software's version (git describe of the build).
 The HTML page lists every reading with its annotated picture (linked by absolute path, the
 pictures stay where read_scale wrote them), alarms first and highlighted, failures with their
 reason. Files are written with files.write_atomic: a reader sees the old report or the new.
@@ -40,9 +41,11 @@ def summary(task_row, readings, steps):
             "time_by_step_s": dict((k, round(v, 2)) for k, v in step_split(steps).items())}
 
 
-def write_reports(folder, task_row, readings, steps):
-    """Write the three report files of one task into ``folder``; returns {name: path}."""
+def write_reports(folder, task_row, readings, steps, software_version):
+    """Write the three report files of one task into ``folder``; returns {name: path}.
+    ``software_version`` (inspection_robot.version) goes into the JSON summary and the HTML heading."""
     info = summary(task_row, readings, steps)
+    info["software_version"] = software_version
     paths = dict((name, os.path.join(folder, name)) for name in REPORT_FILES)
     out = io.StringIO()
     writer = csv.writer(out)
@@ -88,7 +91,7 @@ img{max-width:240px;max-height:160px}
 </style></head><body>
 <h1>Patrol report %(id)s</h1>
 <p>priority %(priority)s, state <b>%(state)s</b> %(reason)s; %(stops)d stops (%(route)s); %(readings)d readings:
-%(read)d read, <b>%(alarms)d alarm(s)</b>, %(failed)d failed; duration %(duration)s s</p>
+%(read)d read, <b>%(alarms)d alarm(s)</b>, %(failed)d failed; duration %(duration)s s; robot software %(version)s</p>
 <table><tr><th>stop</th><th>preset</th><th>target</th><th>value</th><th>normal band</th><th>alarm</th>
 <th>confidence</th><th>time</th><th>reason</th><th>picture</th></tr>
 %(body)s
@@ -97,4 +100,5 @@ img{max-width:240px;max-height:160px}
        "reason": esc(info["reason"]), "stops": info["stops"], "readings": counts["readings"], "read": counts["read"],
        "route": esc("%s order, planned route %s" % (info["order"], "%.1f m" % info["planned_length_m"]
                                                     if info["planned_length_m"] is not None else "not measured")),
-       "alarms": counts["alarms"], "failed": counts["failed"], "duration": info["duration_s"], "body": "\n".join(body)}
+       "alarms": counts["alarms"], "failed": counts["failed"], "duration": info["duration_s"], "body": "\n".join(body),
+       "version": esc(str(info.get("software_version")))}
