@@ -31,7 +31,8 @@ PACKAGE = "inspection_robot"
 def launch_defaults(share, ns, data_root):
     """{``node/key``: value} robot.launch sets without a site file (core.launch sim:=false), relative to ``ns``."""
     config = ROSLaunchConfig()
-    argv = ["sim:=false", "robot_config:=", "ns:=%s" % (ns or "/"), "data_root:=%s" % data_root]
+    # record:=true: bag_recorder's settings are valid in a site file whether robot.launch records or not
+    argv = ["sim:=false", "record:=true", "robot_config:=", "ns:=%s" % (ns or "/"), "data_root:=%s" % data_root]
     XmlLoader().load(os.path.join(share, "launch", "core.launch"), config, argv=argv, verbose=False)
     prefix = "/" + (ns or "/").strip("/") + "/" if (ns or "/").strip("/") else "/"
     defaults = {}
