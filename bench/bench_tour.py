@@ -155,8 +155,8 @@ def main():
     ratios = []
     from inspection_robot.sim.yard_patrol import YARD_STOPS
     import yaml
-    with open(os.path.join(ROOT, "config", "task_manager.yaml")) as f:
-        home = yaml.safe_load(f).get("home_pose", [5.0, 5.0, 0.0])
+    with open(os.path.join(ROOT, "config", "sim_site.yaml")) as f:   # the simulated yard's home
+        home = yaml.safe_load(f)["task_manager"]["home_pose"]
     sim = load_map(os.path.join(ROOT, "config", "maps", "substation.yaml"))
     planner = Planner(Costmap(sim, ROBOT_RADIUS, 0.0))
     points = [tuple(home[:2])] + [(pose[0], pose[1]) for _name, pose, _p in YARD_STOPS] + [tuple(home[:2])]

@@ -8,9 +8,9 @@ Every device node reads ``~driver`` (and, for a plug-in, ``~driver_params``) and
 - a built-in real driver name of that device (``BUILTIN``, e.g. ``isapi`` for the camera);
 - ``package.module:Class``: a vendor plug-in, constructed as ``Class(**driver_params)``.
 
-An empty value is refused: no device silently falls back to a simulator. robot.launch runs
-``check_drivers`` (tools/check_drivers) which refuses simulators and names every missing setting in
-one message (:func:`robot_launch_problems`). Pure module: no rospy.
+An empty value is refused: no device silently falls back to a simulator. robot.launch's site check
+(inspection_robot.site, tools/check_site) refuses simulators and names every missing setting in
+one message before any node starts. Pure module: no rospy.
 """
 from collections import OrderedDict, namedtuple
 
@@ -107,28 +107,3 @@ def make_driver(device, spec, builders, driver_params=None, not_fitted=None):
         raise DriverConfigError("%s/%s: %s is not available for %s here"
                                 % (DEVICES[device].node, PARAM, choice.name, device))
     return builders[choice.name]()
-
-
-def robot_launch_problems(specs):
-    """Every reason robot.launch must not start, as a list of lines (empty: start).
-
-    specs: {device: ~driver value or None when unset}, for every device of DEVICES.
-    """
-    problems = []
-    for device, entry in DEVICES.items():
-        spec = specs.get(device)
-        try:
-            choice = choose(device, spec)
-        except DriverConfigError as err:
-            problems.append(str(err))
-            continue
-        if choice.kind == SIM:
-            problems.append("%s/%s is sim: robot.launch drives real devices only (use sim.launch, or set a real "
-                            "driver or none in %s or robot_config)" % (entry.node, PARAM, entry.config))
-    return problems
-
-
-def format_problems(problems):
-    """The one start-up message of robot.launch for ``problems`` (robot_launch_problems)."""
-    return ("robot.launch refused to start, %d driver setting(s) to fix:\n  - %s"
-            % (len(problems), "\n  - ".join(problems)))

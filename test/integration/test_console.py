@@ -449,7 +449,7 @@ class ConsoleTest(unittest.TestCase):
         status = json.loads(self.task(lambda s: s["state"] != "returning_home", "home reached", 60.0).data)
         self.assertFalse(status["reason"].startswith("return home failed"), status["reason"])
         home = self.true_pose.last.pose.pose.position
-        self.assertLess(math.hypot(home.x - 5.0, home.y - 5.0), 0.5)   # config/task_manager.yaml home_pose
+        self.assertLess(math.hypot(home.x - 5.0, home.y - 5.0), 0.5)   # config/sim_site.yaml task_manager/home_pose
 
     # ------------------------------------------------------------------ review of uncertain readings
     def test_9b_uncertain_readings_reviewed_from_the_page(self):

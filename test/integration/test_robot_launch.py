@@ -1,8 +1,10 @@
 #!/usr/bin/env python3
-"""rostest: the real robot's start-up refusals. robot.launch refuses simulators and unset drivers with
-one message naming every setting to fix and the file that should hold it (check_drivers, a required
-node); rosbridge_websocket refuses a non-loopback bind without authentication unless insecure."""
+"""rostest: the real robot's start-up refusals. robot.launch's site check (tools/check_site, run while
+roslaunch parses the file) refuses a missing site file, simulators, unset drivers and misspelt keys
+with one message naming every setting, before any node starts; rosbridge_websocket refuses a
+non-loopback bind without authentication unless insecure."""
 import os
+import signal
 import subprocess
 import tempfile
 import time
@@ -13,14 +15,17 @@ import rostest
 from inspection_robot.drivers import DEVICES
 
 LAUNCH_TIMEOUT = 90.0  # s: roslaunch must have stopped by itself long before this
+STOP_TIMEOUT = 20.0    # s for a node to stop on SIGINT (2 s unloaded)
+PARSE_TIME_S = 20.0    # s: the refusal comes from the parse (~2 s), not from a node that had to start
 
 
 def run_robot_launch(*args):
     """roslaunch robot.launch on this test's master, in its own namespace; (exit code, output)."""
     cmd = ["roslaunch", "--disable-title", "inspection_robot", "robot.launch", "ns:=/robot_launch_test",
            "port:=0", "address:=127.0.0.1"] + list(args)
+    started = time.monotonic()
     proc = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, timeout=LAUNCH_TIMEOUT)
-    return proc.returncode, proc.stdout.decode("utf-8", "replace")
+    return proc.returncode, proc.stdout.decode("utf-8", "replace"), time.monotonic() - started
 
 
 def robot_config(drivers):
@@ -36,7 +41,7 @@ def run_bridge(name, *params):
     """rosbridge_websocket ``name`` (its own private parameters) with ``params`` (``_param:=value``)."""
     return subprocess.Popen(["rosrun", "inspection_robot", "rosbridge_websocket", "__ns:=/bridge_refusal_test",
                              "__name:=" + name, "_port:=0"] + list(params),
-                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT)
+                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, start_new_session=True)
 
 
 def refusal_of(name, *params):
@@ -51,28 +56,37 @@ def refusal_of(name, *params):
 
 
 class RobotLaunchTest(unittest.TestCase):
-    def assert_refused(self, output, count):
-        self.assertIn("robot.launch refused to start, %d driver setting(s) to fix" % count, output)
+    def assert_refused(self, result, count):
+        code, output, took = result
+        self.assertNotEqual(code, 0, output[-4000:])
+        self.assertIn("robot.launch refused to start, %d site setting(s) to fix" % count, output)
         self.assertEqual(output.count("robot.launch refused to start"), 1, output[-4000:])
-        self.assertIn("check_drivers", output)
+        self.assertIn("Cannot load command parameter [site_check]", output)   # roslaunch stopped while parsing
+        self.assertNotIn("process[", output)                                  # ... so no node started
+        self.assertLess(took, PARSE_TIME_S, output[-4000:])
 
-    def test_no_robot_config_names_every_missing_driver_and_its_file(self):
-        _code, output = run_robot_launch()
-        self.assert_refused(output, len(DEVICES))
+    def test_no_robot_config_names_every_missing_setting(self):
+        result = run_robot_launch()
+        self.assert_refused(result, len(DEVICES) + 8)
         for entry in DEVICES.values():
-            self.assertIn("%s/driver is not set" % entry.node, output)
-            self.assertIn(entry.config, output)
+            self.assertIn("%s/driver is not set" % entry.node, result[1])
+        for name in ("robot_config", "move_base/map_file", "move_base/pose_topic", "charge_control/dock",
+                     "task_manager/home_pose", "data_root", "rosbridge_websocket/auth_token_file"):
+            self.assertIn("%s is not set" % name, result[1])
 
-    def test_simulator_refused(self):
+    def test_simulator_and_misspelt_key_refused(self):
         drivers = {device: "none" for device in DEVICES}
         drivers["chassis"] = "sim"
         path = robot_config(drivers)
+        with open(path, "a") as f:
+            f.write("move_base: {robot_radus: 0.5}\n")
         try:
-            _code, output = run_robot_launch("robot_config:=" + path)
+            result = run_robot_launch("robot_config:=" + path, "data_root:=/tmp/robot_launch_test", "insecure:=true")
         finally:
             os.unlink(path)
-        self.assert_refused(output, 1)
-        self.assertIn("robot_control/driver is sim: robot.launch drives real devices only", output)
+        self.assert_refused(result, 7)
+        self.assertIn("robot_control/driver is sim: robot.launch drives real devices only", result[1])
+        self.assertIn("move_base/robot_radus: unknown setting (did you mean move_base/robot_radius?)", result[1])
 
     def test_bridge_refuses_open_bind_without_auth(self):
         code, output = refusal_of("open_bridge", "_address:=0.0.0.0")
@@ -104,12 +118,13 @@ class RobotLaunchTest(unittest.TestCase):
             self.assertIn("INSECURE", seen[-1] if seen else "", "".join(seen))
             self.assertIsNone(proc.poll())
         finally:
-            # Only cleanup: a loaded machine can take rospy more than 15 s to shut the bridge down.
-            proc.terminate()
+            # Only cleanup. SIGINT to the whole group (rosrun's shell and the node, as roslaunch stops
+            # nodes): SIGTERM reached only rosrun's shell and left the node holding the pipe (90 s).
+            os.killpg(proc.pid, signal.SIGINT)
             try:
-                proc.wait(LAUNCH_TIMEOUT)
+                proc.wait(STOP_TIMEOUT)
             except subprocess.TimeoutExpired:
-                proc.kill()
+                os.killpg(proc.pid, signal.SIGKILL)
                 proc.wait()
 
 

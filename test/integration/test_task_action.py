@@ -36,7 +36,7 @@ from rostest_helpers import Latest, TwinClient, wait_for, wait_subscribed
 
 PRESET = "act_lamp"
 FAR_STOPS = [(20.0, 21.4), (10.0, 5.0)]
-HOME = (5.0, 5.0)   # config/task_manager.yaml home_pose
+HOME = (5.0, 5.0)   # config/sim_site.yaml task_manager/home_pose
 MAP = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "config", "maps", "substation.yaml")
 
 

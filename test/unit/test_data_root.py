@@ -50,5 +50,6 @@ def test_launch_gives_each_robot_its_own_root(monkeypatch):
                      "/h/inspection_robot/sim_robot_7_9091"}
     first, second = _data_root("sim.launch", "port:=0"), _data_root("sim.launch", "port:=0")
     assert first.startswith("/tmp/inspection_robot_data") and first != second
-    assert _data_root("robot.launch") == "/var/lib/inspection_robot"
-    assert _data_root("robot.launch", "data_root:=/srv/robot1") == "/srv/robot1"
+    # robot.launch = core.launch sim:=false after its site check (which needs a whole site file: test_check_site.py)
+    assert _data_root("core.launch", "sim:=false") == "/var/lib/inspection_robot"
+    assert _data_root("core.launch", "sim:=false", "data_root:=/srv/robot1") == "/srv/robot1"

@@ -4,8 +4,7 @@ import sys
 import pytest
 
 from inspection_robot.camera.driver import CameraError, NoCamera
-from inspection_robot.drivers import (DEVICES, DriverConfigError, choose, format_problems, make_driver,
-                                      not_fitted_reason, robot_launch_problems)
+from inspection_robot.drivers import DEVICES, DriverConfigError, choose, make_driver, not_fitted_reason
 from inspection_robot.motion.chassis import ChassisError, ChassisState, NoChassis
 from inspection_robot.ptz.driver import HeadError, NoHead
 from inspection_robot.thermal.driver import NoImager, ThermalError
@@ -84,17 +83,3 @@ def test_not_fitted_drivers_fail_with_the_reason():
         NoCamera().get_zoom()
     with pytest.raises(ThermalError, match="thermal not fitted"):
         NoImager().frame()
-
-
-def test_robot_launch_problems():
-    real = {"chassis": "vendor.board:Chassis", "head": "pelco", "arm": "none", "camera": "isapi",
-            "thermal": "none", "sensor3d": "pointcloud"}
-    assert robot_launch_problems(real) == []
-    problems = robot_launch_problems(dict(real, camera="sim", head=None))
-    assert len(problems) == 2
-    assert problems[0].startswith("cloud_terrace/driver is not set (head driver: sim, none, pelco, ")
-    assert "config/cloud_terrace.yaml or robot_config" in problems[0]
-    assert problems[1].startswith("camera_node/driver is sim: robot.launch drives real devices only")
-    text = format_problems(problems)
-    assert text.startswith("robot.launch refused to start, 2 driver setting(s) to fix:\n  - cloud_terrace")
-    assert len(robot_launch_problems({})) == len(DEVICES)

@@ -376,7 +376,8 @@ def test_reports_have_every_reading_and_highlight_alarms(env, tmp_path):
     run_step(patrol, clock)
     run_step(patrol, clock, value=0.99)
     run_step(patrol, clock)
-    paths = write_reports(str(tmp_path / "rep"), store.task("t1"), store.readings(task_id="t1"), store.steps("t1"))
+    paths = write_reports(str(tmp_path / "rep"), store.task("t1"), store.readings(task_id="t1"), store.steps("t1"),
+                          "v1.2-3-gabcdef0")
     assert sorted(os.path.basename(p) for p in paths.values()) == sorted(REPORT_FILES)
     with open(paths["report.csv"]) as f:
         assert len(f.read().strip().splitlines()) == 1 + 3
@@ -384,7 +385,9 @@ def test_reports_have_every_reading_and_highlight_alarms(env, tmp_path):
         data = json.load(f)
     assert data["summary"]["counts"] == {"readings": 3, "read": 3, "uncertain": 0, "needs_review": 0, "failed": 0,
                                          "alarms": 1, "checks": 0}
+    assert data["summary"]["software_version"] == "v1.2-3-gabcdef0"
     with open(paths["report.html"]) as f:
         page = f.read()
+    assert "robot software v1.2-3-gabcdef0" in page
     assert page.index('<tr class="alarm">') < page.index('<tr class="none">')
     assert "file:///pic/0_0_0.jpg" in page

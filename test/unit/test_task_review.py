@@ -214,7 +214,7 @@ def test_report_lists_readings_needing_review_first_with_reason_and_picture(env,
     assert review_at < page.index("file:///pic/read_0.jpg") < page.index("<h2>Readings</h2>")
     assert '<tr class="normal uncertain">' in page
     review(store, str(tmp_path), json.dumps({"id": row["id"], "value": 0.55, "by": "li"}), 5000.0)
-    paths = write_reports(str(tmp_path / "rep"), store.task("t1"), store.readings(task_id="t1"), [])
+    paths = write_reports(str(tmp_path / "rep"), store.task("t1"), store.readings(task_id="t1"), [], "test")
     with open(paths["report.html"]) as f:
         page = f.read()
     assert "Needs review" not in page and "reviewed by li: 0.55 MPa" in page

@@ -2,8 +2,8 @@
 
 The same description serves the simulated chassis (it charges only when its true pose is within
 the tolerances) and charge_control (it drives to ``approach``, docks at ``pose`` with precision 1,
-backs off to ``approach``). YAML form (``world.dock`` in config/sim_world.yaml, ``dock`` in
-config/charge_control.yaml)::
+backs off to ``approach``). YAML form (``world.dock`` in config/sim_world.yaml, ``charge_control/dock`` in
+the site file, config/robot.example.yaml)::
 
     dock: {pose: [x, y, yaw], approach_pose: [x, y, yaw], tolerance_m: 0.03, tolerance_yaw: 0.05}
 
@@ -17,6 +17,7 @@ from inspection_robot.angles import wrap_angle
 Dock = namedtuple("Dock", "pose approach tolerance_m tolerance_yaw")
 
 MAX_APPROACH_DISTANCE_M = 10.0  # an approach pose further away than this is a typo, not a dock
+FIELDS = ("pose", "approach_pose", "tolerance_m", "tolerance_yaw")
 
 
 class DockError(ValueError):
@@ -47,6 +48,9 @@ def parse_dock(spec):
     """A Dock from its YAML mapping; anything malformed raises DockError."""
     if not isinstance(spec, dict):
         raise DockError("dock must be a mapping with pose and approach_pose, got %r" % (spec,))
+    unknown = sorted(str(key) for key in spec if key not in FIELDS)
+    if unknown:  # a misspelt tolerance would silently fall back on its default
+        raise DockError("dock.%s: unknown field (dock has %s)" % (unknown[0], ", ".join(FIELDS)))
     pose = _pose(spec, "pose")
     approach = _pose(spec, "approach_pose")
     distance = math.hypot(approach[0] - pose[0], approach[1] - pose[1])

@@ -16,8 +16,8 @@ Clients:     move_action (GeneralAction) to the dock; task_control (ControlServi
 Parameters:  ~low_level (%, 25), ~full_level (%, 90), ~retries (2), ~pause_timeout (s, 300),
              ~relay_timeout (s, 5), ~current_timeout (s, 10), ~current_lost_timeout (s, 10),
              ~status_timeout (s, 3): robot_status older than this is not trusted
-             ~dock ({pose, approach_pose, tolerance_m, tolerance_yaw}); in simulation the launch
-                 loads config/sim_world.yaml into ~sim_world and world.dock is used instead
+             ~dock ({pose, approach_pose, tolerance_m, tolerance_yaw}), a site setting without default; in
+                 simulation the launch loads config/sim_world.yaml into ~sim_world and world.dock is used instead
              ~approach_velocity_x (m/s, 0.5), ~dock_velocity_x (m/s, 0.2), ~velocity_yaw (rad/s, 0.5)
              ~task_service ("task_control"), ~task_service_timeout (s, 2.0), ~rate (Hz, 5.0)
              ~voice_language ("chinese")
@@ -36,7 +36,7 @@ from inspection_robot.command import failed
 from inspection_robot.interface import ACK_SUCCESS, MOVE_GOAL_TYPE, MOVE_RESULT_SUCCESS, VOICE_LANGUAGES
 from inspection_robot.msg import GeneralAction, GeneralCmd, GeneralGoal, GeneralTopic, RobotStatus, VoiceCmd
 from inspection_robot.nav.goal import move_goal_data
-from inspection_robot.ros.node import init_node
+from inspection_robot.ros.node import init_node, site_param
 from inspection_robot.ros.twin import CommandTwin
 from inspection_robot.ros.worker import RequestWorker
 from inspection_robot.srv import ControlService
@@ -228,7 +228,7 @@ def main():
         status_timeout=float(rospy.get_param("~status_timeout", 3.0)))
     dock_spec = rospy.get_param("~sim_world/world/dock", None)
     if dock_spec is None:
-        dock_spec = rospy.get_param("~dock", None)
+        dock_spec = site_param("~dock")
     dock = parse_dock(dock_spec)
     speeds = (float(rospy.get_param("~approach_velocity_x", 0.5)), float(rospy.get_param("~dock_velocity_x", 0.2)),
               float(rospy.get_param("~velocity_yaw", 0.5)))

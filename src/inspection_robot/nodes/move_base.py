@@ -15,10 +15,10 @@ Publishes:   map (nav_msgs/OccupancyGrid, latched) the static map, never holding
              nav_status (NavStatus) at ~status_rate; virtual_obstacle_ack (GeneralAck)
              initialpose (geometry_msgs/PoseWithCovarianceStamped) on set_location, for the localizer
 Actions:     move_action (GeneralAction) goal type "move"
-Parameters:  ~map_file (map_server YAML, required), ~pose_topic ("sim/true_pose"),
+Parameters:  site settings, no default (the site file; sim.launch: config/sim_site.yaml): ~map_file
+             (map_server YAML), ~pose_topic (the localizer's), ~init_pose ([x, y, yaw] m, rad);
              data_root (namespace), ~virtual_obstacles_file (nav/virtual_obstacles.json),
              ~last_pose_file (nav/last_pose.json; both under data_root unless absolute), ~last_pose_period (s, 5.0),
-             ~init_pose ([x, y, yaw], [0, 0, 0]),
              ~robot_radius (m, 0.45), ~safety_margin (m, 0.3), ~margin_cost (4.0), ~coarse_factor (8),
              ~control_rate (Hz, 20), ~status_rate (Hz, 10), ~feedback_period (s, 0.5),
              ~default_velocity_x / ~max_velocity_x (m/s, 0.5 / 1.0),
@@ -60,7 +60,7 @@ from inspection_robot.files import FileError, read_json, rename_durable, write_j
 from inspection_robot.nav.planner import Planner, PlanningError
 from inspection_robot.nav.supervisor import FOLLOW, REPLAN, STOP, GoalAborted, GoalSupervisor
 from inspection_robot.nav.virtual_obstacles import VirtualObstacles
-from inspection_robot.ros.node import init_node
+from inspection_robot.ros.node import init_node, site_param
 from inspection_robot.ros.twin import CommandTwin
 from inspection_robot.ros.data_root import data_root, path_param
 
@@ -358,11 +358,11 @@ class MoveBase(object):
 def _params():
     root = data_root()
     cfg = {
-        "map_file": rospy.get_param("~map_file"),
-        "pose_topic": rospy.get_param("~pose_topic", "sim/true_pose"),
+        "map_file": site_param("~map_file"),
+        "pose_topic": site_param("~pose_topic"),
         "virtual_obstacles_file": path_param("~virtual_obstacles_file", "nav/virtual_obstacles.json", root),
         "last_pose_file": path_param("~last_pose_file", "nav/last_pose.json", root),
-        "init_pose": [float(v) for v in rospy.get_param("~init_pose", [0.0, 0.0, 0.0])],
+        "init_pose": [float(v) for v in site_param("~init_pose")],
         "enable_bits": int(rospy.get_param("~enable_bits", 7)),
     }
     floats = {"last_pose_period": 5.0, "robot_radius": 0.45, "safety_margin": 0.3, "margin_cost": 4.0,

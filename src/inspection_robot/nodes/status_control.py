@@ -4,20 +4,39 @@ Subscribes:  server_status (GeneralTopic) heartbeat from the backend
              control_status (ControlStatus), nav_status (NavStatus), robot_odom (nav_msgs/Odometry)
              diagnostics (diagnostic_msgs/DiagnosticArray): sensor alarms by hardware_id
 Publishes:   robot_status (RobotStatus) at ~rate and at once on any change
+             diagnostics (diagnostic_updater, 1 Hz): hardware_id "robot", status "status_control: software"
+                 with the version (git describe of the build, inspection_robot.version) and the site check
 Parameters:  ~heartbeat_timeout (s, 3.0), ~rate (Hz, 10.0),
              ~stale_timeout/{control,nav,odom} (s, 1.0/2.0/1.0),
              ~sensor_hardware_bits ({hardware_id: sensor_status bit}, {camera: 0, thermal_imager: 1})
 """
 import threading
 
+import diagnostic_updater
 import rospy
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from nav_msgs.msg import Odometry
 
 from inspection_robot.msg import ControlStatus, GeneralTopic, NavStatus, RobotStatus
 from inspection_robot.ros.node import init_node
+from inspection_robot.version import version
 from inspection_robot.status.merge import (CONTROL_FIELDS, Heartbeat, StatusMerger,
                                            heartbeat_text_problem)
+
+
+class SoftwareStatus(diagnostic_updater.DiagnosticTask):
+    """Which software runs: the build's version and what robot.launch's site check said (OK always:
+    a robot that runs has passed it)."""
+
+    def __init__(self, software_version, site_check):
+        diagnostic_updater.DiagnosticTask.__init__(self, "status_control: software")
+        self._values = (("version", software_version), ("site_check", site_check or "none (sim.launch)"))
+
+    def run(self, stat):
+        stat.summary(DiagnosticStatus.OK, "version %s" % self._values[0][1])
+        for key, value in self._values:
+            stat.add(key, value)
+        return stat
 
 
 class StatusControl(object):
@@ -122,4 +141,9 @@ def main():
     if rate_hz <= 0 or timeout <= 0 or any(v <= 0 for v in stale.values()):
         raise ValueError("~rate, ~heartbeat_timeout and every ~stale_timeout must be positive")
     StatusControl(StatusMerger(Heartbeat(timeout), stale), rate_hz, sensor_bits)
+    updater = diagnostic_updater.Updater()
+    updater.setHardwareID("robot")
+    updater.add(SoftwareStatus(version(), str(rospy.get_param("site_check", "")).strip()))
+    rospy.Timer(rospy.Duration(1.0), lambda _event: updater.update())
+    rospy.loginfo("status_control: version %s" % version())
     rospy.spin()

@@ -14,7 +14,8 @@ Parameters:  data_root (namespace: the robot's state directory): store and repor
              map_file, robot_radius: move_base's own (move_base/map_file, move_base/robot_radius) so
              reachability uses the map and inflation move_base plans with (~map_file and
              ~robot_radius override them where task_manager runs without move_base);
-             ~home_pose ([x, y, yaw], [5, 5, 0]); ~retries (int, 1); ~retry_delay_s (s, 3.0);
+             ~home_pose ([x, y, yaw] m, rad; a site setting, no default); ~retries (int, 1);
+             ~retry_delay_s (s, 3.0);
              ~uncertain_retries (int >= 0, 1): inspections again of a preset read uncertain;
              ~trend_window (10), ~trend_min_points (4), ~trend_horizon_days (7.0): the trend warning;
              ~velocity_x (m/s, 0.8), ~velocity_yaw (rad/s, 0.8); ~move_timeout_s (300),
@@ -37,7 +38,8 @@ from nav_msgs.msg import OccupancyGrid
 from inspection_robot.command import CommandError, CommandTable, no_data
 from inspection_robot.files import hide_root
 from inspection_robot.msg import GeneralAction, GeneralFeedback, GeneralResult, GeneralTopic, RobotStatus
-from inspection_robot.ros.node import init_node
+from inspection_robot.ros.node import init_node, site_param
+from inspection_robot.version import version
 from inspection_robot.ros.task_steps import StepRunner
 from inspection_robot.ros.twin import CommandTwin
 from inspection_robot.ros.worker import RequestWorker
@@ -246,7 +248,8 @@ class TaskManager(object):
     def _write_report(self, task_id):
         # the id names the folder: an id stored before ids were restricted ('..') must not escape reports/
         return write_reports(os.path.join(self._reports_dir, check_task_id(task_id)), self.store.task(task_id),
-                             self.store.readings(task_id=task_id, limit=10 ** 9), self.store.steps(task_id))
+                             self.store.readings(task_id=task_id, limit=10 ** 9), self.store.steps(task_id),
+                             version())
 
     def _on_finished(self, task_id):
         """A task ended: its report is written at once (a failure is logged, the patrol goes on),
@@ -360,7 +363,7 @@ def main():
     tasks_dir = os.path.join(root, "tasks")
     os.makedirs(tasks_dir, exist_ok=True)
     preset_root = path_param("~preset_root", "presets", root)
-    home_pose = [float(v) for v in rospy.get_param("~home_pose", [5.0, 5.0, 0.0])]
+    home_pose = [float(v) for v in site_param("~home_pose")]
     if len(home_pose) != 3:
         raise ValueError("~home_pose must be [x, y, yaw], got %r" % (home_pose,))
     uncertain_retries = rospy.get_param("~uncertain_retries", 1)

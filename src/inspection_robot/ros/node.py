@@ -37,3 +37,12 @@ def init_node(name, **kwargs):
     """rospy.init_node with inbound handshakes bounded (see the module's docstring)."""
     guard_inbound_handshakes()
     rospy.init_node(name, **kwargs)
+
+
+def site_param(name):
+    """A site setting (map, localizer topic, poses, dock): it has no package default, so a node never
+    falls back on the simulated yard's. ValueError naming it and where it is set when missing."""
+    if not rospy.has_param(name):
+        raise ValueError("%s is not set: a site setting with no default; the site file sets it "
+                         "(config/robot.example.yaml), sim.launch config/sim_site.yaml" % rospy.resolve_name(name))
+    return rospy.get_param(name)

@@ -5,6 +5,7 @@ the reader's reason and the annotated picture), then lists every other reading w
 (linked by absolute path, the pictures stay where read_scale wrote them), alarms and checks first
 and highlighted, failures with their reason. Files are written with files.write_atomic: a reader
 sees the old report or the new.
+The JSON summary and the HTML heading name the robot software's version (git describe of the build).
 """
 import csv
 import html
@@ -52,9 +53,11 @@ def summary(task_row, readings, steps):
             "time_by_step_s": dict((k, round(v, 2)) for k, v in step_split(steps).items())}
 
 
-def write_reports(folder, task_row, readings, steps):
-    """Write the three report files of one task into ``folder``; returns {name: path}."""
+def write_reports(folder, task_row, readings, steps, software_version):
+    """Write the three report files of one task into ``folder``; returns {name: path}.
+    ``software_version`` (inspection_robot.version) goes into the JSON summary and the HTML heading."""
     info = summary(task_row, readings, steps)
+    info["software_version"] = software_version
     paths = dict((name, os.path.join(folder, name)) for name in REPORT_FILES)
     out = io.StringIO()
     writer = csv.writer(out)
@@ -124,7 +127,7 @@ img{max-width:240px;max-height:160px}
 <h1>Patrol report %(id)s</h1>
 <p>priority %(priority)s, state <b>%(state)s</b> %(reason)s; %(stops)d stops (%(route)s); %(readings)d readings:
 %(read)d read, %(uncertain)d uncertain (%(needs_review)d need review), <b>%(alarms)d alarm(s)</b>,
-<b>%(checks)d check(s)</b>, %(failed)d failed; duration %(duration)s s</p>
+<b>%(checks)d check(s)</b>, %(failed)d failed; duration %(duration)s s; robot software %(version)s</p>
 %(review)s<h2>Readings</h2>
 <table>%(head)s
 %(body)s
@@ -135,4 +138,4 @@ img{max-width:240px;max-height:160px}
                                                     if info["planned_length_m"] is not None else "not measured")),
        "uncertain": counts["uncertain"], "needs_review": counts["needs_review"], "alarms": counts["alarms"],
        "checks": counts["checks"], "failed": counts["failed"], "duration": info["duration_s"], "review": review_part,
-       "head": head, "body": _table_rows(rest)}
+       "head": head, "body": _table_rows(rest), "version": esc(str(info.get("software_version")))}
