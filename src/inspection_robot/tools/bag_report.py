@@ -31,6 +31,7 @@ import rosbag
 from inspection_robot.msg import (ControlStatus, GeneralAck, GeneralActionGoal, GeneralActionResult, GeneralTopic,
                                   NavStatus, ObstacleStatus, ReadScaleAck, RobotStatus)
 from inspection_robot.recording.summary import READING_ALARMS, RunAnalyzer, format_summary, reading_text
+from inspection_robot.ros import compat_rosbag
 from inspection_robot.task.states import STATUS_FAILED
 
 STATUS_FIELDS = ("offline_warn", "mode", "velocity_x", "velocity_yaw", "position", "orientation", "nav_status",
@@ -124,7 +125,7 @@ def check_types(bags, prefix, expected_types=None):
     ``expected_types`` (name -> type) are checked as well, and not read."""
     topics, built = set(), set()
     for path, bag in bags:
-        for conn in bag._get_connections():
+        for conn in compat_rosbag.connections(bag):
             name = conn.topic[len(prefix):] if conn.topic.startswith(prefix) else None
             if name in (expected_types or {}):
                 _check_type(path, conn, expected_types[name])
