@@ -1,4 +1,4 @@
-"""bridge_backend.write_direct on a real rospy QueuedConnection: sends only while its thread idles, in order."""
+"""compat_rospy.write_direct on a real rospy QueuedConnection: sends only while its thread idles, in order."""
 import socket
 import threading
 import time
@@ -6,7 +6,7 @@ import time
 import pytest
 from rospy.impl.tcpros_pubsub import QueuedConnection
 
-from inspection_robot.ros.bridge_backend import write_direct
+from inspection_robot.ros.compat_rospy import write_direct
 
 
 class FakeTransport(object):

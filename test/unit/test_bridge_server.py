@@ -18,7 +18,8 @@ import tornado.ioloop
 from bridge_fakes import FakeBackend
 from inspection_robot.bridge.client import CLOSED, RawClient, SocketClient
 from inspection_robot.bridge.protocol import Outgoing, Session, SessionConfig
-from inspection_robot.bridge.server import BridgeServer, LoopPoster, SendQueue, make_ssl_context, ws_frame
+from inspection_robot.bridge.compat_tornado import ws_frame
+from inspection_robot.bridge.server import BridgeServer, LoopPoster, SendQueue, make_ssl_context
 
 
 def test_queue_length_keeps_the_newest_of_its_topic_only():

@@ -1,4 +1,4 @@
-"""Imports go one way: only the ROS wing (nodes/, ros/, tools/) may import ROS; the layout holds.
+"""Imports go one way: only the ROS wing (nodes/, ros/) may import ROS; the layout holds.
 
 The list of ROS modules is every ROS package that package.xml declares plus the client library's
 own modules that a package gets without declaring them (genpy, roslib, rosgraph ...), so a new
@@ -14,8 +14,9 @@ SRC = os.path.join(ROOT, "src", "inspection_robot")
 ROS_CLIENT_MODULES = {"rospy", "genpy", "genmsg", "roslib", "rosgraph", "rospkg", "rosservice",
                       "rostopic", "rosnode", "rosparam", "roslaunch", "rosmsg", "rosbag", "rostest",
                       "actionlib", "tf", "tf2_py", "tf2_ros", "diagnostic_updater", "message_filters"}
-# nodes/ and tools/ hold entry points (executables' code); ros/ everything else that imports ROS.
-ROS_WING = ("nodes", "ros", "tools")
+# nodes/ holds the nodes' entry points, ros/ everything else that imports ROS (tools/ is command lines
+# only: their ROS side, e.g. bag_report's reading and the soak, lives in ros/).
+ROS_WING = ("nodes", "ros")
 
 
 def declared_ros_packages():

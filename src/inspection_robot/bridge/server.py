@@ -28,7 +28,6 @@ Every close the bridge decides is logged with its reason. TLS when an ssl contex
 import asyncio
 import collections
 import ssl
-import struct
 import time
 
 import tornado.httpserver
@@ -38,7 +37,9 @@ import tornado.web
 import tornado.websocket
 from tornado.iostream import StreamClosedError
 
+from inspection_robot.bridge import compat_tornado
 from inspection_robot.bridge.access import Peer, local_names, origin_allowed
+from inspection_robot.bridge.compat_tornado import CLOSE_TOO_BIG
 
 KEEPALIVE_TICK = 1.0  # s between checks for silent or over-budget clients (pings go every ping_interval)
 READ_SLICE = 32  # incoming frames handled before the reader yields to the IOLoop once
@@ -47,7 +48,6 @@ DROP_WARNING_PERIOD = 1.0  # s: at most one drop warning per client and period
 REFUSAL_LOG_PERIOD = 10.0  # s: at most one logged origin refusal per period
 BACKLOG_POLL = 0.001  # s between checks of a full rospy publisher queue while a client's reading is paused
 CLOSE_POLICY = 1008  # websocket close codes (RFC 6455 7.4.1)
-CLOSE_TOO_BIG = 1009
 CLOSE_GOING_AWAY = 1001
 
 
@@ -81,23 +81,6 @@ class LoopPoster(object):
                 fn(*args)
             except Exception as exc:  # boundary: one failing callback must not drop the others
                 self._log("error", "callback %r failed: %r" % (fn, exc))
-
-
-def ws_frame(payload):
-    """An unmasked, final websocket frame: text for str, binary for bytes (RFC 6455 5.2)."""
-    if isinstance(payload, str):
-        payload = payload.encode("utf-8")
-        first = 0x81
-    else:
-        first = 0x82
-    size = len(payload)
-    if size < 126:
-        header = struct.pack("!BB", first, size)
-    elif size <= 0xFFFF:
-        header = struct.pack("!BBH", first, 126, size)
-    else:
-        header = struct.pack("!BBQ", first, 127, size)
-    return header + payload
 
 
 def _size(frames):
@@ -255,17 +238,16 @@ class BridgeHandler(tornado.websocket.WebSocketHandler):
     def get_websocket_protocol(self):
         # tornado closes an oversized frame's connection itself, with the terse "message too big":
         # give the client a reason naming the limit, and remember it so the bridge can log it
-        protocol = super(BridgeHandler, self).get_websocket_protocol()
-        if protocol is not None:
-            close = protocol.close
+        # (how is tornado-internal: compat_tornado.name_the_size_limit)
+        return compat_tornado.name_the_size_limit(super(BridgeHandler, self).get_websocket_protocol(),
+                                                  self._too_big_reason)
 
-            def close_with_reason(code=None, reason=None):
-                if code == CLOSE_TOO_BIG and self.close_reason_sent is None:
-                    reason = "message too big: a frame over max_message_size (%d bytes)" % self._server.max_message_size
-                    self.close_reason_sent = (code, reason)
-                close(code, reason)
-            protocol.close = close_with_reason
-        return protocol
+    def _too_big_reason(self):
+        if self.close_reason_sent is not None:
+            return None
+        reason = "message too big: a frame over max_message_size (%d bytes)" % self._server.max_message_size
+        self.close_reason_sent = (CLOSE_TOO_BIG, reason)
+        return reason
 
     @property
     def client_id(self):
@@ -279,7 +261,7 @@ class BridgeHandler(tornado.websocket.WebSocketHandler):
         self.last_heard = time.monotonic()
         if self.session is None:
             return None
-        self.session.on_frame(message, self._more_input())
+        self.session.on_frame(message, compat_tornado.more_input(self))
         if self.session.ros_backlogged():
             self._unread = 0
             return self._wait_for_ros()
@@ -291,12 +273,6 @@ class BridgeHandler(tornado.websocket.WebSocketHandler):
             return asyncio.sleep(0)
         return None
 
-    def _more_input(self):
-        # bytes of the client's next frames already read from the socket (tornado keeps no public count)
-        connection = self.ws_connection
-        stream = getattr(connection, "stream", None)
-        return bool(getattr(stream, "_read_buffer_size", 0))
-
     async def _wait_for_ros(self):
         # not reading the socket while rospy's queue is full: TCP slows the client down
         while self.session.ros_backlogged() and self.ws_connection is not None:
@@ -307,11 +283,7 @@ class BridgeHandler(tornado.websocket.WebSocketHandler):
 
     def abort(self):
         """Close the socket now, without a close handshake (the peer is not answering)."""
-        connection = self.ws_connection
-        if connection is not None and getattr(connection, "stream", None) is not None:
-            connection.stream.close()
-        else:
-            self.close()
+        compat_tornado.abort(self)
 
     def close_with(self, code, reason):
         """Close with a reason the client can read; replies still queued (status) go out first."""
@@ -322,7 +294,7 @@ class BridgeHandler(tornado.websocket.WebSocketHandler):
         replies = self.queue.take_replies()
         if replies:
             try:
-                self._write_raw(b"".join(ws_frame(frame) for frame in replies))
+                compat_tornado.write_frames(self, replies)
             except (tornado.websocket.WebSocketClosedError, StreamClosedError):
                 pass
         self.close(code, reason)
@@ -395,18 +367,18 @@ class BridgeHandler(tornado.websocket.WebSocketHandler):
 
     def _next_batch(self):
         """Hand the next queued frames (up to BATCH_BYTES) to the socket: (write future, bytes) or None."""
-        chunks, size = [], 0
+        payloads, size = [], 0
         frames = self.queue.pop()
         while frames is not None:
-            chunks.extend(ws_frame(frame) for frame in frames)
+            payloads.extend(frames)
             size += _size(frames)
             if size >= BATCH_BYTES:
                 break
             frames = self.queue.pop()
-        if not chunks:
+        if not payloads:
             return None
         try:
-            return self._write_raw(b"".join(chunks) if len(chunks) > 1 else chunks[0]), size
+            return compat_tornado.write_frames(self, payloads), size
         except (tornado.websocket.WebSocketClosedError, StreamClosedError):
             self.queue.written(size)
             raise
@@ -422,12 +394,6 @@ class BridgeHandler(tornado.websocket.WebSocketHandler):
             raise
         if then_flush:
             self._flush()
-
-    def _write_raw(self, data):
-        connection = self.ws_connection
-        if connection is None or connection.is_closing():
-            raise tornado.websocket.WebSocketClosedError()
-        return connection.stream.write(data)
 
 
 class _Timer(object):

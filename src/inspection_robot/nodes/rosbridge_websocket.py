@@ -45,9 +45,11 @@ from diagnostic_msgs.msg import DiagnosticStatus
 from std_msgs.msg import Int32
 
 from inspection_robot.bridge.access import Authenticator, FailureLimiter, listen_check, read_token_file
+from inspection_robot.bridge import compat_tornado
 from inspection_robot.bridge.codec import Codec
 from inspection_robot.bridge.console import CONSOLE_PATH, console_routes, missing_files
 from inspection_robot.bridge.protocol import Session, SessionConfig
+from inspection_robot.ros import compat_rospy
 from inspection_robot.ros.bridge_backend import RosBackend, RosGraph
 from inspection_robot.ros.message_types import GenpyTypes
 from inspection_robot.bridge.rosapi import RosApi
@@ -264,6 +266,8 @@ def main():
     if http_routes:
         rospy.loginfo("bridge: operator console on %s://%s:%d%s", "https" if ssl_context else "http",
                       params["address"] or "0.0.0.0", port, CONSOLE_PATH)
+    for compat in (compat_rospy, compat_tornado):   # a library upgrade that slows the bridge says so
+        (rospy.logwarn if compat.MISSING else rospy.loginfo)("bridge: " + compat.describe())
     if params["insecure_warning"]:
         rospy.logwarn("bridge: " + params["insecure_warning"])
         rospy.Timer(rospy.Duration(INSECURE_WARNING_PERIOD),

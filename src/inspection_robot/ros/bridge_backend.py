@@ -3,15 +3,14 @@
 :class:`RosBackend` implements what protocol.Session needs. One rospy.Subscriber per topic
 serves every client; each ROS message is encoded once per compression its clients use, in
 rospy's thread, and handed to the event loop (``post``) for fan-out. Messages clients publish
-reach rospy in batches (:func:`publish_batch`), sent from the event loop itself while a
-connection's writer thread is idle (:func:`write_direct`). Service calls and rosapi requests run on a thread
-pool; their results come back through ``post``. Services a client advertises are rospy.Services
-whose handler forwards the request to that client and waits (bounded) for its service_response.
+reach rospy in batches (compat_rospy.publish_batch), sent from the event loop itself while a
+connection's writer thread is idle (compat_rospy.write_direct: rospy's internals stay there).
+Service calls and rosapi requests run on a thread pool; their results come back through ``post``.
+Services a client advertises are rospy.Services whose handler forwards the request to that client
+and waits (bounded) for its service_response.
 With message_types.py, the bridge's ROS side; both live in the ROS wing.
 """
 import concurrent.futures
-import io
-import socket
 import threading
 import time
 
@@ -20,10 +19,10 @@ import rospy
 import rosservice
 
 from inspection_robot.bridge.protocol import BridgeError, Outgoing
+from inspection_robot.ros.compat_rospy import publish_batch, publisher_queue_depth, replay_latched
 
 
 MAX_BATCH = 256  # messages converted for one topic before the client's socket waits for a flush
-DIRECT_WRITE_BYTES = 65536  # largest write sent straight from the caller's thread (write_direct)
 _ROBOT = "robot"  # the owner of the topics the bridge advertises itself (advertise_for_the_robot): never leaves
 
 
@@ -42,95 +41,6 @@ class _Topic(object):
         self.early = early
         self.high_water = high_water
         self.pending = []  # messages converted, not yet handed to rospy (flushed once per loop pass)
-
-
-def publish_batch(publisher, messages):
-    """Publish ``messages`` in order on a rospy.Publisher with one write per subscriber connection.
-
-    TCPROS frames every message with its length, so several serialized messages in one write
-    reach the subscriber as several messages. Publisher.publish would hand each message to the
-    connection's thread separately (a lock, a notify and a forced thread switch each), which is
-    what limits a burst. Otherwise as _PublisherImpl.publish: the latched message, header seq,
-    and a connection that fails is closed and removed.
-    """
-    impl = publisher.impl
-    if impl is None or impl.closed:
-        raise rospy.ROSException("publish() to a closed topic %s" % publisher.name)
-    impl.acquire()
-    try:
-        if impl.is_latch:
-            impl.latch = messages[-1]
-        if not impl.has_connections():
-            return
-        buff = io.BytesIO()
-        for msg in messages:
-            impl.seq += 1
-            rospy.msg.serialize_message(buff, impl.seq, msg)
-        data = buff.getvalue()
-        for connection in list(impl.connections):
-            try:
-                if not write_direct(connection, data):
-                    connection.write_data(data)
-            except Exception:  # boundary, as rospy: a broken subscriber connection is dropped
-                try:
-                    connection.close()
-                finally:
-                    impl.remove_connection(connection)
-        impl.message_data_sent += len(data)
-    finally:
-        impl.release()
-
-
-def write_direct(connection, data):
-    """Send ``data`` on a rospy QueuedConnection's socket from this thread while its writer thread idles.
-
-    QueuedConnection.write_data hands every write to the connection's own thread (a notify and a
-    thread switch: on a loaded machine the largest part of an echo's time in the bridge, and of
-    its tail). When that thread is waiting for data (it is among the condition's waiters and its
-    queue is empty), nothing of its is in flight, so the caller may send itself, holding the
-    connection's lock so the thread cannot start meanwhile. The send never blocks: what the socket
-    does not take at once is queued for the thread, in order. Returns False (nothing sent) when
-    the fast path does not apply; the caller then uses write_data. Private rospy attributes
-    (Noetic's rospy is frozen); anything unexpected means False.
-    """
-    lock = getattr(connection, "_lock", None)
-    cond = getattr(connection, "_cond_data_available", None)
-    transport = getattr(connection, "_connection", None)
-    sock = getattr(transport, "socket", None)
-    if lock is None or cond is None or sock is None or len(data) > DIRECT_WRITE_BYTES:
-        return False
-    with lock:
-        if connection._queue or connection._error or transport.done or not getattr(cond, "_waiters", None):
-            return False
-        try:
-            sent = sock.send(data, socket.MSG_DONTWAIT)
-        except (BlockingIOError, InterruptedError):
-            sent = 0
-        except OSError:
-            return False  # the writer thread meets the same error and closes the connection
-        transport.stat_bytes += sent
-        if sent < len(data):
-            connection._queue.append(data[sent:])
-            cond.notify()
-    return True
-
-
-def publisher_queue_depth(publisher):
-    """The longest outgoing queue of a rospy.Publisher's subscriber connections (0 when none).
-
-    rospy keeps one queue per connection (QueuedConnection._queue) and, when one is full, drops
-    its oldest message without telling anyone; the bridge reads this depth to stop reading a
-    client before that happens. rospy has no public accessor, hence the private attribute.
-    """
-    impl = publisher.impl
-    if impl is None:
-        return 0
-    depth = 0
-    for connection in list(impl.connections):
-        queued = getattr(connection, "_queue", None)
-        if queued is not None and len(queued) > depth:
-            depth = len(queued)
-    return depth
 
 
 def known_topic_types(master):
@@ -306,9 +216,7 @@ class RosBackend(object):
             outgoing.json_text()
             self._post(self._deliver_one, session, outgoing)
         entry_topic = next(t for t, e in self._subscribers.items() if e is entry)
-        impl = entry.handle.impl
-        impl.add_callback(replay, None)
-        impl.remove_callback(replay, None)
+        replay_latched(entry.handle, replay)
 
     @staticmethod
     def _stamp():

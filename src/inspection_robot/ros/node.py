@@ -9,34 +9,24 @@ handshake with a socket timeout, so such a connection is dropped (one warning fr
 next one is served.
 """
 import rospy
-from rospy.impl import tcpros_base
+
+from inspection_robot.ros import compat_rospy
 
 HANDSHAKE_TIMEOUT_S = 5.0   # a TCPROS client sends its header right after connecting
 
 
 def guard_inbound_handshakes(timeout_s=HANDSHAKE_TIMEOUT_S):
-    """Bound every inbound handshake of this process to ``timeout_s`` (idempotent; before init_node)."""
-    server_class = tcpros_base.TCPROSServer
-    unguarded = getattr(server_class._tcp_server_callback, "unguarded", server_class._tcp_server_callback)
-
-    def guarded_callback(self, sock, client_addr):
-        sock.settimeout(timeout_s)
-        try:
-            unguarded(self, sock, client_addr)
-        finally:
-            try:
-                sock.settimeout(None)   # the connection's transport reads and writes blocking
-            except OSError:
-                pass                    # already closed by the refused handshake
-    guarded_callback.unguarded = unguarded
-    guarded_callback.timeout_s = timeout_s
-    server_class._tcp_server_callback = guarded_callback
+    """Bound every inbound handshake of this process to ``timeout_s`` (idempotent; before init_node).
+    The patch itself is rospy-internal and lives in compat_rospy; False when this rospy cannot take it."""
+    return compat_rospy.guard_inbound_handshakes(timeout_s)
 
 
 def init_node(name, **kwargs):
     """rospy.init_node with inbound handshakes bounded (see the module's docstring)."""
-    guard_inbound_handshakes()
+    guarded = guard_inbound_handshakes()
     rospy.init_node(name, **kwargs)
+    if not guarded:
+        rospy.logwarn("inbound TCPROS handshakes are not bounded: %s", compat_rospy.describe())
 
 
 def site_param(name):

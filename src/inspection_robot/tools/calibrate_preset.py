@@ -33,6 +33,7 @@ from inspection_robot.inspection.calibration import SelfCheck, calibrate
 from inspection_robot.inspection.calibration_commands import CalibrationCommands
 from inspection_robot.inspection.preset import PresetError
 from inspection_robot.sim.inspection_sim import calibrate_from_world
+from inspection_robot.ros.package_share import share_file
 from inspection_robot.sim.world import World, WorldError
 
 
@@ -41,12 +42,8 @@ def _config_file(name):
     candidate = os.path.normpath(os.path.join(here, "..", "..", "..", "config", name))
     if os.path.isfile(candidate):
         return candidate
-    try:   # installed / devel space: the package's share directory
-        import rospkg
-        candidate = os.path.join(rospkg.RosPack().get_path("inspection_robot"), "config", name)
-    except Exception:  # boundary: no ROS package path; the user passes the file
-        return None
-    return candidate if os.path.isfile(candidate) else None
+    candidate = share_file("config", name)   # installed / devel space; None: the user passes the file
+    return candidate if candidate and os.path.isfile(candidate) else None
 
 
 def default_optics_file():

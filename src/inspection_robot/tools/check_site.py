@@ -16,46 +16,19 @@ import argparse
 import os
 import sys
 
-import rospkg
-from roslaunch.config import ROSLaunchConfig
-from roslaunch.substitution_args import resolve_args
-from roslaunch.xmlloader import XmlLoader
-
-from inspection_robot.site import (SIM_SITE_FILE, SIM_WORLD_FILE, SiteError, flatten, format_problems,
-                                   load_site_text, sim_yard, site_problems)
+from inspection_robot.site import SiteError, format_problems, load_site_text, site_problems
+from inspection_robot.ros.launch_config import launch_defaults, load_yard
+from inspection_robot.ros.package_share import share_file
 from inspection_robot.version import version
 
 PACKAGE = "inspection_robot"
 
 
-def launch_defaults(share, ns, data_root):
-    """{``node/key``: value} robot.launch sets without a site file (core.launch sim:=false), relative to ``ns``."""
-    config = ROSLaunchConfig()
-    # record:=true: bag_recorder's settings are valid in a site file whether robot.launch records or not
-    argv = ["sim:=false", "record:=true", "robot_config:=", "ns:=%s" % (ns or "/"), "data_root:=%s" % data_root]
-    XmlLoader().load(os.path.join(share, "launch", "core.launch"), config, argv=argv, verbose=False)
-    prefix = "/" + (ns or "/").strip("/") + "/" if (ns or "/").strip("/") else "/"
-    defaults = {}
-    for name, param in config.params.items():
-        if name.startswith(prefix):
-            defaults[name[len(prefix):]] = param.value
-    for name, value in list(defaults.items()):   # roslaunch drops empty mappings; keep them known
-        if isinstance(value, dict):
-            defaults.update(flatten(value, name + "/"))
-    return defaults
-
-
-def load_yard(share):
-    with open(os.path.join(share, SIM_SITE_FILE)) as f:
-        sim_site = load_site_text(resolve_args(f.read()), SIM_SITE_FILE)   # $(find ...) as subst_value does
-    with open(os.path.join(share, SIM_WORLD_FILE)) as f:
-        sim_world = load_site_text(f.read(), SIM_WORLD_FILE)
-    return sim_yard(sim_site, sim_world)
-
-
 def check(site_path, data_root="", ns="/", insecure=False):
     """(problems, summary line)."""
-    share = rospkg.RosPack().get_path(PACKAGE)
+    share = share_file()
+    if share is None:
+        return ["cannot find the package %s (source its setup.bash)" % PACKAGE], ""
     site = {}
     problems = []
     if not site_path:

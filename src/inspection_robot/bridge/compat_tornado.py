@@ -1,0 +1,139 @@
+"""The one place that touches tornado's websocket internals (the bridge's transport, server.py).
+
+tornado's public websocket API writes one message per call (a future, a frame header built in
+Python, a try at the socket each) and says nothing about bytes already read. The bridge needs
+three things it does not offer; each is checked once, at import, by reading the names tornado's
+own constructors assign (nothing is built), and falls back to the public API when they differ:
+
+- :func:`more_input`: are bytes of the client's next frames already read (IOStream's private
+  ``_read_buffer_size``)? The bridge then batches what the client publishes. Fallback: False
+  (treated as empty: every frame goes to ROS at once, as the last one of a burst does).
+- :func:`write_frames`: many messages as ready-made frames (:func:`ws_frame`) in one write on the
+  connection's stream. Fallback: WebSocketHandler.write_message per message.
+- :func:`abort`: close the socket now, with no close handshake. Fallback: WebSocketHandler.close.
+- :func:`name_the_size_limit`: the close tornado itself sends for an oversized frame (1009, "message
+  too big") carries a reason naming the limit. Fallback: tornado's own reason.
+
+``MISSING`` lists what was not found; test_compat_tornado fails loudly, naming tornado's version,
+when it is not empty.
+"""
+import struct
+
+import tornado
+import tornado.iostream
+import tornado.websocket
+
+CLOSE_TOO_BIG = 1009  # websocket close code (RFC 6455 7.4.1)
+
+
+def _assigned(function):
+    """Attribute names a function's code uses (what a constructor assigns appears here)."""
+    return set(getattr(getattr(function, "__code__", None), "co_names", ()))
+
+
+def _missing(what, names, available):
+    return ["%s.%s" % (what, name) for name in names if name not in available]
+
+
+def _check():
+    handler = tornado.websocket.WebSocketHandler
+    protocol = tornado.websocket.WebSocketProtocol
+    protocol13 = getattr(tornado.websocket, "WebSocketProtocol13", None)
+    connection = (_missing("WebSocketHandler", ["ws_connection"], _assigned(handler.__init__))
+                  + _missing("WebSocketProtocol", ["stream"], _assigned(protocol.__init__))
+                  + _missing("WebSocketProtocol", ["is_closing"], set(dir(protocol))))
+    receive = getattr(protocol13, "_receive_frame", None)
+    return {
+        "more_input": connection + _missing("BaseIOStream", ["_read_buffer_size"],
+                                            _assigned(tornado.iostream.BaseIOStream.__init__)),
+        "write_frames": connection + _missing("BaseIOStream", ["write", "close"],
+                                              set(dir(tornado.iostream.BaseIOStream))),
+        "too_big_reason": (_missing("WebSocketHandler", ["get_websocket_protocol"], set(dir(handler)))
+                           + _missing("WebSocketProtocol13._receive_frame", ["close(%d)" % CLOSE_TOO_BIG],
+                                      {"close(%d)" % CLOSE_TOO_BIG}
+                                      if CLOSE_TOO_BIG in getattr(getattr(receive, "__code__", None), "co_consts", ())
+                                      else set())),
+    }
+
+
+_CHECKED = _check()
+MISSING = sorted(set(name for names in _CHECKED.values() for name in names))
+MORE_INPUT = not _CHECKED["more_input"]
+RAW_WRITE = not _CHECKED["write_frames"]
+TOO_BIG_REASON = not _CHECKED["too_big_reason"]
+VERSION = tornado.version
+
+
+def describe():
+    """One line for a node's log: which fast paths run, and what is missing for the others."""
+    if not MISSING:
+        return "tornado %s internals as expected: every fast path on" % VERSION
+    return "tornado %s internals differ (missing %s): public-API fallbacks in use" % (VERSION, ", ".join(MISSING))
+
+
+def ws_frame(payload):
+    """An unmasked, final websocket frame: text for str, binary for bytes (RFC 6455 5.2)."""
+    if isinstance(payload, str):
+        payload = payload.encode("utf-8")
+        first = 0x81
+    else:
+        first = 0x82
+    size = len(payload)
+    if size < 126:
+        header = struct.pack("!BB", first, size)
+    elif size <= 0xFFFF:
+        header = struct.pack("!BBH", first, 126, size)
+    else:
+        header = struct.pack("!BBQ", first, 127, size)
+    return header + payload
+
+
+def more_input(handler):
+    """True when bytes of the client's next frames are already read from the socket (tornado keeps
+    no public count); False when unknown."""
+    if not MORE_INPUT:
+        return False
+    stream = getattr(handler.ws_connection, "stream", None)
+    return bool(getattr(stream, "_read_buffer_size", 0))
+
+
+def write_frames(handler, payloads):
+    """Send ``payloads`` (str: text, bytes: binary messages) in order; the future of the write.
+
+    Raises WebSocketClosedError when the connection is gone or closing (as write_message does).
+    Fast path: one write of ready-made frames (no compression, the server's frames are unmasked).
+    """
+    if not RAW_WRITE:
+        future = None
+        for payload in payloads:
+            future = handler.write_message(payload, binary=isinstance(payload, bytes))
+        return future
+    connection = handler.ws_connection
+    if connection is None or connection.is_closing():
+        raise tornado.websocket.WebSocketClosedError()
+    data = ws_frame(payloads[0]) if len(payloads) == 1 else b"".join(ws_frame(payload) for payload in payloads)
+    return connection.stream.write(data)
+
+
+def abort(handler):
+    """Close the socket now, without a close handshake (the peer is not answering)."""
+    connection = handler.ws_connection
+    if RAW_WRITE and connection is not None and getattr(connection, "stream", None) is not None:
+        connection.stream.close()
+    else:
+        handler.close()
+
+
+def name_the_size_limit(protocol, reason_for_too_big):
+    """Make the close tornado sends for an oversized frame (1009) carry ``reason_for_too_big()``
+    (a str, or None for tornado's own); ``protocol`` is what get_websocket_protocol returned."""
+    if not TOO_BIG_REASON or protocol is None:
+        return protocol
+    close = protocol.close
+
+    def close_with_reason(code=None, reason=None):
+        if code == CLOSE_TOO_BIG:
+            reason = reason_for_too_big() or reason
+        close(code, reason)
+    protocol.close = close_with_reason
+    return protocol
