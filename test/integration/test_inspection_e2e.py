@@ -22,6 +22,7 @@ from actionlib_msgs.msg import GoalStatus
 from sensor_msgs.msg import JointState
 
 from inspection_robot.inspection.preset import load_preset
+from inspection_robot.inspection.reading import request_filenames
 from inspection_robot.msg import (GeneralAction, GeneralGoal, NavStatus, PresetScaleAck, PresetScaleCmd,
                                   ReadScaleAck, ReadScaleCmd)
 
@@ -140,7 +141,7 @@ class TestInspectionAcceptance(unittest.TestCase):
 
     def read(self, preset_dir, found, foreign_detect=2):
         trans_id = self.next_id()
-        files = [found["filename"]] + ([found["infrared_filename"]] if found["infrared_filename"] else [])
+        files = request_filenames(found["filename"], found["infrared_filename"], found["second_filename"])
         foreign = [found["foreign_filename"]] if foreign_detect else []
         self.read_pub.publish(ReadScaleCmd(sender="server", trans_id=trans_id, directory=preset_dir,
                                            foreign_detect=foreign_detect, filename=files, foreign_filename=foreign,
@@ -249,9 +250,22 @@ class TestInspectionAcceptance(unittest.TestCase):
             self.call(self.camera, "set_zoom_level", "1.00")
             found = self.find_goal("find_both", directory)
             self.assertEqual(bool(found["infrared_filename"]), preset_id == "breaker_1")
+            self.assertTrue(found["second_filename"], preset_id)   # every preset here has a pointer
+            started = time.monotonic()
             ack = self.read(directory, found)
+            two_looks_s = time.monotonic() - started
             self.check_readings(directory, ack, self.truth(EXPECTED[preset_id]))
             self.assertEqual(list(ack.foreign_scale), [0.0], (preset_id, ack.foreign_picture_path))
+            # what the second look costs: one more picture (as find_scale takes it) and its reading
+            started = time.monotonic()
+            self.read(directory, dict(found, second_filename=""))
+            one_look_s = time.monotonic() - started
+            started = time.monotonic()
+            os.unlink(self.call(self.camera, "capture_picture", ".staging/two_looks_timing.jpg"))
+            capture_s = time.monotonic() - started
+            print("two looks, %s: %d pointer(s), second picture %.2f s, read %.2f s instead of %.2f s: +%.2f s"
+                  % (preset_id, sum(1 for t in load_preset(directory).targets if t.kind == "pointer"), capture_s,
+                     two_looks_s, one_look_s, capture_s + two_looks_s - one_look_s))
 
     def test_2_other_lamp_switch_states_and_a_foreign_object(self):
         directory, pose = self.presets["breaker_1"]

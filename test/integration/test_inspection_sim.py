@@ -114,12 +114,14 @@ class TestInspectionSim(unittest.TestCase):
         data = json.loads(result.data)
         self.assertEqual(result.ret_code, "0", data)
         self.assertEqual(sorted(data), ["filename", "foreign_filename", "infrared_filename", "infrared_roi_vertex",
-                                        "roi_vertex"])
+                                        "roi_vertex", "second_filename"])
         self.assertEqual(len(data["roi_vertex"]), 8 * len(specs))
         self.assertRegex(os.path.basename(data["filename"]), r"^zoom0_\d{8}_\d{6}_\d{2}\.jpg$")
+        self.assertEqual(data["second_filename"], data["filename"].replace(".jpg", "_look2.jpg"))
 
         self.read_pub.publish(ReadScaleCmd(sender="server", trans_id=9, directory=preset_dir, foreign_detect=2,
-                                           filename=[data["filename"]], foreign_filename=[data["foreign_filename"]],
+                                           filename=[data["filename"], data["second_filename"]],
+                                           foreign_filename=[data["foreign_filename"]],
                                            roi_vertex=data["roi_vertex"]))
         read = self.read_acks.wait(lambda a: a.trans_id == 9, timeout=60.0, what="read_scale_ack")
         self.assertEqual(read.result, "success", read.foreign_result)

@@ -35,6 +35,10 @@ class TestReadScale(unittest.TestCase):
         matrix = scene.homography((1190, 745), 1.55, SIZE)
         cls.picture = os.path.join(cls.pictures, "zoom0_20260102_090000_01.jpg")
         cv2.imwrite(cls.picture, scene.render(matrix, SIZE))
+        # a second look whose needle stands 3 % FS higher (a misreading the pair must catch)
+        scene.targets[0]["value"] = 0.82
+        cls.other_look = cls.picture.replace("_01.jpg", "_01_look2.jpg")
+        cv2.imwrite(cls.other_look, scene.render(matrix, SIZE))
         cls.roi = flat_from_quads([scene.quad_in_view(t, matrix) for t in scene.targets])
         cls.trans_id = 100
         cls.pub = rospy.Publisher("read_scale_cmd", ReadScaleCmd, queue_size=10)
@@ -64,6 +68,14 @@ class TestReadScale(unittest.TestCase):
             self.assertTrue(path.startswith(os.path.join(self.pictures, "meter_7") + "/"), path)
             self.assertTrue(os.path.isfile(path))
 
+    def test_two_looks(self):
+        agree = self.request(filename=[self.picture, self.picture])
+        self.assertEqual(agree.result, "success", agree.foreign_result)
+        self.assertLess(abs(agree.scale[0] - 0.77) / 1.6 * 100.0, 1.0)
+        apart = self.request(filename=[self.picture, self.other_look])
+        self.assertRegex(apart.result, r"^uncertain: box 0: two looks disagree: 0\.7\d* and 0\.8\d* \(\d\.\d % FS\)$")
+        self.assertEqual(list(apart.scale[1:]), [1.0, 0.0])   # lamp and switch read once, as before
+
     def test_foreign_detection_both(self):
         dirty = cv2.imread(self.picture)
         cv2.ellipse(dirty, (60, 232), (40, 22), 0, 0, 360, (30, 60, 90), -1)
@@ -88,7 +100,7 @@ class TestReadScale(unittest.TestCase):
             (dict(roi_vertex=[v + 500 for v in self.roi]), "outside"),
             (dict(roi_vertex=self.roi[:16]), "roi_vertex has 2 box"),
             (dict(filename=[]), "filename has 0 entries"),
-            (dict(filename=[self.picture] * 2), "filename has 2 entries"),
+            (dict(filename=[self.picture] * 4), "filename has 4 entries"),
             (dict(foreign_detect=7), "foreign_detect"),
             (dict(foreign_detect=1), "foreign_filename is empty"),
         ]

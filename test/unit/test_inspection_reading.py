@@ -48,6 +48,54 @@ def test_reads_every_box(setup):
     assert out.foreign_scale == []
 
 
+def _picture_with_value(scene, value, name):
+    """The setup's view again with the meter at ``value`` (the scene is left as it was)."""
+    before = scene.targets[0]["value"]
+    scene.targets[0]["value"] = value
+    try:
+        image = scene.render(scene.homography((1185, 760), 1.6, SIZE), SIZE)
+    finally:
+        scene.targets[0]["value"] = before
+    cv2.imwrite(name, image, [cv2.IMWRITE_JPEG_QUALITY, 95])
+    return name
+
+
+def test_a_second_look_that_agrees_gives_the_mean(setup):
+    reader, path, picture, roi, scene = setup
+    one = reader.read(path, 0, [picture], [], roi, [], STAMP)
+    second = _picture_with_value(scene, 1.234, picture.replace("_01.jpg", "_01_look2.jpg"))
+    two = reader.read(path, 0, [picture, second], [], roi, [], STAMP)
+    assert two.uncertain == ["", "", ""]
+    assert abs(two.scale[0] - 1.234) / 1.6 * 100 < 1.0
+    assert abs(two.scale[0] - one.scale[0]) / 1.6 * 100 <= 0.5   # the mean of two looks 1 % FS apart at most
+    assert two.scale[1:] == one.scale[1:]                          # lamp and switch: read once
+
+
+def test_a_second_look_that_disagrees_makes_the_reading_uncertain_with_both_values(setup):
+    reader, path, picture, roi, scene = setup
+    second = _picture_with_value(scene, 1.30, picture.replace("_01.jpg", "_01_look2b.jpg"))   # 4 % FS off
+    # the per-target form twice: first looks, then second looks (lamp and switch entries ignored there)
+    two = reader.read(path, 0, [picture] * 3 + [second] * 3, [], roi, [], STAMP)
+    why = two.uncertain[0]
+    assert why.startswith("two looks disagree: ") and "% FS)" in why, why
+    first_value, second_value = [float(v) for v in why.split(": ")[1].split(" (")[0].split(" and ")]
+    assert abs(first_value - 1.234) < 0.016 and abs(second_value - 1.30) < 0.016
+    assert two.scale[0] in (pytest.approx(first_value, abs=1e-3), pytest.approx(second_value, abs=1e-3))
+    assert two.uncertain[1:] == ["", ""]
+
+
+def test_an_unreadable_second_look_makes_the_reading_uncertain(setup):
+    reader, path, picture, roi, _scene = setup
+    blank = os.path.join(os.path.dirname(picture), "zoom0_20260102_080000_01_look2c.jpg")
+    cv2.imwrite(blank, np.full((270, 480, 3), 255, np.uint8))
+    two = reader.read(path, 0, [picture, blank], [], roi, [], STAMP)
+    assert two.uncertain[0] == "second look: overexposed picture in the box"
+    assert abs(two.scale[0] - 1.234) / 1.6 * 100 < 1.0
+    with pytest.raises(ReadError) as err:
+        reader.read(path, 0, [picture, picture.replace("_01.jpg", "_missing.jpg")], [], roi, [], STAMP)
+    assert "unreadable" in str(err.value)
+
+
 def test_two_reads_in_one_second_keep_both_result_pictures(setup):
     reader, path, picture, roi, _scene = setup
     stamp = "20260102_090000"
@@ -77,7 +125,8 @@ def test_foreign_object_present_and_absent(setup):
     (dict(directory="PRESETS/meter_1/19990101_000000"), "not found"),
     (dict(foreign_detect=3), "foreign_detect"),
     (dict(filename=[]), "filename has 0 entries"),
-    (dict(filename=["PIC", "PIC"]), "filename has 2 entries"),
+    (dict(filename=["PIC", "PIC"] * 2), "filename has 4 entries"),
+    (dict(filename=["PIC"] * 5), "filename has 5 entries"),
     (dict(filename=["PICTURES/missing.jpg"]), "unreadable"),
     (dict(roi_vertex=[1, 2, 3]), "8 numbers per box"),
     (dict(roi_vertex="DROP8"), "roi_vertex has 2 box"),

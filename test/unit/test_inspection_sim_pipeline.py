@@ -94,8 +94,13 @@ def test_record_find_read_with_pose_error(tmp_path, yard, face_id, dist, zoom):
     assert os.path.basename(result.filename).startswith("zoom0_20260102_100000_")
     assert len(result.roi_vertex) == 8 * len(preset.targets)
     assert result.foreign_filename
+    # the second look: the found view again, a new picture (its own sensor noise) from the same pose
+    assert result.second_filename == result.filename.replace(".jpg", "_look2.jpg")
+    assert not np.array_equal(cv2.imread(result.filename), cv2.imread(result.second_filename))
     reader = ScaleReader([presets], [pictures], pictures)
-    out = reader.read(path, 2, [result.filename], [result.foreign_filename], result.roi_vertex, [], "20260102_100001")
+    out = reader.read(path, 2, [result.filename, result.second_filename], [result.foreign_filename],
+                      result.roi_vertex, [], "20260102_100001")
+    assert out.uncertain == [""] * len(preset.targets), out.uncertain   # the two looks agree
     for target, value in zip(preset.targets, out.scale):
         f = world.faces[target.name]
         if f.type == "gauge":

@@ -11,7 +11,9 @@ with the simulated renderer). Steps for find_scale | find_foreign | find_both:
 3. while the targets sit farther than ``centre_tolerance`` (fraction of the picture) from where
    they were in the reference, turn the head by the pixel offset converted to angles through the
    field of view, up to ``max_moves`` moves;
-4. thermal presets: thermal picture + radiometric frame, boxes moved by the same angles;
+4. presets with a pointer target: a second picture at once from the same pose,
+   ``zoom0_<stamp>_<xx>_look2.jpg``, for read_scale's second look (inspection.looks);
+5. thermal presets: thermal picture + radiometric frame, boxes moved by the same angles;
    foreign detection: one more picture at the first wider zoom.
 """
 import os
@@ -26,8 +28,8 @@ from inspection_robot.inspection.locate import LocateError
 
 cv2 = lazy_import("cv2")   # on first use: a node registers before its ~360 libraries load
 
-FindResult = namedtuple("FindResult",
-                        "filename infrared_filename foreign_filename roi_vertex infrared_roi_vertex moves")
+FindResult = namedtuple("FindResult", "filename infrared_filename foreign_filename roi_vertex infrared_roi_vertex "
+                                      "moves second_filename")
 
 
 class FindError(Exception):
@@ -168,6 +170,10 @@ class Finder(object):
             moves += 1
         filename, quads, shape = last
         roi = flat_from_quads(quads)
+        second_filename = ""
+        if kind != "find_foreign" and any(t.kind == "pointer" for t in preset.targets):
+            self._check_cancel()
+            second_filename = self._second_look(filename)
         infrared_filename, infrared_roi = "", []
         if preset.info.infrared and self.thermal is not None:
             self._check_cancel()
@@ -182,7 +188,16 @@ class Finder(object):
             self.head.set_zoom(levels[0])
         if kind == "find_foreign":
             roi, filename = [], ""
-        return FindResult(filename, infrared_filename, foreign_filename, roi, infrared_roi, moves)
+        return FindResult(filename, infrared_filename, foreign_filename, roi, infrared_roi, moves, second_filename)
+
+    def _second_look(self, filename):
+        """A second picture of the found view for read_scale's two looks (inspection.looks), taken
+        at once: the loop ends on the picture just taken, so the head has not moved and the found
+        boxes hold for it too."""
+        stem, ext = os.path.splitext(filename)
+        second = "%s_look2%s" % (stem, ext)
+        self.head.capture(second)
+        return second
 
     def _coarse(self, preset, folder, stamp, moves, read_image, reason):
         """Step out through the wider references; the head turn that brings the targets back."""

@@ -3,7 +3,9 @@ write annotated pictures.
 
 Request rules (docs/interface.md, Inspection): ``roi_vertex`` has 8 numbers per calibrated target
 (calibration order); ``filename`` has one entry per target, or one entry for all targets when
-none is thermal, or two entries [visible picture, thermal frame] when some are;
+none is thermal, or two entries [visible picture, thermal frame] when some are, optionally
+followed by the same form again: the second look, in which every pointer is read again
+(inspection.looks);
 ``roi_vertex_thermal`` has 8 numbers per thermal target. ``foreign_filename`` lists pictures to
 search for foreign objects (foreign_detect 1 or 2), one result per picture.
 """
@@ -20,9 +22,10 @@ from inspection_robot.inspection.foreign import detect_foreign
 from inspection_robot.inspection.geometry import quad_inside, quad_is_convex, quads_from_flat, rectify, \
     transform_quad
 from inspection_robot.inspection.locate import LocateError, Locator
+from inspection_robot.inspection.looks import combine_looks
 from inspection_robot.inspection.preset import PresetError, load_preset, zoom_picture_name
-from inspection_robot.inspection.readers import PointerReader, ReadFailed, face_similarity, read_lamp, read_switch, \
-    read_thermal_max
+from inspection_robot.inspection.readers import PointerReader, Reading, ReadFailed, face_similarity, read_lamp, \
+    read_switch, read_thermal_max
 from inspection_robot.interface import FOREIGN_DETECT_BOTH, FOREIGN_DETECT_FOREIGN, FOREIGN_DETECT_READ
 
 cv2 = lazy_import("cv2")   # on first use: a node registers before its ~360 libraries load
@@ -56,6 +59,13 @@ def uncertain_reasons(result, count, success):
             raise ValueError("read_scale result names box %s of %d: '%s'" % (index, count, result[:200]))
         reasons[int(index)] = why
     return reasons
+
+
+def request_filenames(picture, thermal_frame="", second_look=""):
+    """ReadScaleCmd.filename for a find result: [picture] or [picture, thermal frame], followed by
+    the same form with the second look's picture when find_scale took one."""
+    thermal = [thermal_frame] if thermal_frame else []
+    return [picture] + thermal + ([second_look] + thermal if second_look else [])
 
 
 class ReadError(Exception):
@@ -142,17 +152,9 @@ class ScaleReader(object):
         if len(thermal_quads) != len(thermal_ids):
             raise ReadError("roi_vertex_thermal has %d box(es), the calibration %d thermal target(s)"
                             % (len(thermal_quads), len(thermal_ids)))
-        files = list(filenames)
-        if len(files) == len(targets):
-            per_box = files
-        elif len(files) == 1 and not thermal_ids:
-            per_box = files * len(targets)
-        elif len(files) == 2 and thermal_ids and len(targets) != 2:
-            per_box = [files[1] if t.kind == "thermal" else files[0] for t in targets]
-        else:
-            raise ReadError("filename has %d entries for %d target(s) (%d thermal): give one per target, one "
-                            "for all, or [picture, thermal frame]" % (len(files), len(targets), len(thermal_ids)))
+        per_box, second_looks = _pictures_per_box(list(filenames), targets, thermal_ids)
         paths = [self._path(f, self.picture_roots, "filename") for f in per_box]
+        second_paths = [self._path(f, self.picture_roots, "filename") if f else None for f in second_looks]
         images, frames = {}, {}
         thermal_iter = iter(thermal_quads)
         for i, (target, quad, path) in enumerate(zip(targets, quads, paths)):
@@ -177,6 +179,9 @@ class ScaleReader(object):
                     reading = self.read_target(preset, target, image, quad)
                 except ReadFailed as err:
                     raise ReadError("box %d: %s" % (i, err))
+                if second_paths[i]:
+                    reading = combine_looks(reading, self._second_look(preset, target, second_paths[i], quad, images),
+                                            target.scale.full_scale)
                 annotated = image.copy()
                 draw_quad = quad
             outcome.scale.append(float(reading.value))
@@ -186,6 +191,19 @@ class ScaleReader(object):
             _annotate(annotated, draw_quad, "%s %s %.4g (%d%%)%s" % (target.kind, target.name, reading.value,
                                                                      reading.confidence, " uncertain" if why else ""))
             outcome.picture_path.append(_save(annotated, out_dir, "%s_read_%02d.jpg" % (stamp, i)))
+
+    def _second_look(self, preset, target, path, quad, images):
+        """The pointer read again in the second look's picture at the same box (taken from the
+        same pose a moment later); a picture or box that cannot be read gives a reading without a
+        value and its reason, for combine_looks."""
+        if path not in images:
+            images[path] = self._image(path)
+        image = images[path]
+        _check_quad(quad, image.shape, "box in the second look %s" % os.path.basename(path))
+        try:
+            return self.read_target(preset, target, image, quad)
+        except ReadFailed as err:
+            return Reading(float("nan"), 0.0, {"reason": str(err)})
 
     def read_target(self, preset, target, image, quad):
         """One pointer, lamp or switch target of ``preset`` read in ``quad`` of ``image`` (also the
@@ -265,6 +283,34 @@ class ScaleReader(object):
             evidence = max([f.confidence for f in found]) if found else min(100.0, best[1].inliers)
             outcome.foreign_possibility.append(round(float(evidence), 1))
             outcome.foreign_picture_path.append(_save(annotated, out_dir, "%s_foreign_%02d.jpg" % (stamp, j)))
+
+
+def _pictures_per_box(files, targets, thermal_ids):
+    """(picture per target, second look per target: a path or "") from ReadScaleCmd.filename: one
+    entry per target, one for all (no thermal target), [picture, thermal frame]; or one of these
+    forms followed by the same form again for the second look (docs/interface.md, read_scale). The
+    single forms are matched first, so a list is never read two ways. Only pointer targets take a
+    second look; the entries of the others are ignored there."""
+    count = len(targets)
+
+    def single(part):
+        if len(part) == count:
+            return list(part)
+        if len(part) == 1 and not thermal_ids:
+            return list(part) * count
+        if len(part) == 2 and thermal_ids and count != 2:
+            return [part[1] if t.kind == "thermal" else part[0] for t in targets]
+        return None
+    first = single(files)
+    if first is not None:
+        return first, [""] * count
+    half = len(files) // 2
+    first, second = (single(files[:half]), single(files[half:])) if len(files) % 2 == 0 else (None, None)
+    if first is None or second is None:
+        raise ReadError("filename has %d entries for %d target(s) (%d thermal): give one per target, one "
+                        "for all, or [picture, thermal frame]; or one of these followed by the same form for "
+                        "the second look" % (len(files), count, len(thermal_ids)))
+    return first, [s if t.kind == "pointer" else "" for t, s in zip(targets, second)]
 
 
 def read_pointer(reader, target, image, quad):

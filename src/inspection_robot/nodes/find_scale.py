@@ -3,7 +3,8 @@
 Actions:     find_scale_action (inspection_robot/GeneralAction), server. Goal type pre_find |
              find_scale | find_foreign | find_both, data JSON {"preset_path": dir}. Feedback
              event_code "0" preset set, "1" finding. Result ret_code "0" with data {"filename",
-             "infrared_filename", "foreign_filename", "roi_vertex", "infrared_roi_vertex"} or "1"
+             "infrared_filename", "foreign_filename", "roi_vertex", "infrared_roi_vertex",
+             "second_filename" (the second look of a preset with a pointer, else "")} or "1"
              with {"reason"}; a cancelled goal is preempted with ret_code "1", reason "cancelled".
 Subscribes:  nav_status (NavStatus): current heading for the pan correction
              terrace_state (sensor_msgs/JointState): after each set_angle, waits (<= 2 s) until the head
@@ -47,10 +48,12 @@ cv2 = lazy_import("cv2")   # on first use: a node registers before its ~360 libr
 NODE_NAME = "find_scale"
 
 
-def result_data(filename="", infrared_filename="", foreign_filename="", roi_vertex=(), infrared_roi_vertex=()):
+def result_data(filename="", infrared_filename="", foreign_filename="", roi_vertex=(), infrared_roi_vertex=(),
+                second_filename=""):
+    """The spec's five keys, then ``second_filename``: the second look for read_scale ("" when none)."""
     return json.dumps({"filename": filename, "infrared_filename": infrared_filename,
                        "foreign_filename": foreign_filename, "roi_vertex": list(roi_vertex),
-                       "infrared_roi_vertex": list(infrared_roi_vertex)})
+                       "infrared_roi_vertex": list(infrared_roi_vertex), "second_filename": second_filename})
 
 
 def parse_goal(goal_type, data, preset_roots):
@@ -122,7 +125,7 @@ class FindScaleNode(object):
         # feedback "0" (preset set, with the correction) comes from the finder, then "1" per picture
         result = self._finder.find(preset, kind, correction, time.strftime("%Y%m%d_%H%M%S"), cv2.imread)
         return result_data(result.filename, result.infrared_filename, result.foreign_filename, result.roi_vertex,
-                           result.infrared_roi_vertex)
+                           result.infrared_roi_vertex, result.second_filename)
 
 
 def main():

@@ -1,7 +1,8 @@
 """task_manager's hands: runs one patrol step (task.patrol.Step) on the robot.
 
 move / home: move_action goal; inspect: find_scale_action (find_scale, or find_both when foreign
-objects are asked) then read_scale_cmd and its read_scale_ack (matched by trans_id): ``success`` and
+objects are asked) then read_scale_cmd (with find's second picture as the second look: every pointer
+read twice, inspection.looks) and its read_scale_ack (matched by trans_id): ``success`` and
 ``uncertain: box <i>: <why>`` are readings (the Inspection carries each box's doubt), anything else
 fails the step with read_scale's reason. Each wait polls ``interrupted()`` every 0.1 s and cancels
 the running goal when it says so. A drive hands the share of its path already driven (move_action
@@ -18,7 +19,7 @@ import actionlib
 import rospy
 from actionlib.action_client import CommState
 
-from inspection_robot.inspection.reading import uncertain_reasons
+from inspection_robot.inspection.reading import request_filenames, uncertain_reasons
 from inspection_robot.interface import ACK_FAILED, ACK_SUCCESS, FIND_RESULT_SUCCESS, MOVE_GOAL_TYPE, MOVE_RESULT_SUCCESS
 from inspection_robot.msg import GeneralAction, GeneralGoal, ReadScaleAck, ReadScaleCmd
 from inspection_robot.task.drive_progress import DriveProgress
@@ -110,7 +111,7 @@ class StepRunner(object):
             return OUTCOME_FAILED, "find_scale: %s" % _reason(result.data), timings
         try:
             found = json.loads(result.data)
-            files = [found["filename"]] + ([found["infrared_filename"]] if found["infrared_filename"] else [])
+            files = request_filenames(found["filename"], found["infrared_filename"], found.get("second_filename", ""))
             cmd = ReadScaleCmd(sender=self._node_name, trans_id=next(self._trans_ids), directory=preset["directory"],
                                foreign_detect=FOREIGN_DETECT_BOTH if preset["foreign"] else 0, filename=files,
                                foreign_filename=[found["foreign_filename"]] if preset["foreign"] else [],
