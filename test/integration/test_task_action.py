@@ -160,7 +160,8 @@ class TaskActionTest(unittest.TestCase):
                          ("1", "short", "failed", "every preset failed"))
         self.assertEqual(data["counts"], {"readings": 1, "read": 0, "uncertain": 0, "needs_review": 0, "failed": 1,
                                           "alarms": 0, "checks": 0})
-        self.assertTrue(os.path.isfile(data["report"]), data["report"])
+        self.assertEqual(data["report"], "tasks/reports/short/report.html")   # data-root-relative
+        self.assertTrue(os.path.isfile(os.path.join(rospy.get_param("/data_root"), data["report"])), data["report"])
         running = [d for code, d in feedback if code == "0"]
         self.assertTrue(running, feedback)
         self.assertEqual([(d["task_id"], d["state"], d["stop"], d["stops"], d["preset"], d["presets"], d["total"])
