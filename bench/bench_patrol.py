@@ -66,7 +66,7 @@ def synthetic(folder, stops=50, presets=3):
                       "p99_ms": round(float(np.percentile(ms, 99)), 2), "steps": len(samples)}))
     tick = time.perf_counter()
     write_reports(os.path.join(folder, "report"), store.task("bench"), store.readings(task_id="bench", limit=10 ** 6),
-                  store.steps("bench"), "bench")
+                  store.steps("bench"), folder, "bench")
     print(json.dumps({"bench": "patrol_report", "ms": round((time.perf_counter() - tick) * 1000.0, 1),
                       "readings": stops * presets * len(TARGETS)}))
     return float(np.percentile(ms, 50)) / 1000.0

@@ -70,6 +70,19 @@ def hide_root(text, data_root):
     return text
 
 
+def root_relative(path, root):
+    """How a client names ``path`` (an absolute path): relative to ``root`` (the data root)
+    when inside it (``presets/p1/20260101_120000``), else unchanged. "" stays "". One rule for
+    every answer that names a robot file (file_control, calibration_control, task_manager)."""
+    if not path or not os.path.isabs(path):
+        return path
+    for form in (os.path.abspath(root), os.path.realpath(root)):   # a root behind a symlink: either spelling
+        rel = os.path.relpath(path, form)
+        if rel != ".." and not rel.startswith("../"):
+            return rel
+    return path
+
+
 def check_path_text(path):
     """Refuse what no file name of the robot contains: empty, NUL, control characters (a trailing
     newline included), more than MAX_PATH_BYTES, or a component longer than MAX_NAME_BYTES (UTF-8)."""
@@ -112,6 +125,22 @@ def confine_path(path, roots, base=None, root_names=None):
     raise FileError("path '%s' is outside the allowed roots (%s)" % (shown(path), ", ".join(names)))
 
 
+def confine_data_path(path, roots, data_root, root_names=None):
+    """confine_path for a path a client names in either of the interface's two forms: relative to
+    the data root (``presets/p1/20260101_120000``, the form every answer uses) or, the older form,
+    relative to the first of ``roots`` (``p1/20260101_120000``); absolute paths as confine_path.
+    A path whose data-root form lies inside ``roots`` is taken in that form, any other in the older
+    one (``p1`` is ``presets/p1``; a preset id ``presets`` is only reached as ``presets/presets``).
+    Errors name ``path`` as given."""
+    check_path_text(path)
+    if os.path.isabs(os.path.expanduser(path)) or not data_root:
+        return confine_path(path, roots, root_names=root_names)
+    try:
+        return confine_path(path, roots, base=os.path.realpath(os.path.expanduser(data_root)), root_names=root_names)
+    except FileError:
+        return confine_path(path, roots, root_names=root_names)
+
+
 def inside(resolved, real_roots):
     """Whether the real path ``resolved`` is one of ``real_roots`` or lies below one."""
     return any(resolved == root or resolved.startswith(root + os.sep) for root in real_roots)
@@ -131,11 +160,15 @@ def new_file_path(path, roots, root_names=None):
     return resolved
 
 
-def write_atomic(path, data, replace=True):
+PUBLIC_FILE_MODE = 0o644   # what a backend or another account fetches: reports, annotated pictures
+
+
+def write_atomic(path, data, replace=True, mode=None):
     """Write ``data`` (str or bytes) to ``path``, creating its folder; FileError (nothing changed) on failure.
 
     ``replace=False``: an existing file at ``path`` fails the write (checked atomically: the new
-    file is hard-linked into place, which refuses an existing name).
+    file is hard-linked into place, which refuses an existing name). ``mode``: the file's
+    permissions (default 600, the temporary file's: state only the robot's user reads).
     """
     if not isinstance(data, (str, bytes)):
         raise TypeError("write_atomic needs str or bytes, got %s" % type(data).__name__)
@@ -147,6 +180,8 @@ def write_atomic(path, data, replace=True):
         raise FileError("cannot write '%s': %s" % (shown(path), err.strerror or err))
     try:
         with os.fdopen(fd, "wb" if isinstance(data, bytes) else "w") as f:
+            if mode is not None:
+                os.fchmod(f.fileno(), mode)
             f.write(data)
             f.flush()
             os.fsync(f.fileno())

@@ -185,6 +185,7 @@ EXPOSURE_MODES = ("manual", "auto")
 IRIS_VALUES = (160, 200, 240, 280, 340, 400, 480, 560, 680, 960, 1100, 1400, 1600, 1900, 2200)
 
 # --- thermal imager --------------------------------------------------------------------------
+THERMAL_UNIT = "C"   # the unit of every temperature the robot reports (spec: "Temperatures in °C")
 INFRARED_COMMANDS = (
     "save_temperature", "capture_picture", "get_max_temperature", "get_spot_temperature",
     "get_high_temperature", "get_low_temperature", "auto_focus", "set_measure_spot",

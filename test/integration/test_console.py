@@ -454,8 +454,10 @@ class ConsoleTest(unittest.TestCase):
     # ------------------------------------------------------------------ review of uncertain readings
     def test_9b_uncertain_readings_reviewed_from_the_page(self):
         self.assertIsNotNone(self.calibrated_preset, "test_8 calibrates the preset whose picture is reviewed")
-        store_path = json.loads(self.task(lambda s: s.get("store"), "task_status with the store").data)["store"]
-        data_root = os.path.dirname(os.path.dirname(store_path))
+        store = json.loads(self.task(lambda s: s.get("store"), "task_status with the store").data)["store"]
+        self.assertEqual(store, "tasks/results.sqlite")   # named relative to the data root, as file_control does
+        data_root = rospy.get_param("/data_root")
+        store_path = os.path.join(data_root, store)
         # Two readings read_scale doubted, recorded as task_manager records them (the sim's gauges read
         # confidently): one outside its band (a check alarm), one inside.
         task_id = "console_review_%d" % int(time.time() * 1000)

@@ -118,7 +118,8 @@ class PatrolSimTest(unittest.TestCase):
             else:
                 self.assertEqual(value, truth, what)
             self.assertEqual(row["alarm"], "alarm" if name == OUT_OF_BAND[0] else "normal", what)
-            self.assertTrue(row["picture"] and os.path.isfile(row["picture"]), what)
+            self.assertFalse(os.path.isabs(row["picture"]) or os.path.isabs(row["preset"]), what)   # data-root-relative
+            self.assertTrue(row["picture"] and os.path.isfile(os.path.join(self.data_root, row["picture"])), what)
 
     # --- the patrol -------------------------------------------------------------------------------
     def test_patrol(self):
@@ -195,9 +196,9 @@ class PatrolSimTest(unittest.TestCase):
         self.assertGreaterEqual(resumed["done"], 5)
         paths = json.loads(client.must("task_control", "report", routine["id"]))
         for path in paths.values():
-            self.assertTrue(os.path.isfile(path), path)
-            self.assertTrue(path.startswith(os.path.join(self.data_root, "tasks")), path)
-        with open(paths["report.html"]) as f:
+            self.assertTrue(path.startswith("tasks/reports/"), path)   # data-root-relative
+            self.assertTrue(os.path.isfile(os.path.join(self.data_root, path)), path)
+        with open(os.path.join(self.data_root, paths["report.html"])) as f:
             self.assertIn('<tr class="alarm">', f.read())
         self.assertGreater(math.hypot(self.pose()[0] - start[0], self.pose()[1] - start[1]), 5.0)
 

@@ -160,7 +160,12 @@ class TaskActionTest(unittest.TestCase):
                          ("1", "short", "failed", "every preset failed"))
         self.assertEqual(data["counts"], {"readings": 1, "read": 0, "uncertain": 0, "needs_review": 0, "failed": 1,
                                           "alarms": 0, "checks": 0})
-        self.assertTrue(os.path.isfile(data["report"]), data["report"])
+        self.assertEqual(data["report"], "tasks/reports/short/report.html")   # data-root-relative
+        ended = json.loads(self.status.wait(lambda m: json.loads(m.data)["task_id"] == "short"
+                                            and json.loads(m.data)["state"] == "failed", 10.0, "short ended").data)
+        self.assertEqual((ended["stop"], ended["stops"], ended["done"], ended["total"], ended["report"]),
+                         (1, 1, 1, 1, "tasks/reports/short/report.html"))   # the final progress stays
+        self.assertTrue(os.path.isfile(os.path.join(rospy.get_param("/data_root"), data["report"])), data["report"])
         running = [d for code, d in feedback if code == "0"]
         self.assertTrue(running, feedback)
         self.assertEqual([(d["task_id"], d["state"], d["stop"], d["stops"], d["preset"], d["presets"], d["total"])

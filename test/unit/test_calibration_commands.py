@@ -43,6 +43,13 @@ def listing(root):
     return sorted(os.listdir(str(root / PRESET)))
 
 
+def test_both_preset_path_forms_name_one_preset_and_answers_use_the_data_root_form(robot):
+    commands, _root = robot
+    for given in (PRESET, "p1/20260101_120000"):   # data-root-relative, and the older preset-root-relative
+        ack, out = call(commands, "get", preset=given)
+        assert (ack, out["preset"]) == ("success", PRESET)
+
+
 def test_step_by_step_like_the_tool(robot):
     commands, root = robot
     assert call(commands, "mark_box", target=0, box=BOX)[0] == "success"
@@ -106,7 +113,8 @@ def test_bad_uploads_write_nothing(robot, targets, reason):
     ("mark_box", {"target": "0", "box": BOX}, "target must be an integer"),
     ("mark_box", {"box": BOX}, "missing field(s) target"),
     ("mark_box", {"preset": "presets/p2/x", "target": 0, "box": BOX}, "preset directory not found"),
-    ("mark_box", {"preset": "captures", "target": 0, "box": BOX}, "outside the allowed roots"),
+    ("mark_box", {"preset": "captures", "target": 0, "box": BOX}, "preset directory not found"),  # presets/captures
+    ("mark_box", {"preset": "/etc", "target": 0, "box": BOX}, "outside the allowed roots"),
     ("mark_box", {"preset": "../../etc", "target": 0, "box": BOX}, "outside the allowed roots"),
     ("apply", {}, "nothing written: no targets given"),
     ("get", {"colour": 1}, "unknown field(s) colour"),

@@ -376,7 +376,12 @@ def test_reports_have_every_reading_and_highlight_alarms(env, tmp_path):
     run_step(patrol, clock)
     run_step(patrol, clock, value=0.99)
     run_step(patrol, clock)
-    paths = write_reports(str(tmp_path / "rep"), store.task("t1"), store.readings(task_id="t1"), store.steps("t1"),
+    status = patrol.status()   # ended: the final progress stays (a full progress bar), no time left
+    assert (status["state"], status["stop"], status["stops"], status["preset"], status["presets"], status["done"],
+            status["total"], status["priority"], status["eta_s"]) == ("done", 1, 1, 2, 2, 2, 2, "routine", 0.0)
+    # the fake pictures and presets lie under /: the data root "/" makes them data-root-relative
+    folder = str(tmp_path / "rep")
+    paths = write_reports(folder, store.task("t1"), store.readings(task_id="t1"), store.steps("t1"), "/",
                           "v1.2-3-gabcdef0")
     assert sorted(os.path.basename(p) for p in paths.values()) == sorted(REPORT_FILES)
     with open(paths["report.csv"]) as f:
@@ -390,4 +395,8 @@ def test_reports_have_every_reading_and_highlight_alarms(env, tmp_path):
         page = f.read()
     assert "robot software v1.2-3-gabcdef0" in page
     assert page.index('<tr class="alarm">') < page.index('<tr class="none">')
-    assert "file:///pic/0_0_0.jpg" in page
+    link = os.path.relpath("/pic/0_0_0.jpg", os.path.realpath(folder))   # relative to the report, no file://
+    assert '<img src="%s"' % link in page and "file://" not in page
+    assert [(r["preset"], r["picture"]) for r in data["readings"]][0] == ("presets/p_gauge", "pic/0_0_0.jpg")
+    for name in REPORT_FILES:   # fetched by a backend: readable by others
+        assert os.stat(paths[name]).st_mode & 0o777 == 0o644

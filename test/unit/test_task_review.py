@@ -10,7 +10,7 @@ import pytest
 from inspection_robot.command import CommandError
 from inspection_robot.inspection.reading import result_text, ReadOutcome, uncertain_reasons
 from inspection_robot.task.patrol import OUTCOME_FAILED, OUTCOME_OK, STEP_INSPECT, Inspection, Patrol
-from inspection_robot.task.report import render_html, summary, write_reports
+from inspection_robot.task.report import picture_link, render_html, summary, write_reports
 from inspection_robot.task.review import parse_query, review
 from inspection_robot.task.store import ResultStore
 from test_task_patrol import CONFIG, Clock, run_step, task
@@ -207,14 +207,16 @@ def test_report_lists_readings_needing_review_first_with_reason_and_picture(env,
     _, clock, patrol = env
     run_step(patrol, clock, value=1.0)                         # p_lamp read
     readings = store.readings(task_id="t1")
-    page = render_html(summary(store.task("t1"), readings, []), readings)
+    links = [dict(r, link=picture_link(r["picture"], str(tmp_path / "rep"), "/")) for r in readings]
+    page = render_html(summary(store.task("t1"), readings, []), links)
     review_at = page.index("<h2>Needs review (1)</h2>")
     assert review_at < page.index("<h2>Readings</h2>")
     assert review_at < page.index(REASON) < page.index("<h2>Readings</h2>")
-    assert review_at < page.index("file:///pic/read_0.jpg") < page.index("<h2>Readings</h2>")
+    assert review_at < page.index(links[0]["link"]) < page.index("<h2>Readings</h2>")
+    assert links[0]["link"].endswith("../pic/read_0.jpg")
     assert '<tr class="normal uncertain">' in page
     review(store, str(tmp_path), json.dumps({"id": row["id"], "value": 0.55, "by": "li"}), 5000.0)
-    paths = write_reports(str(tmp_path / "rep"), store.task("t1"), store.readings(task_id="t1"), [], "test")
+    paths = write_reports(str(tmp_path / "rep"), store.task("t1"), store.readings(task_id="t1"), [], "/", "test")
     with open(paths["report.html"]) as f:
         page = f.read()
     assert "Needs review" not in page and "reviewed by li: 0.55 MPa" in page

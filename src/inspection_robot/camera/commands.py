@@ -9,7 +9,7 @@ data is a bare path: there is no field to ask for a replacement).
 """
 import threading
 
-from inspection_robot.files import new_file_path, write_atomic
+from inspection_robot.files import PUBLIC_FILE_MODE, new_file_path, write_atomic
 from inspection_robot.camera.driver import CameraError
 from inspection_robot.command import (CommandError, CommandTable, no_data, parse_choice,
                                       parse_float, parse_int)
@@ -112,7 +112,8 @@ class CameraCommands(object):
         """A new JPEG at ``data`` (relative: in the first root); the answer is the absolute path."""
         path = new_file_path(data, self._roots)   # refused before the camera is asked
         jpeg = self._call(self._driver.capture_jpeg)
-        write_atomic(path, jpeg, replace=False)   # a file that appeared meanwhile is not replaced either
+        # a file that appeared meanwhile is not replaced either; 644: a backend fetches captures
+        write_atomic(path, jpeg, replace=False, mode=PUBLIC_FILE_MODE)
         return path
 
     def _start_move(self, kind, direction, data):

@@ -2,7 +2,8 @@
 can calibrate a recorded preset without a shell on the robot.
 
 Every command takes a JSON object whose ``preset`` names a preset directory (relative to the data
-root, e.g. ``presets/p1/20260101_120000``, or absolute) inside the preset roots. The operations
+root, e.g. ``presets/p1/20260101_120000``; the older form relative to the first preset root,
+``p1/20260101_120000``, is accepted too; or absolute) inside the preset roots. The operations
 edit a draft (``calibration_draft.json`` in the preset directory) one target at a time, exactly
 as the command-line tool does (inspection.calibration); ``apply`` validates the whole draft against the
 calibration schema (inspection.calibration_schema) and writes ``preset_calib_info.ini`` +
@@ -19,7 +20,8 @@ import threading
 import numpy as np
 
 from inspection_robot.command import CommandError, CommandTable, parse_json
-from inspection_robot.files import FileError, confine_path, read_json, under, write_json_atomic
+from inspection_robot.files import FileError, confine_data_path, confine_path, read_json, root_relative, under, \
+    write_json_atomic
 from inspection_robot.inspection import calibration
 from inspection_robot.inspection.preset import PresetError, load_info, load_preset
 
@@ -93,7 +95,7 @@ class CalibrationCommands(object):
         preset = fields["preset"]
         if not isinstance(preset, str) or not preset:
             raise CommandError("preset must be the preset directory, e.g. presets/p1/20260101_120000")
-        path = confine_path(preset, self.preset_roots, base=self.data_root, root_names=self.preset_root_names)
+        path = confine_data_path(preset, self.preset_roots, self.data_root, root_names=self.preset_root_names)
         try:
             load_info(path)
         except PresetError as err:
@@ -130,8 +132,7 @@ class CalibrationCommands(object):
         return handler
 
     def _name(self, path):
-        rel = os.path.relpath(path, self.data_root)
-        return path if rel == ".." or rel.startswith("../") else rel
+        return root_relative(path, self.data_root)
 
     def _confined_specs(self, specs):
         if not isinstance(specs, list):

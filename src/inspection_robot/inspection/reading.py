@@ -16,7 +16,7 @@ from collections import namedtuple
 import numpy as np
 
 from inspection_robot.lazy import lazy_import
-from inspection_robot.files import FileError, confine_path, write_atomic
+from inspection_robot.files import PUBLIC_FILE_MODE, FileError, confine_path, write_atomic
 from inspection_robot.command import CommandError
 from inspection_robot.inspection.foreign import detect_foreign
 from inspection_robot.inspection.geometry import quad_inside, quad_is_convex, quads_from_flat, rectify, \
@@ -389,7 +389,7 @@ def _save(image, folder, name):
     if not ok:
         raise ReadError("cannot encode %s" % path)
     try:
-        write_atomic(path, data.tobytes())
+        write_atomic(path, data.tobytes(), mode=PUBLIC_FILE_MODE)
     except FileError as err:
         raise ReadError(str(err))
     return path

@@ -1,7 +1,8 @@
 """task_manager: unattended patrols (docs/interface.md, "Patrol (task_manager)").
 
 Services:    task_control (ControlService): submit, pause, resume, cancel, return_home, query_status,
-             query_tasks, query_results, report, review_queue, review (same table as task_cmd)
+             query_tasks, query_results, report, review_queue, review, export_results (same table as
+             task_cmd); answers name files relative to data_root (task.client_view)
 Subscribes:  task_cmd (GeneralCmd), robot_status (RobotStatus: mode, pose)
              read_scale_ack (ReadScaleAck)
              virtual_obstacle_map (nav_msgs/OccupancyGrid, latched by move_base): reachability at submission
@@ -9,8 +10,8 @@ Publishes:   task_ack (GeneralAck), task_status (GeneralTopic, latched, JSON), r
 Actions:     task_action (GeneralAction), server: goal type "patrol" = submit, feedback = progress
              move_action, find_scale_action (GeneralAction), client
 Parameters:  data_root (namespace: the robot's state directory): store and reports under
-             <data_root>/tasks/, review corrections in <data_root>/corrections/; ~preset_root (str,
-             presets: relative to data_root unless absolute);
+             <data_root>/tasks/ (snapshots in tasks/exports/), review corrections in
+             <data_root>/corrections/; ~preset_root (str, presets: relative to data_root unless absolute);
              map_file, robot_radius: move_base's own (move_base/map_file, move_base/robot_radius) so
              reachability uses the map and inflation move_base plans with (~map_file and
              ~robot_radius override them where task_manager runs without move_base);
@@ -36,7 +37,7 @@ import rospy
 from nav_msgs.msg import OccupancyGrid
 
 from inspection_robot.command import CommandError, CommandTable, no_data
-from inspection_robot.files import hide_root
+from inspection_robot.files import hide_root, root_relative
 from inspection_robot.msg import GeneralAction, GeneralFeedback, GeneralResult, GeneralTopic, RobotStatus
 from inspection_robot.ros.node import init_node, site_param
 from inspection_robot.version import version
@@ -45,6 +46,7 @@ from inspection_robot.ros.twin import CommandTwin
 from inspection_robot.ros.worker import RequestWorker
 from inspection_robot.task.action import END_CANCELED, END_SUCCEEDED, check_goal_type, goal_end, goal_feedback, \
     goal_refused
+from inspection_robot.task.client_view import client_progress, client_row
 from inspection_robot.task.checks import Reachability, resolve_preset
 from inspection_robot.task.route import plan_route
 from inspection_robot.task.patrol import Patrol, PatrolConfig
@@ -52,8 +54,8 @@ from inspection_robot.task.report import summary, write_reports
 from inspection_robot.task.review import parse_query, review
 from inspection_robot.task.spec import check_task_id, parse_task
 from inspection_robot.task.states import ENDED_STATES
+from inspection_robot.task.store import ResultStore, StoreError, export_snapshot
 from inspection_robot.task.trend import TrendConfig
-from inspection_robot.task.store import ResultStore, StoreError
 from inspection_robot.ros.data_root import data_root, path_param
 
 NODE_NAME = "task_manager"
@@ -63,14 +65,15 @@ REVIEW_QUEUE_KEYS = ("task_id", "limit")
 
 class TaskManager(object):
     def __init__(self, store, reports_dir, patrol_config, preset_root, reachable, runner_factory, default_retries,
-                 status_period, corrections_dir, data_root=""):
+                 status_period, corrections_dir, data_root):
         self._lock = threading.RLock()
         self._wake = threading.Condition(self._lock)
         self.store = store
         self._reports_dir = reports_dir
+        self._exports_dir = os.path.join(os.path.dirname(reports_dir), "exports")
         self._corrections_dir = corrections_dir
         self._preset_root = preset_root
-        self._data_root = data_root   # taken out of task_action's refusals (files.hide_root; the twin does its own)
+        self._data_root = data_root   # answers name files relative to it; taken out of refusals (files.hide_root)
         self._reachable = reachable
         self._default_retries = default_retries
         self._status_period = status_period
@@ -90,6 +93,7 @@ class TaskManager(object):
             "query_status": no_data(lambda d: self._status_json()),
             "query_tasks": no_data(self._query_tasks), "query_results": self._query_results, "report": self._report,
             "review_queue": self._review_queue, "review": self._review,
+            "export_results": no_data(self._export_results),
         })
         self._twin = CommandTwin(table, "task_control", "task_cmd", "task_ack", NODE_NAME, busy_when_joystick=False)
         self._status_sub = rospy.Subscriber("robot_status", RobotStatus, self._on_robot_status, queue_size=1)
@@ -148,7 +152,7 @@ class TaskManager(object):
         with self._lock:
             known = self.store.task_ids()
         # parsed outside the lock: checking presets and the map must not stall the patrol loop
-        task = parse_task(data, lambda name: resolve_preset(self._preset_root, name), self._reachable,
+        task = parse_task(data, lambda name: resolve_preset(self._preset_root, name, self._data_root), self._reachable,
                           self._default_retries, known)
         pose, home = self._pose, self.patrol.config.home_pose
         plan_route(task, (pose or home)[:2], home[:2], self._reachable.path_length)
@@ -204,7 +208,7 @@ class TaskManager(object):
             return
         row = self.store.task(task_id)
         end, ret_code, data = goal_end(summary(row, self.store.readings(task_id=task_id, limit=10 ** 9), ()),
-                                       report_path)
+                                       root_relative(report_path, self._data_root))
         result = GeneralResult(ret_code=ret_code, data=data)
         if end == END_SUCCEEDED:
             goal.set_succeeded(result, row["state"])
@@ -220,12 +224,14 @@ class TaskManager(object):
 
     def _query_results(self, data):
         query = parse_query(data, QUERY_KEYS, 1000)
-        return json.dumps(self.store.readings(query.get("task_id"), query.get("from"), query.get("to"),
-                                              query["limit"], query.get("target"), query.get("after_id")))
+        return json.dumps([client_row(r, self._data_root) for r in self.store.readings(
+            query.get("task_id"), query.get("from"), query.get("to"), query["limit"], query.get("target"),
+            query.get("after_id"))])
 
     def _review_queue(self, data):
         query = parse_query(data, REVIEW_QUEUE_KEYS, 100)
-        return json.dumps(self.store.review_queue(query.get("task_id"), query["limit"]))
+        return json.dumps([client_row(r, self._data_root)
+                           for r in self.store.review_queue(query.get("task_id"), query["limit"])])
 
     def _review(self, data):
         with self._lock:   # one review at a time: two for one row must not race over its file
@@ -235,13 +241,24 @@ class TaskManager(object):
                 raise CommandError(str(err))
         rospy.loginfo("%s: reading %d reviewed by %s: %s (robot %s), %s" % (
             NODE_NAME, row["id"], row["review_by"], row["review_value"], row["value"], path))
-        return json.dumps(dict(row, correction=path))
+        return json.dumps(dict(client_row(row, self._data_root), correction=root_relative(path, self._data_root)))
+
+    def _export_results(self, _data):
+        """A consistent snapshot of the results store for file_control (the live file's latest
+        commits sit in its -wal)."""
+        try:
+            path = export_snapshot(self.store, self._exports_dir, time.time())
+        except StoreError as err:
+            raise CommandError(str(err))
+        return json.dumps({"path": root_relative(path, self._data_root), "size": os.path.getsize(path)},
+                          sort_keys=True)
 
     def _report(self, data):
         if self.store.task(data) is None:
             raise CommandError("unknown task '%s'" % data[:64])
         try:
-            return json.dumps(self._write_report(data))
+            return json.dumps(dict((name, root_relative(path, self._data_root))
+                                   for name, path in self._write_report(data).items()))
         except OSError as err:
             raise CommandError("cannot write the report: %s" % err)
 
@@ -249,7 +266,7 @@ class TaskManager(object):
         # the id names the folder: an id stored before ids were restricted ('..') must not escape reports/
         return write_reports(os.path.join(self._reports_dir, check_task_id(task_id)), self.store.task(task_id),
                              self.store.readings(task_id=task_id, limit=10 ** 9), self.store.steps(task_id),
-                             version())
+                             self._data_root, version())
 
     def _on_finished(self, task_id):
         """A task ended: its report is written at once (a failure is logged, the patrol goes on),
@@ -264,11 +281,12 @@ class TaskManager(object):
 
     # --- status --------------------------------------------------------------------------------
     def _status_json(self):
-        status = self.patrol.status()
+        status = client_progress(self.patrol.status(), self._data_root)
         status["overhead_s"] = round(self._overhead_s, 3)
-        status["store"] = self.store.path
+        status["store"] = root_relative(self.store.path, self._data_root)
         if status["task_id"] and status["state"] in ENDED_STATES:
-            status["report"] = os.path.join(self._reports_dir, status["task_id"], "report.html")
+            status["report"] = root_relative(os.path.join(self._reports_dir, status["task_id"], "report.html"),
+                                             self._data_root)
         return json.dumps(status, sort_keys=True)
 
     def _on_status_timer(self, _event):
@@ -286,7 +304,7 @@ class TaskManager(object):
             for task_id, goal in self._goals.items():
                 progress = self.patrol.task_progress(task_id)
                 if progress is not None:
-                    code, data = goal_feedback(progress)
+                    code, data = goal_feedback(client_progress(progress, self._data_root))
                     goal.publish_feedback(GeneralFeedback(event_code=code, data=data))
 
     # --- the patrol loop -----------------------------------------------------------------------

@@ -7,7 +7,9 @@ absolute, and must resolve (after ``..`` and symlinks) inside one of the allowed
 lists the roots themselves. A read returns at most ``max_chunk_bytes`` bytes, read with one seek,
 so the memory a request needs is bounded whatever the file's size; the client loops on
 ``offset`` until ``eof``. Hidden entries (in-progress writes: ``.name.*.tmp``, ``.tmp_*``,
-``.staging``) are not listed. Nothing here writes.
+``.staging``) are not listed. Nothing here writes. A live SQLite database (the results store,
+whose latest commits sit in its ``-wal``) and its journal files are refused to ``read``: a copy
+would be stale or torn; task_control ``export_results`` writes a consistent snapshot to read.
 
 A listing never looks through a link that leaves the roots: an entry is lstat'ed, and a symbolic
 link whose target resolves outside the roots (or nowhere) is listed as ``"type": "link"`` with
@@ -22,7 +24,7 @@ import os
 from stat import S_ISDIR, S_ISLNK
 
 from inspection_robot.command import CommandError, CommandTable, parse_json
-from inspection_robot.files import FileError, confine_path, inside, shown, under
+from inspection_robot.files import FileError, confine_path, inside, root_relative, shown, under
 
 DEFAULT_MAX_CHUNK_BYTES = 262144
 DEFAULT_MAX_ENTRIES = 1000
@@ -75,8 +77,7 @@ class FileCommands(object):
 
     def relative(self, path):
         """How a client names ``path``: relative to the data root when inside it."""
-        rel = os.path.relpath(path, self.data_root)
-        return path if rel == ".." or rel.startswith("../") else rel
+        return root_relative(path, self.data_root)
 
     def _entry(self, path, shown_as, name=None):
         """{name, type, size, mtime} of ``path``; errors name it ``shown_as`` (the client's path).
@@ -148,6 +149,10 @@ class FileCommands(object):
         given = shown(fields["path"])
         if os.path.isdir(path):
             raise FileError("'%s' is a directory (use list)" % given)
+        live = live_sqlite(path)
+        if live:
+            raise FileError("'%s' is %s: a copy would miss or tear recent commits; read a snapshot instead "
+                            "(task_control export_results writes one under tasks/exports/)" % (given, live))
         try:
             with open(path, "rb") as f:
                 size = os.fstat(f.fileno()).st_size
@@ -161,6 +166,19 @@ class FileCommands(object):
             raise FileError("cannot read '%s': %s" % (given, err.strerror))
         return _json({"path": self.relative(path), "offset": offset, "length": len(chunk), "size": size,
                       "eof": offset + len(chunk) >= size, "data": base64.b64encode(chunk).decode("ascii")})
+
+
+SQLITE_JOURNAL_SUFFIXES = ("-wal", "-shm", "-journal")
+
+
+def live_sqlite(path):
+    """Why ``path`` must not be copied as it is (a live SQLite database: its latest commits sit in a
+    ``-wal`` beside it, or one of its journal files), or "" when it may."""
+    if path.endswith(SQLITE_JOURNAL_SUFFIXES) and os.path.isfile(path[:path.rindex("-")]):
+        return "the journal of a live SQLite database"
+    if os.path.exists(path + "-wal"):
+        return "a live SQLite database (its latest commits are in its -wal file)"
+    return ""
 
 
 def _sha256(path, given):

@@ -6,20 +6,24 @@ import threading
 import numpy as np
 
 from inspection_robot.command import CommandError
-from inspection_robot.files import confine_path
+from inspection_robot.files import confine_data_path, root_relative
 from inspection_robot.inspection.preset import PRESET_INI, PresetError, load_preset
 from inspection_robot.nav.costmap import Costmap
 from inspection_robot.nav.gridmap import MapError, load_map
 from inspection_robot.nav.planner import Planner, PlanningError
 from inspection_robot.nav.tour import TourError
 from inspection_robot.task.spec import ResolvedPreset
+from inspection_robot.task.states import target_unit
 
 
-def resolve_preset(preset_root, name):
-    """``name`` = a preset directory (``<preset_id>/<stamp>``) or a preset id (its newest recording),
-    relative to ``preset_root``; returns a ResolvedPreset or raises CommandError."""
+def resolve_preset(preset_root, name, data_root=None):
+    """``name`` = a preset directory or a preset id (its newest recording), relative to
+    ``data_root`` (``presets/<preset_id>/<stamp>``, the form answers use) or to ``preset_root``
+    (``<preset_id>/<stamp>``, the older form); returns a ResolvedPreset or raises CommandError."""
+    root_names = None if data_root is None else [root_relative(os.path.realpath(preset_root),
+                                                               os.path.realpath(data_root))]
     try:
-        path = confine_path(name, [preset_root])
+        path = confine_data_path(name, [preset_root], data_root, root_names)
     except CommandError as err:
         raise CommandError("unknown preset directory '%s': %s" % (name, err))
     if os.path.isdir(path) and not os.path.isfile(os.path.join(path, PRESET_INI)):
@@ -31,7 +35,7 @@ def resolve_preset(preset_root, name):
         preset = load_preset(path)
     except PresetError as err:
         raise CommandError("unknown preset directory '%s': %s" % (name, err))
-    targets = [{"name": t.name, "kind": t.kind, "unit": t.params.get("unit", "") if t.kind == "pointer" else ""}
+    targets = [{"name": t.name, "kind": t.kind, "unit": target_unit(t.kind, t.params.get("unit", ""))}
                for t in preset.targets]
     # a preset's own alarm bands: ``normal = low,high`` in a target's section, read and checked
     # with the rest of the calibration (inspection.calibration_schema)

@@ -32,7 +32,7 @@ from inspection_robot.task.spec import Task
 from inspection_robot.task.states import (ALARM_ALARM, ALARM_CHECK, ALARM_NORMAL, ALARM_TREND, STATE_CANCELLED,
                                           STATE_DONE, STATE_FAILED, STATE_IDLE, STATE_PAUSED, STATE_RETURNING_HOME,
                                           STATE_RUNNING, STATE_SUSPENDED, STATUS_FAILED, STATUS_READ, STATUS_UNCERTAIN,
-                                          alarm_state)
+                                          alarm_state, target_unit)
 from inspection_robot.task.trend import DEFAULT_TREND, trend_text, trend_warning
 
 HOLD_OPERATOR = "operator"
@@ -50,6 +50,9 @@ OUTCOME_FAILED = "failed"
 OUTCOME_INTERRUPTED = "interrupted"
 
 MODE_TASK = 0
+# task_status fields of an ended task kept until the next task or return_home (eta_s is 0 then)
+FINAL_PROGRESS_KEYS = ("priority", "stop", "stops", "stop_name", "preset", "presets", "done", "total",
+                       "planned_length_m")
 
 # kind: move | inspect | home; stop / preset_index are 0-based (-1 when not applicable); preset: the
 # task's preset entry {"preset", "directory", "targets", "alarms", "foreign"} of an inspection
@@ -102,6 +105,7 @@ class Patrol(object):
         self.home_error = ""
         self.last_result = None
         self.last_task = None       # (task id, state, reason) of the last finished task
+        self.last_progress = {}     # its progress fields when it ended (task_status keeps them)
         self.home_reached = False   # return_home arrived after last_task ended: task_status is idle
         self._durations = {STEP_MOVE: [], STEP_INSPECT: []}
         self._recover(now)
@@ -351,6 +355,7 @@ class Patrol(object):
                 self.active.at_stop = None
                 self.store.set_task_state(self.active.task.task_id, STATE_RUNNING)
         self.last_task = (task_id, state, reason)
+        self.last_progress = dict((k, v) for k, v in self._progress(run).items() if k in FINAL_PROGRESS_KEYS)
         self.home_reached = False
         self._on_finished(task_id)
         self._advance(now)
@@ -369,6 +374,7 @@ class Patrol(object):
             return out
         if self.active is None:
             if self.last_task is not None and not self.home_reached:
+                out.update(self.last_progress)   # the console's progress bar stays full for a done task
                 out["task_id"], out["state"], out["reason"] = self.last_task
             elif self.home_error:
                 out["reason"] = "return home failed: %s" % self.home_error
@@ -432,9 +438,9 @@ def reading_rows(task_id, stop_index, stop_name, preset_index, preset, inspectio
             picture = inspection.pictures[k] if k < len(inspection.pictures) else ""
             doubt = inspection.reasons[k] if inspection.reasons else ""
             source = inspection.sources[k] if inspection.sources else None
+        unit = target_unit(target["kind"], target.get("unit", ""))   # also for tasks stored without it
         rows.append(_row(task_id, stop_index, stop_name, preset_index, preset, k, target["name"], target["kind"],
-                         value, target.get("unit", ""), band, confidence, picture, pose, now, doubt or reason,
-                         bool(doubt), source))
+                         value, unit, band, confidence, picture, pose, now, doubt or reason, bool(doubt), source))
     if preset.get("foreign"):
         foreign = inspection.foreign if inspection is not None else None
         value, confidence, picture = (float(foreign[0]), float(foreign[1]), foreign[2]) if foreign else (None, None, "")

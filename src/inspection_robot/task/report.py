@@ -1,10 +1,13 @@
 """Patrol reports: one folder per task with report.csv, report.json and report.html.
 
 The HTML page opens with the readings that need review (uncertain values nobody settled yet, with
-the reader's reason and the annotated picture), then lists every other reading with its picture
-(linked by absolute path, the pictures stay where read_scale wrote them), alarms and checks first
-and highlighted, failures with their reason. Files are written with files.write_atomic: a reader
-sees the old report or the new.
+the reader's reason and the annotated picture), then lists every other reading with its picture,
+alarms and checks first and highlighted, failures with their reason. Pictures stay where
+read_scale wrote them and are linked relative to the report's folder (``../../../pictures/...``
+from ``tasks/reports/<id>/``), so a report fetched with its pictures into the same layout (the
+data root's, over file_control) shows them. report.csv and report.json name files relative to the
+data root, as every answer of task_manager does (task.client_view). Files are written with
+files.write_atomic (mode 644: the report is meant to be read): a reader sees the old report or the new.
 The JSON summary and the HTML heading name the robot software's version (git describe of the build).
 """
 import csv
@@ -13,8 +16,10 @@ import io
 import json
 import os
 import time
+import urllib.parse
 
-from inspection_robot.files import write_atomic
+from inspection_robot.files import PUBLIC_FILE_MODE, write_atomic
+from inspection_robot.task.client_view import client_row
 from inspection_robot.task.states import (ALARM_ALARM, ALARM_CHECK, ALARM_ORDER, STATUS_FAILED, STATUS_READ,
                                           STATUS_UNCERTAIN)
 from inspection_robot.task.store import READING_COLUMNS
@@ -53,21 +58,36 @@ def summary(task_row, readings, steps):
             "time_by_step_s": dict((k, round(v, 2)) for k, v in step_split(steps).items())}
 
 
-def write_reports(folder, task_row, readings, steps, software_version):
-    """Write the three report files of one task into ``folder``; returns {name: path}.
-    ``software_version`` (inspection_robot.version) goes into the JSON summary and the HTML heading."""
+def write_reports(folder, task_row, readings, steps, data_root, software_version):
+    """Write the three report files of one task into ``folder`` (``readings`` as stored: absolute
+    paths); returns {name: path}. ``software_version`` (inspection_robot.version) goes into the JSON
+    summary and the HTML heading."""
     info = summary(task_row, readings, steps)
     info["software_version"] = software_version
     paths = dict((name, os.path.join(folder, name)) for name in REPORT_FILES)
+    shown_rows = [client_row(r, data_root) for r in readings]
     out = io.StringIO()
     writer = csv.writer(out)
     writer.writerow(READING_COLUMNS)
-    for row in readings:
+    for row in shown_rows:
         writer.writerow(["" if row[c] is None else row[c] for c in READING_COLUMNS])
-    write_atomic(paths["report.csv"], out.getvalue())
-    write_atomic(paths["report.json"], json.dumps({"summary": info, "readings": readings}, indent=1, sort_keys=True))
-    write_atomic(paths["report.html"], render_html(info, readings))
+    write_atomic(paths["report.csv"], out.getvalue(), mode=PUBLIC_FILE_MODE)
+    write_atomic(paths["report.json"], json.dumps({"summary": info, "readings": shown_rows}, indent=1,
+                                                  sort_keys=True), mode=PUBLIC_FILE_MODE)
+    links = [dict(shown, link=picture_link(row["picture"], folder, data_root))
+             for row, shown in zip(readings, shown_rows)]
+    write_atomic(paths["report.html"], render_html(info, links), mode=PUBLIC_FILE_MODE)
     return paths
+
+
+def picture_link(picture, folder, data_root):
+    """The href of a picture in a report written to ``folder``: relative to it, as a URL path, so a
+    report fetched with its pictures into the data root's layout shows them (a relative
+    ``picture`` is taken relative to ``data_root``)."""
+    if not picture:
+        return ""
+    path = os.path.realpath(os.path.join(data_root, picture))   # an absolute picture stays itself
+    return urllib.parse.quote(os.path.relpath(path, os.path.realpath(folder)))
 
 
 def preset_label(directory):
@@ -93,8 +113,8 @@ def _table_rows(rows):
     body = []
     for r in rows:
         band = "" if r["low"] is None else "%s .. %s" % (_fmt(r["low"]), _fmt(r["high"]))
-        picture = ('<a href="file://%s"><img src="file://%s" alt="%s"></a>'
-                   % (esc(r["picture"]), esc(r["picture"]), esc(r["target_name"])) if r["picture"] else "")
+        picture = ('<a href="%s"><img src="%s" alt="%s"></a>'
+                   % (esc(r["link"]), esc(r["link"]), esc(r["target_name"])) if r.get("link") else "")
         body.append('<tr class="%s%s"><td>%d %s</td><td>%s</td><td>%s (%s)</td><td>%s</td><td>%s</td><td>%s</td>'
                     '<td>%s</td><td>%s</td><td>%s</td><td>%s</td></tr>'
                     % (esc(r["alarm"]), "" if r["status"] == STATUS_READ else " " + esc(r["status"]),

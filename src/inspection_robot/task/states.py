@@ -3,6 +3,7 @@
 through query_results). One place: the patrol, the store, the reports, task_action, task_manager,
 charge_control and bag_report all import them (docs/interface.md, "Patrol (task_manager)").
 """
+from inspection_robot.interface import THERMAL_UNIT
 
 # --- task states (task_status "state"; tasks.state in the store) -----------------------------
 STATE_IDLE = "idle"
@@ -42,3 +43,11 @@ def alarm_state(value, band, uncertain=False):
     if band[0] <= value <= band[1]:
         return ALARM_NORMAL
     return ALARM_CHECK if uncertain else ALARM_ALARM
+
+
+def target_unit(kind, unit=""):
+    """The unit of a target's readings: a pointer's calibrated ``unit``, ``C`` (degrees Celsius,
+    the spec's temperature unit) for thermal targets, "" for lamps and switches (state codes)."""
+    if kind == "thermal":
+        return THERMAL_UNIT
+    return unit if kind == "pointer" else ""

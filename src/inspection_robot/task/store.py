@@ -9,10 +9,19 @@ nor loses a reading. One connection shared under a lock (the node's threads are 
 Schema changes: columns added after the first release (ADDED_COLUMNS) are added to an older file
 when it is opened (``ALTER TABLE ... ADD COLUMN`` in one transaction), so every store opens; old
 rows get the columns' defaults (no source picture, not reviewed).
+
+The live file is not what a backend should copy: its latest commits sit in ``results.sqlite-wal``
+until a checkpoint. ``export`` writes a consistent snapshot (sqlite3's online backup API) as a
+plain single file, which file_control serves (docs/interface.md, "Results store and reports").
 """
 import json
+import os
 import sqlite3
+import tempfile
 import threading
+import time
+
+from inspection_robot.files import PUBLIC_FILE_MODE, FileError, fsync_dir, rename_durable
 
 from inspection_robot.task.states import STATUS_READ, STATUS_UNCERTAIN, UNFINISHED_STATES
 
@@ -50,6 +59,7 @@ READING_COLUMNS = ("id", "task_id", "stop", "stop_name", "preset_index", "preset
 # what a patrol writes (the review columns are written by set_review only)
 WRITTEN_COLUMNS = tuple(c for c in READING_COLUMNS[1:] if not c.startswith("review_"))
 STEP_COLUMNS = ("task_id", "stop", "preset_index", "kind", "outcome", "started", "ended", "reason")
+EXPORTS_KEPT = 10   # snapshots kept in tasks/exports/ (the oldest removed beyond)
 
 
 class StoreError(Exception):
@@ -110,6 +120,34 @@ class ResultStore(object):
                 return self._db.execute(sql, params).fetchall()
             except sqlite3.Error as err:
                 raise StoreError("results store %s: %s" % (self.path, err))
+
+    def export(self, path):
+        """Write a consistent snapshot of the whole store to the new file ``path`` (mode 644): every
+        committed transaction, none half, in one file without a -wal (rollback journal mode).
+        StoreError (nothing left behind) on failure."""
+        folder = os.path.dirname(os.path.abspath(path))
+        tmp = None
+        try:
+            os.makedirs(folder, exist_ok=True)
+            fd, tmp = tempfile.mkstemp(prefix="." + os.path.basename(path) + ".", suffix=".tmp", dir=folder)
+            os.close(fd)
+            copy = sqlite3.connect(tmp)
+            try:
+                with self._lock:
+                    self._db.backup(copy)
+                copy.execute("PRAGMA journal_mode=DELETE")   # the pages came with the WAL flag: one file
+            finally:
+                copy.close()
+            os.chmod(tmp, PUBLIC_FILE_MODE)
+            with open(tmp, "rb") as f:
+                os.fsync(f.fileno())
+            rename_durable(tmp, path)
+        except (sqlite3.Error, OSError, FileError) as err:
+            if tmp is not None and os.path.exists(tmp):
+                os.unlink(tmp)
+            raise StoreError("cannot export the results store to %s: %s" % (path, err))
+        fsync_dir(folder)
+        return path
 
     # --- tasks ---------------------------------------------------------------------------------
     def add_task(self, task, state, now):
@@ -218,3 +256,22 @@ class ResultStore(object):
 
     def set_meta(self, key, value):
         self._write([("INSERT OR REPLACE INTO meta (key, value) VALUES (?, ?)", (key, json.dumps(value)))])
+
+
+def export_snapshot(store, folder, now, keep=EXPORTS_KEPT):
+    """task_control ``export_results``: a snapshot ``<folder>/<YYYYMMDD_HHMMSS>.sqlite`` (``_2``,
+    ... when one of that second exists); the oldest snapshots beyond ``keep`` are removed. Returns
+    the path."""
+    stamp = time.strftime("%Y%m%d_%H%M%S", time.localtime(now))
+    path, copy = os.path.join(folder, stamp + ".sqlite"), 1
+    while os.path.exists(path):
+        copy += 1
+        path = os.path.join(folder, "%s_%d.sqlite" % (stamp, copy))
+    store.export(path)
+    snapshots = sorted(name for name in os.listdir(folder) if name.endswith(".sqlite") and not name.startswith("."))
+    for name in snapshots[:-keep]:
+        try:
+            os.unlink(os.path.join(folder, name))
+        except OSError:
+            pass   # another one next time
+    return path

@@ -15,7 +15,7 @@ import os
 import numpy as np
 
 from inspection_robot.lazy import lazy_import
-from inspection_robot.files import new_file_path, write_atomic
+from inspection_robot.files import PUBLIC_FILE_MODE, new_file_path, write_atomic
 from inspection_robot.command import CommandError, CommandTable, no_data, parse_int, split_fields
 from inspection_robot.command import failed
 from inspection_robot.interface import INFRARED_COMMANDS, UNSUPPORTED
@@ -54,7 +54,7 @@ def save_radiometric(path, frame):
     if extension == ".npy":
         stream = io.BytesIO()
         np.save(stream, frame.astype(np.float32))
-        write_atomic(path, stream.getvalue(), replace=False)
+        write_atomic(path, stream.getvalue(), replace=False, mode=PUBLIC_FILE_MODE)
         return
     if extension != ".png":
         raise CommandError("radiometric file must end in .png (16-bit centikelvin) or .npy (float32 degC): '%s'"
@@ -63,7 +63,7 @@ def save_radiometric(path, frame):
     ok, buf = cv2.imencode(".png", counts.astype(np.uint16))
     if not ok:
         raise CommandError("PNG encoding failed")
-    write_atomic(path, buf.tobytes(), replace=False)
+    write_atomic(path, buf.tobytes(), replace=False, mode=PUBLIC_FILE_MODE)
 
 
 def load_radiometric(path):
