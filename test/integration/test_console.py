@@ -431,6 +431,13 @@ class ConsoleTest(unittest.TestCase):
             self.wait_page("Array.from(document.querySelectorAll('#results img'))"
                            ".some((i) => i.src.startsWith('data:image/') && i.naturalWidth > 0)",
                            "the annotated picture shown")
+        # The meter's trend: every reading of it the store holds (the page asks for the last 90 days).
+        history = json.loads(control_proxy("/task_control", 10.0)(
+            sender="test_console", cmd="query_results", data=json.dumps({"target": "console_gauge"})).data)
+        self.assertGreaterEqual(len(history), 1)
+        self.page.click("#results td.trend-link >> text=console_gauge")
+        self.wait_page("document.getElementById('trend').dataset.points === '%d'"
+                       % len([r for r in history if r["value"] is not None]), "the meter's trend drawn")
         self.page.click("#patrol-cancel")
         self.task(lambda s: (s.get("last_ended") or {}).get("task_id") == task_id
                   and s["last_ended"]["state"] == "cancelled", "the patrol cancelled by the page")
