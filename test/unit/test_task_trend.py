@@ -4,7 +4,8 @@ import json
 import pytest
 
 from inspection_robot.task.patrol import OUTCOME_OK, STEP_INSPECT, Inspection, Patrol, PatrolConfig
-from inspection_robot.task.spec import ResolvedPreset, parse_task
+from inspection_robot.task.report import sparkline, write_reports
+from inspection_robot.task.spec import ResolvedPreset, Task, parse_task
 from inspection_robot.task.store import ResultStore
 from inspection_robot.task.trend import DAY_S, DEFAULT_TREND, TrendConfig, fit_line, trend_text, trend_warning
 
@@ -76,3 +77,22 @@ def test_the_patrol_marks_a_drifting_meter_and_the_store_keeps_its_history(tmp_p
     assert row["reason"] == "trend: rising 5 C/day, reaches its high limit in 2.0 days"
     assert [v for _t, v in store.meter_values("oil", now[0] + 10.0, 3)] == [90.0, 85.0, 80.0]   # newest first
     assert store.meter_values("oil", 1.0e9, 10) == []   # before the first reading
+
+
+def test_the_report_draws_each_meters_recent_readings_beside_it(tmp_path):
+    store = ResultStore(str(tmp_path / "r.sqlite"))
+    rows = []
+    for day, value in enumerate([0.3, 0.35, 0.5, 0.6]):
+        row = {"task_id": "t%d" % day, "stop": 0, "stop_name": "s", "preset_index": 0, "preset": "/p/a/1", "target": 0,
+               "target_name": "oil", "kind": "pointer", "status": "read", "value": value, "unit": "MPa",
+               "alarm": "normal", "low": 0.2, "high": 0.8, "confidence": 90.0, "picture": "", "x": 0.0, "y": 0.0,
+               "yaw": 0.0, "time": 1.0e9 + day * DAY_S, "reason": "", "source_picture": "", "roi": ""}
+        store.add_readings([row])
+        rows.append(row)
+    store.add_task(Task("t3", "routine", 0, []), "done", 1.0e9)
+    history = store.meter_histories(store.readings(task_id="t3"), 3)
+    assert [v for _t, v in history["oil"]] == [0.35, 0.5, 0.6]   # oldest first, up to this task's reading
+    paths = write_reports(str(tmp_path / "rep"), store.task("t3"), store.readings(task_id="t3"), [], "/", "v", history)
+    page = open(paths["report.html"]).read()
+    assert page.count('<svg class="trend"') == 1 and "stroke-dasharray" in page   # the band's limits dashed
+    assert sparkline([(0.0, 1.0)]) == ""

@@ -61,6 +61,7 @@ from inspection_robot.ros.data_root import data_root, path_param
 NODE_NAME = "task_manager"
 QUERY_KEYS = ("task_id", "target", "from", "to", "after_id", "limit")
 REVIEW_QUEUE_KEYS = ("task_id", "limit")
+REPORT_TREND_POINTS = 20   # a meter's readings up to this task's drawn beside each of its readings in the report
 
 
 class TaskManager(object):
@@ -264,9 +265,10 @@ class TaskManager(object):
 
     def _write_report(self, task_id):
         # the id names the folder: an id stored before ids were restricted ('..') must not escape reports/
+        readings = self.store.readings(task_id=task_id, limit=10 ** 9)
         return write_reports(os.path.join(self._reports_dir, check_task_id(task_id)), self.store.task(task_id),
-                             self.store.readings(task_id=task_id, limit=10 ** 9), self.store.steps(task_id),
-                             self._data_root, version())
+                             readings, self.store.steps(task_id), self._data_root, version(),
+                             self.store.meter_histories(readings, REPORT_TREND_POINTS))
 
     def _on_finished(self, task_id):
         """A task ended: its report is written at once (a failure is logged, the patrol goes on),

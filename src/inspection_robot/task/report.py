@@ -58,10 +58,11 @@ def summary(task_row, readings, steps):
             "time_by_step_s": dict((k, round(v, 2)) for k, v in step_split(steps).items())}
 
 
-def write_reports(folder, task_row, readings, steps, data_root, software_version):
+def write_reports(folder, task_row, readings, steps, data_root, software_version, history=None):
     """Write the three report files of one task into ``folder`` (``readings`` as stored: absolute
     paths); returns {name: path}. ``software_version`` (inspection_robot.version) goes into the JSON
-    summary and the HTML heading."""
+    summary and the HTML heading; ``history`` {target name: [(unix s, value)] oldest first}, each
+    meter's recent readings, a small trend beside each reading of the HTML page."""
     info = summary(task_row, readings, steps)
     info["software_version"] = software_version
     paths = dict((name, os.path.join(folder, name)) for name in REPORT_FILES)
@@ -74,7 +75,8 @@ def write_reports(folder, task_row, readings, steps, data_root, software_version
     write_atomic(paths["report.csv"], out.getvalue(), mode=PUBLIC_FILE_MODE)
     write_atomic(paths["report.json"], json.dumps({"summary": info, "readings": shown_rows}, indent=1,
                                                   sort_keys=True), mode=PUBLIC_FILE_MODE)
-    links = [dict(shown, link=picture_link(row["picture"], folder, data_root))
+    links = [dict(shown, link=picture_link(row["picture"], folder, data_root),
+                  history=(history or {}).get(row["target_name"], []))
              for row, shown in zip(readings, shown_rows)]
     write_atomic(paths["report.html"], render_html(info, links), mode=PUBLIC_FILE_MODE)
     return paths
@@ -108,6 +110,28 @@ def _value_text(r):
     return text
 
 
+SPARK_W, SPARK_H = 90, 24
+
+
+def sparkline(points, band=None):
+    """A small inline SVG of a meter's recent values (oldest first), its band's limits dashed; ""
+    for fewer than two points."""
+    if len(points) < 2:
+        return ""
+    values = [v for _t, v in points] + [b for b in (band or ()) if b is not None]
+    lo, hi = min(values), max(values)
+    span = (hi - lo) or 1.0
+    t0, t1 = points[0][0], points[-1][0]
+
+    def xy(t, v):
+        return (2 + (t - t0) / ((t1 - t0) or 1.0) * (SPARK_W - 4), SPARK_H - 2 - (v - lo) / span * (SPARK_H - 4))
+    lines = "".join('<line x1="0" y1="%.1f" x2="%d" y2="%.1f" stroke="#c62828" stroke-dasharray="2,2"/>'
+                    % (xy(t0, b)[1], SPARK_W, xy(t0, b)[1]) for b in (band or ()) if b is not None)
+    path = " ".join("%.1f,%.1f" % xy(t, v) for t, v in points)
+    return ('<svg class="trend" width="%d" height="%d" viewBox="0 0 %d %d">%s<polyline fill="none" stroke="#1565c0" '
+            'points="%s"/></svg>' % (SPARK_W, SPARK_H, SPARK_W, SPARK_H, lines, path))
+
+
 def _table_rows(rows):
     esc = html.escape
     body = []
@@ -115,12 +139,13 @@ def _table_rows(rows):
         band = "" if r["low"] is None else "%s .. %s" % (_fmt(r["low"]), _fmt(r["high"]))
         picture = ('<a href="%s"><img src="%s" alt="%s"></a>'
                    % (esc(r["link"]), esc(r["link"]), esc(r["target_name"])) if r.get("link") else "")
+        trend = sparkline(r.get("history") or [], (r["low"], r["high"]) if r["low"] is not None else None)
         body.append('<tr class="%s%s"><td>%d %s</td><td>%s</td><td>%s (%s)</td><td>%s</td><td>%s</td><td>%s</td>'
-                    '<td>%s</td><td>%s</td><td>%s</td><td>%s</td></tr>'
+                    '<td>%s</td><td>%s</td><td>%s</td><td>%s</td><td>%s</td></tr>'
                     % (esc(r["alarm"]), "" if r["status"] == STATUS_READ else " " + esc(r["status"]),
                        r["stop"] + 1, esc(r["stop_name"]),
                        esc(preset_label(r["preset"])), esc(r["target_name"]), esc(r["kind"]), esc(_value_text(r)),
-                       band, esc(r["alarm"]), _fmt(r["confidence"], 3),
+                       trend, band, esc(r["alarm"]), _fmt(r["confidence"], 3),
                        time.strftime("%Y-%m-%d %H:%M:%S", time.localtime(r["time"])), esc(r["reason"]), picture))
     return "\n".join(body)
 
@@ -131,7 +156,8 @@ def render_html(info, readings):
     review = [r for r in rows if needs_review(r)]
     rest = [r for r in rows if not needs_review(r)]
     counts = info["counts"]
-    head = ("<tr><th>stop</th><th>preset</th><th>target</th><th>value</th><th>normal band</th><th>alarm</th>"
+    head = ("<tr><th>stop</th><th>preset</th><th>target</th><th>value</th><th>trend</th><th>normal band</th>"
+            "<th>alarm</th>"
             "<th>confidence</th><th>time</th><th>reason</th><th>picture</th></tr>")
     review_part = ("<h2>Needs review (%d)</h2>\n<p>Values the reader doubts: the reason says why. Confirm or "
                    "correct each one (task_control <code>review</code>, or the console's review queue).</p>\n"

@@ -219,6 +219,15 @@ class ResultStore(object):
                            (target_name, before, STATUS_READ, max(0, int(limit))))
         return [(float(t), float(v)) for t, v in rows]
 
+    def meter_histories(self, readings, points):
+        """{target name: [(unix s, value)] oldest first}: each meter of ``readings`` up to its newest
+        reading there, at most ``points`` values (the trend beside a reading in a report)."""
+        newest = {}
+        for row in readings:
+            newest[row["target_name"]] = max(newest.get(row["target_name"], 0.0), row["time"])
+        return dict((name, list(reversed(self.meter_values(name, until + 1e-6, points))))
+                    for name, until in newest.items())
+
     def reading(self, row_id):
         """One reading row by its id, or None."""
         rows = self._query("SELECT %s FROM readings WHERE id = ?" % ", ".join(READING_COLUMNS), (row_id,))
