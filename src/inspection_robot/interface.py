@@ -21,7 +21,7 @@ MODE_NAMES = {MODE_TASK: "task", MODE_SERVER: "server", MODE_JOY: "joy"}
 # mode_cmd: cmd acquire (data joy|server) or release; the sender that owns each mode's move_cmd.
 MODE_CMD_ACQUIRE = "acquire"
 MODE_CMD_RELEASE = "release"
-MODE_BY_ACQUIRE_DATA = {"joy": MODE_JOY, "server": MODE_SERVER}
+MODE_BY_ACQUIRE_DATA = {MODE_NAMES[MODE_JOY]: MODE_JOY, MODE_NAMES[MODE_SERVER]: MODE_SERVER}   # data: the mode's name
 MOVE_SENDER_BY_MODE = {MODE_TASK: SENDER_MOVE_BASE, MODE_SERVER: SENDER_SERVER, MODE_JOY: SENDER_JOY}
 
 # --- MoveCmd units ---------------------------------------------------------------------------
@@ -142,7 +142,11 @@ LOCATION_INIT_POSE = "init_pose"
 LOCATION_LAST_POSE = "last_pose"
 VIRTUAL_OBSTACLE_COMMANDS = ("add", "modify", "delete", "query", "clear")
 
-FIND_GOAL_TYPES = ("pre_find", "find_scale", "find_foreign", "find_both")
+FIND_GOAL_PRE_FIND = "pre_find"
+FIND_GOAL_SCALE = "find_scale"
+FIND_GOAL_FOREIGN = "find_foreign"
+FIND_GOAL_BOTH = "find_both"
+FIND_GOAL_TYPES = (FIND_GOAL_PRE_FIND, FIND_GOAL_SCALE, FIND_GOAL_FOREIGN, FIND_GOAL_BOTH)
 FIND_FEEDBACK_PRESET_SET = "0"
 FIND_FEEDBACK_FINDING = "1"
 FIND_RESULT_SUCCESS = "0"

@@ -25,6 +25,7 @@ from inspection_robot.lazy import lazy_import
 from inspection_robot.inspection.gauge import angle_diff
 from inspection_robot.inspection.geometry import flat_from_quads, quad_center, quad_inside, transform_quad
 from inspection_robot.inspection.locate import LocateError
+from inspection_robot.interface import FIND_GOAL_BOTH, FIND_GOAL_FOREIGN
 
 cv2 = lazy_import("cv2")   # on first use: a node registers before its ~360 libraries load
 
@@ -171,7 +172,7 @@ class Finder(object):
         filename, quads, shape = last
         roi = flat_from_quads(quads)
         second_filename = ""
-        if kind != "find_foreign" and any(t.kind == "pointer" for t in preset.targets):
+        if kind != FIND_GOAL_FOREIGN and any(t.kind == "pointer" for t in preset.targets):
             self._check_cancel()
             second_filename = self._second_look(filename)
         infrared_filename, infrared_roi = "", []
@@ -179,14 +180,14 @@ class Finder(object):
             self._check_cancel()
             infrared_filename, infrared_roi = self._thermal(preset, folder, stamp, moves, quads, shape)
         foreign_filename = ""
-        if kind in ("find_foreign", "find_both"):
+        if kind in (FIND_GOAL_FOREIGN, FIND_GOAL_BOTH):
             self._check_cancel()
             k = 1 if len(levels) > 1 else 0
             self.head.set_zoom(levels[k])
             foreign_filename = os.path.join(folder, "zoom%d_%s_%02d.jpg" % (k, stamp, moves))
             self.head.capture(foreign_filename)
             self.head.set_zoom(levels[0])
-        if kind == "find_foreign":
+        if kind == FIND_GOAL_FOREIGN:
             roi, filename = [], ""
         return FindResult(filename, infrared_filename, foreign_filename, roi, infrared_roi, moves, second_filename)
 

@@ -18,12 +18,12 @@ mode), ``not_held`` (nothing to release, or the named mode is not the current on
 """
 from collections import namedtuple
 
-from inspection_robot.interface import (MODE_BY_ACQUIRE_DATA, MODE_CMD_ACQUIRE, MODE_CMD_RELEASE, MODE_NAMES,
+from inspection_robot.interface import (BUSY, MODE_BY_ACQUIRE_DATA, MODE_CMD_ACQUIRE, MODE_CMD_RELEASE, MODE_NAMES,
                                         MODE_TASK, MOVE_SENDER_BY_MODE)
 
 Decision = namedtuple("Decision", "accepted changed reason")
 
-REFUSAL_BUSY = "busy"
+REFUSAL_BUSY = BUSY
 REFUSAL_OFFLINE = "offline"
 REFUSAL_NOT_ALLOWED = "not_allowed"
 REFUSAL_NOT_HELD = "not_held"
@@ -77,7 +77,7 @@ class ModeArbiter(object):
         return Decision(True, True, "%s acquired %s mode" % (sender, data))
 
     def _release(self, sender, data):
-        if data not in ("", "joy", "server"):
+        if data and data not in MODE_BY_ACQUIRE_DATA:
             return refused(REFUSAL_BAD_REQUEST, "release data must be empty, joy or server, got '%s'" % (data,))
         if self.mode == MODE_TASK:
             return refused(REFUSAL_NOT_HELD, "release refused: already in task mode")

@@ -84,7 +84,7 @@ class MotionController(object):
         gives it what the status it saw promised.
         """
         with self._lock:
-            if self._offline and cmd == MODE_CMD_ACQUIRE and data == "server":
+            if self._offline and cmd == MODE_CMD_ACQUIRE and data == MODE_NAMES[MODE_SERVER]:
                 if answer is not None and len(self._pending) < MAX_PENDING:
                     self._pending.append((sender, cmd, data, answer, self._clock() + OFFLINE_RECHECK))
                     return None

@@ -16,8 +16,9 @@ u8 number; 8 bytes, native little-endian) into axes/buttons in the same conventi
 import math
 import struct
 
-from inspection_robot.interface import (MODE_CMD_ACQUIRE, MODE_CMD_RELEASE, MOVE_VELOCITY_X_UNIT_M_S,
-                                        MOVE_VELOCITY_YAW_UNIT_RAD_S, TERRACE_SPEEDS, WHEEL_STEER, WHEEL_STRAIGHT)
+from inspection_robot.interface import (MODE_CMD_ACQUIRE, MODE_CMD_RELEASE, MODE_JOY, MODE_NAMES,
+                                        MOVE_VELOCITY_X_UNIT_M_S, MOVE_VELOCITY_YAW_UNIT_RAD_S, TERRACE_SPEEDS,
+                                        WHEEL_STEER, WHEEL_STRAIGHT)
 
 AXIS_NAMES = ("velocity_x", "velocity_yaw", "pan", "tilt")
 BUTTON_NAMES = ("deadman", "acquire", "release", "estop", "estop_release", "steer_mode")
@@ -60,7 +61,7 @@ class JoyTeleop(object):
         if "estop_release" in edges:
             actions.append(("control", "disable_stop"))
         if "acquire" in edges:
-            actions.append(("mode", MODE_CMD_ACQUIRE, "joy"))
+            actions.append(("mode", MODE_CMD_ACQUIRE, MODE_NAMES[MODE_JOY]))
         if "release" in edges:
             actions += self._stop_moving()
             actions.append(("mode", MODE_CMD_RELEASE, ""))

@@ -9,12 +9,12 @@ alarm_right_fall, alarm_obstacle, alarm_drive_fault) plus alarm_battery_critical
 alarm_joystick_lost when those bits are set, and charging while the battery charges.
 """
 from inspection_robot.interface import (BATTERY_CHARGING, CIRCUIT_BATTERY_CRITICAL, CIRCUIT_JOY_COMM_LOST,
-                                        MODE_NAMES, TEMP_BATTERY, TEMPERATURE_NOT_SAMPLED)
+                                        MODE_NAMES, MODE_TASK, TEMP_BATTERY, TEMPERATURE_NOT_SAMPLED)
 
 
 def status_sentence(fields, stop_reasons):
     """``fields``: control_status fields (control_status_fields); ``stop_reasons``: SafetyLatch.reasons()."""
-    words = ["status_report", "mode_" + MODE_NAMES.get(fields["mode"], "task"),
+    words = ["status_report", "mode_" + MODE_NAMES.get(fields["mode"], MODE_NAMES[MODE_TASK]),
              "battery_quantity", "%%%d%%" % fields["battery_quantity"],
              "battery_voltage", "[%d]" % int(round(fields["battery_voltage"] / 10.0)), "volt"]
     battery_temp = fields["temperature"][TEMP_BATTERY]

@@ -31,13 +31,14 @@ import rospy
 
 from inspection_robot.lazy import lazy_import
 from inspection_robot.camera.optics import ZoomOptics, focal_for_hfov
-from inspection_robot.command import CommandError, parse_json
-from inspection_robot.files import confine_path, hide_root
+from inspection_robot.command import CommandError
+from inspection_robot.files import hide_root
 from inspection_robot.inspection.finder import Cancelled, Finder, FindError, ThermalGeometry
 from inspection_robot.inspection.locate import Locator
 from inspection_robot.inspection.preset import PresetError, load_preset
-from inspection_robot.interface import (FIND_FEEDBACK_PRESET_SET, FIND_GOAL_TYPES,
-                                        FIND_RESULT_FAILED, FIND_RESULT_SUCCESS)
+from inspection_robot.inspection.find_goal import find_result_data, parse_find_goal, reason_data
+from inspection_robot.interface import (FIND_FEEDBACK_PRESET_SET, FIND_GOAL_PRE_FIND, FIND_RESULT_FAILED,
+                                        FIND_RESULT_SUCCESS)
 from inspection_robot.msg import GeneralAction, GeneralFeedback, GeneralResult
 from inspection_robot.ros.inspection_head import HeadingWatcher, RosHead
 from inspection_robot.ros.data_root import data_root, path_param
@@ -46,24 +47,6 @@ from inspection_robot.ros.node import init_node
 cv2 = lazy_import("cv2")   # on first use: a node registers before its ~360 libraries load
 
 NODE_NAME = "find_scale"
-
-
-def result_data(filename="", infrared_filename="", foreign_filename="", roi_vertex=(), infrared_roi_vertex=(),
-                second_filename=""):
-    """The spec's five keys, then ``second_filename``: the second look for read_scale ("" when none)."""
-    return json.dumps({"filename": filename, "infrared_filename": infrared_filename,
-                       "foreign_filename": foreign_filename, "roi_vertex": list(roi_vertex),
-                       "infrared_roi_vertex": list(infrared_roi_vertex), "second_filename": second_filename})
-
-
-def parse_goal(goal_type, data, preset_roots):
-    """(type, preset directory) of a goal; CommandError with the reason on bad input."""
-    if goal_type not in FIND_GOAL_TYPES:
-        raise CommandError("unknown goal type '%s' (one of %s)" % (goal_type, "|".join(FIND_GOAL_TYPES)))
-    fields = parse_json(data, "goal data")
-    if not isinstance(fields, dict) or not isinstance(fields.get("preset_path"), str):
-        raise CommandError('goal data must be {"preset_path": "<dir>"}')
-    return goal_type, confine_path(fields["preset_path"], preset_roots)
 
 
 class FindScaleNode(object):
@@ -91,7 +74,7 @@ class FindScaleNode(object):
         except Cancelled:
             rospy.loginfo("find_scale: goal cancelled")
             self._server.set_preempted(GeneralResult(ret_code=FIND_RESULT_FAILED,
-                                                     data=json.dumps({"reason": "cancelled"})))
+                                                     data=reason_data("cancelled")))
             return
         except (CommandError, PresetError, FindError) as err:
             self._fail(str(err))
@@ -105,17 +88,17 @@ class FindScaleNode(object):
     def _fail(self, reason):
         rospy.logwarn("find_scale: failed: %s" % reason)
         self._server.set_aborted(GeneralResult(ret_code=FIND_RESULT_FAILED,
-                                               data=json.dumps({"reason": hide_root(reason, self._data_root)})))
+                                               data=reason_data(hide_root(reason, self._data_root))))
 
     def _run(self, goal):
-        kind, path = parse_goal(goal.type, goal.data, [self._preset_root])
-        preset = load_preset(path, need_calibration=kind != "pre_find")
+        kind, path = parse_find_goal(goal.type, goal.data, [self._preset_root])
+        preset = load_preset(path, need_calibration=kind != FIND_GOAL_PRE_FIND)
         self._head.hide_osd()
-        if kind == "pre_find":
+        if kind == FIND_GOAL_PRE_FIND:
             pan, tilt = self._finder.restore(preset, 0.0)
             self._feedback(FIND_FEEDBACK_PRESET_SET, {"pan": round(pan, 2), "tilt": round(tilt, 2),
                                                       "zoom": preset.info.zoom_levels[0]})
-            return result_data()
+            return find_result_data()
         pose = self._heading.latest()
         if pose is None:
             rospy.logwarn("find_scale: no nav_status yet; restoring the pan without heading correction")
@@ -124,8 +107,8 @@ class FindScaleNode(object):
             correction = math.degrees(preset.info.pose[2] - pose[2])
         # feedback "0" (preset set, with the correction) comes from the finder, then "1" per picture
         result = self._finder.find(preset, kind, correction, time.strftime("%Y%m%d_%H%M%S"), cv2.imread)
-        return result_data(result.filename, result.infrared_filename, result.foreign_filename, result.roi_vertex,
-                           result.infrared_roi_vertex, result.second_filename)
+        return find_result_data(result.filename, result.infrared_filename, result.foreign_filename,
+                                result.roi_vertex, result.infrared_roi_vertex, result.second_filename)
 
 
 def main():

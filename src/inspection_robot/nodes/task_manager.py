@@ -49,7 +49,7 @@ from inspection_robot.task.action import END_CANCELED, END_SUCCEEDED, check_goal
 from inspection_robot.task.client_view import client_progress, client_row
 from inspection_robot.task.checks import Reachability, resolve_preset
 from inspection_robot.task.route import plan_route
-from inspection_robot.task.patrol import Patrol, PatrolConfig
+from inspection_robot.task.patrol import OUTCOME_FAILED, Patrol, PatrolConfig
 from inspection_robot.task.report import summary, write_reports
 from inspection_robot.task.review import parse_query, review
 from inspection_robot.task.spec import check_task_id, parse_task
@@ -340,7 +340,7 @@ class TaskManager(object):
                                                         lambda fraction: self._drive_progress(step, fraction))
         except Exception as err:  # boundary: a bug in one step fails that step, the patrol goes on
             rospy.logerr("%s: %s step raised %s\n%s" % (NODE_NAME, step.kind, err, traceback.format_exc()))
-            outcome, detail, timings = "failed", "internal error: %s" % (err,), {}
+            outcome, detail, timings = OUTCOME_FAILED, "internal error: %s" % (err,), {}
         tick = time.monotonic()
         ended = time.time()
         with self._lock:

@@ -26,7 +26,7 @@ import collections
 import json
 import math
 
-from inspection_robot.interface import (BATTERY_HIGH_TEMP, BATTERY_LINE_FAULT, BATTERY_LOW_TEMP,
+from inspection_robot.interface import (ACK_FAILED, BATTERY_HIGH_TEMP, BATTERY_LINE_FAULT, BATTERY_LOW_TEMP,
                                         BATTERY_OVER_VOLTAGE, BATTERY_UNDER_VOLTAGE, CIRCUIT_BATTERY_CRITICAL,
                                         CIRCUIT_COLLISION_LINE, CIRCUIT_JOY_COMM_LOST, CIRCUIT_STEPPER_COMM,
                                         LIGHT_BUMPER, LIGHT_HARD_ESTOP, LIGHT_SOFT_ESTOP, MODE_NAMES,
@@ -34,8 +34,8 @@ from inspection_robot.interface import (BATTERY_HIGH_TEMP, BATTERY_LINE_FAULT, B
                                         SENSOR_CAMERA_ALARM, SENSOR_THERMAL_ALARM, STOP_FRONT_COLLISION,
                                         STOP_LEFT_FALL, STOP_OBSTACLE, STOP_RIGHT_FALL)
 from inspection_robot.status.merge import STALE_NAV_STATUS
-from inspection_robot.task.states import (ALARM_ALARM, ALARM_CHECK, STATE_FAILED, STATUS_FAILED, STATUS_READ,
-                                          STATUS_UNCERTAIN)
+from inspection_robot.task.states import (ALARM_ALARM, ALARM_CHECK, ALARM_NONE, STATE_FAILED, STATUS_FAILED,
+                                          STATUS_READ, STATUS_UNCERTAIN)
 
 # (robot_status field, bit, alarm name): each rising edge is one alarm.
 ALARM_BITS = (
@@ -156,7 +156,7 @@ class RunAnalyzer(object):
         """``values``: the numbers of a read_scale_ack that a backend asked for (scale + foreign_scale)."""
         values = [float(v) for v in values]
         self._at(t, lambda rel, x, y: self._s.readings.append(
-            Reading(rel, x, y, "", 0, source, values or None, "", "none", STATUS_READ if values else STATUS_FAILED,
+            Reading(rel, x, y, "", 0, source, values or None, "", ALARM_NONE, STATUS_READ if values else STATUS_FAILED,
                     "" if values else "no value")))
 
     def add_task_status(self, t, data):
@@ -200,7 +200,7 @@ class RunAnalyzer(object):
             s.faults.append(Event(*where, text="reading failed: %s: %s" % (reading.target, reading.reason or "?")))
 
     def add_ack(self, t, topic, ack, data):
-        if ack == "failed":
+        if ack == ACK_FAILED:
             self._at(t, lambda rel, x, y: self._s.faults.append(Event(rel, x, y, "%s failed: %s" % (topic, data))))
 
     def add_action_result(self, t, action, ret_code, data):

@@ -32,6 +32,7 @@ import rospy
 from geometry_msgs.msg import TwistStamped
 
 from inspection_robot.bridge.client import RawClient
+from inspection_robot.interface import ACK_FAILED, ACK_SUCCESS, MODE_CMD_ACQUIRE, MODE_NAMES, MODE_SERVER, SENDER_SERVER
 from inspection_robot.msg import ControlStatus, RobotStatus
 from inspection_robot.sim.fake_isapi import FakeIsapiCamera
 from inspection_robot.sim.soak import (Availability, FaultReasons, Ledger, MemoryGrowth, MotionAuthority, NodeLiveness,
@@ -78,7 +79,7 @@ class Backend(object):
             self._ids += 1
             call_id = "soak%d" % self._ids
             self.client.send({"op": "call_service", "id": call_id, "service": service,
-                              "args": {"sender": "server", "trans_id": self._ids, "cmd": cmd, "data": data}})
+                              "args": {"sender": SENDER_SERVER, "trans_id": self._ids, "cmd": cmd, "data": data}})
             reply = self.client.recv_message(lambda m: m.get("op") == "service_response" and m.get("id") == call_id,
                                              timeout)
         if not reply.get("result"):
@@ -91,7 +92,7 @@ class Backend(object):
 
         def beat():
             while not stop.wait(period):
-                self.publish("/server_status", {"sender": "server", "data": "alive"})
+                self.publish("/server_status", {"sender": SENDER_SERVER, "data": "alive"})
         thread = threading.Thread(target=beat, name="soak_heartbeat")
         thread.daemon = True
         thread.start()
@@ -106,7 +107,7 @@ class Backend(object):
     def drive(self, velocity_mm_s, seconds):
         deadline = time.monotonic() + seconds
         while time.monotonic() < deadline:
-            self.publish("/move_cmd", {"sender": "server", "velocity_x": velocity_mm_s, "velocity_yaw": 0.0,
+            self.publish("/move_cmd", {"sender": SENDER_SERVER, "velocity_x": velocity_mm_s, "velocity_yaw": 0.0,
                                        "wheel_control": 0})
             time.sleep(0.05)  # the backend's command rate (20 Hz)
 
@@ -269,7 +270,8 @@ class Soak(object):
                 return True
             if time.monotonic() - asked[0] >= 1.0:
                 asked[0] = time.monotonic()
-                self.b.publish("/mode_cmd", {"sender": "server", "cmd": "acquire", "data": "server"})
+                self.b.publish("/mode_cmd", {"sender": SENDER_SERVER, "cmd": MODE_CMD_ACQUIRE,
+                                             "data": MODE_NAMES[MODE_SERVER]})
             return False
         self.wait(granted, 15.0, "backend mode")
         self.o.authorise()
@@ -287,10 +289,10 @@ class Soak(object):
         self._direction = -self._direction
         self.b.drive(300.0 * self._direction, 1.0)
         target = "%d,%d" % (self.rng.randrange(-17000, 17000, 100), self.rng.randrange(-3000, 3000, 100))
-        self.check(lambda: self.b.call("/terrace_control", "set_angle", target)[0] == "success"
-                   and self.b.call("/terrace_control", "get_angle") == ("success", target), "PTZ set/get angle")
-        self.check(lambda: self.capture("soak")[0] == "success", "camera capture")
-        self.check(lambda: self.b.call("/infrared_control", "get_max_temperature")[0] == "success",
+        self.check(lambda: self.b.call("/terrace_control", "set_angle", target)[0] == ACK_SUCCESS
+                   and self.b.call("/terrace_control", "get_angle") == (ACK_SUCCESS, target), "PTZ set/get angle")
+        self.check(lambda: self.capture("soak")[0] == ACK_SUCCESS, "camera capture")
+        self.check(lambda: self.b.call("/infrared_control", "get_max_temperature")[0] == ACK_SUCCESS,
                    "thermal reading")
         self.virtual_obstacles()
 
@@ -299,7 +301,7 @@ class Soak(object):
         captures/soak/; the picture is removed once taken, so a long soak does not fill the disk."""
         self._captures += 1
         ack, data = self.b.call("/camera_control", "capture_picture", "soak/%s_%d.jpg" % (what, self._captures))
-        if ack == "success":
+        if ack == ACK_SUCCESS:
             try:
                 os.unlink(data)   # the answer is the absolute path written (the soak runs on the robot)
             except OSError:
@@ -315,10 +317,10 @@ class Soak(object):
         self.b.call_topic_vo("delete", json.dumps({"id": key}))
         self.ledger.removed(VO, key)
         ack, _ = self.b.call_topic_vo("add", json.dumps({"id": key, "points": points}))
-        if ack == "success":
+        if ack == ACK_SUCCESS:
             self.ledger.stored(VO, key, points)
         ack, data = self.b.call_topic_vo("query", "")
-        if ack == "success":
+        if ack == ACK_SUCCESS:
             self.ledger.listed(VO, {o["id"]: o["points"] for o in json.loads(data) if o["id"].startswith("soak")})
 
     def warm_up(self):
@@ -348,11 +350,11 @@ class Soak(object):
 
     def head_unplug(self):
         self.head(cmd="unplug", data="")
-        self.wait(lambda: self.b.call("/terrace_control", "get_angle")[0] == "failed", 10.0, "head reported lost")
+        self.wait(lambda: self.b.call("/terrace_control", "get_angle")[0] == ACK_FAILED, 10.0, "head reported lost")
         time.sleep(self.rng.uniform(0.5, 3.0))  # unplugged for a while
         self.head(cmd="replug", data="")
         self.availability.recovered("head after replug", self.time_until(
-            lambda: self.b.call("/terrace_control", "get_angle")[0] == "success"))
+            lambda: self.b.call("/terrace_control", "get_angle")[0] == ACK_SUCCESS))
 
     def camera_fault(self, fault):
         """The camera refuses every login (401) or stops answering for a while: every request
@@ -368,7 +370,7 @@ class Soak(object):
         finally:
             self.camera.set_fault(None)
         self.availability.recovered("camera after %s" % fault, self.time_until(
-            lambda: self.capture("soak_fault")[0] == "success"))
+            lambda: self.capture("soak_fault")[0] == ACK_SUCCESS))
         self.liveness.unchanged("/camera_node", pid, self.o.pid("/camera_node"))
 
     def kill_node(self):
@@ -478,7 +480,8 @@ def _call_topic_vo(backend):
             time.sleep(0.5)  # the subscription must exist before the first command's ack
         state["id"] += 1
         trans_id = 50000 + state["id"]
-        backend.publish("/virtual_obstacle_cmd", {"sender": "server", "trans_id": trans_id, "cmd": cmd, "data": data})
+        backend.publish("/virtual_obstacle_cmd", {"sender": SENDER_SERVER, "trans_id": trans_id, "cmd": cmd,
+                                                  "data": data})
         try:
             msg = client.recv_message(lambda m: m.get("op") == "publish" and m.get("topic") == "/virtual_obstacle_ack"
                                       and m["msg"]["trans_id"] == trans_id, 15.0)

@@ -10,8 +10,6 @@ feedback, task.drive_progress) to ``progress``. Returns (outcome, detail, timing
 {"find": s, "read": s} for inspections.
 """
 import itertools
-import json
-import math
 import threading
 import time
 
@@ -20,7 +18,10 @@ import rospy
 from actionlib.action_client import CommState
 
 from inspection_robot.inspection.reading import request_filenames, uncertain_reasons
-from inspection_robot.interface import ACK_FAILED, ACK_SUCCESS, FIND_RESULT_SUCCESS, MOVE_GOAL_TYPE, MOVE_RESULT_SUCCESS
+from inspection_robot.inspection.find_goal import find_goal_data, parse_find_result, reason_of
+from inspection_robot.interface import (ACK_FAILED, ACK_SUCCESS, FIND_GOAL_BOTH, FIND_GOAL_SCALE, FIND_RESULT_SUCCESS,
+                                        MOVE_GOAL_TYPE, MOVE_RESULT_SUCCESS)
+from inspection_robot.nav.goal import move_goal_data
 from inspection_robot.msg import GeneralAction, GeneralGoal, ReadScaleAck, ReadScaleCmd
 from inspection_robot.task.drive_progress import DriveProgress
 from inspection_robot.task.patrol import (OUTCOME_FAILED, OUTCOME_INTERRUPTED, OUTCOME_OK, STEP_INSPECT,
@@ -28,13 +29,6 @@ from inspection_robot.task.patrol import (OUTCOME_FAILED, OUTCOME_INTERRUPTED, O
 
 POLL_S = 0.1
 FOREIGN_DETECT_BOTH = 2
-
-
-def _reason(data):
-    try:
-        return str(json.loads(data).get("reason", data))
-    except (ValueError, AttributeError):
-        return str(data)
 
 
 def _sources(targets, cmd):
@@ -78,11 +72,8 @@ class StepRunner(object):
 
     # --- move ----------------------------------------------------------------------------------
     def _move(self, step, interrupted, progress):
-        data = json.dumps({"goal_pose": {"position": {"x": step.x, "y": step.y, "z": 0.0},
-                                         "orientation": {"x": 0.0, "y": 0.0, "z": math.sin(step.yaw / 2.0),
-                                                         "w": math.cos(step.yaw / 2.0)}},
-                           "precision": step.precision, "with_direction": 1, "move_style": 0,
-                           "velocity_x": self._velocity[0], "velocity_yaw": self._velocity[1]})
+        data = move_goal_data(step.x, step.y, step.yaw, precision=step.precision, velocity_x=self._velocity[0],
+                              velocity_yaw=self._velocity[1])
         drive = DriveProgress()
 
         def on_feedback(_handle, feedback):
@@ -95,23 +86,23 @@ class StepRunner(object):
             return result
         if result.ret_code == MOVE_RESULT_SUCCESS:
             return OUTCOME_OK, ""
-        return OUTCOME_FAILED, "move_action %s: %s" % (result.ret_code, _reason(result.data))
+        return OUTCOME_FAILED, "move_action %s: %s" % (result.ret_code, reason_of(result.data))
 
     # --- inspect -------------------------------------------------------------------------------
     def _inspect(self, step, interrupted):
         preset = step.preset
         started = time.monotonic()
-        goal_type = "find_both" if preset["foreign"] else "find_scale"
-        result = self._goal(self.find, "find_scale_action", goal_type, json.dumps({"preset_path": preset["directory"]}),
+        goal_type = FIND_GOAL_BOTH if preset["foreign"] else FIND_GOAL_SCALE
+        result = self._goal(self.find, "find_scale_action", goal_type, find_goal_data(preset["directory"]),
                             self._timeouts["find"], interrupted)
         timings = {"find": time.monotonic() - started}
         if isinstance(result, tuple):
             return result + (timings,)
         if result.ret_code != FIND_RESULT_SUCCESS:
-            return OUTCOME_FAILED, "find_scale: %s" % _reason(result.data), timings
+            return OUTCOME_FAILED, "find_scale: %s" % reason_of(result.data), timings
         try:
-            found = json.loads(result.data)
-            files = request_filenames(found["filename"], found["infrared_filename"], found.get("second_filename", ""))
+            found = parse_find_result(result.data)
+            files = request_filenames(found["filename"], found["infrared_filename"], found["second_filename"])
             cmd = ReadScaleCmd(sender=self._node_name, trans_id=next(self._trans_ids), directory=preset["directory"],
                                foreign_detect=FOREIGN_DETECT_BOTH if preset["foreign"] else 0, filename=files,
                                foreign_filename=[found["foreign_filename"]] if preset["foreign"] else [],

@@ -7,6 +7,8 @@ made, so the closing table shows invariants that really were exercised, not just
 """
 from collections import OrderedDict
 
+from inspection_robot.interface import ACK_SUCCESS
+
 
 class Checker(object):
     """Base: ``checks`` made, ``violations`` (text lines) found."""
@@ -218,7 +220,7 @@ class FaultReasons(Checker):
     def answered(self, what, ack, reason, fragments):
         """``ack``/``reason`` of ``what`` sent during a fault; the reason must contain one of ``fragments``."""
         self.checks += 1
-        if ack == "success":
+        if ack == ACK_SUCCESS:
             self._violate("%s succeeded during the fault" % what)
         elif not any(f in reason for f in fragments):
             self._violate("%s failed without naming the fault (%s): %r" % (what, " | ".join(fragments), reason))

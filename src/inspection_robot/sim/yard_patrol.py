@@ -21,6 +21,7 @@ import sys
 import threading
 import time
 
+from inspection_robot.interface import ACK_SUCCESS, SENDER_SERVER
 from inspection_robot.inspection.preset import load_preset
 
 HALF_PI = math.pi / 2.0
@@ -164,7 +165,7 @@ class PatrolClient(object):
         """A ControlService call: returns (ack, data)."""
         srv = self.roslibpy.Service(self.ros, service, "inspection_robot/ControlService")
         trans_id = self.next_id()
-        reply = srv.call(self.roslibpy.ServiceRequest({"sender": "server", "trans_id": trans_id, "cmd": cmd,
+        reply = srv.call(self.roslibpy.ServiceRequest({"sender": SENDER_SERVER, "trans_id": trans_id, "cmd": cmd,
                                                        "data": data}), timeout=timeout)
         if reply["trans_id"] != trans_id:
             raise RuntimeError("%s %s: trans_id %d echoed as %d" % (service, cmd, trans_id, reply["trans_id"]))
@@ -184,14 +185,14 @@ class PatrolClient(object):
 
     def must(self, service, cmd, data="", timeout=30):
         ack, out = self.call(service, cmd, data, timeout)
-        if ack != "success":
+        if ack != ACK_SUCCESS:
             raise RuntimeError("%s %s(%s) failed: %s" % (service, cmd, data[:80], out))
         return out
 
     def task_cmd(self, cmd, data="", timeout=30.0):
         """task_cmd over the topic twin; returns the GeneralAck (trans_id matched)."""
         trans_id = self.next_id()
-        self._task_cmd.publish(self.roslibpy.Message({"sender": "server", "trans_id": trans_id, "cmd": cmd,
+        self._task_cmd.publish(self.roslibpy.Message({"sender": SENDER_SERVER, "trans_id": trans_id, "cmd": cmd,
                                                       "data": data}))
         return self.wait(lambda: self.acks.get(trans_id), timeout, "task_ack of %s" % cmd)
 
@@ -201,7 +202,7 @@ class PatrolClient(object):
         deadline = time.monotonic() + timeout
         while True:
             ack, data = self.call("sim/inject_fault", "set_pose", "%.4f,%.4f,%.5f" % tuple(pose))
-            if ack == "success":
+            if ack == ACK_SUCCESS:
                 break
             if time.monotonic() > deadline:
                 raise RuntimeError("set_pose %s refused: %s" % (pose, data))
@@ -219,11 +220,11 @@ class PatrolClient(object):
         self.wait(lambda: self._joints is not None and abs(math.degrees(self._joints.get("tilt", 99)) - tilt / 100.0)
                   < 0.02 and abs(math.degrees(self._joints.get("pan", 99))) < 0.02, 30.0, "head settled")
         trans_id = self.next_id()
-        self._preset_cmd.publish(self.roslibpy.Message({"sender": "server", "trans_id": trans_id,
+        self._preset_cmd.publish(self.roslibpy.Message({"sender": SENDER_SERVER, "trans_id": trans_id,
                                                         "preset_id": preset_id, "infrared": infrared,
                                                         "type": "meter", "extra_data": ""}))
         ack = self.wait(lambda: self.preset_acks.get(trans_id), 60.0, "preset_scale_ack of %s" % preset_id)
-        if ack["result"] != "success":
+        if ack["result"] != ACK_SUCCESS:
             raise RuntimeError("preset %s not recorded: %s" % (preset_id, ack["directory"]))
         return ack["directory"]
 
@@ -249,7 +250,7 @@ class PatrolClient(object):
     # --- the task ----------------------------------------------------------------------------------
     def submit(self, task):
         ack = self.task_cmd("submit", json.dumps(task))
-        if ack["ack"] != "success":
+        if ack["ack"] != ACK_SUCCESS:
             raise RuntimeError("task %s refused: %s" % (task["id"], ack["data"]))
         return json.loads(ack["data"])
 

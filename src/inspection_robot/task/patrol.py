@@ -28,6 +28,7 @@ import math
 from collections import namedtuple
 
 from inspection_robot.command import CommandError
+from inspection_robot.interface import MODE_TASK
 from inspection_robot.task.spec import Task
 from inspection_robot.task.states import (ALARM_ALARM, ALARM_CHECK, ALARM_NORMAL, ALARM_TREND, STATE_CANCELLED,
                                           STATE_DONE, STATE_FAILED, STATE_IDLE, STATE_PAUSED, STATE_RETURNING_HOME,
@@ -49,7 +50,6 @@ OUTCOME_OK = "ok"
 OUTCOME_FAILED = "failed"
 OUTCOME_INTERRUPTED = "interrupted"
 
-MODE_TASK = 0
 # task_status fields of an ended task kept until the next task or return_home (eta_s is 0 then)
 FINAL_PROGRESS_KEYS = ("priority", "stop", "stops", "stop_name", "preset", "presets", "done", "total",
                        "planned_length_m")

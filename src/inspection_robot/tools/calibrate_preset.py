@@ -33,6 +33,7 @@ from inspection_robot.inspection.calibration import SelfCheck, calibrate
 from inspection_robot.inspection.calibration_commands import CalibrationCommands
 from inspection_robot.inspection.preset import PresetError
 from inspection_robot.sim.inspection_sim import calibrate_from_world
+from inspection_robot.interface import ACK_SUCCESS
 from inspection_robot.ros.package_share import share_file
 from inspection_robot.sim.world import World, WorldError
 
@@ -121,7 +122,7 @@ def _run_command(preset_dir, optics, cmd, data):
         raise PresetError("JSON must be an object")
     fields["preset"] = preset_dir
     reply = CalibrationCommands(preset_dir, [preset_dir], [os.sep], optics).table.dispatch(cmd, json.dumps(fields))
-    if reply.ack != "success":
+    if reply.ack != ACK_SUCCESS:
         raise CommandError(reply.data)
     sys.stdout.write(reply.data + "\n")
     return 0
