@@ -181,36 +181,42 @@ class ChargeMachine(object):
         self._step()
 
     def on_task_reply(self, token, ok, data):
+        """task_manager's answer (``ok`` True, False, or None: unreachable) to our pause or resume."""
         if token != self._token or self._awaiting != "task":
             return
         self._awaiting = None
-        if self.state == PAUSING:
-            if ok is None and self._task_state is None:
-                # no task_status ever seen: this robot runs no task_manager
-                self._ports.warn("task_manager not reachable (%s): charging without pausing a patrol" % (data,))
-                self._go_after_pause()
-            elif ok is None:
-                # task_manager exists (it published task_status) but does not answer: it may be
-                # respawning, and a respawned task_manager resumes its patrol with goals of its own.
-                # Ask again until pause_timeout rather than race it for move_base.
-                self._pause_retry_at = self._clock() + PAUSE_RETRY_S
-                self._unreachable = data or "no reply"
-                self._step()
-            elif ok:
-                self._unreachable = ""
-                self._pause_acked = self._task_paused = True
-                self._step()
-            else:
-                self._unreachable = ""
-                self._fail("pause", "refused: %s" % (data,))
-        elif self.state == RESUMING:
-            if ok is None:
-                self._ports.warn("task_manager not reachable (%s): nothing to resume" % (data,))
-                self._finish()
-            elif ok:
-                self._finish()
-            else:
-                self._fail("resume", "refused: %s" % (data,))
+        handler = {PAUSING: self._pause_reply, RESUMING: self._resume_reply}.get(self.state)
+        if handler is not None:
+            handler(ok, data)
+
+    def _pause_reply(self, ok, data):
+        if ok is None and self._task_state is None:
+            # no task_status ever seen: this robot runs no task_manager
+            self._ports.warn("task_manager not reachable (%s): charging without pausing a patrol" % (data,))
+            self._go_after_pause()
+        elif ok is None:
+            # task_manager exists (it published task_status) but does not answer: it may be
+            # respawning, and a respawned task_manager resumes its patrol with goals of its own.
+            # Ask again until pause_timeout rather than race it for move_base.
+            self._pause_retry_at = self._clock() + PAUSE_RETRY_S
+            self._unreachable = data or "no reply"
+            self._step()
+        elif ok:
+            self._unreachable = ""
+            self._pause_acked = self._task_paused = True
+            self._step()
+        else:
+            self._unreachable = ""
+            self._fail("pause", "refused: %s" % (data,))
+
+    def _resume_reply(self, ok, data):
+        if ok is None:
+            self._ports.warn("task_manager not reachable (%s): nothing to resume" % (data,))
+            self._finish()
+        elif ok:
+            self._finish()
+        else:
+            self._fail("resume", "refused: %s" % (data,))
 
     def on_move_result(self, token, ok, reason):
         if token != self._token or self._awaiting != "goal" or self.state not in DRIVE_STATES:
@@ -382,10 +388,7 @@ class ChargeMachine(object):
         return False
 
     def _step_resuming(self, _now, elapsed, _battery):
-        if elapsed > self._config.pause_timeout:
-            self._fail("resume", "no reply %.0f s after resume" % (elapsed,))
-            return True
-        return False
+        return self._timed_out(elapsed, self._config.pause_timeout, "resume", "no reply %.0f s after resume")
 
     def _step_driving(self, _now, _elapsed, _battery):
         if self._awaiting is None and self._in_task_mode():
@@ -398,19 +401,15 @@ class ChargeMachine(object):
         if battery and battery.relay:
             self._enter(WAIT_CURRENT)
             return True
-        if elapsed > self._config.relay_timeout:
-            self._fail("relay_on", "light_status b0 not set %.0f s after enable_charge" % (elapsed,))
-            return True
-        return False
+        return self._timed_out(elapsed, self._config.relay_timeout, "relay_on",
+                               "light_status b0 not set %.0f s after enable_charge")
 
     def _step_wait_current(self, _now, elapsed, battery):
         if battery and battery.charging:
             self._enter(CHARGING)
             return True
-        if elapsed > self._config.current_timeout:
-            self._fail("current", "battery_status b4 not set %.0f s after the relay closed" % (elapsed,))
-            return True
-        return False
+        return self._timed_out(elapsed, self._config.current_timeout, "current",
+                               "battery_status b4 not set %.0f s after the relay closed")
 
     def _step_relay_off(self, _now, elapsed, battery):
         if battery and not battery.relay:
@@ -421,8 +420,13 @@ class ChargeMachine(object):
             else:
                 self._resume()
             return True
-        if elapsed > self._config.relay_timeout:
-            self._fail("relay_off", "light_status b0 still set %.0f s after disable_charge" % (elapsed,))
+        return self._timed_out(elapsed, self._config.relay_timeout, "relay_off",
+                               "light_status b0 still set %.0f s after disable_charge")
+
+    def _timed_out(self, elapsed, timeout, kind, text):
+        """Fail ``kind`` (``text`` % elapsed) once a state has waited longer than ``timeout``; whether it did."""
+        if elapsed > timeout:
+            self._fail(kind, text % (elapsed,))
             return True
         return False
 
