@@ -21,7 +21,7 @@ import time
 
 from inspection_robot.arm import trajectory
 from inspection_robot.arm.driver import ArmError, within
-from inspection_robot.command import (CommandError, CommandTable, failed, parse_choice,
+from inspection_robot.command import (CommandError, CommandTable, failed, no_data, parse_choice,
                                       parse_float, split_fields, success)
 from inspection_robot.files import confine_path
 
@@ -68,9 +68,9 @@ class ArmController(object):
             "stop_move": lambda d: self._stop_jog(d, 0, "stop_move"),
             "stop_rotate": lambda d: self._stop_jog(d, 1, "stop_rotate"),
             "set_position": lambda d: self._set_pose(d, 0), "set_orientation": lambda d: self._set_pose(d, 1),
-            "get_position": lambda d: self._get_pose(d, 0), "get_orientation": lambda d: self._get_pose(d, 1),
-            "reset": self._reset, "record_orbit": self._record, "stop_orbit": self._stop_orbit,
-            "play_orbit": self._play,
+            "get_position": no_data(lambda _d: self._get_pose(0)),
+            "get_orientation": no_data(lambda _d: self._get_pose(1)), "reset": no_data(self._reset),
+            "record_orbit": self._record, "stop_orbit": self._stop_orbit, "play_orbit": self._play,
         })
 
     # --- helpers ---------------------------------------------------------------------------
@@ -99,11 +99,6 @@ class ArmController(object):
                 raise CommandError("arm did not reach %s %s within %.1f s (at %s)"
                                    % (what, _fmt(target), self.move_timeout, _fmt(pose)))
             self._sleep(0.02)
-
-    @staticmethod
-    def _no_data(data):
-        if data != "":
-            raise CommandError("this command takes no data, got '%s'" % (data,))
 
     # --- jog -------------------------------------------------------------------------------
     def _jog(self, data, part):
@@ -141,12 +136,10 @@ class ArmController(object):
         _arm(lambda: self.driver.command_pose(**{("position" if part == 0 else "orientation"): target}))
         self._wait_reached(part, target, "position" if part == 0 else "orientation")
 
-    def _get_pose(self, data, part):
-        self._no_data(data)
+    def _get_pose(self, part):
         return _fmt(self._pose(part))
 
-    def _reset(self, data):
-        self._no_data(data)
+    def _reset(self, _data):
         self._stop_playback("reset")
         _arm(lambda: self.driver.command_pose((0.0, 0.0, 0.0), (0.0, 0.0, 0.0)))
         self._wait_reached(0, (0.0, 0.0, 0.0), "position")

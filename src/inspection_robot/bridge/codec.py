@@ -21,6 +21,7 @@ import base64
 import binascii
 import json
 import re
+from collections import namedtuple
 
 from inspection_robot.bridge.cbor import ROS_ARRAY_TAGS, typed_array
 
@@ -112,8 +113,17 @@ def _b64_or_blob(value):
     return Blob(text) if len(text) >= BLOB_MIN else text
 
 
+def _time_dict(value):
+    return {"secs": value.secs, "nsecs": value.nsecs}
+
+
 def _raw_bytes(value):
     return bytes(value) if isinstance(value, (bytes, bytearray)) else bytes(bytearray(value))
+
+
+# How one output form converts the leaves of a message: its converters by class, uint8[]/char[],
+# floats, and whether numeric arrays become CBOR typed arrays.
+_Leaves = namedtuple("_Leaves", "cache binary floats typed_arrays")
 
 
 class Codec(object):
@@ -121,15 +131,16 @@ class Codec(object):
 
     def __init__(self, types):
         self._types = types
-        self._to_json = {}
-        self._to_json_text = {}
-        self._to_cbor = {}
+        # one walk over the message definition for every output; they differ only at the leaves
+        self._json = _Leaves({}, _b64, _finite_or_none, False)
+        self._json_text = _Leaves({}, _b64_or_blob, _finite_or_none, False)
+        self._cbor = _Leaves({}, _raw_bytes, float, True)
         self._from_json = {}
 
     # ---------------------------------------------------------------- ROS -> JSON / CBOR
     def to_json(self, msg):
         """The JSON-ready dict of a message instance."""
-        return self._json_converter(type(msg))(msg)
+        return self._converter(self._json, type(msg))(msg)
 
     def to_json_text(self, msg):
         """The compact JSON text of a message instance (the same text as encoding to_json's dict).
@@ -146,78 +157,44 @@ class Codec(object):
             blobs.append(obj.text)
             return _BLOB_MARK
         skeleton = json.JSONEncoder(separators=(",", ":"), default=blob_mark).encode(
-            self._json_text_converter(type(msg))(msg))
+            self._converter(self._json_text, type(msg))(msg))
         if not blobs:
             return skeleton
         parts = skeleton.split(_BLOB_MARK_JSON)
         if len(parts) != len(blobs) + 1:  # a string of the message looks like the marker: encode it all
             return json.JSONEncoder(separators=(",", ":"), default=lambda b: b.text).encode(
-                self._json_text_converter(type(msg))(msg))
+                self._converter(self._json_text, type(msg))(msg))
         out = [parts[0]]
         for text, part in zip(blobs, parts[1:]):
             out.extend(('"', text, '"', part))
         return "".join(out)
 
-    def _json_text_converter(self, cls):
-        return _message_converter(self._to_json_text, self._json_text_field, cls)
-
-    def _json_text_field(self, field_type):
-        # as _json_field, with Blobs for large uint8[] at any depth
-        base, length = split_array(field_type)
-        if length is not None and base in BINARY_TYPES:
-            return _b64_or_blob
-        if base in PRIMITIVE_TYPES or base in TIME_TYPES:
-            return self._json_field(field_type)
-        element = self._json_text_converter(self._types.message_class(base))
-        if length is None:
-            return element
-        return lambda values: [element(v) for v in values]
-
     def to_cbor(self, msg):
         """The CBOR-ready dict (bytes raw, typed arrays, NaN kept) of a message instance."""
-        return self._cbor_converter(type(msg))(msg)
+        return self._converter(self._cbor, type(msg))(msg)
 
-    def _json_converter(self, cls):
-        return _message_converter(self._to_json, self._json_field, cls)
+    def _converter(self, leaves, cls):
+        return _message_converter(leaves.cache, lambda field_type: self._field(leaves, field_type), cls)
 
-    def _json_field(self, field_type):
+    def _field(self, leaves, field_type):
+        """One field's conversion (None = the value as is), recursing into arrays and messages."""
         base, length = split_array(field_type)
         if length is not None:
             if base in BINARY_TYPES:
-                return _b64
-            element = self._json_field(base)
-            if element is None:
-                return list
-            return lambda values: [element(v) for v in values]
-        if base in FLOAT_TYPES:
-            return _finite_or_none
-        if base in PRIMITIVE_TYPES:
-            return None
-        if base in TIME_TYPES:
-            return lambda t: {"secs": t.secs, "nsecs": t.nsecs}
-        return self._json_converter(self._types.message_class(base))
-
-    def _cbor_converter(self, cls):
-        return _message_converter(self._to_cbor, self._cbor_field, cls)
-
-    def _cbor_field(self, field_type):
-        base, length = split_array(field_type)
-        if length is not None:
-            if base in BINARY_TYPES:
-                return _raw_bytes
-            if base in ROS_ARRAY_TAGS:
+                return leaves.binary
+            if leaves.typed_arrays and base in ROS_ARRAY_TAGS:
                 return lambda values, base=base: typed_array(base, values) if len(values) else []
-            element = self._cbor_field(base)
+            element = self._field(leaves, base)
             if element is None:
                 return list
             return lambda values: [element(v) for v in values]
         if base in FLOAT_TYPES:
-            return float
+            return leaves.floats
         if base in PRIMITIVE_TYPES:
             return None
         if base in TIME_TYPES:
-            return lambda t: {"secs": t.secs, "nsecs": t.nsecs}
-        return self._cbor_converter(self._types.message_class(base))
+            return _time_dict
+        return self._converter(leaves, self._types.message_class(base))
 
     # ---------------------------------------------------------------- JSON -> ROS
     def from_json(self, cls, value):
@@ -362,7 +339,7 @@ class Codec(object):
 
 def _message_converter(cache, field_converter, cls):
     """msg -> dict for ``cls``, compiled once per class and kept in ``cache``; ``field_converter(type)``
-    gives each field's conversion (None = the value as is). JSON and CBOR differ only there."""
+    gives each field's conversion (None = the value as is). The output forms differ only there."""
     conv = cache.get(cls)
     if conv is None:
         fields = [(name, field_converter(ftype)) for name, ftype in zip(cls.__slots__, cls._slot_types)]

@@ -7,6 +7,7 @@ the command answers at once, and a timer stops it; a newer move or camera_stop s
 capture_picture creates a new file inside the capture roots and never replaces one (the spec's
 data is a bare path: there is no field to ask for a replacement).
 """
+import functools
 import threading
 
 from inspection_robot.files import PUBLIC_FILE_MODE, new_file_path, write_atomic
@@ -47,7 +48,7 @@ class CameraCommands(object):
         self._driver = driver
         self._optics = optics
         self._roots = list(roots)
-        self._health = health
+        self._call = functools.partial(health.command, error=CameraError)
         self._timer_factory = timer_factory
         self._moves = {"zoom": (0, None), "focus": (0, None)}   # generation, timer
         self._moves_lock = threading.Lock()
@@ -85,15 +86,6 @@ class CameraCommands(object):
         for name in NO_DATA_COMMANDS:
             handlers[name] = no_data(handlers[name])
         self.table = CommandTable(handlers)
-
-    def _call(self, method, *args):
-        try:
-            result = method(*args)
-        except CameraError as err:
-            self._health.failure(err)
-            raise CommandError(str(err))
-        self._health.success()
-        return "" if result is None else result
 
     def set_zoom_level(self, data):
         zoom = parse_float(data, "zoom level", self._optics.min_zoom, self._optics.max_zoom)

@@ -7,7 +7,9 @@ spec's sets happens before a driver is called (camera.commands).
 import threading
 import time
 
+from inspection_robot.command import CommandError
 from inspection_robot.drivers import not_fitted_class
+from inspection_robot.interface import UNSUPPORTED
 
 
 class CameraError(Exception):
@@ -37,6 +39,22 @@ class DeviceHealth(object):
                 self.since = self._clock()
             self.ok, self.message = False, str(reason)
             self.failures += 1
+
+    def command(self, method, *args, error, unsupported=()):
+        """``method(*args)`` for a command handler: its result ("" for None), the outcome recorded
+        here. ``error`` (the driver's exception) becomes a CommandError with its reason;
+        ``unsupported`` (the device answered that it cannot do this) the spec's UNSUPPORTED, the
+        device still counting as healthy."""
+        try:
+            result = method(*args)
+        except unsupported:
+            self.success()
+            raise CommandError(UNSUPPORTED)
+        except error as err:
+            self.failure(err)
+            raise CommandError(str(err))
+        self.success()
+        return "" if result is None else result
 
 
 class CameraDriver(object):

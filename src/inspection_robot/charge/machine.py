@@ -164,6 +164,10 @@ class ChargeMachine(object):
         self._auto = True          # dock by itself on low battery (off after a manual undock)
         self._charging_seen = self._entered
         self._last_status = None
+        self._steps = dict({IDLE: self._step_idle, PAUSING: self._step_pausing, RESUMING: self._step_resuming,
+                            RELAY_ON: self._step_relay_on, WAIT_CURRENT: self._step_wait_current,
+                            CHARGING: self._step_charging, RELAY_OFF: self._step_relay_off},
+                           **dict.fromkeys(DRIVE_STATES, self._step_driving))
         self._publish_status()
 
     # --- inputs ---------------------------------------------------------------------------------
@@ -177,36 +181,42 @@ class ChargeMachine(object):
         self._step()
 
     def on_task_reply(self, token, ok, data):
+        """task_manager's answer (``ok`` True, False, or None: unreachable) to our pause or resume."""
         if token != self._token or self._awaiting != "task":
             return
         self._awaiting = None
-        if self.state == PAUSING:
-            if ok is None and self._task_state is None:
-                # no task_status ever seen: this robot runs no task_manager
-                self._ports.warn("task_manager not reachable (%s): charging without pausing a patrol" % (data,))
-                self._go_after_pause()
-            elif ok is None:
-                # task_manager exists (it published task_status) but does not answer: it may be
-                # respawning, and a respawned task_manager resumes its patrol with goals of its own.
-                # Ask again until pause_timeout rather than race it for move_base.
-                self._pause_retry_at = self._clock() + PAUSE_RETRY_S
-                self._unreachable = data or "no reply"
-                self._step()
-            elif ok:
-                self._unreachable = ""
-                self._pause_acked = self._task_paused = True
-                self._step()
-            else:
-                self._unreachable = ""
-                self._fail("pause", "refused: %s" % (data,))
-        elif self.state == RESUMING:
-            if ok is None:
-                self._ports.warn("task_manager not reachable (%s): nothing to resume" % (data,))
-                self._finish()
-            elif ok:
-                self._finish()
-            else:
-                self._fail("resume", "refused: %s" % (data,))
+        handler = {PAUSING: self._pause_reply, RESUMING: self._resume_reply}.get(self.state)
+        if handler is not None:
+            handler(ok, data)
+
+    def _pause_reply(self, ok, data):
+        if ok is None and self._task_state is None:
+            # no task_status ever seen: this robot runs no task_manager
+            self._ports.warn("task_manager not reachable (%s): charging without pausing a patrol" % (data,))
+            self._go_after_pause()
+        elif ok is None:
+            # task_manager exists (it published task_status) but does not answer: it may be
+            # respawning, and a respawned task_manager resumes its patrol with goals of its own.
+            # Ask again until pause_timeout rather than race it for move_base.
+            self._pause_retry_at = self._clock() + PAUSE_RETRY_S
+            self._unreachable = data or "no reply"
+            self._step()
+        elif ok:
+            self._unreachable = ""
+            self._pause_acked = self._task_paused = True
+            self._step()
+        else:
+            self._unreachable = ""
+            self._fail("pause", "refused: %s" % (data,))
+
+    def _resume_reply(self, ok, data):
+        if ok is None:
+            self._ports.warn("task_manager not reachable (%s): nothing to resume" % (data,))
+            self._finish()
+        elif ok:
+            self._finish()
+        else:
+            self._fail("resume", "refused: %s" % (data,))
 
     def on_move_result(self, token, ok, reason):
         if token != self._token or self._awaiting != "goal" or self.state not in DRIVE_STATES:
@@ -326,104 +336,116 @@ class ChargeMachine(object):
         self._enter(IDLE)
 
     def _step(self):
-        """Re-evaluate the current state against the latest inputs and the clock."""
+        """Re-evaluate the current state against the latest inputs and the clock: the state's handler
+        (``_steps``) returns True when it has moved on (it published), else the status is published."""
         now = self._clock()
-        elapsed = now - self._entered
         battery = self._fresh_battery(now)
         self.waiting = ""
         state = self.state
         if battery and battery.quantity > self._config.low_level:
             self._auto = True
-        if state == IDLE:
-            if battery and battery.relay and self._near_dock():
-                # charge_control restarted mid-charge: finish that cycle instead of leaving the relay closed
-                self.trigger = TRIGGER_RECOVERED
-                self._task_paused = True  # a resume with no hold in place is harmless
-                self._after_backoff = RESUMING
-                self._enter(WAIT_CURRENT)
-                return
-            if battery and battery.quantity <= self._config.low_level and not battery.charging:
-                if self._auto:
-                    self._start(TRIGGER_LOW_BATTERY)
-                    return
-                self.waiting = "battery low, automatic docking off after a manual undock (send dock)"
-        elif state == PAUSING:
-            if self._pause_acked and self._task_state in TASK_QUIET_STATES + (None,):
-                self._go_after_pause()
-                return
-            if self._unreachable:
-                if elapsed > self._config.pause_timeout:
-                    self._ports.warn("task_manager not reachable for %.0f s (%s): charging without pausing a patrol"
-                                     % (elapsed, self._unreachable))
-                    self._unreachable = ""
-                    self._go_after_pause()
-                    return
-                self.waiting = "task_manager not reachable (%s): asking again" % (self._unreachable,)
-                if self._awaiting is None and now >= self._pause_retry_at:
-                    self._request_task("pause")
-                return
-            if elapsed > self._config.pause_timeout:
-                self._fail("pause", "task_status still '%s' %.0f s after pause" % (self._task_state, elapsed))
-                return
-            self.waiting = "task_manager finishing its current preset (%s)" % (self._task_state,)
-        elif state == RESUMING:
-            if elapsed > self._config.pause_timeout:
-                self._fail("resume", "no reply %.0f s after resume" % (elapsed,))
-                return
-        elif state in DRIVE_STATES:
-            if self._awaiting is None and self._in_task_mode():
-                self._send_goal()
-            elif not self._in_task_mode():
-                self.waiting = "robot_control in %s mode: waiting for task mode" % (self._mode_name(),)
-        elif state == RELAY_ON:
-            if battery and battery.relay:
-                self._enter(WAIT_CURRENT)
-                return
-            if elapsed > self._config.relay_timeout:
-                self._fail("relay_on", "light_status b0 not set %.0f s after enable_charge" % (elapsed,))
-                return
-        elif state == WAIT_CURRENT:
-            if battery and battery.charging:
-                self._enter(CHARGING)
-                return
-            if elapsed > self._config.current_timeout:
-                self._fail("current", "battery_status b4 not set %.0f s after the relay closed" % (elapsed,))
-                return
-        elif state == CHARGING:
-            self._step_charging(now, battery)
+        handler = self._steps.get(state)
+        if handler is not None and handler(now, now - self._entered, battery):
             return
-        elif state == RELAY_OFF:
-            if battery and not battery.relay:
-                if self._near_dock():
-                    self._drive(BACKING_OFF)
-                elif self._after_backoff == DOCKING:
-                    self._drive(TO_APPROACH)
-                else:
-                    self._resume()
-                return
-            if elapsed > self._config.relay_timeout:
-                self._fail("relay_off", "light_status b0 still set %.0f s after disable_charge" % (elapsed,))
-                return
         if state in (RELAY_ON, WAIT_CURRENT, RELAY_OFF, CHARGING) and battery is None:
             self.waiting = "no robot_status for %.0f s" % (self._config.status_timeout,)
         self._publish_status()
 
-    def _step_charging(self, now, battery):
+    def _step_idle(self, _now, _elapsed, battery):
+        if battery and battery.relay and self._near_dock():
+            # charge_control restarted mid-charge: finish that cycle instead of leaving the relay closed
+            self.trigger = TRIGGER_RECOVERED
+            self._task_paused = True  # a resume with no hold in place is harmless
+            self._after_backoff = RESUMING
+            self._enter(WAIT_CURRENT)
+            return True
+        if battery and battery.quantity <= self._config.low_level and not battery.charging:
+            if self._auto:
+                self._start(TRIGGER_LOW_BATTERY)
+                return True
+            self.waiting = "battery low, automatic docking off after a manual undock (send dock)"
+        return False
+
+    def _step_pausing(self, now, elapsed, _battery):
+        if self._pause_acked and self._task_state in TASK_QUIET_STATES + (None,):
+            self._go_after_pause()
+            return True
+        if self._unreachable:
+            if elapsed > self._config.pause_timeout:
+                self._ports.warn("task_manager not reachable for %.0f s (%s): charging without pausing a patrol"
+                                 % (elapsed, self._unreachable))
+                self._unreachable = ""
+                self._go_after_pause()
+                return True
+            self.waiting = "task_manager not reachable (%s): asking again" % (self._unreachable,)
+            if self._awaiting is None and now >= self._pause_retry_at:
+                self._request_task("pause")
+            return True
+        if elapsed > self._config.pause_timeout:
+            self._fail("pause", "task_status still '%s' %.0f s after pause" % (self._task_state, elapsed))
+            return True
+        self.waiting = "task_manager finishing its current preset (%s)" % (self._task_state,)
+        return False
+
+    def _step_resuming(self, _now, elapsed, _battery):
+        return self._timed_out(elapsed, self._config.pause_timeout, "resume", "no reply %.0f s after resume")
+
+    def _step_driving(self, _now, _elapsed, _battery):
+        if self._awaiting is None and self._in_task_mode():
+            self._send_goal()
+        elif not self._in_task_mode():
+            self.waiting = "robot_control in %s mode: waiting for task mode" % (self._mode_name(),)
+        return False
+
+    def _step_relay_on(self, _now, elapsed, battery):
+        if battery and battery.relay:
+            self._enter(WAIT_CURRENT)
+            return True
+        return self._timed_out(elapsed, self._config.relay_timeout, "relay_on",
+                               "light_status b0 not set %.0f s after enable_charge")
+
+    def _step_wait_current(self, _now, elapsed, battery):
+        if battery and battery.charging:
+            self._enter(CHARGING)
+            return True
+        return self._timed_out(elapsed, self._config.current_timeout, "current",
+                               "battery_status b4 not set %.0f s after the relay closed")
+
+    def _step_relay_off(self, _now, elapsed, battery):
+        if battery and not battery.relay:
+            if self._near_dock():
+                self._drive(BACKING_OFF)
+            elif self._after_backoff == DOCKING:
+                self._drive(TO_APPROACH)
+            else:
+                self._resume()
+            return True
+        return self._timed_out(elapsed, self._config.relay_timeout, "relay_off",
+                               "light_status b0 still set %.0f s after disable_charge")
+
+    def _timed_out(self, elapsed, timeout, kind, text):
+        """Fail ``kind`` (``text`` % elapsed) once a state has waited longer than ``timeout``; whether it did."""
+        if elapsed > timeout:
+            self._fail(kind, text % (elapsed,))
+            return True
+        return False
+
+    def _step_charging(self, now, _elapsed, battery):
         if battery is None:
-            self.waiting = "no robot_status for %.0f s" % (self._config.status_timeout,)
-        elif battery.charging:
+            return False
+        if battery.charging:
             self._charging_seen = now
             if battery.quantity >= self._config.full_level:
                 self._ports.speak([VOICE_CHARGED])
                 self._after_backoff = RESUMING
                 self._ports.relay(False)
                 self._enter(RELAY_OFF)
-                return
+                return True
         elif now - self._charging_seen > self._config.current_lost_timeout:
             self._fail("current", "battery_status b4 cleared for %.0f s while charging at %d %%"
                        % (now - self._charging_seen, battery.quantity))
-            return
-        self._publish_status()
+            return True
+        return False
 
     def _fail(self, kind, detail):
         clip, text = FAILURES[kind]

@@ -238,6 +238,16 @@ def _pivot_offset(pivot, centre, aspect):
     return math.hypot(pivot[0] - centre[0], (pivot[1] - centre[1]) / float(aspect))
 
 
+# Where PointerReader searches a needle: rays from ``hub`` over ``angles`` with the dial radius ``rad``
+# (px), read where the needle's line meets the circle ``read_radius`` about ``read_about`` on
+# ``scale``; ``about_hub``: both about a hub seen off the calibrated centre.
+_View = namedtuple("_View", "hub rad angles read_about read_radius scale about_hub")
+# The radial profiles along a _View's rays (PointerReader._profile), their median over the radius
+# (``full``, its median ``base``), the pointer candidates and each ray's distance from the dial's colour.
+_NeedleProfile = namedtuple("_NeedleProfile",
+                            "angles dist samples background reach_dist full base candidates off_dial")
+
+
 class PointerReader(object):
     """Finds the needle on a rectified gauge face by a radial dissimilarity profile and a line fit.
 
@@ -462,137 +472,189 @@ class PointerReader(object):
         than ``hub_search``, detail["hub_candidates"] are find_hub's candidates.
         """
         width, height, rad, c = self._face_geometry(centre, radius, aspect)
-        face = rectify(image, quad, width, height)
-        if face.ndim == 2:
-            face = cv2.cvtColor(face, cv2.COLOR_GRAY2BGR)
-        self.check_face(face)
-        face = cv2.GaussianBlur(face, (3, 3), 0)
-        lab = cv2.cvtColor(face, cv2.COLOR_BGR2LAB)
-        ring = rad * self._reach_radii[-1]
-        # the needle is searched along rays from ``hub`` (the calibrated centre unless given) and read
-        # where its line meets the scale circle about the calibrated centre
-        hub = c if hub is None else (hub[0] * (width - 1), hub[1] * (height - 1))
-        read_about, read_radius = c, ring
-        if about_hub and scale is not None and hub != c:
-            # a hub seen in the picture: the scale's arc is about it (scale_about), the needle
-            # turns about it, so the search and the reading are both about the hub
-            found = scale_about(scale, c, hub, ring, None if not marks else
-                                [(m[0], m[1] * (width - 1), m[2] * (height - 1)) for m in marks])
-            if found is None:
-                return None, 0.0, {"reason": "the calibrated scale does not fit an arc about the hub seen",
-                                   "angle": None}
-            scale, read_radius = found
-            read_about = hub
-            # the needle's sampling band in proportion to the scale's arc about the hub
-            rad = read_radius / self._reach_radii[-1]
-            angles = self._search_angles(scale)
-        else:
-            angles = self._search_angles(scale, c, hub, ring)
-        dist, samples, background = self._profile(lab, hub, rad, angles, self._radii)
-        reach_dist = self._profile(lab, hub, rad, angles, self._reach_radii)[0]
-        full = np.median(dist, axis=1)
-        candidates, base = self._candidates(full, angles)
-        detail = {"candidates": len(candidates)}
-        if not candidates:
+        face, lab = self._face_lab(image, quad, width, height)
+        view = self._view(c, rad, width, height, scale, hub, about_hub, marks)
+        if view is None:
+            return None, 0.0, {"reason": "the calibrated scale does not fit an arc about the hub seen",
+                               "angle": None}
+        prof = self._needle_profile(lab, view)
+        detail = {"candidates": len(prof.candidates)}
+        if not prof.candidates:
             detail.update(reason="needle not found", angle=None)
             return None, 0.0, detail
-        # distance from the dial's own colour (median over the sweep at each radius): a pointer
-        # differs from the dial, the bright or dark fringe that the local mean leaves beside a
-        # strong needle does not
-        dial = np.median(samples, axis=0)
-        off_dial = np.median(np.sqrt(((samples - dial[None]) ** 2).sum(axis=2)), axis=1)
-        described = []
-        for i, strength in candidates:
-            level = 0.5 * (full[i] + base)
-            strong = dist[i] > level
-            colour = self._colour_class(np.median(samples[i][strong], axis=0) if strong.any() else samples[i].mean(0),
-                                        background[i].mean(axis=0))
-            lo, hi = max(0, i - 2), i + 3
-            reach = float((reach_dist[lo:hi].max(axis=0) > level).mean())
-            described.append({"index": i, "strength": strength, "colour": colour, "reach": reach,
-                              "score": strength * (0.5 + float(strong.mean())) * (0.3 + reach)
-                              * float(off_dial[i])})
-        pool = described
-        if pointer_colour:
-            pool = [d for d in described if self._matches(d["colour"], pointer_colour)] or described
-        if ignore_colour:
-            pool = [d for d in pool if not self._matches(d["colour"], ignore_colour)] or pool
-        pool = sorted(pool, key=lambda d: -d["score"])
+        described = self._describe(prof)
+        pool = self._ranked(described, pointer_colour, ignore_colour)
         chosen = pool[0]
-        # centre on the needle itself: of the peaks within +-8 deg, the one farthest from the dial's
-        # colour (a fringe beside the needle can win the profile)
-        near = np.arange(max(0, chosen["index"] - int(8.0 / self.step_deg)),
-                         min(len(angles), chosen["index"] + int(8.0 / self.step_deg) + 1))
-        i = int(near[np.argmax(off_dial[near] * (full[near] > base))])
-        k = len(self._radii) // 2
-        # the needle's width (px): its angular extent above half its height at each radius
-        window = np.arange(max(0, i - int(6.0 / self.step_deg)), min(len(angles), i + int(6.0 / self.step_deg) + 1))
-        over = dist[window] > 0.5 * (dist[i][None] + np.median(dist, axis=0)[None])
-        width_px = float(np.median(over.sum(axis=0) * math.radians(self.step_deg) * self._radii * rad))
-        # fitted to the samples of the needle's own colour; to all of them where that leaves too
-        # few (a needle hardly apart from the face)
-        for like in (self._needle_likeness(dist, samples, background, full, base, i), None):
-            line = self._line(dist, angles, i, hub, rad, 0, len(self._radii), like)
-            inner_line = self._line(dist, angles, i, hub, rad, 0, k, like)
-            outer_line = self._line(dist, angles, i, hub, rad, k, len(self._radii), like)
-            if line is not None and inner_line is not None and outer_line is not None:
-                break
-        if line is None or inner_line is None or outer_line is None:
+        i = self._needle_index(prof, chosen["index"])
+        lines = self._needle_lines(prof, view, i)
+        if lines is None:
             detail.update(reason="needle not found (no continuous needle along the radius)", angle=None)
             return None, 0.0, detail
         # where the needle's line meets the scale circle: near the tip, so the line's direction
         # error (a tapered or shadowed needle) hardly matters, and a pivot off the calibrated
         # centre moves the reading only by the parallax at the scale, not by a ray's full error
-        angle = self._meets_circle(line, read_about, read_radius)
-        inner_angle = self._meets_circle(inner_line, read_about, read_radius)
-        outer_angle = self._meets_circle(outer_line, read_about, read_radius)
+        angle, inner_angle, outer_angle = (self._meets_circle(line, view.read_about, view.read_radius)
+                                           for line in lines)
+        foot = self._pivot_detail(detail, lab, c, view, lines, look_for_hub)
+        contrast, disagreement, confidence = self._confidence(prof, i, inner_angle, outer_angle)
+        reason = self._rival_reason(prof, described, pool, i, bool(pointer_colour or ignore_colour))
+        if reason:
+            confidence = min(confidence, self.uncertain_below * 0.8)
+        detail["pointers"] = [(round(float(prof.angles[d["index"]]) % 360.0, 1), round(d["score"], 1), d["reach"],
+                               d["colour"]) for d in described]
+        detail["needle_width"] = self._needle_width(prof, i, view.rad) / view.rad
+        detail.update({"angle": angle, "inner_angle": inner_angle, "outer_angle": outer_angle,
+                       "contrast": float(prof.full[i] - prof.base), "contrast_ratio": float(contrast),
+                       "disagreement": disagreement, "colour": chosen["colour"], "reach": chosen["reach"],
+                       "pivot": (float(foot[0]) / (width - 1), float(foot[1]) / (height - 1))})
+        if confidence < self.uncertain_below and not reason:
+            reason = self._weak_reason(face, contrast, disagreement)
+        detail["reason"] = reason
+        return angle, _clip_confidence(confidence), detail
+
+    def _face_lab(self, image, quad, width, height):
+        """The rectified face (BGR, slightly blurred) and its Lab image; ReadFailed for a blank one."""
+        face = rectify(image, quad, width, height)
+        if face.ndim == 2:
+            face = cv2.cvtColor(face, cv2.COLOR_GRAY2BGR)
+        self.check_face(face)
+        face = cv2.GaussianBlur(face, (3, 3), 0)
+        return face, cv2.cvtColor(face, cv2.COLOR_BGR2LAB)
+
+    def _view(self, c, rad, width, height, scale, hub, about_hub, marks):
+        """Where the needle is searched and read (_View), or None when the scale does not fit an arc
+        about the hub. The needle is searched along rays from ``hub`` (the calibrated centre unless
+        given) and read where its line meets the scale circle about the calibrated centre."""
+        ring = rad * self._reach_radii[-1]
+        hub = c if hub is None else (hub[0] * (width - 1), hub[1] * (height - 1))
+        if not (about_hub and scale is not None and hub != c):
+            return _View(hub, rad, self._search_angles(scale, c, hub, ring), c, ring, scale, False)
+        # a hub seen in the picture: the scale's arc is about it (scale_about), the needle
+        # turns about it, so the search and the reading are both about the hub
+        found = scale_about(scale, c, hub, ring, None if not marks else
+                            [(m[0], m[1] * (width - 1), m[2] * (height - 1)) for m in marks])
+        if found is None:
+            return None
+        scale, read_radius = found
+        # the needle's sampling band in proportion to the scale's arc about the hub
+        return _View(hub, read_radius / self._reach_radii[-1], self._search_angles(scale), hub, read_radius,
+                     scale, True)
+
+    def _needle_profile(self, lab, view):
+        """The radial profiles along ``view``'s rays and their pointer candidates (_NeedleProfile)."""
+        dist, samples, background = self._profile(lab, view.hub, view.rad, view.angles, self._radii)
+        reach_dist = self._profile(lab, view.hub, view.rad, view.angles, self._reach_radii)[0]
+        full = np.median(dist, axis=1)
+        candidates, base = self._candidates(full, view.angles)
+        # distance from the dial's own colour (median over the sweep at each radius): a pointer
+        # differs from the dial, the bright or dark fringe that the local mean leaves beside a
+        # strong needle does not
+        dial = np.median(samples, axis=0)
+        off_dial = np.median(np.sqrt(((samples - dial[None]) ** 2).sum(axis=2)), axis=1)
+        return _NeedleProfile(view.angles, dist, samples, background, reach_dist, full, base, candidates, off_dial)
+
+    def _describe(self, prof):
+        """Each candidate's index, strength, colour class, reach towards the scale and score."""
+        described = []
+        for i, strength in prof.candidates:
+            level = 0.5 * (prof.full[i] + prof.base)
+            strong = prof.dist[i] > level
+            colour = self._colour_class(np.median(prof.samples[i][strong], axis=0) if strong.any()
+                                        else prof.samples[i].mean(0), prof.background[i].mean(axis=0))
+            lo, hi = max(0, i - 2), i + 3
+            reach = float((prof.reach_dist[lo:hi].max(axis=0) > level).mean())
+            described.append({"index": i, "strength": strength, "colour": colour, "reach": reach,
+                              "score": strength * (0.5 + float(strong.mean())) * (0.3 + reach)
+                              * float(prof.off_dial[i])})
+        return described
+
+    def _ranked(self, described, pointer_colour, ignore_colour):
+        """The candidates the colour hints allow (all when none fits), best score first."""
+        pool = described
+        if pointer_colour:
+            pool = [d for d in described if self._matches(d["colour"], pointer_colour)] or described
+        if ignore_colour:
+            pool = [d for d in pool if not self._matches(d["colour"], ignore_colour)] or pool
+        return sorted(pool, key=lambda d: -d["score"])
+
+    def _needle_index(self, prof, index):
+        """Centre on the needle itself: of the peaks within +-8 deg of ``index``, the one farthest
+        from the dial's colour (a fringe beside the needle can win the profile)."""
+        near = np.arange(max(0, index - int(8.0 / self.step_deg)),
+                         min(len(prof.angles), index + int(8.0 / self.step_deg) + 1))
+        return int(near[np.argmax(prof.off_dial[near] * (prof.full[near] > prof.base))])
+
+    def _needle_width(self, prof, i, rad):
+        """The needle's width (px): its angular extent above half its height at each radius."""
+        window = np.arange(max(0, i - int(6.0 / self.step_deg)),
+                           min(len(prof.angles), i + int(6.0 / self.step_deg) + 1))
+        over = prof.dist[window] > 0.5 * (prof.dist[i][None] + np.median(prof.dist, axis=0)[None])
+        return float(np.median(over.sum(axis=0) * math.radians(self.step_deg) * self._radii * rad))
+
+    def _needle_lines(self, prof, view, i):
+        """The needle's whole, inner-half and outer-half centre lines, or None. Fitted to the samples
+        of the needle's own colour; to all of them where that leaves too few (a needle hardly apart
+        from the face)."""
+        k = len(self._radii) // 2
+        bands = ((0, len(self._radii)), (0, k), (k, len(self._radii)))
+        for like in (self._needle_likeness(prof.dist, prof.samples, prof.background, prof.full, prof.base, i),
+                     None):
+            lines = [self._line(prof.dist, prof.angles, i, view.hub, view.rad, lo, hi, like) for lo, hi in bands]
+            if all(line is not None for line in lines):
+                return lines
+        return None
+
+    def _pivot_detail(self, detail, lab, c, view, lines, look_for_hub):
+        """Adds how far the needle's line passes from the calibrated centre (and the hub) to ``detail``;
+        returns the foot of the line nearest the centre: the pivot seen in the picture."""
+        line, _, outer_line = lines
         # distances to the outer half's line alone: the inner samples, taken along rays from the hub
         # (or from a centre far off the pivot), pull the whole line through it, the outer ones hardly
         normal = np.array([-outer_line[1][1], outer_line[1][0]])
-        if read_about is not c:
-            detail["scale_about_hub"] = scale
-            detail["hub_off_line"] = float(abs(np.dot(np.asarray(hub) - outer_line[0], normal))) / rad
-            detail["hub_radius_unit"] = rad     # px per unit of hub_off_line and needle_width
-        # the needle's line passes closest to the calibrated centre here: the pivot seen in the picture
+        if view.about_hub:
+            detail["scale_about_hub"] = view.scale
+            detail["hub_off_line"] = float(abs(np.dot(np.asarray(view.hub) - outer_line[0], normal))) / view.rad
+            detail["hub_radius_unit"] = view.rad     # px per unit of hub_off_line and needle_width
         foot = line[0] + np.dot(np.asarray(c) - line[0], line[1]) * line[1]
-        detail["outer_line_miss"] = float(abs(np.dot(np.asarray(c) - outer_line[0], normal))) / rad
-        if look_for_hub and max(math.hypot(foot[0] - c[0], foot[1] - c[1]) / rad,
+        detail["outer_line_miss"] = float(abs(np.dot(np.asarray(c) - outer_line[0], normal))) / view.rad
+        if look_for_hub and max(math.hypot(foot[0] - c[0], foot[1] - c[1]) / view.rad,
                                 detail["outer_line_miss"]) > self.hub_search:
             # the needle's line misses the calibrated centre: the pivot may be elsewhere
-            detail["hub_candidates"] = find_hub(lab[:, :, 0], c, rad)
-        spread = float(np.percentile(full, 90) - base) + 1.0
-        contrast = (full[i] - base) / max(spread, 1.0)
+            detail["hub_candidates"] = find_hub(lab[:, :, 0], c, view.rad)
+        return foot
+
+    @staticmethod
+    def _confidence(prof, i, inner_angle, outer_angle):
+        """(contrast ratio, inner/outer disagreement in deg, confidence) of the needle at index ``i``."""
+        spread = float(np.percentile(prof.full, 90) - prof.base) + 1.0
+        contrast = (prof.full[i] - prof.base) / max(spread, 1.0)
         disagreement = abs(angle_diff(inner_angle, outer_angle))
-        confidence = 100.0 * min(1.0, contrast / 2.5) * math.exp(-disagreement / 10.0)
-        reason = ""
-        # a rival is another pointer: not the same needle's other edge, nor its counterweight
-        # (opposite, falling short of the scale)
+        return contrast, disagreement, 100.0 * min(1.0, contrast / 2.5) * math.exp(-disagreement / 10.0)
+
+    def _rival_reason(self, prof, described, pool, i, hinted):
+        """The "two pointers" reason when another pointer nearly as strong as the chosen one is seen
+        and colour hints do not tell them apart; "" otherwise. A rival is another pointer: not the
+        same needle's other edge, nor its counterweight (opposite, falling short of the scale)."""
+        chosen, angles = pool[0], prof.angles
         rivals = [d for d in pool[1:] if d["score"] > 0.6 * chosen["score"]
                   and abs(d["index"] - i) * self.step_deg > 2.0 * self.background_deg
                   and not (abs(abs(angle_diff(angles[d["index"]], angles[i])) - 180.0) < 15.0
                            and d["reach"] < 0.5 * chosen["reach"])]
-        hinted = bool(pointer_colour or ignore_colour) and any(d["colour"] != chosen["colour"] for d in described)
-        if rivals and not hinted:
-            gap = abs(angle_diff(angles[rivals[0]["index"]], angles[i]))
-            confidence = min(confidence, self.uncertain_below * 0.8)
-            reason = "two pointers %.0f deg apart (set pointer_colour / ignore_colour in the calibration)" % gap
-        detail["pointers"] = [(round(float(angles[d["index"]]) % 360.0, 1), round(d["score"], 1), d["reach"],
-                               d["colour"]) for d in described]
-        detail["needle_width"] = width_px / rad
-        detail.update({"angle": angle, "inner_angle": inner_angle, "outer_angle": outer_angle,
-                       "contrast": float(full[i] - base), "contrast_ratio": float(contrast),
-                       "disagreement": disagreement, "colour": chosen["colour"], "reach": chosen["reach"],
-                       "pivot": (float(foot[0]) / (width - 1), float(foot[1]) / (height - 1))})
-        if confidence < self.uncertain_below and not reason:
-            glare = float((cv2.cvtColor(face, cv2.COLOR_BGR2GRAY) >= 245).mean())
-            if glare > 0.05:
-                reason = "glare over %.0f %% of the dial" % (100.0 * glare)
-            elif contrast < 1.5:
-                reason = "needle not found (no clear needle against the face)"
-            else:
-                reason = "inner and outer needle halves disagree by %.1f deg" % disagreement
-        detail["reason"] = reason
-        return angle, _clip_confidence(confidence), detail
+        hinted = hinted and any(d["colour"] != chosen["colour"] for d in described)
+        if not rivals or hinted:
+            return ""
+        gap = abs(angle_diff(angles[rivals[0]["index"]], angles[i]))
+        return "two pointers %.0f deg apart (set pointer_colour / ignore_colour in the calibration)" % gap
+
+    @staticmethod
+    def _weak_reason(face, contrast, disagreement):
+        """Why a confidence is low when no rival pointer explains it."""
+        glare = float((cv2.cvtColor(face, cv2.COLOR_BGR2GRAY) >= 245).mean())
+        if glare > 0.05:
+            return "glare over %.0f %% of the dial" % (100.0 * glare)
+        if contrast < 1.5:
+            return "needle not found (no clear needle against the face)"
+        return "inner and outer needle halves disagree by %.1f deg" % disagreement
 
     def read(self, image, quad, scale, centre=(0.5, 0.5), radius=0.45, aspect=1.0, pointer_colour="",
              ignore_colour="", marks=None):

@@ -17,7 +17,7 @@ Motion rules:
 import math
 import threading
 
-from inspection_robot.command import CommandError, CommandTable, failed, success
+from inspection_robot.command import CommandError, CommandTable, failed, no_data, success
 from inspection_robot.interface import (ACK_SUCCESS, BATTERY_CHARGING, CIRCUIT_JOY_COMM_LOST, IMU_COMMANDS,
                                         MODE_CMD_ACQUIRE, MODE_JOY, MODE_NAMES, MODE_SERVER, WHEEL_STRAIGHT)
 from inspection_robot.motion.arbitration import REFUSAL_OFFLINE, ModeArbiter, refused
@@ -301,16 +301,10 @@ class MotionController(object):
         return ",".join(words)
 
     def _build_imu_table(self):
-        def no_data(handler):
-            def wrapped(data):
-                if data:
-                    raise CommandError("takes no data, got '%s'" % (data,))
-                return handler()
-            return wrapped
         table = CommandTable({
-            "calibrate": no_data(self._imu_calibrate),
-            "reset": no_data(self._imu_reset),
-            "query": no_data(self._imu_query),
+            "calibrate": no_data(lambda _data: self._imu_calibrate()),
+            "reset": no_data(lambda _data: self._imu_reset()),
+            "query": no_data(lambda _data: self._imu_query()),
         })
         assert set(table.names) == set(IMU_COMMANDS)
         return table

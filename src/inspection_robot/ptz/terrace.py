@@ -13,7 +13,8 @@ integer hundredths of a degree (``"12300"`` = 123.00 deg; decimals such as ``"12
 import math
 import time
 
-from inspection_robot.command import MAX_NUMBER_CHARS, CommandError, CommandTable, parse_choice, split_fields
+from inspection_robot.command import (MAX_NUMBER_CHARS, CommandError, CommandTable, no_data, parse_choice,
+                                      split_fields)
 from inspection_robot.interface import ANGLE_CENTI_DEG, TERRACE_SPEEDS
 from inspection_robot.ptz import pelco
 from inspection_robot.ptz.driver import HeadError
@@ -91,18 +92,18 @@ class Terrace(object):
 
     def table(self):
         return CommandTable({
-            "set_pan_angle": self.set_pan_angle, "get_pan_angle": self.get_pan_angle,
-            "set_tilt_angle": self.set_tilt_angle, "get_tilt_angle": self.get_tilt_angle,
-            "set_angle": self.set_angle, "get_angle": self.get_angle,
+            "set_pan_angle": self.set_pan_angle, "get_pan_angle": no_data(self.get_pan_angle),
+            "set_tilt_angle": self.set_tilt_angle, "get_tilt_angle": no_data(self.get_tilt_angle),
+            "set_angle": self.set_angle, "get_angle": no_data(self.get_angle),
             "pan_left": lambda data: self._move(data, pan=1),
             "pan_right": lambda data: self._move(data, pan=-1),
             "tilt_up": lambda data: self._move(data, tilt=-1),
             "tilt_down": lambda data: self._move(data, tilt=1),
-            "terrace_stop": self._no_data(self.head.stop),
-            "brush_on": self._no_data(lambda: self.head.set_wiper(True)),
-            "brush_off": self._no_data(lambda: self.head.set_wiper(False)),
-            "light_on": self._no_data(lambda: self.head.set_lamp(True)),
-            "light_off": self._no_data(lambda: self.head.set_lamp(False)),
+            "terrace_stop": _head_action(self.head.stop),
+            "brush_on": _head_action(lambda: self.head.set_wiper(True)),
+            "brush_off": _head_action(lambda: self.head.set_wiper(False)),
+            "light_on": _head_action(lambda: self.head.set_lamp(True)),
+            "light_off": _head_action(lambda: self.head.set_lamp(False)),
         })
 
     # --- parsing --------------------------------------------------------------------------
@@ -111,14 +112,6 @@ class Terrace(object):
 
     def _tilt(self, text):
         return parse_centi(text, "tilt", self.tilt_limits[0], self.tilt_limits[1])
-
-    @staticmethod
-    def _no_data(action):
-        def handler(data):
-            if data != "":
-                raise CommandError("this command takes no data, got '%s'" % (data,))
-            _device(action)
-        return handler
 
     # --- handlers -------------------------------------------------------------------------
     def set_pan_angle(self, data):
@@ -142,26 +135,18 @@ class Terrace(object):
         _device(lambda: self.head.set_tilt(tilt))
         self._wait_reached(pan, tilt)
 
-    def get_pan_angle(self, data):
-        self._no_args(data)
+    def get_pan_angle(self, _data):
         return format_centi(_device(self.head.query_pan))
 
-    def get_tilt_angle(self, data):
-        self._no_args(data)
+    def get_tilt_angle(self, _data):
         return format_centi(_device(self.head.query_tilt))
 
-    def get_angle(self, data):
-        self._no_args(data)
+    def get_angle(self, _data):
         return format_centi(*self.angles())
 
     def angles(self):
         """Current standard (pan, tilt) in hundredths; CommandError if the head does not answer."""
         return _device(self.head.query_pan), _device(self.head.query_tilt)
-
-    @staticmethod
-    def _no_args(data):
-        if data != "":
-            raise CommandError("this command takes no data, got '%s'" % (data,))
 
     def _move(self, data, pan=0, tilt=0):
         speed = self.speeds[parse_choice(data, "speed", TERRACE_SPEEDS)]
@@ -211,6 +196,13 @@ def _pan_distance(a, b):
 
 def _deg(centi):
     return "-" if centi is None else "%.2f" % (centi / float(ANGLE_CENTI_DEG))
+
+
+def _head_action(action):
+    """The handler of a command without data that runs one head action and answers nothing."""
+    def run(_data):
+        _device(action)
+    return no_data(run)
 
 
 def _device(action):

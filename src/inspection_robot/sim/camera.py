@@ -16,6 +16,35 @@ from inspection_robot.sim.render import PinholeCamera
 cv2 = lazy_import("cv2")   # on first use: a node registers before its ~360 libraries load
 
 
+class _Motion(object):
+    """A setting that moves continuously between start() and stop() (zoom, focus): ``law(value at
+    the start, direction +1/-1, seconds since)`` gives its value meanwhile, kept in range."""
+
+    def __init__(self, value, law, clock):
+        self.value = value
+        self._law = law
+        self._clock = clock
+        self._move = None     # (direction, start time, value at the start)
+
+    def current(self):
+        if self._move is None:
+            return self.value
+        direction, start, value0 = self._move
+        return self._law(value0, direction, self._clock() - start)
+
+    def set(self, value):
+        self._move = None
+        self.value = value
+
+    def start(self, direction):
+        self.value = self.current()
+        self._move = (1 if direction > 0 else -1, self._clock(), self.value)
+
+    def stop(self):
+        self.value = self.current()
+        self._move = None
+
+
 class SimulatedCamera(CameraDriver):
     def __init__(self, renderer, optics, view_source, sensor_height, zoom_rate=2.0, focus_rate=0x4000,
                  jpeg_quality=90, clock=time.monotonic):
@@ -31,10 +60,8 @@ class SimulatedCamera(CameraDriver):
         self._clock = clock
         self._lock = threading.RLock()
         self._render_lock = threading.Lock()
-        self._zoom = optics.min_zoom
-        self._zoom_move = None     # (direction, start time, start zoom)
-        self._focus = 0x6000
-        self._focus_move = None
+        self._zoom = _Motion(optics.min_zoom, self._zoom_at, clock)
+        self._focus = _Motion(0x6000, self._focus_at, clock)
         self.settings = {"focus_mode": "auto", "min_focus_distance": 150, "wdr_level": 50, "wdr_mode": False,
                          "exposure_mode": "auto", "iris": 400, "osd": True}
         self.failing = None        # fault injection: a reason string makes every request fail
@@ -43,78 +70,51 @@ class SimulatedCamera(CameraDriver):
         if self.failing:
             raise CameraError(self.failing)
 
-    # --- zoom -------------------------------------------------------------------------------
-    def _current_zoom(self):
-        if self._zoom_move is None:
-            return self._zoom
-        direction, start, zoom0 = self._zoom_move
-        zoom = zoom0 * self._zoom_rate ** (direction * (self._clock() - start))
+    def _zoom_at(self, zoom0, direction, seconds):
+        zoom = zoom0 * self._zoom_rate ** (direction * seconds)
         return min(max(zoom, self._optics.min_zoom), self._optics.max_zoom)
 
-    def set_zoom(self, zoom):
-        with self._lock:
-            self._check()
-            self._zoom_move = None
-            self._zoom = min(max(float(zoom), self._optics.min_zoom), self._optics.max_zoom)
-
-    def get_zoom(self):
-        with self._lock:
-            self._check()
-            return self._current_zoom()
-
-    def start_zoom(self, direction):
-        with self._lock:
-            self._check()
-            self._zoom = self._current_zoom()
-            self._zoom_move = (1 if direction > 0 else -1, self._clock(), self._zoom)
-
-    def stop_zoom(self):
-        with self._lock:
-            self._check()
-            self._zoom = self._current_zoom()
-            self._zoom_move = None
-
-    # --- focus ------------------------------------------------------------------------------
-    def _current_focus(self):
-        if self._focus_move is None:
-            return self._focus
-        direction, start, focus0 = self._focus_move
-        focus = focus0 + direction * self._focus_rate * (self._clock() - start)
+    def _focus_at(self, focus0, direction, seconds):
+        focus = focus0 + direction * self._focus_rate * seconds
         return int(round(min(max(focus, FOCUS_POSITION_MIN), FOCUS_POSITION_MAX)))
 
-    def set_focus_position(self, position):
+    def _checked(self, action, *args):
+        """``action(*args)`` under the lock, unless fault injection makes every request fail."""
         with self._lock:
             self._check()
-            self._focus_move = None
-            self._focus = int(position)
+            return action(*args)
+
+    # --- zoom and focus ---------------------------------------------------------------------
+    def set_zoom(self, zoom):
+        self._checked(self._zoom.set, min(max(float(zoom), self._optics.min_zoom), self._optics.max_zoom))
+
+    def get_zoom(self):
+        return self._checked(self._zoom.current)
+
+    def start_zoom(self, direction):
+        self._checked(self._zoom.start, direction)
+
+    def stop_zoom(self):
+        self._checked(self._zoom.stop)
+
+    def set_focus_position(self, position):
+        self._checked(self._focus.set, int(position))
 
     def get_focus_position(self):
-        with self._lock:
-            self._check()
-            return self._current_focus()
+        return self._checked(self._focus.current)
 
     def start_focus(self, direction):
-        with self._lock:
-            self._check()
-            self._focus = self._current_focus()
-            self._focus_move = (1 if direction > 0 else -1, self._clock(), self._focus)
+        self._checked(self._focus.start, direction)
 
     def stop_focus(self):
-        with self._lock:
-            self._check()
-            self._focus = self._current_focus()
-            self._focus_move = None
+        self._checked(self._focus.stop)
 
     # --- settings ---------------------------------------------------------------------------
     def _set(self, key, value):
-        with self._lock:
-            self._check()
-            self.settings[key] = value
+        self._checked(self.settings.__setitem__, key, value)
 
     def _get(self, key):
-        with self._lock:
-            self._check()
-            return self.settings[key]
+        return self._checked(self.settings.__getitem__, key)
 
     def set_focus_mode(self, mode):
         self._set("focus_mode", mode)
@@ -156,14 +156,13 @@ class SimulatedCamera(CameraDriver):
         return self._get("iris")
 
     def probe(self):
-        with self._lock:
-            self._check()
+        self._checked(lambda: None)
 
     # --- pictures ---------------------------------------------------------------------------
     def camera_for(self, width):
         """The PinholeCamera of the current view for a picture ``width`` px wide (native aspect)."""
         with self._lock:
-            zoom = self._current_zoom()
+            zoom = self._zoom.current()
         height = int(round(width * self._optics.height / float(self._optics.width)))
         pose, pan, tilt = self._view_source()
         return PinholeCamera.from_pose(pose, pan, tilt, self._sensor_height, self._optics.focal_px(zoom, width),

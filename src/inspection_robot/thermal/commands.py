@@ -9,6 +9,7 @@ replace one, as the camera's capture_picture. capture_picture writes the imager'
 the driver has one (``capture_jpeg``), else a false-colour picture of the frame. A request the
 imager reports it cannot do (ThermalUnsupported) answers ``failed``/``unsupported``.
 """
+import functools
 import io
 import os
 
@@ -80,7 +81,7 @@ class ThermalCommands(object):
     def __init__(self, driver, roots, health, width, height, measure_box_px=16, jpeg_quality=90):
         self._driver = driver
         self._roots = list(roots)
-        self._health = health
+        self._call = functools.partial(health.command, error=ThermalError, unsupported=ThermalUnsupported)
         self.width, self.height = int(width), int(height)
         self._box = int(measure_box_px)
         self._jpeg_quality = int(jpeg_quality)
@@ -101,18 +102,6 @@ class ThermalCommands(object):
             if not driver.supports(name):
                 handlers[name] = lambda data: failed(UNSUPPORTED)
         self.table = CommandTable(handlers)
-
-    def _call(self, method, *args):
-        try:
-            result = method(*args)
-        except ThermalUnsupported:
-            self._health.success()   # the imager answered: it cannot do this one
-            raise CommandError(UNSUPPORTED)
-        except ThermalError as err:
-            self._health.failure(err)
-            raise CommandError(str(err))
-        self._health.success()
-        return "" if result is None else result
 
     def _frame(self):
         frame = self._call(self._driver.frame)
