@@ -1,0 +1,84 @@
+"""One truth per shared word (#32): the words of task_manager's interface that several modules read
+(task states, reading statuses, alarm states: task/states.py) appear as string literals nowhere else
+in src/; every module imports them. A literal that only coincides with one of them (another
+vocabulary: set_level's "none", a driver named "none", the charge machine's own states, a JSON key
+name) is listed below with the reason; anything else fails with the file and line."""
+import ast
+import os
+
+from inspection_robot.task import states
+
+SRC = os.path.join(os.path.dirname(__file__), "..", "..", "src", "inspection_robot")
+OWNER = os.path.join("task", "states.py")
+WORDS = {value: name for name, value in vars(states).items()
+         if name.isupper() and isinstance(value, str) and name.split("_")[0] in ("STATE", "STATUS", "ALARM")}
+
+# (file under src/inspection_robot, word): why the literal is not one of task_manager's words
+COINCIDENCES = {
+    ("bridge/protocol.py", "none"): "rosbridge's status levels (set_level none)",
+    ("nodes/rosbridge_websocket.py", "none"): "rosbridge's status levels",
+    ("ros/bridge_backend.py", "none"): "rosbridge's compression none",
+    ("drivers.py", "none"): "a device fitted with no driver",
+    ("ptz/driver.py", "none"): "a Pelco-D head without a driver",
+    ("sim/pelco_head.py", "none"): "the simulated head's fault name",
+    ("ros/bag_reading.py", "none"): "bag_report's text for no value",
+    ("tools/bag_report.py", "none"): "bag_report's text for no value",
+    ("charge/machine.py", "idle"): "charge_status's own states (docs/interface.md, charge_control)",
+    ("charge/machine.py", "failed"): "charge_status's own states",
+    ("interface.py", "failed"): "the spec's ack word ACK_FAILED",
+    ("nav/follower.py", "done"): "the path follower's phase",
+    ("nodes/find_scale.py", "cancelled"): "an action goal's end, not a task's",
+    ("nodes/move_base.py", "cancelled"): "an action goal's end, not a task's",
+    ("inspection/reading.py", "uncertain"): "read_scale's result word (the ack text), which the store's status mirrors",
+    ("task/patrol.py", "failed"): "a step's outcome (OUTCOME_FAILED)",
+    ("task/patrol.py", "done"): "a task_status key name (FINAL_PROGRESS_KEYS)",
+    ("task/action.py", "done"): "a task_action feedback key name",
+    ("task/store.py", "alarm"): "a results column name",
+    ("nodes/task_manager.py", "read"): "a step timing's name",
+}
+
+
+def _key_constants(tree):
+    """ids of string constants used as keys: dict literal keys, subscripts, .get/.pop/.setdefault's key."""
+    keys = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Dict):
+            keys.update(id(k) for k in node.keys if k is not None)
+        elif isinstance(node, ast.Subscript):
+            index = node.slice
+            keys.add(id(index.value if type(index).__name__ == "Index" else index))   # ast.Index up to Python 3.8
+        elif isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute) and node.args \
+                and node.func.attr in ("get", "pop", "setdefault"):
+            keys.add(id(node.args[0]))
+    return keys
+
+
+def literals():
+    """(file, line, word) of every literal equal to a shared word outside its owner."""
+    found = []
+    for folder, _dirs, files in os.walk(SRC):
+        for name in sorted(files):
+            path = os.path.join(folder, name)
+            rel = os.path.relpath(path, SRC)
+            if not name.endswith(".py") or rel == OWNER:
+                continue
+            with open(path) as f:
+                tree = ast.parse(f.read(), path)
+            keys = _key_constants(tree)
+            for node in ast.walk(tree):
+                if isinstance(node, ast.Constant) and isinstance(node.value, str) and node.value in WORDS \
+                        and id(node) not in keys:
+                    found.append((rel.replace(os.sep, "/"), node.lineno, node.value))
+    return found
+
+
+def test_shared_words_are_imported_not_written_again():
+    assert len(WORDS) >= 15   # the table really holds the states, statuses and alarms
+    stray = ["%s:%d %r: import %s from task/states.py" % (rel, line, word, WORDS[word])
+             for rel, line, word in literals() if (rel, word) not in COINCIDENCES]
+    assert stray == []
+
+
+def test_every_listed_coincidence_still_exists():
+    present = {(rel, word) for rel, _line, word in literals()}
+    assert sorted(set(COINCIDENCES) - present) == []   # a stale entry would hide a future literal
