@@ -32,10 +32,10 @@ import rosnode
 import rospy
 from geometry_msgs.msg import TwistStamped
 
-from inspection_robot_testing.bridge_client import RawClient
 from inspection_robot.msg import ControlStatus, RobotStatus
-from inspection_robot.sim.fake_isapi import FakeIsapiCamera
 from inspection_robot.srv import ControlService
+from inspection_robot_testing.bridge_client import RawClient
+from inspection_robot_testing.fake_isapi import FakeIsapiCamera
 from inspection_robot_testing.soak_invariants import (Availability, FaultReasons, Ledger, MemoryGrowth, MotionAuthority,
                                                       NodeLiveness, held, table)
 
