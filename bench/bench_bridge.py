@@ -178,7 +178,7 @@ def burst(url, topic, n, bridge_pid=None, timeout=120.0):
     Returns (delivered/s, lost, out of order, delivered, status texts, bridge CPU µs per message).
     The CPU figure does not depend on how loaded the machine is, the rate does.
     """
-    from inspection_robot.bridge.client import RawClient
+    from inspection_robot_testing.bridge_client import RawClient
     client = RawClient(url)
     loopback_ready(client, topic)
     pad = "x" * 24
@@ -253,7 +253,7 @@ def image_client(url, kind, quiet_s=10.0, limit_s=150.0):
     came for ``quiet_s`` after the first; prints them as one JSON line.
     """
     from inspection_robot.bridge import cbor
-    from inspection_robot.bridge.client import CLOSED, RawClient
+    from inspection_robot_testing.bridge_client import CLOSED, RawClient
     from inspection_robot.bridge.compression import png_decode
 
     class TimedClient(RawClient):
@@ -361,7 +361,7 @@ def classic(bridge_url, counter):
     import rospy
     from std_msgs.msg import String
 
-    from inspection_robot.bridge.client import RawClient
+    from inspection_robot_testing.bridge_client import RawClient
     echo_port = start_echo_server()
     echo_url = "ws://127.0.0.1:%d" % echo_port
 

@@ -43,7 +43,7 @@ import time
 import cv2
 import numpy as np
 
-from inspection_robot.sim import fixtures as S
+from inspection_robot_testing import fixtures as S
 from inspection_robot.inspection.geometry import quad_iou, transform_quad
 from inspection_robot.inspection.locate import LocateError, Locator
 from inspection_robot.inspection.readers import PointerReader, ReadFailed

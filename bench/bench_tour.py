@@ -1,7 +1,7 @@
 """Patrol order benchmark: task_manager's ``order: "shortest"`` against the exact shortest order.
 
-On the simulated yard (its six stops from sim/yard_patrol.py, from and back to the home pose) and
-on random 200 m x 200 m yards (bench/nav_yards.py, 20 to 80 stops at random free cells, start and
+On the simulated yard (its six stops from inspection_robot_testing/yard_patrol.py, from and back to
+the home pose) and on random 200 m x 200 m yards (bench/nav_yards.py, 20 to 80 stops at random free cells, start and
 end at a random home), nav/tour.py's ``order_points`` orders the stops by the planner's path
 lengths. The exact optimum is an integer program (SciPy's HiGHS: one binary per leg, two legs per
 stop, subtour cuts added until none is violated) over the same lengths, found without planning
@@ -153,7 +153,7 @@ def main():
     parser.add_argument("--seeds", default="1", help="comma-separated yard seeds")
     args = parser.parse_args()
     ratios = []
-    from inspection_robot.sim.yard_patrol import YARD_STOPS
+    from inspection_robot_testing.yard_patrol import YARD_STOPS
     import yaml
     with open(os.path.join(ROOT, "config", "sim_site.yaml")) as f:   # the simulated yard's home
         home = yaml.safe_load(f)["task_manager"]["home_pose"]

@@ -2,6 +2,7 @@
 """Runs the INSTALLED robot (scripts/check-install calls it with only the install space sourced):
 
 1. the package, its Python modules and its version come from the install space, not the source tree;
+   the test harness (inspection_robot_testing, the soak) is not there;
 2. a site file with a misspelt key: robot.launch stops at parse time naming the key, no master, no node;
 3. install-service --print makes the boot unit for a good site file; its ExecStart (the command
    systemd runs) starts robot.launch (chassis driver ros, other devices none, a map of its own),
@@ -11,6 +12,7 @@
    listed in move_action/status. Prints one JSON line with the figures; exit 1 on any failure.
 """
 import argparse
+import importlib.util
 import json
 import os
 import shlex
@@ -53,6 +55,11 @@ def check_installed(prefix):
         fail("Python package from %s, not the install space" % inspection_robot.__file__)
     if version() == UNKNOWN:
         fail("no build version in the install space")
+    harness = importlib.util.find_spec("inspection_robot_testing")
+    if harness is not None:
+        fail("the test harness is installed (%s)" % harness.origin)
+    if os.path.exists(os.path.join(prefix, "lib", "inspection_robot", "soak")):
+        fail("the soak is installed (%s/lib/inspection_robot/soak)" % prefix)
     return share, version()
 
 

@@ -10,8 +10,8 @@ import time
 import roslibpy
 
 from inspection_robot.sim.world import World
-from inspection_robot.sim.yard_patrol import (YARD_STOPS, PatrolClient, build_task, default_world_file,
-                                              preset_count, progress_bar)
+from inspection_robot_testing.yard_patrol import (YARD_STOPS, PatrolClient, build_task, default_world_file,
+                                                  preset_count, progress_bar)
 
 
 def connect(port, timeout):

@@ -20,7 +20,7 @@ import rosnode
 import rospy
 import rostest
 
-from inspection_robot.bridge.client import CLOSED, RawClient
+from inspection_robot_testing.bridge_client import CLOSED, RawClient
 from inspection_robot.interface import MODE_SERVER, MODE_TASK
 from inspection_robot.msg import RobotStatus
 from inspection_robot.recording.compare import transition_differences, transitions

@@ -19,7 +19,7 @@ import rostest
 from diagnostic_msgs.msg import DiagnosticArray
 from std_msgs.msg import String
 
-from inspection_robot.bridge.client import CLOSED, RawClient, SocketClient
+from inspection_robot_testing.bridge_client import CLOSED, RawClient, SocketClient
 from rostest_helpers import wait_for
 
 PAD = "x" * 24

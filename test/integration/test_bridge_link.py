@@ -16,7 +16,7 @@ import rostest
 from std_msgs.msg import Int32, String
 
 from inspection_robot.bridge import cbor
-from inspection_robot.bridge.client import CLOSED, RawClient
+from inspection_robot_testing.bridge_client import CLOSED, RawClient
 from inspection_robot.bridge.compression import png_decode
 from inspection_robot.interface import BACKEND_TOPIC_TYPES
 from inspection_robot.msg import GeneralAck, GeneralAction, GeneralCmd, GeneralFeedback, GeneralResult, GeneralTopic

@@ -15,7 +15,7 @@ import yaml
 
 from inspection_robot.interface import SENSOR_CAMERA_ALARM
 from inspection_robot.msg import GeneralAck, GeneralCmd, RobotStatus
-from inspection_robot.sim.fake_isapi import FakeIsapiCamera
+from inspection_robot_testing.fake_isapi import FakeIsapiCamera
 from rostest_helpers import Latest, control_proxy, wait_for, wait_subscribed
 
 ROOT = "/tmp/ir_camera_isapi_rostest"

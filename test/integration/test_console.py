@@ -49,7 +49,7 @@ ws.onopen = () => {
   ws.send(JSON.stringify({op: 'publish', topic: '/move_cmd', msg: Object.assign({velocity_x: 0.5}, header)}));
 };
 ws.onclose = () => { window.attack.done = true; };
-</script>"""   # a reachable stop of the yard (sim/yard_patrol.py), ~11 m from the start
+</script>"""   # a reachable stop of the yard (inspection_robot_testing/yard_patrol.py), ~11 m from the start
 
 
 def bridge_port(node):

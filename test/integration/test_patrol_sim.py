@@ -29,8 +29,8 @@ from geometry_msgs.msg import PoseWithCovarianceStamped
 
 from inspection_robot.sim.world import World
 from inspection_robot.srv import ControlService
-from inspection_robot.sim.yard_patrol import (YARD_STOPS, PatrolClient, build_task, default_world_file,
-                                              expected_value)
+from inspection_robot_testing.yard_patrol import (YARD_STOPS, PatrolClient, build_task, default_world_file,
+                                                  expected_value)
 from rostest_helpers import Latest, wait_for
 
 OUT_OF_BAND = ("transformer_1/oil_temp", "118")

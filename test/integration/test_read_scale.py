@@ -10,7 +10,7 @@ import numpy as np
 import rospy
 import rostest
 
-from inspection_robot.sim import fixtures as S
+from inspection_robot_testing import fixtures as S
 from inspection_robot.inspection.geometry import flat_from_quads
 from inspection_robot.msg import ReadScaleAck, ReadScaleCmd
 

@@ -18,7 +18,7 @@ import rostest
 from nav_msgs.msg import OccupancyGrid
 from std_srvs.srv import SetBool
 
-from inspection_robot.bridge.client import CLOSED, RawClient
+from inspection_robot_testing.bridge_client import CLOSED, RawClient
 from inspection_robot.msg import GeneralAck, GeneralCmd, RobotStatus
 from inspection_robot.nav.virtual_obstacles import REPLAY_REFUSAL
 from inspection_robot.recording.compare import compare_runs, rising_edges

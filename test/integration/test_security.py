@@ -40,7 +40,7 @@ import rostest
 from geometry_msgs.msg import PoseWithCovarianceStamped, TwistStamped
 from sensor_msgs.msg import JointState
 
-from inspection_robot.bridge.client import CLOSED, RawClient
+from inspection_robot_testing.bridge_client import CLOSED, RawClient
 from inspection_robot.files import write_atomic
 from inspection_robot.inspection.preset import PresetInfo
 from inspection_robot.msg import RobotStatus

@@ -19,7 +19,7 @@ from sensor_msgs.msg import Image
 
 from inspection_robot.interface import SENSOR_THERMAL_ALARM
 from inspection_robot.msg import GeneralTopic, RobotStatus
-from inspection_robot.sim.fake_isapi import FakeIsapiCamera
+from inspection_robot_testing.fake_isapi import FakeIsapiCamera
 from inspection_robot.thermal.commands import load_radiometric
 from rostest_helpers import Latest, control_proxy, wait_for
 

@@ -7,7 +7,8 @@ import os
 import re
 
 ROS_IMPORT = re.compile(r"^\s*(?:import|from)\s+(rospy|genpy|roslib|rosgraph|rosservice|rostest|actionlib|tf2_ros|"
-                        r"diagnostic_updater|\w+_msgs|inspection_robot\.(?:msg|srv|ros)\b)", re.M)
+                        r"diagnostic_updater|\w+_msgs|inspection_robot\.(?:msg|srv|ros)\b|"
+                        r"inspection_robot_testing\.ros\b)", re.M)
 
 
 def _ros_available():

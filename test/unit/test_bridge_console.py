@@ -6,7 +6,7 @@ import urllib.request
 
 import pytest
 
-from inspection_robot.bridge.client import RawClient
+from inspection_robot_testing.bridge_client import RawClient
 from inspection_robot.bridge.console import console_routes, missing_files
 from test_bridge_server import LiveServer
 

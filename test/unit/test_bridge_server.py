@@ -16,7 +16,7 @@ import tornado.httpclient
 import tornado.ioloop
 
 from bridge_fakes import FakeBackend
-from inspection_robot.bridge.client import CLOSED, RawClient, SocketClient
+from inspection_robot_testing.bridge_client import CLOSED, RawClient, SocketClient
 from inspection_robot.bridge.protocol import Outgoing, Session, SessionConfig
 from inspection_robot.bridge.compat_tornado import ws_frame
 from inspection_robot.bridge.server import BridgeServer, LoopPoster, SendQueue, make_ssl_context

@@ -10,7 +10,7 @@ from inspection_robot.camera.driver import CameraError, DeviceHealth
 from inspection_robot.camera.isapi import IsapiCamera
 from inspection_robot.camera.optics import ZoomOptics
 from inspection_robot.sim.camera import SimulatedCamera
-from inspection_robot.sim.fake_isapi import FakeIsapiCamera
+from inspection_robot_testing.fake_isapi import FakeIsapiCamera
 from inspection_robot.sim.render import Renderer, ThermalRenderer
 from inspection_robot.sim.thermal import SimulatedImager
 from inspection_robot.sim.world import World

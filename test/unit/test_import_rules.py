@@ -1,4 +1,5 @@
-"""Imports go one way: only the ROS wing (nodes/, ros/) may import ROS; the layout holds.
+"""Imports go one way: only the ROS wing (nodes/, ros/) may import ROS; the layout holds; the robot's
+package never imports the test harness (src/inspection_robot_testing) and setup.py never installs it.
 
 The list of ROS modules is every ROS package that package.xml declares plus the client library's
 own modules that a package gets without declaring them (genpy, roslib, rosgraph ...), so a new
@@ -6,10 +7,16 @@ dependency is covered the day it is declared.
 """
 import ast
 import os
+import runpy
+import sys
+import types
 import xml.etree.ElementTree as ElementTree
+from unittest import mock
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 SRC = os.path.join(ROOT, "src", "inspection_robot")
+# The test harness: soak, fixtures, demo and test clients; its own ROS side lives in its ros/.
+HARNESS = os.path.join(ROOT, "src", "inspection_robot_testing")
 # Modules every rospy installation brings along, declared or not.
 ROS_CLIENT_MODULES = {"rospy", "genpy", "genmsg", "roslib", "rosgraph", "rospkg", "rosservice",
                       "rostopic", "rosnode", "rosparam", "roslaunch", "rosmsg", "rosbag", "rostest",
@@ -44,12 +51,12 @@ def imported_modules(path):
             yield node.module
 
 
-def python_files():
-    for folder, _dirs, files in os.walk(SRC):
+def python_files(top=SRC):
+    for folder, _dirs, files in os.walk(top):
         for name in files:
             if name.endswith(".py"):
                 path = os.path.join(folder, name)
-                yield os.path.relpath(path, SRC), path
+                yield os.path.relpath(path, top), path
 
 
 def is_ros_import(module, ros_names):
@@ -71,6 +78,45 @@ def test_only_the_ros_wing_imports_ros():
         offenders.extend("%s imports %s" % (rel, module) for module in imported_modules(path)
                          if is_ros_import(module, names))
     assert offenders == []
+
+
+def test_only_the_harness_ros_wing_imports_ros():
+    names = ros_modules()
+    offenders = []
+    for rel, path in python_files(HARNESS):
+        if rel.split(os.sep)[0] != "ros":
+            offenders.extend("%s imports %s" % (rel, module) for module in imported_modules(path)
+                             if is_ros_import(module, names))
+    assert offenders == []
+
+
+def test_the_robot_never_imports_the_harness():
+    sources = [path for _rel, path in python_files()]
+    sources += [os.path.join(ROOT, folder, name) for folder in ("nodes", "tools")
+                for name in os.listdir(os.path.join(ROOT, folder))]
+    offenders = ["%s imports %s" % (os.path.relpath(path, ROOT), module) for path in sources
+                 for module in imported_modules(path) if module.split(".")[0] == "inspection_robot_testing"]
+    assert offenders == []
+
+
+def test_setup_installs_the_package_without_the_harness():
+    """setup.py (what catkin_python_setup installs) names every inspection_robot package and no other."""
+    captured = {}
+    fake = types.ModuleType("catkin_pkg.python_setup")
+    fake.generate_distutils_setup = lambda **kwargs: kwargs
+    with mock.patch.dict(sys.modules, {"catkin_pkg": types.ModuleType("catkin_pkg"),
+                                       "catkin_pkg.python_setup": fake}), \
+            mock.patch("setuptools.setup", side_effect=captured.update):
+        cwd = os.getcwd()
+        os.chdir(ROOT)
+        try:
+            runpy.run_path(os.path.join(ROOT, "setup.py"))
+        finally:
+            os.chdir(cwd)
+    expected = {os.path.relpath(folder, os.path.join(ROOT, "src")).replace(os.sep, ".")
+                for folder, _dirs, files in os.walk(SRC) if "__init__.py" in files}
+    assert set(captured["packages"]) == expected
+    assert "inspection_robot.sim" in expected and "inspection_robot_testing" not in expected
 
 
 def test_the_rule_catches_a_leak():
@@ -107,7 +153,7 @@ def test_tools_have_their_module():
 
 def test_every_module_has_a_docstring():
     missing = []
-    for rel, path in python_files():
+    for rel, path in list(python_files()) + list(python_files(HARNESS)):
         with open(path) as f:
             if ast.get_docstring(ast.parse(f.read())) is None:
                 missing.append(rel)

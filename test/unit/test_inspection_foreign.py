@@ -2,7 +2,7 @@
 import cv2
 import numpy as np
 
-from inspection_robot.sim import fixtures as S
+from inspection_robot_testing import fixtures as S
 from inspection_robot.inspection.foreign import detect_foreign
 from inspection_robot.inspection.geometry import quad_iou, transform_quad
 from inspection_robot.inspection.locate import Locator

@@ -4,7 +4,7 @@ import cv2
 import numpy as np
 import pytest
 
-from inspection_robot.sim import fixtures as S
+from inspection_robot_testing import fixtures as S
 from inspection_robot.inspection.gauge import GaugeScale
 from inspection_robot.inspection.readers import PointerReader, find_hub, scale_about
 

@@ -3,7 +3,7 @@ import cv2
 import numpy as np
 import pytest
 
-from inspection_robot.sim import fixtures as S
+from inspection_robot_testing import fixtures as S
 from inspection_robot.inspection.geometry import quad_iou, transform_quad
 from inspection_robot.inspection.locate import LocateError, Locator
 from inspection_robot.inspection.readers import PointerReader

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 import yaml
 
-from inspection_robot.sim import fixtures as S
+from inspection_robot_testing import fixtures as S
 from inspection_robot.inspection.calibration import derive_zoom_boxes
 from inspection_robot.inspection.preset import CALIB_INI, PresetDirWriter, PresetError, PresetInfo, \
     check_preset_id, load_preset

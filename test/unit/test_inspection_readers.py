@@ -3,7 +3,7 @@ import cv2
 import numpy as np
 import pytest
 
-from inspection_robot.sim import fixtures as S
+from inspection_robot_testing import fixtures as S
 from inspection_robot.inspection.gauge import GaugeScale
 from inspection_robot.inspection.readers import LAMP_CODES, PointerReader, read_lamp, read_switch, \
     read_thermal_max, switch_patch

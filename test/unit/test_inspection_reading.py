@@ -5,7 +5,7 @@ import cv2
 import numpy as np
 import pytest
 
-from inspection_robot.sim import fixtures as S
+from inspection_robot_testing import fixtures as S
 from inspection_robot.inspection.geometry import flat_from_quads
 from inspection_robot.inspection.locate import Locator
 from inspection_robot.inspection.preset import load_preset

@@ -1,6 +1,6 @@
-"""sim.soak: the chaos soak's invariant checkers, fed with hand-made observation sequences."""
-from inspection_robot.sim.soak import (Availability, FaultReasons, Ledger, MemoryGrowth, MotionAuthority, NodeLiveness,
-                                       held, table)
+"""soak_invariants: the chaos soak's invariant checkers, fed with hand-made observation sequences."""
+from inspection_robot_testing.soak_invariants import (Availability, FaultReasons, Ledger, MemoryGrowth, MotionAuthority,
+                                                      NodeLiveness, held, table)
 
 CYCLE = 0.02
 

@@ -11,7 +11,7 @@ import pytest
 from inspection_robot.camera.driver import DeviceHealth
 from inspection_robot.files import read_secret_file
 from inspection_robot.isapi import multipart_parts, response_status
-from inspection_robot.sim.fake_isapi import FakeIsapiCamera, picture_with_append_data, temperature_matrix_bytes, \
+from inspection_robot_testing.fake_isapi import FakeIsapiCamera, picture_with_append_data, temperature_matrix_bytes, \
     test_picture as visible_picture, sample_thermal_frame
 from inspection_robot.thermal.commands import ThermalCommands, load_radiometric
 from inspection_robot.thermal.driver import ThermalError, ThermalRefused, ThermalUnreachable

@@ -1,4 +1,4 @@
-"""Invariants of the chaos soak (tools/soak.py), checked continuously from timestamped observations.
+"""Invariants of the chaos soak (soak.py), checked continuously from timestamped observations.
 
 Pure: the soak feeds what it sees (driver commands, stop causes, node pids, resident memory,
 objects it created and what the robot lists) and asks for violations; times are seconds on one

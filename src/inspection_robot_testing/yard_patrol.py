@@ -302,9 +302,9 @@ def progress_bar(status, width=30):
 
 
 def config_file(name):
-    """A file of the package's config/ folder (source tree or devel space)."""
+    """A file of the package's config/ folder: the harness always runs from the source tree (src/<this>)."""
     here = os.path.dirname(os.path.abspath(__file__))
-    return os.path.normpath(os.path.join(here, "..", "..", "..", "config", name))
+    return os.path.normpath(os.path.join(here, "..", "..", "config", name))
 
 
 def default_world_file():

@@ -1,13 +1,13 @@
 """soak: the command line of the chaos soak of the simulated robot (ros/soak.py drives it; scripts/soak
-starts sim.launch and this).
+starts sim.launch and this). Test harness, not installed: run from the devel space, not with rosrun.
 
-Usage: soak --minutes M [--seed S] [--warmup S] [--isapi-port P] [--faults WORD,...]
-       (inside scripts/rosenv, sim.launch running; scripts/soak starts both)
+Usage: python3 -m inspection_robot_testing.soak --minutes M [--seed S] [--warmup S] [--isapi-port P]
+       [--faults WORD,...]   (inside scripts/rosenv, sim.launch running; scripts/soak starts both)
 """
 import argparse
 import sys
 
-from inspection_robot.ros import soak
+from inspection_robot_testing.ros import soak
 
 
 def main():
@@ -23,3 +23,7 @@ def main():
                         help="only the faults whose names contain one of these comma-separated words (e.g. kill)")
     # roslaunch appends __name:=... and __log:=... when it runs this as a node
     soak.run(parser.parse_args([a for a in sys.argv[1:] if ":=" not in a]))
+
+
+if __name__ == "__main__":
+    main()

@@ -7,12 +7,13 @@ the real ISAPI driver against a fake ISAPI camera served here, --isapi-port), a 
 roslaunch respawns it; respawned = a new process registered with the master with every topic and
 service the node had before), the backend link dropped and back, the heartbeat stopped during backend
 control, a hard e-stop during motion, 100 websocket clients plus one client that never reads.
-Invariants (inspection_robot.sim.soak) are checked all along from ROS-side observations: every
-command reaching the chassis driver (sim/chassis_cmd), robot_status, node pids and resident memory
-(/proc), what the camera answers during its faults. Prints the table of faults
+Invariants (inspection_robot_testing.soak_invariants) are checked all along from ROS-side
+observations: every command reaching the chassis driver (sim/chassis_cmd), robot_status, node pids
+and resident memory (/proc), what the camera answers during its faults. Prints the table of faults
 and invariants; exit status 0 only when every invariant was exercised and held.
 
-Its command line is tools/soak.py; this module is its ROS side (rospy, rosnode, the message classes).
+Its command line is inspection_robot_testing/soak.py; this module is its ROS side (rospy, rosnode,
+the message classes).
 """
 import base64
 import json
@@ -31,13 +32,13 @@ import rosnode
 import rospy
 from geometry_msgs.msg import TwistStamped
 
-from inspection_robot.bridge.client import RawClient
 from inspection_robot.interface import ACK_FAILED, ACK_SUCCESS, MODE_CMD_ACQUIRE, MODE_NAMES, MODE_SERVER, SENDER_SERVER
 from inspection_robot.msg import ControlStatus, RobotStatus
-from inspection_robot.sim.fake_isapi import FakeIsapiCamera
-from inspection_robot.sim.soak import (Availability, FaultReasons, Ledger, MemoryGrowth, MotionAuthority, NodeLiveness,
-                                       held, table)
 from inspection_robot.srv import ControlService
+from inspection_robot_testing.bridge_client import RawClient
+from inspection_robot_testing.fake_isapi import FakeIsapiCamera
+from inspection_robot_testing.soak_invariants import (Availability, FaultReasons, Ledger, MemoryGrowth, MotionAuthority,
+                                                      NodeLiveness, held, table)
 
 NODE_NAME = "soak"
 CYCLE = 0.02            # s, robot_control's control cycle (config/robot_control.yaml rate 50 Hz)
@@ -492,7 +493,7 @@ def _call_topic_vo(backend):
 
 
 def run(args):
-    """The soak with the command line's ``args`` (tools/soak.py); exits with 0 only when every invariant held."""
+    """The soak with the command line's ``args`` (soak.py); exits with 0 only when every invariant held."""
     camera = None
     if args.isapi_port is not None:   # first: camera_node is already trying to reach it
         camera = FakeIsapiCamera(user=ISAPI_USER, password=ISAPI_PASSWORD, port=args.isapi_port).start()
