@@ -166,9 +166,11 @@ class FilesLinkTest(unittest.TestCase):
         self.assertEqual(out["targets"][0]["name"], "oil")
         ack, listing = self.call(self.files, "list", path=PRESET)
         self.assertIn(CALIB_INI, [e["name"] for e in listing["entries"]])
-        ack, out = self.call(self.calibration, "apply", preset="captures")
+        ack, out = self.call(self.calibration, "apply", preset="../captures")   # a path leaving the preset roots
         self.assertEqual(ack, "failed")
         self.assertIn("outside the allowed roots", out)
+        ack, out = self.call(self.calibration, "apply", preset="captures")   # a preset id: presets/captures
+        self.assertEqual((ack, out), ("failed", "preset directory not found: presets/captures"))
 
 
 if __name__ == "__main__":
