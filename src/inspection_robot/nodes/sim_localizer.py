@@ -1,10 +1,10 @@
 """sim_localizer: a noisy simulated localizer (logic: sim/noisy_localizer.py).
 
 Subscribes:  sim/true_pose (geometry_msgs/PoseWithCovarianceStamped) from the chassis simulator
-Publishes:   ~output_topic (geometry_msgs/PoseWithCovarianceStamped, frame map, localization/pose) at
+Publishes:   ~output_topic (geometry_msgs/PoseWithCovarianceStamped, frame map, sim/localization/pose) at
              ~rate while true poses arrive, each with gaussian noise and the matching covariance
 Parameters:  ~sigma_xy (m, 0.02), ~sigma_yaw (rad, 0.0087), ~rate (Hz, 10), ~latency (s, 0.05),
-             ~output_topic (localization/pose), ~seed (none: random)
+             ~output_topic (sim/localization/pose), ~seed (none: random)
 """
 import rospy
 from geometry_msgs.msg import PoseWithCovarianceStamped
@@ -48,7 +48,7 @@ def main():
     seed = rospy.get_param("~seed", None)
     localizer = NoisyLocalizer(float(rospy.get_param("~sigma_xy", 0.02)), float(rospy.get_param("~sigma_yaw", 0.0087)),
                                float(rospy.get_param("~latency", 0.05)), seed)
-    output_topic = rospy.get_param("~output_topic", "localization/pose")
+    output_topic = rospy.get_param("~output_topic", "sim/localization/pose")
     SimLocalizer(localizer, rate_hz, output_topic)
     rospy.loginfo("sim_localizer: sim/true_pose + noise (%.3f m, %.4f rad, %.2f s late, %.0f Hz) -> %s",
                   localizer.sigma_xy, localizer.sigma_yaw, localizer.latency, rate_hz,
