@@ -1,6 +1,7 @@
 """move_base: map, virtual obstacles, global planning, path following and move_action.
 
-Subscribes:  <~pose_topic> (geometry_msgs/PoseWithCovarianceStamped) robot pose in map
+Subscribes:  <~pose_topic> (geometry_msgs/PoseWithCovarianceStamped) robot pose, frame map (docs/interface.md
+             "Localization contract")
              obstacle_status (ObstacleStatus) from obstacle_detector
              control_status (ControlStatus) from robot_control: a goal pauses while mode != 0 (task)
              control_cmd (GeneralCmd): enable_/disable_/switch_obstacle toggle the 3-D obstacle enable bit
