@@ -44,7 +44,12 @@ class NavigationTest(unittest.TestCase):
         cls.feedback = []
         cls.lock = threading.Lock()
         cls.relay = rospy.Publisher("test_pose", PoseWithCovarianceStamped, queue_size=10)
+        # what move_base drives on: ground truth, or sim_localizer's noisy pose (navigation.test localizer:=noisy)
+        relay_from = rospy.get_param("~relay_from", "sim/true_pose")
         rospy.Subscriber("sim/true_pose", PoseWithCovarianceStamped, cls.on_true_pose, queue_size=10)
+        if relay_from != "sim/true_pose":
+            rospy.Subscriber(relay_from, PoseWithCovarianceStamped, cls.on_relayed, queue_size=10)
+        cls.relay_truth = relay_from == "sim/true_pose"
         cls.status = Latest("nav_status", NavStatus)
         cls.acks = Latest("virtual_obstacle_ack", GeneralAck)
         cls.plan = Latest("plan", Path)
@@ -73,6 +78,11 @@ class NavigationTest(unittest.TestCase):
     def on_true_pose(cls, msg):
         cls.true_pose = (msg.pose.pose.position.x, msg.pose.pose.position.y, yaw_of(msg.pose.pose.orientation))
         cls.track.append((msg.header.stamp.to_sec(),) + cls.true_pose)
+        if cls.relay_truth:
+            cls.on_relayed(msg)
+
+    @classmethod
+    def on_relayed(cls, msg):
         if cls.relay_mode == "pass" and not rospy.is_shutdown():
             try:
                 cls.relay.publish(msg)

@@ -1,7 +1,11 @@
 """Localization health: a pose is trusted while it is fresh and its covariance is small.
 
-Fed with every pose message (time, x, y, yaw, 6x6 row-major covariance); ``problem(now)``
-names why localization counts as lost (nav_warn bit1, goal aborted with ret_code "2"), or is None.
+Fed with every pose message (time, x, y, yaw, 6x6 row-major covariance, header frame);
+``problem(now)`` names why localization counts as lost (nav_warn bit1, goal aborted with ret_code
+"2"), or is None. The contract a localizer must meet (docs/interface.md "Localization contract"):
+a pose in frame ``map`` at least every ``stale_timeout`` s, with a covariance that is either all
+zero (unknown: trusted) or small enough; ``source`` names the topic and its setting in the reasons
+so that a localizer that never publishes is found from nav_status alone.
 ``location_target`` turns a location_cmd into the pose handed to the localizer.
 """
 import math
@@ -10,9 +14,12 @@ from inspection_robot.angles import wrap_angle
 from inspection_robot.command import CommandError, parse_float, split_fields
 from inspection_robot.interface import LOCATION_CMD_SET, LOCATION_INIT_POSE, LOCATION_LAST_POSE
 
+MAP_FRAME = "map"   # the one frame move_base plans, follows and reports in
+
 
 class LocalizationMonitor(object):
-    def __init__(self, max_xy_std_m, max_yaw_std_rad, stale_timeout_s):
+    def __init__(self, max_xy_std_m, max_yaw_std_rad, stale_timeout_s, source="the pose topic"):
+        self.source = source
         self.max_xy_std = float(max_xy_std_m)
         self.max_yaw_std = float(max_yaw_std_rad)
         self.stale_timeout = float(stale_timeout_s)
@@ -20,7 +27,12 @@ class LocalizationMonitor(object):
         self.stamp = None      # when it arrived (the ``now`` given to update)
         self._covariance_problem = None
 
-    def update(self, now, x, y, yaw, covariance):
+    def update(self, now, x, y, yaw, covariance, frame=MAP_FRAME):
+        if frame.lstrip("/") != MAP_FRAME:
+            # a pose in odom or a sensor frame would steer the robot to the wrong place: never used
+            self._covariance_problem = "pose from %s is in frame '%s', not '%s'" % (self.source, frame, MAP_FRAME)
+            self.stamp = now
+            return
         if not all(math.isfinite(v) for v in (x, y, yaw)):
             self._covariance_problem = "pose is not finite"
             self.stamp = now
@@ -41,10 +53,10 @@ class LocalizationMonitor(object):
 
     def problem(self, now):
         if self.stamp is None:
-            return "no pose received yet"
+            return "no pose received yet from %s" % self.source
         age = now - self.stamp
         if age > self.stale_timeout:
-            return "pose is stale (%.1f s old)" % age
+            return "pose from %s is stale (%.1f s old)" % (self.source, age)
         return self._covariance_problem
 
     def lost(self, now):

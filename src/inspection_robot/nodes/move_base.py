@@ -1,6 +1,7 @@
 """move_base: map, virtual obstacles, global planning, path following and move_action.
 
-Subscribes:  <~pose_topic> (geometry_msgs/PoseWithCovarianceStamped) robot pose in map
+Subscribes:  <~pose_topic> (geometry_msgs/PoseWithCovarianceStamped) robot pose, frame map (docs/interface.md
+             "Localization contract")
              obstacle_status (ObstacleStatus) from obstacle_detector
              control_status (ControlStatus) from robot_control: a goal pauses while mode != 0 (task)
              control_cmd (GeneralCmd): enable_/disable_/switch_obstacle toggle the 3-D obstacle enable bit
@@ -138,7 +139,8 @@ class MoveBase(object):
     def _on_pose(self, msg):
         p = msg.pose.pose
         yaw = yaw_from_quaternion(p.orientation.x, p.orientation.y, p.orientation.z, p.orientation.w)
-        self.loc.update(time.monotonic(), p.position.x, p.position.y, yaw, list(msg.pose.covariance))
+        self.loc.update(time.monotonic(), p.position.x, p.position.y, yaw, list(msg.pose.covariance),
+                        msg.header.frame_id)
 
     def _on_obstacle(self, msg):
         self.obstacle = bool(msg.obstacle)
@@ -225,6 +227,9 @@ class MoveBase(object):
         return warn
 
     def _publish_status(self, _event=None):
+        problem = self.loc.problem(time.monotonic())
+        if problem:
+            rospy.logwarn_throttle(30.0, "move_base: localization lost (no goal can run): %s" % problem)
         msg = NavStatus(sender=SENDER_MOVE_BASE, nav_status=self.enable_bits, nav_warn=self.nav_warn())
         msg.header.stamp = rospy.Time.now()
         if self.loc.pose is not None:
@@ -374,7 +379,8 @@ def _params():
     for name, default in floats.items():
         cfg[name] = float(rospy.get_param("~" + name, default))
     for name in ("control_rate", "status_rate", "last_pose_period", "feedback_period", "max_velocity_x",
-                 "max_velocity_yaw", "default_velocity_x", "default_velocity_yaw"):
+                 "max_velocity_yaw", "default_velocity_x", "default_velocity_yaw", "pose_timeout", "max_xy_std",
+                 "max_yaw_std"):
         if cfg[name] <= 0:
             raise ValueError("~%s must be positive" % name)
     if len(cfg["init_pose"]) != 3:
@@ -395,7 +401,8 @@ def main():
         rename_durable(cfg["virtual_obstacles_file"], aside)
         rospy.logerr("move_base: virtual obstacles not loaded (file moved to %s), starting without them: %s",
                      aside, err)
-    localization = LocalizationMonitor(cfg["max_xy_std"], cfg["max_yaw_std"], cfg["pose_timeout"])
+    localization = LocalizationMonitor(cfg["max_xy_std"], cfg["max_yaw_std"], cfg["pose_timeout"],
+                                       "%s (setting move_base/pose_topic)" % rospy.resolve_name(cfg["pose_topic"]))
     node = MoveBase(grid, obstacles, localization, follower_params, cfg)
     obstacles.on_change = node.on_virtual_change
     costmap = Costmap(grid, cfg["robot_radius"], cfg["safety_margin"], cfg["margin_cost"])
