@@ -215,6 +215,12 @@ BACKEND_TOPIC_TYPES = dict(
         ("preset_scale_cmd", "inspection_robot/PresetScaleCmd"), ("read_scale_cmd", "inspection_robot/ReadScaleCmd"),
         ("voice_cmd", "inspection_robot/VoiceCmd"), ("server_status", "inspection_robot/GeneralTopic"),
         ("preset_rotate", "inspection_robot/PresetRotate")])
+# The answers to those commands, which rosbridge_websocket subscribes to when it starts and keeps: a
+# client's subscribe joins a subscriber already connected to the node that answers, so the ack of
+# the command it sends right after is not lost while a new subscriber would still be connecting.
+BACKEND_ACK_TYPES = dict(
+    [("%s_ack" % name, "inspection_robot/GeneralAck") for name in COMMAND_NAMES] + [
+        ("preset_scale_ack", "inspection_robot/PresetScaleAck"), ("read_scale_ack", "inspection_robot/ReadScaleAck")])
 ACTION_NAMES = ("move_action", "find_scale_action", "task_action")
 ACTION_TOPICS = ("goal", "cancel", "status", "feedback", "result")   # actionlib's topics of each action
 INTERFACE_TOPICS = (

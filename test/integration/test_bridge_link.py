@@ -18,7 +18,7 @@ from std_msgs.msg import Int32, String
 from inspection_robot.bridge import cbor
 from inspection_robot_testing.bridge_client import CLOSED, RawClient
 from inspection_robot.bridge.compression import png_decode
-from inspection_robot.interface import BACKEND_TOPIC_TYPES
+from inspection_robot.interface import BACKEND_ACK_TYPES, BACKEND_TOPIC_TYPES
 from inspection_robot.msg import GeneralAck, GeneralAction, GeneralCmd, GeneralFeedback, GeneralResult, GeneralTopic
 from inspection_robot.srv import ControlService, ControlServiceResponse
 from rostest_helpers import Latest, wait_for, wait_subscribed
@@ -211,10 +211,12 @@ class BridgeLinkTest(unittest.TestCase):
     def test_backend_topics_are_advertised_before_any_client_and_shared(self):
         """Every topic a backend publishes has the bridge's publisher from its start, so the robot is
         subscribed before a client's first message; a client advertising it shares that publisher."""
-        state = rosgraph.Master("/test_bridge_link").getSystemState()[0]
-        publishers = {topic: nodes for topic, nodes in state}
+        state = rosgraph.Master("/test_bridge_link").getSystemState()
+        publishers, subscribers = ({topic: nodes for topic, nodes in part} for part in state[:2])
         for topic in BACKEND_TOPIC_TYPES:
             self.assertIn("/rosbridge_websocket", publishers.get("/" + topic, []), topic)
+        for topic in BACKEND_ACK_TYPES:   # and it listens to their answers from its start, for the clients to join
+            self.assertIn("/rosbridge_websocket", subscribers.get("/" + topic, []), topic)
         received = Latest("/server_status", GeneralTopic)
         received.wait_connected(5.0)
         client = self.raw(self.url)

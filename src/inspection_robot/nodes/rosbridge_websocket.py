@@ -9,7 +9,8 @@ Publishes:   client_count (std_msgs/Int32, latched): connected websocket clients
              backend_link, status "rosbridge_websocket: clients": send queues, drop counters
              the topics a backend publishes (interface.BACKEND_TOPIC_TYPES: server_status, every *_cmd, ...),
              advertised at start; plus every other topic a client advertises (any type)
-Subscribes:  every topic a client subscribes to (one ROS subscriber per topic, shared)
+Subscribes:  every topic a client subscribes to (one ROS subscriber per topic, shared); the answers to
+             a backend's commands (interface.BACKEND_ACK_TYPES: every *_ack) from the start, kept
 Services:    every service a client advertises; calls any ROS service for clients
 Parameters:  ~port (int, 9090; 0 = any free port), ~address (str, "127.0.0.1"; "" = all),
              ~actual_port (int, written: the bound port),
@@ -54,7 +55,7 @@ from inspection_robot.ros.bridge_backend import RosBackend, RosGraph
 from inspection_robot.ros.message_types import GenpyTypes
 from inspection_robot.bridge.rosapi import RosApi
 from inspection_robot.bridge.server import BridgeServer, LoopPoster, make_ssl_context
-from inspection_robot.interface import BACKEND_TOPIC_TYPES
+from inspection_robot.interface import BACKEND_ACK_TYPES, BACKEND_TOPIC_TYPES
 from inspection_robot.ros.node import init_node
 
 INSECURE_WARNING_PERIOD = 60.0  # s between warnings while insecure:=true leaves the link open
@@ -225,6 +226,7 @@ def main():
     backend = RosBackend(types, codec, LoopPoster(loop, log).post, executor, params["service_timeout"],
                          params["subscriber_queue_size"], log)
     backend.advertise_for_the_robot(BACKEND_TOPIC_TYPES)
+    backend.subscribe_for_the_robot(BACKEND_ACK_TYPES)
     rosapi = RosApi(RosGraph(backend), types)
     authenticator = None
     if params["auth_token"]:

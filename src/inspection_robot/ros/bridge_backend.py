@@ -99,6 +99,7 @@ class RosBackend(object):
         self._log = log or (lambda level, text: None)
         self._publishers = {}   # topic -> _Topic(rospy.Publisher)
         self._subscribers = {}  # topic -> _Topic(rospy.Subscriber)
+        self._kept = set()      # topics subscribed for the robot: kept when their last client leaves
         self._services = {}     # service -> (rospy.Service, session, type)
         self._service_types = {}  # cache: service -> type of ROS services called
         self._proxies = {}      # (service, type) -> idle persistent ServiceProxy list
@@ -209,6 +210,20 @@ class RosBackend(object):
         entry.handle = rospy.Subscriber(topic, cls, self._on_message, callback_args=topic,
                                         queue_size=self._sub_queue or None)
 
+    def subscribe_for_the_robot(self, topics):
+        """Subscribe ``topics`` ({name: type}) for as long as the bridge runs, before any client: a
+        client's subscribe then joins a subscriber already connected, so the first message after it
+        (the ack of the command the client sends next) is not lost to a connection still being made."""
+        for topic, type_name in sorted(topics.items()):
+            topic = rospy.resolve_name(topic)
+            if topic in self._subscribers:
+                continue
+            entry = _Topic(None, type_name)
+            self._subscribers[topic] = entry
+            self._kept.add(topic)
+            entry.handle = rospy.Subscriber(topic, self._types.message_class(type_name), self._on_message,
+                                            callback_args=topic, queue_size=self._sub_queue or None)
+
     def _replay_latched(self, entry, session):
         # rospy calls a newly added callback at once with the latched messages it holds.
         def replay(msg, _args):
@@ -225,9 +240,11 @@ class RosBackend(object):
 
     def _on_message(self, msg, topic):
         entry = self._subscribers.get(topic)
+        if entry is None or not entry.sessions:
+            return   # a topic the bridge keeps for the robot (subscribe_for_the_robot) with no client on it now
         # the encodings the topic's clients use, computed once each here, in rospy's thread, so the
         # event loop only writes (a 1080p image's PNG takes tens of ms; zlib runs without the GIL)
-        compressions = set(session.compression(topic) for session in list(entry.sessions)) if entry else set()
+        compressions = set(session.compression(topic) for session in list(entry.sessions))
         compressions.discard(None)
         try:
             outgoing = Outgoing(topic, msg, self._codec, self._stamp())
@@ -254,7 +271,7 @@ class RosBackend(object):
         if entry is None:
             return
         entry.sessions.discard(session)
-        if not entry.sessions:
+        if not entry.sessions and topic not in self._kept:
             del self._subscribers[topic]
             entry.handle.unregister()
 
