@@ -6,7 +6,7 @@ import pytest
 from inspection_robot.command import CommandError
 from inspection_robot.nav.tour import TourError
 from inspection_robot.task.checks import Reachability
-from inspection_robot.task.route import plan_route
+from inspection_robot.task.route import plan_route, route_points
 from inspection_robot.task.spec import ORDER_GIVEN, ORDER_SHORTEST, Task
 
 MAP = os.path.join(os.path.dirname(__file__), "..", "..", "config", "maps", "substation.yaml")
@@ -56,3 +56,26 @@ def test_planner_lengths_on_the_yard_follow_the_free_space():
     assert straight <= length < straight * 1.5
     with pytest.raises(TourError, match="outside the map"):
         reach.path_length((5.0, 5.0), (-500.0, 5.0))
+
+
+def test_route_points_join_the_legs_and_keep_every_stop_when_thinned():
+    def legs(a, b):   # 101 points a leg
+        return [(a[0] + (b[0] - a[0]) * k / 100.0, a[1] + (b[1] - a[1]) * k / 100.0) for k in range(101)]
+    stops = [stop("s%d" % i, float(i), 10.0 * (i % 2)) for i in range(1, 40)]
+    task = Task("t", "routine", 1, stops)
+    full = route_points(task, (0, 0), (0, 0), legs, max_points=10 ** 6)
+    assert len(full) == 40 * 100 + 1 and full[0] == [0.0, 0.0] and full[-1] == [0.0, 0.0]
+    thin = route_points(task, (0, 0), (0, 0), legs, max_points=500)
+    assert len(thin) <= 500 and thin[0] == [0.0, 0.0] and thin[-1] == [0.0, 0.0]
+    for s in stops:
+        assert [s["x"], s["y"]] in thin
+
+
+def test_route_points_on_the_yard_name_a_stop_without_path():
+    reach = Reachability(MAP, 0.4, (5.0, 5.0))
+    task = Task("t", "routine", 1, [stop("a", 15.5, 10.0)])
+    path = route_points(task, (5.0, 5.0), (5.0, 5.0), lambda a, b: reach.path(a, b).points)
+    assert [15.5, 10.0] in path and path[0] == [5.0, 5.0]
+    with pytest.raises(CommandError, match="no path from the robot to stop 'far': .*outside the map"):
+        route_points(Task("t", "routine", 1, [stop("far", -500.0, 5.0)]), (5.0, 5.0), (5.0, 5.0),
+                     lambda a, b: reach.path(a, b).points)

@@ -1,7 +1,8 @@
 """task_manager: unattended patrols (docs/interface.md, "Patrol (task_manager)").
 
 Services:    task_control (ControlService): submit, pause, resume, cancel, return_home, query_status,
-             query_tasks, query_results, report, review_queue, review, export_results (same table as
+             query_tasks, query_results, report, review_queue, review, export_results, plan, routine_save,
+             routine_list, routine_delete, schedule_set, schedule_list, schedule_delete (same table as
              task_cmd); answers name files relative to data_root (task.client_view)
 Subscribes:  task_cmd (GeneralCmd), robot_status (RobotStatus: mode, pose)
              read_scale_ack (ReadScaleAck)
@@ -23,7 +24,9 @@ Parameters:  data_root (namespace: the robot's state directory): store and repor
              ~find_timeout_s (90), ~read_timeout_s (60); ~move_estimate_s (20), ~preset_estimate_s (10):
              ETA before anything was measured; ~status_period (s, 1.0): task_status (and task_action
              feedback) republished at least this often while a task runs (at once on every change);
-             ~virtual_wait_s (s, 5.0): a submission waits this long for move_base's virtual obstacles
+             ~virtual_wait_s (s, 5.0): a submission waits this long for move_base's virtual obstacles;
+             ~schedule_check_s (s, 10.0): how often schedules are looked at; ~schedule_grace_s (s, 600.0):
+             how long a due scheduled run waits for a running task before it is missed
 """
 import json
 import os
@@ -48,10 +51,11 @@ from inspection_robot.task.action import END_CANCELED, END_SUCCEEDED, check_goal
     goal_refused
 from inspection_robot.task.client_view import client_progress, client_row
 from inspection_robot.task.checks import Reachability, resolve_preset
-from inspection_robot.task.route import plan_route
+from inspection_robot.task.route import plan_route, route_points
 from inspection_robot.task.patrol import OUTCOME_FAILED, Patrol, PatrolConfig
 from inspection_robot.task.report import summary, write_reports
 from inspection_robot.task.review import parse_query, review
+from inspection_robot.task.schedule import Scheduler, next_run, parse_routine, parse_schedule, routine_task
 from inspection_robot.task.spec import check_task_id, parse_task
 from inspection_robot.task.states import ENDED_STATES
 from inspection_robot.task.store import ResultStore, StoreError, export_snapshot
@@ -62,11 +66,12 @@ NODE_NAME = "task_manager"
 QUERY_KEYS = ("task_id", "target", "from", "to", "after_id", "limit")
 REVIEW_QUEUE_KEYS = ("task_id", "limit")
 REPORT_TREND_POINTS = 20   # a meter's readings up to this task's drawn beside each of its readings in the report
+PLAN_ID = "plan"           # the id a task is checked with when it has none (plan, routine_save)
 
 
 class TaskManager(object):
     def __init__(self, store, reports_dir, patrol_config, preset_root, reachable, runner_factory, default_retries,
-                 status_period, corrections_dir, data_root):
+                 status_period, corrections_dir, data_root, scheduler, schedule_check_s):
         self._lock = threading.RLock()
         self._wake = threading.Condition(self._lock)
         self.store = store
@@ -95,7 +100,13 @@ class TaskManager(object):
             "query_tasks": no_data(self._query_tasks), "query_results": self._query_results, "report": self._report,
             "review_queue": self._review_queue, "review": self._review,
             "export_results": no_data(self._export_results),
+            "plan": self._plan, "routine_save": self._routine_save, "routine_list": no_data(self._routine_list),
+            "routine_delete": self._routine_delete, "schedule_set": self._schedule_set,
+            "schedule_list": no_data(self._schedule_list), "schedule_delete": self._schedule_delete,
         })
+        self._scheduler = scheduler
+        self._schedule_status = {}
+        self._refresh_schedule_status()
         self._twin = CommandTwin(table, "task_control", "task_cmd", "task_ack", NODE_NAME, busy_when_joystick=False)
         self._status_sub = rospy.Subscriber("robot_status", RobotStatus, self._on_robot_status, queue_size=1)
         self._virtual_sub = rospy.Subscriber("virtual_obstacle_map", OccupancyGrid, self._on_virtual_map,
@@ -111,6 +122,7 @@ class TaskManager(object):
         self._publish_status(force=True)
         # also while a step runs (a drive may take minutes): the patrol loop is blocked in it then
         self._status_timer = rospy.Timer(rospy.Duration(status_period / 2.0), self._on_status_timer)
+        self._schedule_timer = rospy.Timer(rospy.Duration(schedule_check_s), self._on_schedule_timer)
 
     # --- inputs --------------------------------------------------------------------------------
     def _on_robot_status(self, msg):
@@ -148,15 +160,25 @@ class TaskManager(object):
                 return self._status_json()
         return handler
 
+    def _checked_task(self, data, known=(), default_id=None):
+        """Every submission check of the task JSON ``data`` and its route (ordered when asked): a Task.
+        Called outside the lock: checking presets and the map must not stall the patrol loop."""
+        task = parse_task(data, lambda name: resolve_preset(self._preset_root, name, self._data_root), self._reachable,
+                          self._default_retries, known, default_id)
+        start, home = self._route_ends()
+        plan_route(task, start, home, self._reachable.path_length)
+        return task
+
+    def _route_ends(self):
+        """Where a route starts (the robot; the home pose while its pose is unknown) and ends (home)."""
+        pose, home = self._pose, self.patrol.config.home_pose
+        return (pose or home)[:2], home[:2]
+
     def _submit(self, data, goal=None):
         """Check and start a task; ``goal``: its task_action goal handle, accepted with it."""
         with self._lock:
             known = self.store.task_ids()
-        # parsed outside the lock: checking presets and the map must not stall the patrol loop
-        task = parse_task(data, lambda name: resolve_preset(self._preset_root, name, self._data_root), self._reachable,
-                          self._default_retries, known)
-        pose, home = self._pose, self.patrol.config.home_pose
-        plan_route(task, (pose or home)[:2], home[:2], self._reachable.path_length)
+        task = self._checked_task(data, known)
         with self._lock:
             self.patrol.submit(task, time.time())
             if goal is not None:
@@ -165,7 +187,130 @@ class TaskManager(object):
             self._changed()
             return self._status_json()
 
+    # --- planning, routines and schedules (task/schedule.py) ----------------------------------------
+    def _plan(self, data):
+        """A task checked and ordered like submit, not submitted: its stops in driving order and the
+        planner's path through them."""
+        task = self._checked_task(data, default_id=PLAN_ID)
+        start, home = self._route_ends()
+        path = route_points(task, start, home, lambda a, b: self._reachable.path(a, b).points)
+        stops = [{"name": s["name"], "pose": {"x": s["x"], "y": s["y"], "yaw": s["yaw"]},
+                  "presets": [root_relative(p["directory"], self._data_root) for p in s["presets"]]}
+                 for s in task.stops]
+        return json.dumps({"order": task.order, "stops": stops, "path": path,
+                           "planned_length_m": task.planned_length_m}, sort_keys=True)
+
+    def _routine_save(self, data):
+        name, task = parse_routine(data)
+        self._checked_task(json.dumps(routine_task(task, PLAN_ID)))
+        with self._lock:
+            routine = self.store.save_routine(name, task, time.time())
+        rospy.loginfo("%s: routine '%s' saved (%d stops)" % (NODE_NAME, name, len(task.get("stops", []))))
+        return json.dumps(routine, sort_keys=True)
+
+    def _routine_list(self, _data):
+        return json.dumps(self.store.routines(), sort_keys=True)
+
+    def _routine_delete(self, data):
+        with self._lock:
+            if self.store.routine(data) is None:
+                raise CommandError("unknown routine '%s'" % data[:64])
+            users = [s["name"] for s in self.store.schedules() if s["routine"] == data]
+            if users:
+                raise CommandError("routine '%s' is used by schedule(s) %s" % (data, ", ".join(users)))
+            self.store.delete_routine(data)
+        return json.dumps({"deleted": data})
+
+    def _schedule_set(self, data):
+        with self._lock:
+            now = time.time()
+            schedule = parse_schedule(data, set(r["name"] for r in self.store.routines()), now,
+                                      self._scheduler.tz)
+            self.store.set_schedule(schedule, now)
+            self._scheduler.forget(schedule["name"])
+            self._refresh_schedule_status()
+            row = next(r for r in self._schedule_rows(now) if r["name"] == schedule["name"])
+        rospy.loginfo("%s: schedule '%s' set: %s" % (NODE_NAME, schedule["name"], json.dumps(schedule)))
+        return json.dumps(row, sort_keys=True)
+
+    def _schedule_list(self, _data):
+        with self._lock:
+            return json.dumps(self._schedule_rows(time.time()), sort_keys=True)
+
+    def _schedule_delete(self, data):
+        with self._lock:
+            if not self.store.delete_schedule(data):
+                raise CommandError("unknown schedule '%s'" % data[:64])
+            self._scheduler.forget(data)
+            self._refresh_schedule_status()
+        return json.dumps({"deleted": data})
+
+    def _schedule_rows(self, now):
+        """schedule_list's rows: each schedule with its next run, last run and missed runs."""
+        rows = []
+        for s in self.store.schedules():
+            row = dict((k, s[k]) for k in ("name", "routine", "time", "weekdays", "date", "enabled") if k in s)
+            row["next_run"] = next_run(s, max(now, s["set_at"]), self._scheduler.tz) if s["enabled"] else None
+            task = self.store.task(s["last_task_id"]) if s["last_task_id"] else None
+            row["last_run"] = None if s["last_at"] is None else {
+                "at": s["last_at"], "task_id": s["last_task_id"], "state": task["state"] if task else ""}
+            row["missed"] = [{"at": m["at"], "reason": m["reason"]} for m in self.store.missed_runs(s["name"])]
+            rows.append(row)
+        return rows
+
+    def _refresh_schedule_status(self):
+        """task_status's schedule keys (kept here: task_status is built often, the store asked rarely)."""
+        now = time.time()
+        upcoming = [(next_run(s, max(now, s["set_at"]), self._scheduler.tz), s["name"], s["routine"])
+                    for s in self.store.schedules() if s["enabled"]]
+        upcoming = sorted(u for u in upcoming if u[0] is not None)
+        last = self.store.missed_runs(limit=1)
+        self._schedule_status = {
+            "missed_runs": self.store.get_meta("missed_runs", 0), "last_missed": last[0] if last else None,
+            "next_scheduled": {"at": upcoming[0][0], "schedule": upcoming[0][1], "routine": upcoming[0][2]}
+            if upcoming else None}
+
+    def _on_schedule_timer(self, _event):
+        try:
+            self._schedule_tick(time.time())
+        except Exception as err:  # boundary: a bug in one tick is logged, the next tick tries again
+            rospy.logerr("%s: schedule tick: %s\n%s" % (NODE_NAME, err, traceback.format_exc()))
+
+    def _schedule_tick(self, now):
+        """Submit the scheduled runs that are due; a run that cannot start is missed, logged once."""
+        with self._lock:
+            busy = ""
+            if self.patrol.returning_home:
+                busy = "the robot was returning home"
+            elif self.patrol.active is not None:
+                busy = "task '%s' was running" % self.patrol.active.task.task_id
+            start, missed = self._scheduler.tick(now, busy)
+        for run in start:
+            routine = self.store.routine(run.routine)
+            try:
+                if routine is None:
+                    raise CommandError("unknown routine '%s'" % run.routine)
+                self._submit(json.dumps(routine_task(routine["task"], run.task_id)))
+            except CommandError as err:
+                reason = str(hide_root(err, self._data_root))
+                with self._lock:
+                    self._scheduler.failed_run(run, reason, time.time())
+                missed.append((run, reason))
+            else:
+                with self._lock:
+                    self._scheduler.started_run(run, time.time())
+                rospy.loginfo("%s: schedule '%s' started task %s" % (NODE_NAME, run.schedule, run.task_id))
+        for run, reason in missed:
+            rospy.logwarn("%s: schedule '%s' missed its run of %s (task %s): %s" % (
+                NODE_NAME, run.schedule, time.strftime("%Y-%m-%d %H:%M", time.localtime(run.at)), run.task_id,
+                reason))
+        if start or missed:
+            with self._lock:
+                self._refresh_schedule_status()
+                self._changed()
+
     # --- task_action -----------------------------------------------------------------------------
+
     def _action_request(self, request):
         kind, goal = request
         if kind == "goal":
@@ -286,6 +431,7 @@ class TaskManager(object):
         status = client_progress(self.patrol.status(), self._data_root)
         status["overhead_s"] = round(self._overhead_s, 3)
         status["store"] = root_relative(self.store.path, self._data_root)
+        status.update(self._schedule_status)
         if status["task_id"] and status["state"] in ENDED_STATES:
             status["report"] = root_relative(os.path.join(self._reports_dir, status["task_id"], "report.html"),
                                              self._data_root)
@@ -407,11 +553,17 @@ def main():
                 "read": float(rospy.get_param("~read_timeout_s", 60.0))}
     velocity = (float(rospy.get_param("~velocity_x", 0.8)), float(rospy.get_param("~velocity_yaw", 0.8)))
     store = ResultStore(os.path.join(tasks_dir, "results.sqlite"))
+    schedule_check_s = float(rospy.get_param("~schedule_check_s", 10.0))
+    schedule_grace_s = float(rospy.get_param("~schedule_grace_s", 600.0))
+    if not 0 < schedule_check_s <= 60 or not schedule_grace_s >= schedule_check_s:
+        raise ValueError("~schedule_check_s must be in (0, 60] s and ~schedule_grace_s at least as long, got %r, %r"
+                         % (schedule_check_s, schedule_grace_s))
     status_period = float(rospy.get_param("~status_period", 1.0))
     if status_period <= 0:
         raise ValueError("~status_period must be positive, got %r" % status_period)
     manager = TaskManager(store, os.path.join(tasks_dir, "reports"), config, preset_root, reachable,
                           lambda pose: StepRunner(NODE_NAME, velocity[0], velocity[1], timeouts, pose), retries,
-                          status_period, os.path.join(root, "corrections"), root)
+                          status_period, os.path.join(root, "corrections"), root,
+                          Scheduler(store, schedule_grace_s, time.time()), schedule_check_s)
     rospy.loginfo("%s: results in %s" % (NODE_NAME, store.path))
     manager.spin()

@@ -81,11 +81,16 @@ class Reachability(object):
     def path_length(self, start_xy, goal_xy):
         """The planner's path length (m) between two points on the current costmap (map and virtual
         obstacles, as move_base plans); TourError when there is none."""
+        return self.path(start_xy, goal_xy).length
+
+    def path(self, start_xy, goal_xy):
+        """The planner's Plan (points: (N, 2) map metres, length m) between two points; TourError
+        when there is none."""
         with self._lock:
             if self._planner is None:
                 self._planner = Planner(self.costmap)
             try:
-                return self._planner.plan(start_xy, goal_xy).length
+                return self._planner.plan(start_xy, goal_xy)
             except PlanningError as err:
                 raise TourError(str(err))
 

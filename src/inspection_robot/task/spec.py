@@ -66,7 +66,7 @@ class Task(object):
         return self.priority == PRIORITY_SPECIAL
 
 
-def _object(value, what, keys):
+def json_object(value, what, keys):
     if not isinstance(value, dict):
         raise CommandError("%s must be a JSON object, got %s" % (what, json_type(value)))
     unknown = sorted(set(value) - set(keys))
@@ -99,13 +99,13 @@ def _number(value, what, low=None, high=None):
 
 def _integer(value, what, low, high):
     if isinstance(value, bool) or not isinstance(value, int):
-        raise CommandError("%s must be an integer, got %s" % (what, _short(value)))
+        raise CommandError("%s must be an integer, got %s" % (what, short_value(value)))
     if value < low or value > high:
         raise CommandError("%s out of range [%d, %d]: %d" % (what, low, high, value))
     return value
 
 
-def _short(value):
+def short_value(value):
     """A value for an error message, cut short (a careless client may send megabytes)."""
     text = repr(value)
     return text if len(text) <= 40 else text[:40] + "..."
@@ -114,33 +114,34 @@ def _short(value):
 def check_task_id(task_id):
     """``task_id`` if it is 1-64 characters of A-Z a-z 0-9 _ -, else CommandError."""
     if not isinstance(task_id, str) or not TASK_ID_PATTERN.fullmatch(task_id):
-        raise CommandError("task id must be 1-64 characters of A-Z a-z 0-9 _ -, got %s" % _short(task_id))
+        raise CommandError("task id must be 1-64 characters of A-Z a-z 0-9 _ -, got %s" % short_value(task_id))
     return task_id
 
 
 def parse_band(value, what):
     """An alarm band [low, high] (the normal range of the value)."""
     if not isinstance(value, list) or len(value) != 2:
-        raise CommandError("%s must be [low, high], got %s" % (what, _short(value)))
+        raise CommandError("%s must be [low, high], got %s" % (what, short_value(value)))
     low, high = _number(value[0], what + " low"), _number(value[1], what + " high")
     if low > high:
         raise CommandError("%s: low %g is above high %g" % (what, low, high))
     return [low, high]
 
 
-def parse_task(data, resolve_preset, reachable, default_retries, known_ids=()):
-    """Parse and check the JSON text ``data``; returns a Task or raises CommandError."""
-    obj = _object(parse_json(data, "task"), "task", TASK_KEYS)
-    task_id = check_task_id(obj.get("id"))
+def parse_task(data, resolve_preset, reachable, default_retries, known_ids=(), default_id=None):
+    """Parse and check the JSON text ``data``; returns a Task or raises CommandError. ``default_id``:
+    the id of a task given without one (plan, routines), else the id is required."""
+    obj = json_object(parse_json(data, "task"), "task", TASK_KEYS)
+    task_id = check_task_id(obj.get("id", default_id))
     if task_id in known_ids:
         raise CommandError("duplicate task id '%s' (ids are never reused)" % task_id)
     priority = obj.get("priority", PRIORITY_ROUTINE)
     if priority not in PRIORITIES:
-        raise CommandError("priority must be one of %s, got %s" % ("|".join(PRIORITIES), _short(priority)))
+        raise CommandError("priority must be one of %s, got %s" % ("|".join(PRIORITIES), short_value(priority)))
     retries = _integer(obj.get("retries", default_retries), "retries", 0, MAX_RETRIES)
     order = obj.get("order", ORDER_GIVEN)
     if order not in ORDERS:
-        raise CommandError("order must be one of %s, got %s" % ("|".join(ORDERS), _short(order)))
+        raise CommandError("order must be one of %s, got %s" % ("|".join(ORDERS), short_value(order)))
     stops = obj.get("stops")
     if not isinstance(stops, list) or not stops:
         raise CommandError("stops must be a non-empty list")
@@ -157,11 +158,11 @@ def parse_task(data, resolve_preset, reachable, default_retries, known_ids=()):
 
 def _parse_stop(stop, index, resolve_preset):
     what = "stop %d" % (index + 1)
-    stop = _object(stop, what, STOP_KEYS)
+    stop = json_object(stop, what, STOP_KEYS)
     name = stop.get("name", "stop_%d" % (index + 1))
     if not isinstance(name, str) or len(name) > 64:
         raise CommandError("%s: name must be a string of at most 64 characters" % what)
-    pose = _object(stop.get("pose"), what + " pose", ("x", "y", "yaw"))
+    pose = json_object(stop.get("pose"), what + " pose", ("x", "y", "yaw"))
     for key in ("x", "y", "yaw"):
         if key not in pose:
             raise CommandError("%s pose: missing %s" % (what, key))
@@ -170,7 +171,7 @@ def _parse_stop(stop, index, resolve_preset):
     yaw = _number(pose["yaw"], what + " pose yaw", -2 * math.pi, 2 * math.pi)
     precision = stop.get("precision", 0)
     if isinstance(precision, bool) or precision not in (0, 1):
-        raise CommandError("%s: precision must be 0 or 1, got %s" % (what, _short(precision)))
+        raise CommandError("%s: precision must be 0 or 1, got %s" % (what, short_value(precision)))
     presets = stop.get("presets")
     if not isinstance(presets, list) or not presets:
         raise CommandError("%s: presets must be a non-empty list" % what)
@@ -185,13 +186,13 @@ def _parse_stop(stop, index, resolve_preset):
 def _parse_preset(entry, what, resolve_preset):
     if isinstance(entry, str):
         entry = {"preset": entry}
-    entry = _object(entry, what, PRESET_KEYS)
+    entry = json_object(entry, what, PRESET_KEYS)
     name = entry.get("preset")
     if not isinstance(name, str) or not name:
         raise CommandError("%s: preset must be a non-empty string (a preset directory or id)" % what)
     foreign = entry.get("foreign", False)
     if not isinstance(foreign, bool):
-        raise CommandError("%s: foreign must be true or false, got %s" % (what, _short(foreign)))
+        raise CommandError("%s: foreign must be true or false, got %s" % (what, short_value(foreign)))
     resolved = resolve_preset(name)  # raises CommandError: unknown preset directory ...
     alarms = dict(resolved.alarms)
     given = entry.get("alarms", {})

@@ -8,7 +8,9 @@ nor loses a reading. One connection shared under a lock (the node's threads are 
 
 Schema changes: columns added after the first release (ADDED_COLUMNS) are added to an older file
 when it is opened (``ALTER TABLE ... ADD COLUMN`` in one transaction), so every store opens; old
-rows get the columns' defaults (no source picture, not reviewed).
+rows get the columns' defaults (no source picture, not reviewed). Tables added since (routines,
+schedules, missed_runs) are created when missing (``CREATE TABLE IF NOT EXISTS``); an older
+task_manager ignores them.
 
 The live file is not what a backend should copy: its latest commits sit in ``results.sqlite-wal``
 until a checkpoint. ``export`` writes a consistent snapshot (sqlite3's online backup API) as a
@@ -41,6 +43,12 @@ CREATE TABLE IF NOT EXISTS steps (
     preset_index INTEGER NOT NULL, kind TEXT NOT NULL, outcome TEXT NOT NULL, started REAL NOT NULL,
     ended REAL NOT NULL, reason TEXT NOT NULL);
 CREATE TABLE IF NOT EXISTS meta (key TEXT PRIMARY KEY, value TEXT NOT NULL);
+CREATE TABLE IF NOT EXISTS routines (name TEXT PRIMARY KEY, task TEXT NOT NULL, saved REAL NOT NULL);
+CREATE TABLE IF NOT EXISTS schedules (
+    name TEXT PRIMARY KEY, spec TEXT NOT NULL, set_at REAL NOT NULL, last_at REAL, last_task_id TEXT);
+CREATE TABLE IF NOT EXISTS missed_runs (
+    id INTEGER PRIMARY KEY AUTOINCREMENT, schedule TEXT NOT NULL, at REAL NOT NULL, reason TEXT NOT NULL,
+    noted REAL NOT NULL);
 """
 # readings columns added since the first schema, with their declarations: the picture read and its
 # box (for the bench's field set), the operator's review of an uncertain value (true value or the
@@ -265,6 +273,73 @@ class ResultStore(object):
 
     def set_meta(self, key, value):
         self._write([("INSERT OR REPLACE INTO meta (key, value) VALUES (?, ?)", (key, json.dumps(value)))])
+
+    # --- routines and schedules (task/schedule.py) -------------------------------------------------
+    def save_routine(self, name, task, now):
+        """Store (or replace) a routine: its task JSON without id as the client gave it."""
+        self._write([("INSERT OR REPLACE INTO routines (name, task, saved) VALUES (?, ?, ?)",
+                      (name, json.dumps(task, sort_keys=True), now))])
+        return self.routine(name)
+
+    def routine(self, name):
+        rows = self._query("SELECT name, task, saved FROM routines WHERE name = ?", (name,))
+        return {"name": rows[0][0], "task": json.loads(rows[0][1]), "saved": rows[0][2]} if rows else None
+
+    def routines(self):
+        return [{"name": r[0], "task": json.loads(r[1]), "saved": r[2]}
+                for r in self._query("SELECT name, task, saved FROM routines ORDER BY name")]
+
+    def delete_routine(self, name):
+        """False when there is no such routine; the caller checks that no schedule uses it."""
+        return self._write([("DELETE FROM routines WHERE name = ?", (name,))]) == 1
+
+    def set_schedule(self, schedule, now):
+        """Store (or replace) a schedule (task/schedule.parse_schedule's dict); runs before ``now``
+        are not its own. Its last run and missed runs stay when it is replaced."""
+        self._write([("INSERT INTO schedules (name, spec, set_at) VALUES (?, ?, ?) ON CONFLICT (name) DO UPDATE "
+                      "SET spec = excluded.spec, set_at = excluded.set_at",
+                      (schedule["name"], json.dumps(schedule, sort_keys=True), now))])
+
+    def schedules(self):
+        """[schedule dict + "set_at", "last_at", "last_task_id"] by name."""
+        out = []
+        for name, spec, set_at, last_at, last_task_id in self._query(
+                "SELECT name, spec, set_at, last_at, last_task_id FROM schedules ORDER BY name"):
+            row = json.loads(spec)
+            row.update(set_at=set_at, last_at=last_at, last_task_id=last_task_id)
+            out.append(row)
+        return out
+
+    def delete_schedule(self, name):
+        """False when there is no such schedule; its missed runs go with it."""
+        return self._write([("DELETE FROM schedules WHERE name = ?", (name,)),
+                            ("DELETE FROM missed_runs WHERE schedule = ?", (name,))]) >= 1
+
+    def set_schedule_run(self, name, at, task_id):
+        self._write([("UPDATE schedules SET last_at = ?, last_task_id = ? WHERE name = ?", (at, task_id, name))])
+
+    def add_missed_run(self, name, at, reason, now, keep):
+        """Record a missed run, keep the newest ``keep`` of the schedule, count it in meta missed_runs."""
+        count = self.get_meta("missed_runs", 0) + 1
+        self._write([("INSERT INTO missed_runs (schedule, at, reason, noted) VALUES (?, ?, ?, ?)",
+                      (name, at, reason, now)),
+                     ("DELETE FROM missed_runs WHERE schedule = ? AND id NOT IN (SELECT id FROM missed_runs "
+                      "WHERE schedule = ? ORDER BY at DESC, id DESC LIMIT ?)", (name, name, keep)),
+                     ("INSERT OR REPLACE INTO meta (key, value) VALUES (?, ?)", ("missed_runs", json.dumps(count)))])
+
+    def missed_runs(self, name=None, limit=20):
+        """[{"schedule", "at", "reason"}] newest first (of one schedule or all)."""
+        clause, params = ("", ()) if name is None else (" WHERE schedule = ?", (name,))
+        return [{"schedule": r[0], "at": r[1], "reason": r[2]} for r in self._query(
+            "SELECT schedule, at, reason FROM missed_runs%s ORDER BY at DESC, id DESC LIMIT ?" % clause,
+            params + (limit,))]
+
+    def schedule_checked(self):
+        """Unix time up to which the scheduler looked for due runs (None: it never ran)."""
+        return self.get_meta("schedule_checked")
+
+    def set_schedule_checked(self, at):
+        self.set_meta("schedule_checked", at)
 
 
 def export_snapshot(store, folder, now, keep=EXPORTS_KEPT):
