@@ -12,9 +12,14 @@ reachability check against move_base's virtual obstacles (task_action.test).
    resumes; cancelling its goal cancels the task (ret_code "2", goal preempted).
 4. return_home: task_status shows the cancelled task's end in last_ended while returning_home,
    then idle (task id "") once the robot is home.
+5. order shortest: the same order and planned length as the pure planning on the same map.
+6. plan, routine and schedule: plan answers the ordered stops and the path without submitting;
+   a routine saved and scheduled for the next minute (~schedule_check_s 1 s in this launch) is
+   submitted by task_manager itself as <routine>_<YYYYMMDD_HHMM>; schedule_list shows the run.
 """
 import json
 import os
+import time
 import unittest
 
 import actionlib
@@ -247,6 +252,54 @@ class TaskActionTest(unittest.TestCase):
         given = sum(reach.path_length(a, b) for a, b in zip([tuple(pose)] + stops, stops + [HOME]))
         self.assertLess(status["planned_length_m"], given - 10.0)   # the typed order is much longer
         self.assertEqual(self.tasks.call("cancel", "shortest").ack, "success")
+        self.wait_idle()
+
+    # --- 6 --------------------------------------------------------------------------------------
+    def test_6_plan_then_a_routine_scheduled_for_the_next_minute_runs_by_itself(self):
+        self.wait_idle()
+        stops = [(36.0, 14.5), (15.5, 10.0)]
+        plan = self.tasks.call("plan", json.dumps({"order": "shortest", "stops": json.loads(task("x", stops))["stops"]}))
+        self.assertEqual(plan.ack, "success", plan.data)
+        plan = json.loads(plan.data)
+        self.assertEqual(([s["name"] for s in plan["stops"]], plan["order"]), (["s1", "s0"], "shortest"))
+        self.assertEqual(plan["stops"][0]["presets"], ["presets/%s/20260101_000000" % PRESET])
+        pose = self.robot.last.position
+        self.assertLess(abs(plan["path"][0][0] - pose[0]) + abs(plan["path"][0][1] - pose[1]), 0.05)
+        self.assertEqual(plan["path"][-1], list(HOME))
+        self.assertIn([15.5, 10.0], plan["path"])
+        self.assertGreater(plan["planned_length_m"], 2 * 31.0)   # home -> (36, 14.5) and back at least
+        self.assertNotIn("x", [t["task_id"] for t in json.loads(self.tasks.call("query_tasks").data)])
+
+        routine = json.loads(task("x", [(7.0, 5.0)]))
+        del routine["id"]
+        saved = self.tasks.call("routine_save", json.dumps({"name": "yard_rt", "task": routine}))
+        self.assertEqual(saved.ack, "success", saved.data)
+        bad = self.tasks.call("schedule_set", json.dumps({"name": "s", "routine": "nope", "time": "08:00",
+                                                          "weekdays": ["mon"]}))
+        self.assertEqual((bad.ack, bad.data), ("failed", "unknown routine 'nope'"))
+        soon = time.localtime(time.time() + 60)
+        reply = self.tasks.call("schedule_set", json.dumps({"name": "every_day", "routine": "yard_rt",
+                                                            "time": time.strftime("%H:%M", soon),
+                                                            "weekdays": ["mon", "tue", "wed", "thu", "fri", "sat",
+                                                                         "sun"]}))
+        self.assertEqual(reply.ack, "success", reply.data)
+        next_run = json.loads(reply.data)["next_run"]
+        self.assertLess(next_run - time.time(), 61.0)
+        task_id = "yard_rt_" + time.strftime("%Y%m%d_%H%M", time.localtime(next_run))
+        refused = self.tasks.call("routine_delete", "yard_rt")
+        self.assertEqual((refused.ack, refused.data), ("failed", "routine 'yard_rt' is used by schedule(s) every_day"))
+        upcoming = json.loads(self.tasks.call("query_status").data)["next_scheduled"]
+        self.assertEqual(upcoming, {"at": next_run, "schedule": "every_day", "routine": "yard_rt"})
+
+        self.status.wait(lambda m: json.loads(m.data)["task_id"] == task_id, next_run - time.time() + 30.0,
+                         "the scheduled run submitted")
+        listed = json.loads(self.tasks.call("schedule_list").data)
+        self.assertEqual([(s["name"], s["last_run"]["task_id"], s["missed"]) for s in listed],
+                         [("every_day", task_id, [])])
+        self.assertGreater(listed[0]["next_run"], next_run + 86000)   # tomorrow
+        self.assertEqual(self.tasks.call("schedule_delete", "every_day").ack, "success")
+        self.assertEqual(self.tasks.call("routine_delete", "yard_rt").ack, "success")
+        self.tasks.call("cancel", task_id)
         self.wait_idle()
 
 
