@@ -258,7 +258,9 @@ class TaskActionTest(unittest.TestCase):
     def test_6_plan_then_a_routine_scheduled_for_the_next_minute_runs_by_itself(self):
         self.wait_idle()
         stops = [(36.0, 14.5), (15.5, 10.0)]
-        plan = self.tasks.call("plan", json.dumps({"order": "shortest", "stops": json.loads(task("x", stops))["stops"]}))
+        planned = json.loads(task("x", stops, order=ORDER_SHORTEST))
+        del planned["id"]
+        plan = self.tasks.call("plan", json.dumps(planned))
         self.assertEqual(plan.ack, "success", plan.data)
         plan = json.loads(plan.data)
         self.assertEqual(([s["name"] for s in plan["stops"]], plan["order"]), (["s1", "s0"], "shortest"))

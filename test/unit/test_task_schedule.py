@@ -183,6 +183,20 @@ def test_disabled_or_deleted_schedules_do_not_run(store):
     assert scheduler.tick(NOW + 130, "") == ([], [])
 
 
+def test_a_run_found_busy_at_submission_waits_again(store):
+    set_schedule(store, NOW, time="12:01", weekdays=["fri"])
+    scheduler = Scheduler(store, 600, NOW, UTC)
+    start, _ = scheduler.tick(NOW + 61, "")
+    scheduler.busy_run(start[0])            # a task was submitted while the run was being checked
+    assert scheduler.tick(NOW + 62, "task 'x' was running") == ([], [])
+    assert scheduler.tick(NOW + 100, "")[0] == start
+
+
+def test_no_schedules_no_store_writes(store):
+    Scheduler(store, 600, NOW, UTC).tick(NOW + 10, "")
+    assert store.schedule_checked() is None
+
+
 def test_failed_run_is_missed_with_the_reason(store):
     set_schedule(store, NOW, time="12:01", weekdays=["fri"])
     scheduler = Scheduler(store, 600, NOW, UTC)

@@ -52,7 +52,7 @@ from inspection_robot.task.action import END_CANCELED, END_SUCCEEDED, check_goal
 from inspection_robot.task.client_view import client_progress, client_row
 from inspection_robot.task.checks import Reachability, resolve_preset
 from inspection_robot.task.route import plan_route, route_points
-from inspection_robot.task.patrol import OUTCOME_FAILED, Patrol, PatrolConfig
+from inspection_robot.task.patrol import OUTCOME_FAILED, BusyError, Patrol, PatrolConfig
 from inspection_robot.task.report import summary, write_reports
 from inspection_robot.task.review import parse_query, review
 from inspection_robot.task.schedule import Scheduler, next_run, parse_routine, parse_schedule, routine_task
@@ -291,6 +291,9 @@ class TaskManager(object):
                 if routine is None:
                     raise CommandError("unknown routine '%s'" % run.routine)
                 self._submit(json.dumps(routine_task(routine["task"], run.task_id)))
+            except BusyError:   # a task started while this one was checked: it waits on
+                with self._lock:
+                    self._scheduler.busy_run(run)
             except CommandError as err:
                 reason = str(hide_root(err, self._data_root))
                 with self._lock:

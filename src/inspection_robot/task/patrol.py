@@ -68,6 +68,10 @@ PatrolConfig = namedtuple("PatrolConfig", "retry_delay_s home_pose move_estimate
                                           "uncertain_retries trend", defaults=(DEFAULT_TREND,))
 
 
+class BusyError(CommandError):
+    """A task cannot start now (another runs, or the robot returns home): a scheduled run waits."""
+
+
 class TaskRun(object):
     """One task's place: the presets done, the stop the robot stands at, attempts of the current step."""
 
@@ -135,12 +139,12 @@ class Patrol(object):
     def submit(self, task, now):
         """Start ``task`` (checked by spec.parse_task); a special one pre-empts a routine one."""
         if self.returning_home:
-            raise CommandError("busy: returning home")
+            raise BusyError("busy: returning home")
         if task.task_id in self.store.task_ids():   # two submissions of one id racing
             raise CommandError("duplicate task id '%s' (ids are never reused)" % task.task_id)
         if self.active is not None:
             if not task.special or self.active.task.special:
-                raise CommandError("busy: task '%s' is running (cancel it first)" % self.active.task.task_id)
+                raise BusyError("busy: task '%s' is running (cancel it first)" % self.active.task.task_id)
             self.store.add_task(task, STATE_RUNNING, now)
             self._suspend(self.active)
         else:

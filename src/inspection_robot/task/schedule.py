@@ -206,9 +206,15 @@ class Scheduler(object):
                 start.append(run)
         for run, reason in missed:
             self.store.add_missed_run(run.schedule, run.at, reason, now, MISSED_KEPT)
-        oldest = min([k[1] for k in self._waiting] or [now])
-        self.store.set_schedule_checked(min(now, oldest - 1e-3))
+        if schedules or self._waiting:   # nothing to miss without schedules: no write every tick
+            oldest = min([k[1] for k in self._waiting] or [now])
+            self.store.set_schedule_checked(min(now, oldest - 1e-3))
         return start, missed
+
+    def busy_run(self, run):
+        """The run's submission found the robot busy after all (a task started meanwhile): it waits
+        again, within its grace (the next tick says what it waits for)."""
+        self._waiting.setdefault((run.schedule, run.at), (run, ""))
 
     def started_run(self, run, now):
         self.store.set_schedule_run(run.schedule, run.at, run.task_id)
