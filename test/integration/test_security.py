@@ -567,7 +567,8 @@ class SecurityTest(unittest.TestCase):
         task = {"id": "sec_numbers", "priority": "routine", "retries": 1,
                 "stops": [{"name": "s", "pose": {"x": 1.0, "y": 2.0, "yaw": 0.5}, "precision": 0,
                            "presets": [{"preset": "sec_none", "alarms": {"t": [0.0, 500.0]}, "foreign": False}]}]}
-        for cmd, payload in (("submit", task),
+        routine = dict((k, v) for k, v in task.items() if k != "id")
+        for cmd, payload in (("submit", task), ("plan", routine), ("routine_save", {"name": "sec", "task": routine}),
                              ("query_results", {"task_id": "x", "from": 0, "to": 2000000000, "limit": 10})):
             self.fuzz_numbers("task_control " + cmd, payload, lambda text: self._call("/task_control", cmd, text))
 
