@@ -156,6 +156,15 @@ def test_runs_while_task_manager_was_down_are_missed_at_start_up(store):
     assert [m["at"] for m in store.missed_runs("s1")] == [at("2026-11-28 12:01"), at("2026-11-27 12:01")]
 
 
+def test_a_year_offline_is_one_write_and_counted(store):
+    set_schedule(store, NOW, time="12:01", weekdays=["mon", "tue", "wed", "thu", "fri", "sat", "sun"])
+    Scheduler(store, 600, NOW, UTC).tick(NOW + 10, "")
+    later = NOW + 365 * 86400
+    _, missed = Scheduler(store, 600, later, UTC).tick(later + 1, "")
+    assert len(missed) == 365 and store.get_meta("missed_runs") == 365
+    assert len(store.missed_runs("s1", limit=100)) == 20
+
+
 def test_a_waiting_run_survives_a_restart_as_missed(store):
     set_schedule(store, NOW, time="12:01", weekdays=["fri"])
     Scheduler(store, 120, NOW, UTC).tick(NOW + 65, "task 'x' was running")   # waits, then the node dies
@@ -207,8 +216,7 @@ def test_failed_run_is_missed_with_the_reason(store):
 
 
 def test_missed_runs_are_bounded_per_schedule(store):
-    for k in range(25):
-        store.add_missed_run("s1", NOW + k, "r%d" % k, NOW + k, 20)
+    store.add_missed_runs([("s1", NOW + k, "r%d" % k) for k in range(25)], NOW, 20)
     runs = store.missed_runs("s1", limit=100)
     assert len(runs) == 20 and runs[0]["reason"] == "r24"
     assert store.get_meta("missed_runs") == 25
@@ -243,7 +251,7 @@ def test_a_store_without_schedule_tables_opens_and_keeps_its_rows(tmp_path):
 def test_replacing_a_schedule_keeps_its_history(store):
     set_schedule(store, NOW, time="12:01", weekdays=["fri"])
     store.set_schedule_run("s1", NOW + 60, "r1_20261127_1201")
-    store.add_missed_run("s1", NOW, "x", NOW, 20)
+    store.add_missed_runs([("s1", NOW, "x")], NOW, 20)
     set_schedule(store, NOW + 100, time="13:00", weekdays=["fri"])
     row = store.schedules()[0]
     assert (row["time"], row["last_task_id"], row["set_at"]) == ("13:00", "r1_20261127_1201", NOW + 100)

@@ -28,7 +28,7 @@ ROUTINE_NAME_PATTERN = re.compile(r"[A-Za-z0-9_-]{1,50}")
 TIME_PATTERN = re.compile(r"([01][0-9]|2[0-3]):([0-5][0-9])")
 DATE_PATTERN = re.compile(r"[0-9]{4}-[0-9]{2}-[0-9]{2}")
 MISSED_KEPT = 20            # missed runs kept (and listed) per schedule, newest first
-MAX_CATCH_UP = 1000         # due times looked at per schedule and tick (a year offline, daily: 365)
+MAX_CATCH_UP = 5000         # due times looked at per schedule and tick (ten years offline, daily: 3650)
 REASON_NOT_RUNNING = "task_manager was not running"
 
 # one due run: its schedule and routine names, its time (unix s) and its task id
@@ -161,8 +161,9 @@ class Scheduler(object):
 
     ``store``: the results store (schedules, routines, the last check time and missed runs).
     ``grace_s``: how long a due run waits while another task runs (or task_manager starts late)
-    before it is missed. The last check time is stored at every tick, held back to the oldest run
-    still waiting, so a run waiting when task_manager dies is found again (and missed) at start-up.
+    before it is missed. The last check time is stored at every tick (while there are schedules),
+    held back to the oldest run still waiting, so a run waiting when task_manager dies is found
+    again (and missed) at start-up.
     """
 
     def __init__(self, store, grace_s, now, tz=None):
@@ -176,8 +177,8 @@ class Scheduler(object):
 
     def tick(self, now, busy):
         """``busy``: "" or why no task can start now (e.g. ``task 'x' was running``). Returns the Runs to
-        submit now (the caller reports each with ``started`` or ``failed``); runs past the grace are
-        recorded as missed and returned in the second list [(Run, reason)]."""
+        submit now (the caller reports each with ``started_run``, ``busy_run`` or ``failed_run``) and
+        the runs past their grace [(Run, reason)], already recorded as missed."""
         schedules = dict((s["name"], s) for s in self.store.schedules())
         for key in list(self._waiting):
             schedule = schedules.get(key[0])
@@ -204,8 +205,7 @@ class Scheduler(object):
             elif not start:   # one per tick: the next one waits for it like for any task
                 del self._waiting[key]
                 start.append(run)
-        for run, reason in missed:
-            self.store.add_missed_run(run.schedule, run.at, reason, now, MISSED_KEPT)
+        self.store.add_missed_runs([(run.schedule, run.at, reason) for run, reason in missed], now, MISSED_KEPT)
         if schedules or self._waiting:   # nothing to miss without schedules: no write every tick
             oldest = min([k[1] for k in self._waiting] or [now])
             self.store.set_schedule_checked(min(now, oldest - 1e-3))
@@ -221,7 +221,7 @@ class Scheduler(object):
 
     def failed_run(self, run, reason, now):
         """The run's task was refused (a check failed): it is missed with that reason."""
-        self.store.add_missed_run(run.schedule, run.at, reason, now, MISSED_KEPT)
+        self.store.add_missed_runs([(run.schedule, run.at, reason)], now, MISSED_KEPT)
 
     def forget(self, name):
         """A schedule was replaced or deleted: its waiting runs are not run."""

@@ -318,14 +318,20 @@ class ResultStore(object):
     def set_schedule_run(self, name, at, task_id):
         self._write([("UPDATE schedules SET last_at = ?, last_task_id = ? WHERE name = ?", (at, task_id, name))])
 
-    def add_missed_run(self, name, at, reason, now, keep):
-        """Record a missed run, keep the newest ``keep`` of the schedule, count it in meta missed_runs."""
-        count = self.get_meta("missed_runs", 0) + 1
-        self._write([("INSERT INTO missed_runs (schedule, at, reason, noted) VALUES (?, ?, ?, ?)",
-                      (name, at, reason, now)),
-                     ("DELETE FROM missed_runs WHERE schedule = ? AND id NOT IN (SELECT id FROM missed_runs "
-                      "WHERE schedule = ? ORDER BY at DESC, id DESC LIMIT ?)", (name, name, keep)),
-                     ("INSERT OR REPLACE INTO meta (key, value) VALUES (?, ?)", ("missed_runs", json.dumps(count)))])
+    def add_missed_runs(self, runs, now, keep):
+        """Record missed runs [(schedule, at, reason)] in one transaction (a long stop may have missed
+        hundreds), keep the newest ``keep`` per schedule, count them all in meta ``missed_runs``."""
+        if not runs:
+            return
+        count = self.get_meta("missed_runs", 0) + len(runs)
+        statements = [("INSERT INTO missed_runs (schedule, at, reason, noted) VALUES (?, ?, ?, ?)",
+                       (name, at, reason, now)) for name, at, reason in runs]
+        statements += [("DELETE FROM missed_runs WHERE schedule = ? AND id NOT IN (SELECT id FROM missed_runs "
+                        "WHERE schedule = ? ORDER BY at DESC, id DESC LIMIT ?)", (name, name, keep))
+                       for name in sorted(set(r[0] for r in runs))]
+        statements.append(("INSERT OR REPLACE INTO meta (key, value) VALUES (?, ?)",
+                           ("missed_runs", json.dumps(count))))
+        self._write(statements)
 
     def missed_runs(self, name=None, limit=20):
         """[{"schedule", "at", "reason"}] newest first (of one schedule or all)."""
