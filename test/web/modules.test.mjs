@@ -5,7 +5,8 @@ import { readdirSync, readFileSync } from 'node:fs';
 import test from 'node:test';
 
 const DIR = new URL('../../web/console/', import.meta.url);
-const PANELS = ['status', 'drive', 'head', 'images', 'map', 'calibration', 'patrol', 'results', 'review'];
+const PANELS = ['status', 'drive', 'head', 'images', 'map', 'planner', 'schedules', 'calibration', 'patrol', 'results',
+  'review'];
 
 test('every module but main imports in node; panels export init', async () => {
   const modules = readdirSync(DIR).filter((name) => name.endsWith('.js') && name !== 'main.js');

@@ -8,6 +8,9 @@ const view = { scale: 0, ox: 0, oy: 0 };   // screen = (world - origin) * scale,
 const map = { image: null, info: null, plan: null, tool: null, draft: [], selected: null, dragging: null,
   panning: null, goal: null, obstacles: [], frame: 0, moveClient: null, goalHandle: null };
 const obstacleQueries = new Set();   // trans_ids of the page's own pending `query` commands
+const layers = [];   // other panels' drawings over the map: draw(ctx, toScreen)
+const pickHandlers = {};   // tool name -> handler(world [x, y], tolerance m) of another panel's map tool
+const PICK_TOLERANCE_PX = 12;
 
 export const toScreen = ([x, y]) => [(x - view.ox) * view.scale, (view.oy - y) * view.scale];
 const toWorld = (sx, sy) => [sx / view.scale + view.ox, view.oy - sy / view.scale];
@@ -105,6 +108,7 @@ function renderMap() {
     polyline(ctx, map.plan, false);
     ctx.stroke();
   }
+  layers.forEach((draw) => draw(ctx, toScreen));
   if (map.goal) {
     const [gx, gy] = toScreen(map.goal);
     ctx.strokeStyle = '#2e7d32';
@@ -130,6 +134,18 @@ function renderMap() {
     ctx.stroke();
     ctx.restore();
   }
+}
+
+/** Draw ``draw(ctx, toScreen)`` over the map (under the goal and the robot) on every redraw. */
+export function addLayer(draw) {
+  layers.push(draw);
+}
+
+/** A map tool of another panel: while its button (id ``tool-<name>``, class ``tool``) is active, a
+    click on the map calls ``handler(world [x, y], tolerance m)``. Returns the function that toggles it. */
+export function addTool(name, handler) {
+  pickHandlers[name] = handler;
+  return () => setTool(name);
 }
 
 function setTool(name) {
@@ -202,6 +218,8 @@ function onPointerDown(event) {
   if (map.tool === 'goal') {
     map.goal = p.world;
     sendGoal(p.world, Number($('goal-yaw').value) * Math.PI / 180);
+  } else if (pickHandlers[map.tool]) {
+    pickHandlers[map.tool](p.world, PICK_TOLERANCE_PX / view.scale);
   } else if (map.tool === 'draw') {
     map.draft.push(round1cm(p.world));
   } else if (map.tool === 'edit') {

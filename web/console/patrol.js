@@ -1,6 +1,7 @@
 /* The patrol panel: a task submitted to task_manager (task_control submit), pause / resume / cancel /
    return home, and the latched task_status in words with a progress bar. */
 import { control, subscribe } from './link.js';
+import { taskId } from './planning.js';
 import { followTask } from './results.js';
 import { reviewOnChange } from './review.js';
 import { $, log } from './ui.js';
@@ -8,20 +9,22 @@ import { $, log } from './ui.js';
 const patrol = { status: null, frame: 0 };
 
 function exampleTask() {
-  const stamp = new Date().toISOString().replace(/[-:]/g, '').replace('T', '_').slice(0, 15);
-  return JSON.stringify({ id: 'patrol_' + stamp, priority: 'routine', retries: 1, stops: [
+  return JSON.stringify({ id: taskId(new Date()), priority: 'routine', retries: 1, stops: [
     { name: 'cabinet_1', pose: { x: 20.0, y: 21.4, yaw: 1.5708 }, precision: 0,
       presets: [{ preset: 'cabinet_1', alarms: {}, foreign: false }] }] }, null, 2);
 }
 
-function patrolCommand(cmd, data) {
+/** A task_control command with its outcome on the panel; resolves true when the robot took it. */
+export function patrolCommand(cmd, data) {
   $('patrol-result').textContent = cmd + '…';
   $('patrol-result').className = '';
   return control('task_control', cmd, data).then(() => {
     $('patrol-result').textContent = cmd + ': done';
+    return true;
   }).catch((err) => {
     $('patrol-result').textContent = cmd + ' refused: ' + err.message;
     $('patrol-result').className = 'error';
+    return false;
   });
 }
 
@@ -65,8 +68,8 @@ export function init() {
   $('patrol-task').value = exampleTask();
   $('patrol-form').addEventListener('submit', (event) => {
     event.preventDefault();
-    patrolCommand('submit', $('patrol-task').value).then(() => {
-      if ($('patrol-result').className !== 'error') $('patrol-task').value = exampleTask();   // ids are never reused
+    patrolCommand('submit', $('patrol-task').value).then((ok) => {
+      if (ok) $('patrol-task').value = exampleTask();   // ids are never reused
     });
   });
   $('patrol-pause').addEventListener('click', () => patrolCommand('pause', ''));
