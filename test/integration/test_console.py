@@ -11,9 +11,11 @@ confirmed) and found in the store; and a second, authenticated bridge where the 
 wrong one and shows a dropped link. Any JavaScript error fails the test.
 Screenshots go to <package>/test_logs/console/.
 """
+import configparser
 import json
 import math
 import os
+import shutil
 import subprocess
 import time
 import unittest
@@ -38,6 +40,9 @@ CMD_TIMEOUT = 0.5      # s, robot_control's move_cmd watchdog
 SHOTS = os.path.join(rospkg.RosPack().get_path("inspection_robot"), "test_logs", "console")
 SCREENS = os.path.join(rospkg.RosPack().get_path("inspection_robot"), "test_logs", "screens")   # named views
 FAR_STOP = (15.5, 10.0, 0.0)
+# copies of test_8's preset recorded at other stops of the yard (inspection_robot_testing/yard_patrol.py)
+YARD_COPIES = {"console_yard_a": (15.5, 10.0, 0.0), "console_yard_b": (20.0, 15.0, -math.pi / 2),
+               "console_yard_c": (26.0, 21.4, math.pi / 2)}
 # A page of another origin that tries to take backend control and drive through the robot's bridge.
 ATTACK_PAGE = """<!doctype html><script>
 window.attack = {opened: false, done: false};
@@ -434,7 +439,10 @@ class ConsoleTest(unittest.TestCase):
             self.wait_page("Array.from(document.querySelectorAll('#results img'))"
                            ".some((i) => i.src.startsWith('data:image/') && i.naturalWidth > 0)",
                            "the annotated picture shown")
-        # The meter's trend: every reading of it the store holds (the page asks for the last 90 days).
+        # The meter's trend: every reading of it the store holds (the page asks for the last 90 days),
+        # with two weeks of earlier readings of it stored as task_manager stores them: one a day,
+        # drifting up out of its band [0, 1] on the last day.
+        self.store_history("console_gauge", [0.55 + 0.035 * day for day in range(14)])
         history = json.loads(control_proxy("/task_control", 10.0)(
             sender="test_console", cmd="query_results", data=json.dumps({"target": "console_gauge"})).data)
         self.assertGreaterEqual(len(history), 1)
@@ -534,29 +542,51 @@ class ConsoleTest(unittest.TestCase):
         self.assertIsNotNone(self.calibrated_preset, "test_8 calibrates the preset the planner picks")
         self.ensure_task_mode()
         self.task(lambda s: s["state"] not in ("running", "paused", "returning_home"), "no patrol running", 60.0)
-        preset_id = os.path.basename(os.path.dirname(self.calibrated_preset))
-        directory = "presets/%s/%s" % (preset_id, os.path.basename(self.calibrated_preset))
+        stamp = os.path.basename(self.calibrated_preset)
+        directory = "presets/%s/%s" % (os.path.basename(os.path.dirname(self.calibrated_preset)), stamp)
         pose = self.calibration(directory)["info"]["pose"]
+        # Three more presets of the same meter recorded at yard stops (copies with another pose).
+        yard = {}
+        for name, stop in YARD_COPIES.items():
+            copy = os.path.join(os.path.dirname(os.path.dirname(self.calibrated_preset)), name, stamp)
+            shutil.copytree(self.calibrated_preset, copy)
+            ini = configparser.ConfigParser(interpolation=None)
+            ini.read(os.path.join(copy, "preset.ini"))
+            ini["preset"]["preset_id"] = name
+            ini["pose"] = {"x": "%.4f" % stop[0], "y": "%.4f" % stop[1], "yaw": "%.5f" % stop[2]}
+            with open(os.path.join(copy, "preset.ini"), "w") as f:
+                ini.write(f)
+            yard[name] = "presets/%s/%s" % (name, stamp)
         self.open_console()
         self.wait_connected()
         # The preset list loads by itself once the link is up: every preset id's newest recording.
-        self.wait_page("window.consolePlanner.catalog() > 0 && !window.consolePlanner.loading()", "the preset list")
+        self.wait_page("window.consolePlanner.catalog() >= 4 && !window.consolePlanner.loading()", "the preset list")
         self.wait_page("window.consoleMap.ready()", "the map drawn")
-        # A click on the preset's stop on the map picks it (and every calibrated preset recorded there).
+        # A click on a stop on the map picks its presets (every calibrated one recorded there).
         self.page.click("#tool-pick")
         self.map_click(pose[0], pose[1])
         self.wait_page("window.consolePlanner.stops().length === 1", "the stop picked on the map")
-        stops = self.page.evaluate("window.consolePlanner.stops()")
-        self.assertIn(directory, stops[0]["presets"])
-        self.assertAlmostEqual(stops[0]["pose"]["x"], pose[0], delta=0.01)
+        self.map_click(*YARD_COPIES["console_yard_b"][:2])
+        self.wait_page("window.consolePlanner.stops().length === 2", "the second stop picked on the map")
         self.page.click("#tool-pick")
-        # The searchable list: a meter's name finds its preset; adding it again says so and adds nothing.
+        # The searchable list: the preset ids found by a word of theirs, added; one stop each.
+        self.page.fill("#planner-search", "console_yard")
+        for name in ("console_yard_a", "console_yard_c"):
+            self.page.click("#planner-catalog li[data-preset='%s'] .planner-add" % yard[name])
+        self.wait_page("window.consolePlanner.stops().length === 4", "four stops")
+        stops = self.page.evaluate("window.consolePlanner.stops()")
+        self.assertEqual([s["presets"] for s in stops],
+                         [[directory], [yard["console_yard_b"]], [yard["console_yard_a"]], [yard["console_yard_c"]]])
+        self.assertAlmostEqual(stops[0]["pose"]["x"], pose[0], delta=0.01)
+        # A meter's name finds its presets; adding one already planned says so and adds nothing.
         self.page.fill("#planner-search", "console_gauge")
         item = "#planner-catalog li[data-preset='%s']" % directory
-        self.wait_page("document.querySelector(\"%s\") !== null" % item, "the preset found by its meter")
+        self.wait_page("document.querySelectorAll('#planner-catalog li').length >= 4",
+                       "the presets found by their meter")
         self.page.click(item + " .planner-add")
         self.wait_page("document.getElementById('planner-route').textContent.includes('already planned')",
                        "the duplicate refused")
+        self.assertEqual(len(self.page.evaluate("window.consolePlanner.stops()")), 4)
         # Plan: task_manager's order and path, drawn on the map with its length; the same as asked over ROS.
         self.page.click("#planner-plan")
         self.wait_page("window.consolePlanner.route() !== null", "the planned route", 60.0)
@@ -572,6 +602,7 @@ class ConsoleTest(unittest.TestCase):
         self.page.locator("#map").scroll_into_view_if_needed()
         self.wait_page("window.consolePlanner.routeDrawn()", "the route drawn on the map")
         self.assertTrue(self.pixel_near("map", middle[0], middle[1], (0x6a, 0x1b, 0x9a)), "the route drawn purple")
+        self.page.add_style_tag(content="header { position: static; }")   # not over the panels shot
         self.page.locator("#map-panel").screenshot(path=os.path.join(SCREENS, "planner_route.png"))
         self.page.locator("#planner-panel").screenshot(path=os.path.join(SCREENS, "planner.png"))
         # Saved as a routine: task_manager holds it as the page built it.
@@ -617,6 +648,21 @@ class ConsoleTest(unittest.TestCase):
         self.wait_page("document.querySelector('#routines tr[data-routine=\"%s\"]') === null" % routine,
                        "the routine deleted")
         self.assertNotIn(routine, [r["name"] for r in json.loads(self.task_control_raw("routine_list", "")[1])])
+
+    def store_history(self, target, values):
+        """One reading of ``target`` (test_8's preset) a day for the last ``len(values)`` days, in the store."""
+        status = json.loads(self.task(lambda s: s.get("store"), "task_status with the store").data)
+        store = ResultStore(os.path.join(rospy.get_param("/data_root"), status["store"]))
+        preset = {"directory": self.calibrated_preset, "foreign": False, "alarms": {target: [0.0, 1.0]},
+                  "targets": [{"name": target, "kind": "pointer", "unit": "MPa"}]}
+        task_id = "console_history_%d" % int(time.time() * 1000)
+        now = time.time()
+        rows = []
+        for day, value in enumerate(values):
+            inspection = Inspection([value], [90.0], [""], (1.0, 2.0, 0.0), None, [""])
+            rows += reading_rows(task_id, 0, "here", 0, preset, inspection, "", now - (len(values) - day) * 86400)
+        self.assertEqual(store.add_readings(rows), len(values))
+        store.close()
 
     def task_control(self, cmd, query):
         """task_control over ROS (not through the page): the JSON of a successful reply."""
