@@ -655,12 +655,12 @@ class ConsoleTest(unittest.TestCase):
         store = ResultStore(os.path.join(rospy.get_param("/data_root"), status["store"]))
         preset = {"directory": self.calibrated_preset, "foreign": False, "alarms": {target: [0.0, 1.0]},
                   "targets": [{"name": target, "kind": "pointer", "unit": "MPa"}]}
-        task_id = "console_history_%d" % int(time.time() * 1000)
         now = time.time()
         rows = []
-        for day, value in enumerate(values):
+        for day, value in enumerate(values):   # one patrol a day
             inspection = Inspection([value], [90.0], [""], (1.0, 2.0, 0.0), None, [""])
-            rows += reading_rows(task_id, 0, "here", 0, preset, inspection, "", now - (len(values) - day) * 86400)
+            rows += reading_rows("console_history_%d_%d" % (int(now * 1000), day), 0, "here", 0, preset, inspection,
+                                 "", now - (len(values) - day) * 86400)
         self.assertEqual(store.add_readings(rows), len(values))
         store.close()
 
