@@ -11,9 +11,11 @@ confirmed) and found in the store; and a second, authenticated bridge where the 
 wrong one and shows a dropped link. Any JavaScript error fails the test.
 Screenshots go to <package>/test_logs/console/.
 """
+import configparser
 import json
 import math
 import os
+import shutil
 import subprocess
 import time
 import unittest
@@ -36,7 +38,11 @@ CHROMIUM_ARGS = ["--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-
                  "--disable-background-networking", "--disable-component-update", "--disable-sync"]
 CMD_TIMEOUT = 0.5      # s, robot_control's move_cmd watchdog
 SHOTS = os.path.join(rospkg.RosPack().get_path("inspection_robot"), "test_logs", "console")
+SCREENS = os.path.join(rospkg.RosPack().get_path("inspection_robot"), "test_logs", "screens")   # named views
 FAR_STOP = (15.5, 10.0, 0.0)
+# copies of test_8's preset recorded at other stops of the yard (inspection_robot_testing/yard_patrol.py)
+YARD_COPIES = {"console_yard_a": (15.5, 10.0, 0.0), "console_yard_b": (20.0, 15.0, -math.pi / 2),
+               "console_yard_c": (26.0, 21.4, math.pi / 2)}
 # A page of another origin that tries to take backend control and drive through the robot's bridge.
 ATTACK_PAGE = """<!doctype html><script>
 window.attack = {opened: false, done: false};
@@ -61,6 +67,7 @@ class ConsoleTest(unittest.TestCase):
     def setUpClass(cls):
         rospy.init_node("test_console")
         os.makedirs(SHOTS, exist_ok=True)
+        os.makedirs(SCREENS, exist_ok=True)
         cls.port = bridge_port("rosbridge_websocket")
         cls.status = Latest("/robot_status", RobotStatus)
         cls.true_pose = Latest("/sim/true_pose", PoseWithCovarianceStamped)
@@ -408,6 +415,7 @@ class ConsoleTest(unittest.TestCase):
             {"name": "here", "pose": {"x": pose.position[0], "y": pose.position[1], "yaw": pose.orientation},
              "presets": [preset]},
             {"name": "far", "pose": {"x": FAR_STOP[0], "y": FAR_STOP[1], "yaw": FAR_STOP[2]}, "presets": [preset]}]}
+        self.page.click("#patrol-advanced summary")   # the JSON view, for what the planner cannot say
         self.page.fill("#patrol-task", json.dumps(task))
         self.page.click("#patrol-form button[type=submit]")
         self.task(lambda s: s.get("task_id") == task_id and s["state"] == "running", "the patrol running")
@@ -431,13 +439,17 @@ class ConsoleTest(unittest.TestCase):
             self.wait_page("Array.from(document.querySelectorAll('#results img'))"
                            ".some((i) => i.src.startsWith('data:image/') && i.naturalWidth > 0)",
                            "the annotated picture shown")
-        # The meter's trend: every reading of it the store holds (the page asks for the last 90 days).
+        # The meter's trend: every reading of it the store holds (the page asks for the last 90 days),
+        # with two weeks of earlier readings of it stored as task_manager stores them: one a day,
+        # drifting up out of its band [0, 1] on the last day.
+        self.store_history("console_gauge", [0.55 + 0.035 * day for day in range(14)])
         history = json.loads(control_proxy("/task_control", 10.0)(
             sender="test_console", cmd="query_results", data=json.dumps({"target": "console_gauge"})).data)
         self.assertGreaterEqual(len(history), 1)
         self.page.click("#results td.trend-link >> text=console_gauge")
         self.wait_page("document.getElementById('trend').dataset.points === '%d'"
                        % len([r for r in history if r["value"] is not None]), "the meter's trend drawn")
+        self.page.locator("#trend").screenshot(path=os.path.join(SCREENS, "trend.png"))
         self.page.click("#patrol-cancel")
         self.task(lambda s: (s.get("last_ended") or {}).get("task_id") == task_id
                   and s["last_ended"]["state"] == "cancelled", "the patrol cancelled by the page")
@@ -508,6 +520,149 @@ class ConsoleTest(unittest.TestCase):
             record = json.load(f)
         self.assertEqual((record["true_value"], record["value"], record["picture"], record["preset"]),
                          (0.85, 1.3, picture, self.calibrated_preset))
+
+    # ------------------------------------------------------------------ patrol planner, routines, schedules
+    def task_control_raw(self, cmd, data):
+        """task_control over ROS with ``data`` as it is: (ack, data)."""
+        reply = control_proxy("/task_control", 10.0)(sender="test_console", cmd=cmd, data=data)
+        return reply.ack, reply.data
+
+    def pixel_near(self, canvas, x, y, colour, radius=2, tolerance=40):
+        """Whether a pixel of ``canvas`` within ``radius`` px of world point (x, y) has ``colour`` (RGB)."""
+        return self.page.evaluate(
+            "([id, x, y, c, r, tol]) => { const canvas = document.getElementById(id);"
+            " const [sx, sy] = window.consoleMap.toScreen([x, y]);"
+            " const d = canvas.getContext('2d')"
+            "  .getImageData(Math.round(sx) - r, Math.round(sy) - r, 2 * r + 1, 2 * r + 1).data;"
+            " for (let i = 0; i < d.length; i += 4) {"
+            "  if (Math.abs(d[i] - c[0]) + Math.abs(d[i + 1] - c[1]) + Math.abs(d[i + 2] - c[2]) < tol) return true; }"
+            " return false; }", [canvas, x, y, list(colour), radius, tolerance])
+
+    def test_9c_patrol_planned_on_the_map_saved_and_scheduled(self):
+        self.assertIsNotNone(self.calibrated_preset, "test_8 calibrates the preset the planner picks")
+        self.ensure_task_mode()
+        self.task(lambda s: s["state"] not in ("running", "paused", "returning_home"), "no patrol running", 60.0)
+        stamp = os.path.basename(self.calibrated_preset)
+        directory = "presets/%s/%s" % (os.path.basename(os.path.dirname(self.calibrated_preset)), stamp)
+        pose = self.calibration(directory)["info"]["pose"]
+        # Three more presets of the same meter recorded at yard stops (copies with another pose).
+        yard = {}
+        for name, stop in YARD_COPIES.items():
+            copy = os.path.join(os.path.dirname(os.path.dirname(self.calibrated_preset)), name, stamp)
+            shutil.copytree(self.calibrated_preset, copy)
+            ini = configparser.ConfigParser(interpolation=None)
+            ini.read(os.path.join(copy, "preset.ini"))
+            ini["preset"]["preset_id"] = name
+            ini["pose"] = {"x": "%.4f" % stop[0], "y": "%.4f" % stop[1], "yaw": "%.5f" % stop[2]}
+            with open(os.path.join(copy, "preset.ini"), "w") as f:
+                ini.write(f)
+            yard[name] = "presets/%s/%s" % (name, stamp)
+        self.open_console()
+        self.wait_connected()
+        # The preset list loads by itself once the link is up: every preset id's newest recording.
+        self.wait_page("window.consolePlanner.catalog() >= 4 && !window.consolePlanner.loading()", "the preset list")
+        self.wait_page("window.consoleMap.ready()", "the map drawn")
+        # A click on a stop on the map picks its presets (every calibrated one recorded there).
+        self.page.click("#tool-pick")
+        self.map_click(pose[0], pose[1])
+        self.wait_page("window.consolePlanner.stops().length === 1", "the stop picked on the map")
+        self.map_click(*YARD_COPIES["console_yard_b"][:2])
+        self.wait_page("window.consolePlanner.stops().length === 2", "the second stop picked on the map")
+        self.page.click("#tool-pick")
+        # The searchable list: the preset ids found by a word of theirs, added; one stop each.
+        self.page.fill("#planner-search", "console_yard")
+        for name in ("console_yard_a", "console_yard_c"):
+            self.page.click("#planner-catalog li[data-preset='%s'] .planner-add" % yard[name])
+        self.wait_page("window.consolePlanner.stops().length === 4", "four stops")
+        stops = self.page.evaluate("window.consolePlanner.stops()")
+        self.assertEqual([s["presets"] for s in stops],
+                         [[directory], [yard["console_yard_b"]], [yard["console_yard_a"]], [yard["console_yard_c"]]])
+        self.assertAlmostEqual(stops[0]["pose"]["x"], pose[0], delta=0.01)
+        # A meter's name finds its presets; adding one already planned says so and adds nothing.
+        self.page.fill("#planner-search", "console_gauge")
+        item = "#planner-catalog li[data-preset='%s']" % directory
+        self.wait_page("document.querySelectorAll('#planner-catalog li').length >= 4",
+                       "the presets found by their meter")
+        self.page.click(item + " .planner-add")
+        self.wait_page("document.getElementById('planner-route').textContent.includes('already planned')",
+                       "the duplicate refused")
+        self.assertEqual(len(self.page.evaluate("window.consolePlanner.stops()")), 4)
+        # Plan: task_manager's order and path, drawn on the map with its length; the same as asked over ROS.
+        self.page.click("#planner-plan")
+        self.wait_page("window.consolePlanner.route() !== null", "the planned route", 60.0)
+        route = self.page.evaluate("window.consolePlanner.route()")
+        task = {"order": "shortest", "retries": 1,
+                "stops": [{"name": s["name"], "pose": s["pose"], "presets": s["presets"]} for s in stops]}
+        ack, data = self.task_control_raw("plan", json.dumps(task))
+        self.assertEqual(ack, "success", data)
+        self.assertAlmostEqual(route["planned_length_m"], json.loads(data)["planned_length_m"], delta=0.5)
+        self.assertGreater(len(route["path"]), 2)
+        self.assertIn("%.1f m planned" % route["planned_length_m"], self.page.inner_text("#planner-route"))
+        middle = route["path"][len(route["path"]) // 2]
+        self.page.locator("#map").scroll_into_view_if_needed()
+        self.wait_page("window.consolePlanner.routeDrawn()", "the route drawn on the map")
+        self.assertTrue(self.pixel_near("map", middle[0], middle[1], (0x6a, 0x1b, 0x9a)), "the route drawn purple")
+        self.page.add_style_tag(content="header { position: static; }")   # not over the panels shot
+        self.page.locator("#map-panel").screenshot(path=os.path.join(SCREENS, "planner_route.png"))
+        self.page.locator("#planner-panel").screenshot(path=os.path.join(SCREENS, "planner.png"))
+        # Saved as a routine: task_manager holds it as the page built it.
+        routine = "console_routine_%d" % (int(time.time() * 1000) % 100000000)
+        self.page.fill("#routine-name", routine)
+        self.page.click("#routine-save")
+        self.wait_page("document.querySelector('#routines tr[data-routine=\"%s\"]') !== null" % routine,
+                       "the routine listed")
+        ack, data = self.task_control_raw("routine_list", "")
+        saved = next(r for r in json.loads(data) if r["name"] == routine)
+        self.assertEqual([s["presets"] for s in saved["task"]["stops"]], [s["presets"] for s in stops])
+        self.assertNotIn("id", saved["task"])
+        # A schedule in the past: the robot's refusal shown, nothing stored.
+        self.page.fill("#schedule-name", routine + "_past")
+        self.page.select_option("#schedule-routine", routine)
+        self.page.fill("#schedule-time", "08:00")
+        self.page.check("input[name=schedule-repeat][value=date]")
+        self.page.fill("#schedule-date", time.strftime("%Y-%m-%d", time.localtime(time.time() - 86400)))
+        self.page.click("#schedule-form button[type=submit]")
+        self.wait_page("document.getElementById('schedule-result').textContent.includes('is in the past')",
+                       "the past schedule refused")
+        # A one-off at the next whole minute (robot local time) at least 20 s away: it fires by itself.
+        at = (int(time.time() + 20) // 60 + 1) * 60
+        name = routine + "_once"
+        self.page.fill("#schedule-name", name)
+        self.page.fill("#schedule-time", time.strftime("%H:%M", time.localtime(at)))
+        self.page.fill("#schedule-date", time.strftime("%Y-%m-%d", time.localtime(at)))
+        self.page.click("#schedule-form button[type=submit]")
+        row = "document.querySelector('#schedules tr[data-schedule=\"%s\"]')" % name
+        self.wait_page(row + " !== null && " + row + ".textContent.includes('%s')"
+                       % time.strftime("%Y-%m-%d %H:%M", time.localtime(at)), "the schedule with its next run")
+        run = routine + time.strftime("_%Y%m%d_%H%M", time.localtime(at))
+        self.task(lambda s: s.get("task_id") == run and s["state"] == "running", "the scheduled run started",
+                  at - time.time() + 60.0)
+        self.wait_page(row + ".textContent.includes('%s')" % run, "the last run on the page")
+        self.assertEqual(self.task_control_raw("cancel", "")[0], "success")
+        self.task(lambda s: (s.get("last_ended") or {}).get("task_id") == run, "the scheduled run cancelled")
+        self.page.locator("#schedule-panel").screenshot(path=os.path.join(SCREENS, "schedules.png"))
+        # Deleted from the page: the schedule, then its routine.
+        self.page.click("#schedules tr[data-schedule='%s'] button >> text=delete" % name)
+        self.wait_page(row + " === null", "the schedule deleted")
+        self.page.click("#routines tr[data-routine='%s'] button >> text=delete" % routine)
+        self.wait_page("document.querySelector('#routines tr[data-routine=\"%s\"]') === null" % routine,
+                       "the routine deleted")
+        self.assertNotIn(routine, [r["name"] for r in json.loads(self.task_control_raw("routine_list", "")[1])])
+
+    def store_history(self, target, values):
+        """One reading of ``target`` (test_8's preset) a day for the last ``len(values)`` days, in the store."""
+        status = json.loads(self.task(lambda s: s.get("store"), "task_status with the store").data)
+        store = ResultStore(os.path.join(rospy.get_param("/data_root"), status["store"]))
+        preset = {"directory": self.calibrated_preset, "foreign": False, "alarms": {target: [0.0, 1.0]},
+                  "targets": [{"name": target, "kind": "pointer", "unit": "MPa"}]}
+        now = time.time()
+        rows = []
+        for day, value in enumerate(values):   # one patrol a day
+            inspection = Inspection([value], [90.0], [""], (1.0, 2.0, 0.0), None, [""])
+            rows += reading_rows("console_history_%d_%d" % (int(now * 1000), day), 0, "here", 0, preset, inspection,
+                                 "", now - (len(values) - day) * 86400)
+        self.assertEqual(store.add_readings(rows), len(values))
+        store.close()
 
     def task_control(self, cmd, query):
         """task_control over ROS (not through the page): the JSON of a successful reply."""

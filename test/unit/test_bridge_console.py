@@ -40,10 +40,13 @@ def status_of(url):
 def test_page_vendor_library_and_config_served_and_websocket_still_answers(site):
     base, server = site
     status, headers, body = get(base + "/console/")
-    assert status == 200 and b"console.js" in body and headers["Cache-Control"] == "no-cache"
+    assert status == 200 and b'type="module" src="main.js"' in body and headers["Cache-Control"] == "no-cache"
     assert get(base + "/console")[2] == body                      # redirected to /console/
     assert get(base + "/console/vendor/roslib.min.js")[2] == b"var ROSLIB = {};"
     assert json.loads(get(base + "/console/config.json")[2]) == {"auth_required": True}
+    for module in ("main.js", "link.js", "decode.js"):   # a module script runs only with a JavaScript MIME type
+        headers = get(base + "/console/" + module)[1]
+        assert headers["Content-Type"].startswith("text/javascript") and headers["X-Content-Type-Options"] == "nosniff"
     client = RawClient("ws://127.0.0.1:%d" % server.port)     # every other path is the websocket
     client.send({"op": "call_service", "id": 1, "service": "/echo", "args": {"x": 1}})
     assert client.recv_message()["values"] == {"echo": {"x": 1}}

@@ -1,169 +1,155 @@
 /* robot_status decoded into words: the spec's bit tables (docs/interface.md, "Heartbeat and status",
    "Motion and safety"), and the calibration editor's and the history's arithmetic, kept apart from the
    page so node's test runner checks them without a browser. */
-(function (exports) {
-  'use strict';
 
-  const MODES = ['task', 'backend remote control', 'joystick'];
+export const MODES = ['task', 'backend remote control', 'joystick'];
 
-  // [bit, words, is an alarm when set]
-  const BITS = {
-    wheel_status: [[0, 'straight mode', false], [1, 'steer mode', false], [2, 'switching direction', false],
-      [3, 'stepper fault clear', false], [4, 'servo fault clear', false], [5, 'obstacle detection OFF', true],
-      [6, 'anti-collision OFF', true], [7, 'anti-fall OFF', true]],
-    light_status: [[0, 'charge relay on', false], [1, 'lamp red', false], [2, 'lamp green', false],
-      [3, 'lamp blue', false], [4, 'soft e-stop engaged', true], [5, 'hard e-stop pressed', true],
-      [6, 'bumper strip pressed', true]],
-    stop_status: [[0, 'front collision alarm', true], [5, 'obstacle alarm', true], [6, 'left fall alarm', true],
-      [7, 'right fall alarm', true]],
-    circuit_status: [[0, 'stepper board comm alarm', true], [1, 'joystick comm lost', true],
-      [2, 'joystick line fault', true], [3, 'sensor board line fault', true], [4, 'collision line fault', true],
-      [5, 'left TOF line fault', true], [6, 'right TOF line fault', true], [7, 'battery critically low', true]],
-    battery_status: [[0, 'under-voltage', true], [1, 'over-voltage', true], [2, 'low temperature', true],
-      [3, 'high temperature', true], [4, 'charging', false], [5, 'discharging', false],
-      [7, 'battery line fault', true]],
-    nav_status: [[0, 'off-track', true], [1, 'localization lost', true], [2, '3D obstacle', true]],
-    sensor_status: [[0, 'visible camera alarm', true], [1, 'thermal imager alarm', true]],
+// [bit, words, is an alarm when set]
+export const BITS = {
+  wheel_status: [[0, 'straight mode', false], [1, 'steer mode', false], [2, 'switching direction', false],
+    [3, 'stepper fault clear', false], [4, 'servo fault clear', false], [5, 'obstacle detection OFF', true],
+    [6, 'anti-collision OFF', true], [7, 'anti-fall OFF', true]],
+  light_status: [[0, 'charge relay on', false], [1, 'lamp red', false], [2, 'lamp green', false],
+    [3, 'lamp blue', false], [4, 'soft e-stop engaged', true], [5, 'hard e-stop pressed', true],
+    [6, 'bumper strip pressed', true]],
+  stop_status: [[0, 'front collision alarm', true], [5, 'obstacle alarm', true], [6, 'left fall alarm', true],
+    [7, 'right fall alarm', true]],
+  circuit_status: [[0, 'stepper board comm alarm', true], [1, 'joystick comm lost', true],
+    [2, 'joystick line fault', true], [3, 'sensor board line fault', true], [4, 'collision line fault', true],
+    [5, 'left TOF line fault', true], [6, 'right TOF line fault', true], [7, 'battery critically low', true]],
+  battery_status: [[0, 'under-voltage', true], [1, 'over-voltage', true], [2, 'low temperature', true],
+    [3, 'high temperature', true], [4, 'charging', false], [5, 'discharging', false],
+    [7, 'battery line fault', true]],
+  nav_status: [[0, 'off-track', true], [1, 'localization lost', true], [2, '3D obstacle', true]],
+  sensor_status: [[0, 'visible camera alarm', true], [1, 'thermal imager alarm', true]],
+};
+
+const MOTORS = ['LF servo', 'RF servo', 'RR servo', 'LR servo', 'LF stepper', 'RF stepper', 'RR stepper',
+  'LR stepper'];
+const TEMPERATURES = ['battery', 'servo LF', 'servo RF', 'servo RR', 'servo LR', 'stepper LF', 'stepper RF',
+  'stepper RR', 'stepper LR', 'IPC', 'motion control card', 'pod inside', 'pod outside'];
+
+/** The set bits of ``value`` in ``field`` as [{words, alarm}]. */
+export function bits(field, value) {
+  return BITS[field].filter(([bit]) => (value >> bit) & 1).map(([, words, alarm]) => ({ words, alarm }));
+}
+
+/** A uint8[] field as numbers: rosbridge's JSON carries uint8[] as base64, CBOR as bytes. */
+export function byteArray(value) {
+  if (typeof value !== 'string') return Array.from(value || []);
+  const text = typeof atob === 'function' ? atob(value) : Buffer.from(value, 'base64').toString('binary');
+  return Array.from(text, (c) => c.charCodeAt(0));
+}
+
+/** Motor faults as words: servo b0 disconnected / b4 fault, stepper b0 error (motor_status). */
+function motorFaults(motorStatus) {
+  const faults = [];
+  byteArray(motorStatus).forEach((value, i) => {
+    const servo = i < 4;
+    if (value & 1) faults.push(MOTORS[i] + (servo ? ' disconnected' : ' error'));
+    if (servo && (value >> 4) & 1) faults.push(MOTORS[i] + ' fault');
+  });
+  return faults;
+}
+
+/** Everything the status panel shows, in words: {mode, offline, rows: [{name, text, alarm}], alarms}. */
+export function decodeStatus(msg) {
+  const rows = [];
+  const alarms = [];
+  const add = (name, text, alarm) => {
+    rows.push({ name, text, alarm: !!alarm });
+    if (alarm) alarms.push(name + ': ' + text);
   };
-
-  const MOTORS = ['LF servo', 'RF servo', 'RR servo', 'LR servo', 'LF stepper', 'RF stepper', 'RR stepper',
-    'LR stepper'];
-  const TEMPERATURES = ['battery', 'servo LF', 'servo RF', 'servo RR', 'servo LR', 'stepper LF', 'stepper RF',
-    'stepper RR', 'stepper LR', 'IPC', 'motion control card', 'pod inside', 'pod outside'];
-
-  /** The set bits of ``value`` in ``field`` as [{words, alarm}]. */
-  function bits(field, value) {
-    return BITS[field].filter(([bit]) => (value >> bit) & 1).map(([, words, alarm]) => ({ words, alarm }));
+  add('mode', MODES[msg.mode] !== undefined ? MODES[msg.mode] : 'unknown (' + msg.mode + ')', false);
+  add('backend link', msg.offline_warn ? 'OFFLINE (no server heartbeat)' : 'online', msg.offline_warn);
+  const pos = msg.position || [];
+  add('pose', pos.length >= 2
+    ? 'x ' + pos[0].toFixed(2) + ' m, y ' + pos[1].toFixed(2) + ' m, yaw '
+      + (msg.orientation * 180 / Math.PI).toFixed(1) + '°'
+    : 'unknown', false);
+  add('speed', (msg.velocity_x).toFixed(2) + ' m/s, ' + (msg.velocity_yaw).toFixed(2) + ' rad/s', false);
+  add('battery', msg.battery_quantity + ' %, ' + (msg.battery_voltage / 10).toFixed(1) + ' V, '
+    + (msg.battery_current / 10).toFixed(1) + ' A', msg.battery_quantity <= 10);
+  for (const field of ['battery_status', 'wheel_status', 'light_status', 'stop_status', 'circuit_status',
+    'nav_status', 'sensor_status']) {
+    const set = bits(field, msg[field] || 0);
+    if (!set.length) {
+      add(field, 'none', false);
+    }
+    for (const bit of set) add(field, bit.words, bit.alarm);
   }
+  const motors = motorFaults(msg.motor_status);
+  add('motors', motors.length ? motors.join(', ') : 'ok', motors.length > 0);
+  const temps = (msg.temperature || []).map((t, i) => (t === -1000 ? null : TEMPERATURES[i] + ' '
+    + (t / 10).toFixed(1) + ' °C')).filter((t) => t);
+  add('temperatures', temps.length ? temps.join(', ') : 'not sampled', false);
+  return { mode: msg.mode, offline: !!msg.offline_warn, rows, alarms };
+}
 
-  /** A uint8[] field as numbers: rosbridge's JSON carries uint8[] as base64, CBOR as bytes. */
-  function byteArray(value) {
-    if (typeof value !== 'string') return Array.from(value || []);
-    const text = typeof atob === 'function' ? atob(value) : Buffer.from(value, 'base64').toString('binary');
-    return Array.from(text, (c) => c.charCodeAt(0));
+/** The needle angle of picture point ``p`` about the centre of ``box`` [x0, y0, x1, y1] (px, y down):
+    degrees clockwise from 12 o'clock, as calibration_control's set_zero / set_full_scale take it. */
+export function needleAngle(box, p) {
+  const [x0, y0, x1, y1] = box;
+  return Math.atan2(p[0] - (x0 + x1) / 2, (y0 + y1) / 2 - p[1]) * 180 / Math.PI;
+}
+
+/** An axis-aligned box [x0, y0, x1, y1] as calibration's 8 numbers TL, TR, BR, BL (0.1 px). */
+export function boxQuad(box) {
+  const [x0, y0, x1, y1] = box;
+  return [x0, y0, x1, y0, x1, y1, x0, y1].map((v) => Math.round(v * 10) / 10);
+}
+
+// task_manager's alarm states, most urgent first (src/inspection_robot/task/states.py ALARM_ORDER)
+const ALARM_ORDER = { alarm: 0, check: 1, failed: 2, trend: 3, normal: 4, none: 5 };
+const alarmRank = (row) => (row.alarm in ALARM_ORDER ? ALARM_ORDER[row.alarm] : 5);
+
+/** query_results rows, alarms and checks first, then failures, then the rest; newest first within each. */
+export function sortReadings(rows) {
+  return rows.slice().sort((a, b) => alarmRank(a) - alarmRank(b) || b.time - a.time);
+}
+
+/** A reading's value in words: "0.788 MPa [0, 1]", "failed: <reason>", an uncertain one
+    "0.97 MPa [0.2, 0.8] uncertain: <reason>" and a reviewed one "... reviewed by li: 0.62 MPa". */
+export function readingText(row) {
+  if (row.status === 'failed' || row.value === null) return 'failed: ' + row.reason;
+  const band = row.low !== null && row.low !== undefined ? ' [' + row.low + ', ' + row.high + ']' : '';
+  const number = (value) => Number(value.toPrecision(4)) + (row.unit ? ' ' + row.unit : '');
+  let text = number(row.value) + band;
+  if (row.status === 'uncertain') text += ' uncertain: ' + row.reason;
+  if (row.review_time !== null && row.review_time !== undefined) {
+    text += ' · reviewed by ' + row.review_by + ': '
+      + (row.review_value === row.value ? 'confirmed' : number(row.review_value));
   }
+  return text;
+}
 
-  /** Motor faults as words: servo b0 disconnected / b4 fault, stepper b0 error (motor_status). */
-  function motorFaults(motorStatus) {
-    const faults = [];
-    byteArray(motorStatus).forEach((value, i) => {
-      const servo = i < 4;
-      if (value & 1) faults.push(MOTORS[i] + (servo ? ' disconnected' : ' error'));
-      if (servo && (value >> 4) & 1) faults.push(MOTORS[i] + ' fault');
+/* A meter's history for its trend chart: [{t, v, kind}] oldest first (kind: read, uncertain,
+   corrected (an operator's value), alarm, check, trend), the value axis [lo, hi] covering values
+   and band with a margin, and the newest band. Rows as query_results gives them. */
+export function trendSeries(rows) {
+  const points = [];
+  let band = null;
+  rows.filter((r) => r.value !== null || (r.review_value !== null && r.review_value !== undefined))
+    .sort((a, b) => a.time - b.time).forEach((r) => {
+      const corrected = r.review_value !== null && r.review_value !== undefined;
+      const kind = corrected ? 'corrected' : ['alarm', 'check', 'trend'].includes(r.alarm) ? r.alarm
+        : r.status === 'uncertain' ? 'uncertain' : 'read';
+      points.push({ t: r.time, v: corrected ? r.review_value : r.value, kind });
+      if (r.low !== null && r.low !== undefined) band = [r.low, r.high];
     });
-    return faults;
-  }
+  const values = points.map((p) => p.v).concat(band || []);
+  let lo = Math.min.apply(null, values);
+  let hi = Math.max.apply(null, values);
+  if (!isFinite(lo)) { lo = 0; hi = 1; }
+  const margin = (hi - lo) * 0.1 || Math.abs(hi) * 0.1 || 1;
+  return { points, band, range: [lo - margin, hi + margin] };
+}
 
-  /** Everything the status panel shows, in words: {mode, offline, rows: [{name, text, alarm}], alarms}. */
-  function decodeStatus(msg) {
-    const rows = [];
-    const alarms = [];
-    const add = (name, text, alarm) => {
-      rows.push({ name, text, alarm: !!alarm });
-      if (alarm) alarms.push(name + ': ' + text);
-    };
-    add('mode', MODES[msg.mode] !== undefined ? MODES[msg.mode] : 'unknown (' + msg.mode + ')', false);
-    add('backend link', msg.offline_warn ? 'OFFLINE (no server heartbeat)' : 'online', msg.offline_warn);
-    const pos = msg.position || [];
-    add('pose', pos.length >= 2
-      ? 'x ' + pos[0].toFixed(2) + ' m, y ' + pos[1].toFixed(2) + ' m, yaw '
-        + (msg.orientation * 180 / Math.PI).toFixed(1) + '°'
-      : 'unknown', false);
-    add('speed', (msg.velocity_x).toFixed(2) + ' m/s, ' + (msg.velocity_yaw).toFixed(2) + ' rad/s', false);
-    add('battery', msg.battery_quantity + ' %, ' + (msg.battery_voltage / 10).toFixed(1) + ' V, '
-      + (msg.battery_current / 10).toFixed(1) + ' A', msg.battery_quantity <= 10);
-    for (const field of ['battery_status', 'wheel_status', 'light_status', 'stop_status', 'circuit_status',
-      'nav_status', 'sensor_status']) {
-      const set = bits(field, msg[field] || 0);
-      if (!set.length) {
-        add(field, 'none', false);
-      }
-      for (const bit of set) add(field, bit.words, bit.alarm);
-    }
-    const motors = motorFaults(msg.motor_status);
-    add('motors', motors.length ? motors.join(', ') : 'ok', motors.length > 0);
-    const temps = (msg.temperature || []).map((t, i) => (t === -1000 ? null : TEMPERATURES[i] + ' '
-      + (t / 10).toFixed(1) + ' °C')).filter((t) => t);
-    add('temperatures', temps.length ? temps.join(', ') : 'not sampled', false);
-    return { mode: msg.mode, offline: !!msg.offline_warn, rows, alarms };
-  }
+/* One calibration self-check entry (calibration_control apply/upload) in words. */
+export function selfCheckText(check) {
+  if (check.read === null) return 'the robot cannot read it: ' + check.reason;
+  let text = 'the robot reads ' + Number(check.read.toPrecision(4)) + ' (' + Math.round(check.confidence) + ' %)';
+  if (check.expected !== null) text += ', you ' + check.expected + ': ' + check.apart_fs_pct + ' % of full scale apart';
+  return text + (check.reason ? ' (' + check.reason + ')' : '');
+}
 
-  /** The needle angle of picture point ``p`` about the centre of ``box`` [x0, y0, x1, y1] (px, y down):
-      degrees clockwise from 12 o'clock, as calibration_control's set_zero / set_full_scale take it. */
-  function needleAngle(box, p) {
-    const [x0, y0, x1, y1] = box;
-    return Math.atan2(p[0] - (x0 + x1) / 2, (y0 + y1) / 2 - p[1]) * 180 / Math.PI;
-  }
-
-  /** An axis-aligned box [x0, y0, x1, y1] as calibration's 8 numbers TL, TR, BR, BL (0.1 px). */
-  function boxQuad(box) {
-    const [x0, y0, x1, y1] = box;
-    return [x0, y0, x1, y0, x1, y1, x0, y1].map((v) => Math.round(v * 10) / 10);
-  }
-
-  // task_manager's alarm states, most urgent first (src/inspection_robot/task/states.py ALARM_ORDER)
-  const ALARM_ORDER = { alarm: 0, check: 1, failed: 2, trend: 3, normal: 4, none: 5 };
-  const alarmRank = (row) => (row.alarm in ALARM_ORDER ? ALARM_ORDER[row.alarm] : 5);
-
-  /** query_results rows, alarms and checks first, then failures, then the rest; newest first within each. */
-  function sortReadings(rows) {
-    return rows.slice().sort((a, b) => alarmRank(a) - alarmRank(b) || b.time - a.time);
-  }
-
-  /** A reading's value in words: "0.788 MPa [0, 1]", "failed: <reason>", an uncertain one
-      "0.97 MPa [0.2, 0.8] uncertain: <reason>" and a reviewed one "... reviewed by li: 0.62 MPa". */
-  function readingText(row) {
-    if (row.status === 'failed' || row.value === null) return 'failed: ' + row.reason;
-    const band = row.low !== null && row.low !== undefined ? ' [' + row.low + ', ' + row.high + ']' : '';
-    const number = (value) => Number(value.toPrecision(4)) + (row.unit ? ' ' + row.unit : '');
-    let text = number(row.value) + band;
-    if (row.status === 'uncertain') text += ' uncertain: ' + row.reason;
-    if (row.review_time !== null && row.review_time !== undefined) {
-      text += ' · reviewed by ' + row.review_by + ': '
-        + (row.review_value === row.value ? 'confirmed' : number(row.review_value));
-    }
-    return text;
-  }
-
-  /* A meter's history for its trend chart: [{t, v, kind}] oldest first (kind: read, uncertain,
-     corrected (an operator's value), alarm, check, trend), the value axis [lo, hi] covering values
-     and band with a margin, and the newest band. Rows as query_results gives them. */
-  function trendSeries(rows) {
-    const points = [];
-    let band = null;
-    rows.filter((r) => r.value !== null || (r.review_value !== null && r.review_value !== undefined))
-      .sort((a, b) => a.time - b.time).forEach((r) => {
-        const corrected = r.review_value !== null && r.review_value !== undefined;
-        const kind = corrected ? 'corrected' : ['alarm', 'check', 'trend'].includes(r.alarm) ? r.alarm
-          : r.status === 'uncertain' ? 'uncertain' : 'read';
-        points.push({ t: r.time, v: corrected ? r.review_value : r.value, kind });
-        if (r.low !== null && r.low !== undefined) band = [r.low, r.high];
-      });
-    const values = points.map((p) => p.v).concat(band || []);
-    let lo = Math.min.apply(null, values);
-    let hi = Math.max.apply(null, values);
-    if (!isFinite(lo)) { lo = 0; hi = 1; }
-    const margin = (hi - lo) * 0.1 || Math.abs(hi) * 0.1 || 1;
-    return { points, band, range: [lo - margin, hi + margin] };
-  }
-
-  /* One calibration self-check entry (calibration_control apply/upload) in words. */
-  function selfCheckText(check) {
-    if (check.read === null) return 'the robot cannot read it: ' + check.reason;
-    let text = 'the robot reads ' + Number(check.read.toPrecision(4)) + ' (' + Math.round(check.confidence) + ' %)';
-    if (check.expected !== null) text += ', you ' + check.expected + ': ' + check.apart_fs_pct + ' % of full scale apart';
-    return text + (check.reason ? ' (' + check.reason + ')' : '');
-  }
-
-  exports.selfCheckText = selfCheckText;
-  exports.trendSeries = trendSeries;
-  exports.MODES = MODES;
-  exports.needleAngle = needleAngle;
-  exports.boxQuad = boxQuad;
-  exports.sortReadings = sortReadings;
-  exports.readingText = readingText;
-  exports.BITS = BITS;
-  exports.bits = bits;
-  exports.byteArray = byteArray;
-  exports.decodeStatus = decodeStatus;
-}(typeof module !== 'undefined' ? module.exports : (window.RobotDecode = {})));

@@ -12,9 +12,17 @@ import tornado.web
 
 CONSOLE_PATH = "/console/"
 VENDOR_FILES = ("roslib.min.js",)
+# The page's scripts are ES modules: a browser runs one only with a JavaScript MIME type (and nosniff
+# forbids guessing), so it is named here rather than left to the host's mime.types.
+JAVASCRIPT = "text/javascript"
 
 
 class _StaticFiles(tornado.web.StaticFileHandler):
+    def get_content_type(self):
+        if self.absolute_path.endswith((".js", ".mjs")):
+            return JAVASCRIPT
+        return super().get_content_type()
+
     def set_extra_headers(self, path):
         # Revalidate on every load: after an update the operator gets the new page, not a stale mix.
         self.set_header("Cache-Control", "no-cache")

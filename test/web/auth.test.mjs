@@ -1,9 +1,9 @@
 // node --test: the console's SHA-512 and auth fields (web/console/auth.js) against node's crypto.
-'use strict';
-const test = require('node:test');
-const assert = require('node:assert');
-const crypto = require('node:crypto');
-const { sha512Hex, authFields } = require('../../web/console/auth.js');
+import assert from 'node:assert';
+import crypto from 'node:crypto';
+import test from 'node:test';
+
+import { authFields, sha512Hex } from '../../web/console/auth.js';
 
 const reference = (text) => crypto.createHash('sha512').update(text, 'utf8').digest('hex');
 

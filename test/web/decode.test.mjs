@@ -1,10 +1,10 @@
 // node --test: robot_status decoded into words, the calibration editor's and the history's arithmetic
 // (web/console/decode.js) without a browser.
-'use strict';
-const test = require('node:test');
-const assert = require('node:assert');
-const { decodeStatus, bits, byteArray, needleAngle, boxQuad, sortReadings, readingText, selfCheckText, trendSeries } =
-  require('../../web/console/decode.js');
+import assert from 'node:assert';
+import test from 'node:test';
+
+import { bits, boxQuad, byteArray, decodeStatus, needleAngle, readingText, selfCheckText, sortReadings, trendSeries }
+  from '../../web/console/decode.js';
 
 const quiet = {
   offline_warn: 0, mode: 0, velocity_x: 0, velocity_yaw: 0, position: [1.5, -2.25], orientation: Math.PI / 2,

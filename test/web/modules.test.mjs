@@ -1,0 +1,25 @@
+// node --test: every console module loads without a browser (imports resolve, nothing runs at import
+// time) and every panel wires itself through init(); main.js lists each panel once.
+import assert from 'node:assert';
+import { readdirSync, readFileSync } from 'node:fs';
+import test from 'node:test';
+
+const DIR = new URL('../../web/console/', import.meta.url);
+const PANELS = ['status', 'drive', 'head', 'images', 'map', 'planner', 'schedules', 'calibration', 'patrol', 'results',
+  'review'];
+
+test('every module but main imports in node; panels export init', async () => {
+  const modules = readdirSync(DIR).filter((name) => name.endsWith('.js') && name !== 'main.js');
+  assert.ok(modules.length >= PANELS.length + 4, modules.join(' '));
+  for (const name of modules) {
+    const module = await import(new URL(name, DIR));
+    if (PANELS.includes(name.replace('.js', ''))) assert.strictEqual(typeof module.init, 'function', name);
+  }
+});
+
+test('main.js starts every panel, then the link', () => {
+  const main = readFileSync(new URL('main.js', DIR), 'utf8');
+  const started = main.match(/for \(const panel of \[([^\]]*)\]\)/)[1].split(',').map((s) => s.trim());
+  assert.deepStrictEqual(started.slice().sort(), PANELS.slice().sort());
+  for (const panel of PANELS) assert.ok(main.includes("from './" + panel + ".js'"), panel);
+});

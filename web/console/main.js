@@ -1,0 +1,23 @@
+/* The operator console's entry point (index.html loads it as a module, no build step): each panel wires
+   its part of the page and registers its subscriptions, then the link connects. One module per panel:
+   status, drive (heartbeat, e-stop, teleop), head, images, map (goals, obstacles), planner (patrol
+   planner; its arithmetic in planning.js), schedules (routines, schedules), calibration (presets),
+   patrol, results (readings, trends), review; link (roslib, auth, commands) and decoding
+   (decode.js, auth.js) apart; shared helpers in ui.js, shared state in state.js. */
+import * as calibration from './calibration.js';
+import * as drive from './drive.js';
+import * as head from './head.js';
+import * as images from './images.js';
+import { start } from './link.js';
+import * as map from './map.js';
+import * as patrol from './patrol.js';
+import * as planner from './planner.js';
+import * as results from './results.js';
+import * as review from './review.js';
+import * as schedules from './schedules.js';
+import * as status from './status.js';
+
+for (const panel of [status, drive, head, images, map, planner, schedules, calibration, patrol, results, review]) {
+  panel.init();
+}
+start();
