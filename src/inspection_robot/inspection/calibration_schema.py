@@ -322,9 +322,10 @@ def display_decimals(kind, params):
 
     ``digits`` wins. A pointer's resolution is the smallest division between its scale's values:
     the marks' values, else a scale_table's values when it has inner points (a non-linear scale,
-    whose finest stretch counts), else the span / FULL_SCALE_DIVISIONS. The places are those that
-    write that division (0.05 -> 2, 0.2 -> 1, 5 -> 0), at most one more than its first significant
-    digit needs (a third of a unit: 2) and MAX_DIGITS. Thermal: THERMAL_DECIMALS; lamps and
+    whose finest stretch counts): the places are those that write that division (0.05 -> 2,
+    0.2 -> 1, 5 -> 0), at most one more than its first significant digit needs (a third: 2) and
+    MAX_DIGITS. A scale with neither: the places of the first significant digit of its span /
+    FULL_SCALE_DIVISIONS (0..1.6 MPa: 0.016 -> 2; 0..100: 0). Thermal: THERMAL_DECIMALS; lamps and
     switches (state codes) and anything else: 0.
     """
     if params.get("digits") is not None:
@@ -336,8 +337,9 @@ def display_decimals(kind, params):
     division = _smallest_gap([m[0] for m in params.get("marks") or ()], 2)
     if division is None:   # a table of two entries is only the scale's ends
         division = _smallest_gap([v for v, _a in params.get("scale_table") or ()], 3)
-    if division is None:
-        division = pointer_scale(params).full_scale / FULL_SCALE_DIVISIONS
+    if division is None:   # no division known: the places of a hundredth's first significant digit
+        nominal = float("%.9g" % (pointer_scale(params).full_scale / FULL_SCALE_DIVISIONS))
+        return min(MAX_DIGITS, max(0, -int(math.floor(math.log10(nominal)))))
     return division_decimals(division)
 
 

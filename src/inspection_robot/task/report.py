@@ -87,7 +87,7 @@ def worst_state(rows):
 
 def summary(task_row, readings, steps, path=None):
     """The report's summary of a task: counts, times, the route planned and (``path``: the poses
-    recorded during it, store.path) the distance driven (null without a recorded path)."""
+    recorded during it, store.driven_path) the distance driven (null without a recorded path)."""
     counts = {"readings": len(readings), "read": sum(1 for r in readings if r["status"] == STATUS_READ),
               "uncertain": sum(1 for r in readings if r["status"] == STATUS_UNCERTAIN),
               "needs_review": sum(1 for r in readings if needs_review(r)),
@@ -111,7 +111,7 @@ def write_reports(folder, task_row, readings, steps, data_root, software_version
     paths); returns {name: path}. ``software_version`` (inspection_robot.version) goes into the JSON
     summary and the HTML heading; ``history`` {target name: [(unix s, value)] oldest first}, each
     meter's recent readings, a small trend beside each reading of the HTML page; ``path`` the poses
-    recorded during the task (store.path) and ``grid`` the yard's map (nav.gridmap.GridMap) draw
+    recorded during the task (store.driven_path) and ``grid`` the yard's map (nav.gridmap.GridMap) draw
     the yard map (either may be None: the map shows what it has)."""
     info = summary(task_row, readings, steps, path)
     info["software_version"] = software_version

@@ -264,7 +264,7 @@ class ResultStore(object):
         return self._write([("INSERT INTO poses (task_id, time, x, y, yaw) VALUES (?, ?, ?, ?, ?)",
                              (task_id, float(t), float(x), float(y), float(yaw))) for t, x, y, yaw in poses])
 
-    def path(self, task_id):
+    def driven_path(self, task_id):
         """The poses recorded during ``task_id``, [(unix s, x, y, yaw)] in recording order ([] for a
         task recorded before paths were)."""
         return [tuple(r) for r in self._query("SELECT time, x, y, yaw FROM poses WHERE task_id = ? ORDER BY id",

@@ -4,7 +4,8 @@ task_manager hands every pose of robot_status (the localiser's pose in the map f
 active task's PathThinner; a pose is kept when the robot has moved ``min_step_m`` (0.5 m) from the
 last kept one, or turned ``min_turn_rad`` (0.5 rad), or ``period_s`` (5 s) passed and it moved at
 all (more than ``still_m``, 2 cm): a drive gives a point every half metre, a turn on the spot its
-headings, standing still nothing. The first pose of a task is always kept. Kept poses wait in a
+headings, standing still nothing. The first pose of a task is always kept, and its last when it
+ends. Kept poses wait in a
 bounded buffer until the node stores them (``take``, a few times a second; a full buffer drops its
 oldest and counts them, see ``dropped``). The distance driven is the kept path's length: on a
 curve the half-metre chords miss under 1 % for radii above 1.5 m.
@@ -28,6 +29,7 @@ class PathThinner(object):
         self.task_id = task_id
         self.config = config
         self._last = None
+        self._tail = None     # the newest pose offered when it was not kept: the path's end
         self._pending = []
         self.dropped = 0
 
@@ -40,16 +42,26 @@ class PathThinner(object):
             moved = math.hypot(x - lx, y - ly)
             if not (moved >= self.config.min_step_m or _turn(yaw, lyaw) >= self.config.min_turn_rad
                     or (t - lt >= self.config.period_s and moved > self.config.still_m)):
+                self._tail = (t, x, y, yaw)
                 return False
-        self._last = (t, x, y, yaw)
+        self._last, self._tail = (t, x, y, yaw), None
         self._pending.append(self._last)
         if len(self._pending) > self.config.buffer:
             del self._pending[0]
             self.dropped += 1
         return True
 
-    def take(self):
-        """The kept poses not yet taken, oldest first (the caller stores them)."""
+    @property
+    def pending(self):
+        """How many kept poses wait to be stored."""
+        return len(self._pending)
+
+    def take(self, final=False):
+        """The kept poses not yet taken, oldest first (the caller stores them); ``final`` (the task
+        ended) adds the newest pose offered if it was not kept, so the path reaches where the task ended."""
+        if final and self._tail is not None:
+            self._pending.append(self._tail)
+            self._last, self._tail = self._tail, None
         out, self._pending = self._pending, []
         return out
 
