@@ -48,7 +48,7 @@ STATE_RANK = dict((state, i) for i, state in enumerate(STATE_ORDER))
 ATTENTION_STATES = (ALARM_ALARM, ALARM_CHECK, ALARM_FAILED, STATE_REVIEW, ALARM_TREND)
 STATE_COLOURS = {ALARM_ALARM: "#c62828", ALARM_CHECK: "#ef6c00", ALARM_FAILED: "#616161", STATE_REVIEW: "#6a1b9a",
                  ALARM_TREND: "#f9a825", ALARM_NORMAL: "#2e7d32", ALARM_NONE: "#1565c0", STATE_NOT_READ: "#bdbdbd"}
-STATE_WORDS = {ALARM_ALARM: "alarm", ALARM_CHECK: "check (uncertain, outside its band)", ALARM_FAILED: "failed",
+STATE_WORDS = {ALARM_ALARM: "alarm", ALARM_CHECK: "check", ALARM_FAILED: "failed",
                STATE_REVIEW: "needs review", ALARM_TREND: "trend", ALARM_NORMAL: "normal", ALARM_NONE: "no band",
                STATE_NOT_READ: "not read"}
 MAP_CELLS = 240   # the yard map's longer side at most this many cells (coarser cells: any occupied wins)
@@ -273,16 +273,16 @@ h3{font-size:15px;margin:10px 0 4px} p{margin:4px 0}
 table{border-collapse:collapse;width:100%;table-layout:fixed} td,th{border:1px solid #bbb;padding:3px 5px;
      vertical-align:top;text-align:left} th{background:#f0f0f0}
 .tiles{display:flex;flex-wrap:wrap;gap:6px;margin:6px 0}
-.tile{flex:1 1 100px;border:1px solid #bbb;border-radius:4px;padding:4px 8px;min-width:0}
+.tile{flex:1 1 80px;border:1px solid #bbb;border-radius:4px;padding:4px 8px;min-width:0}
 .tile b{display:block;font-size:22px} .tile.hot{border-color:#c62828;background:#fdecea}
 dl.facts{display:grid;grid-template-columns:max-content 1fr;gap:2px 12px;margin:6px 0} dl.facts dt{font-weight:bold}
 dl.facts dd{margin:0}
-.state{display:inline-block;padding:0 5px;border-radius:3px;color:#fff;font-size:12px;white-space:nowrap}
+.state{display:inline-block;max-width:100%;padding:0 5px;border-radius:3px;color:#fff;font-size:12px}
 tr.alarm td{background:#fdecea} tr.check td{background:#fff3e0} tr.failed td{background:#f5f5f5;color:#8a0000}
 tr.review td{background:#f3e5f5} tr.trend td{background:#fffde7} td.value{font-weight:bold}
 .why{font-size:12px;color:#555} .thumb{max-width:100%;max-height:90px}
 .yardbox{display:flex;flex-wrap:wrap;gap:12px;align-items:flex-start}
-svg.yard{flex:1 1 480px;max-width:100%;max-height:520px;border:1px solid #ccc}
+svg.yard{flex:1 1 480px;max-width:100%;max-height:520px}
 ul.legend{list-style:none;padding:0;margin:0;flex:0 0 auto} ul.legend li{margin:2px 0}
 .dot{display:inline-block;width:12px;height:12px;border-radius:6px;margin-right:6px;vertical-align:middle}
 .preset{display:flex;flex-wrap:wrap;gap:10px;border:1px solid #ddd;padding:6px;margin:6px 0}
@@ -377,9 +377,10 @@ def _attention_part(rows):
                        html.escape(r["reason"]), thumb))
     hint = ("<p>Most urgent first. Uncertain values are confirmed or corrected with task_control "
             "<code>review</code> or the console's review queue.</p>")
-    return ('<section class="attention"><h2>Needs attention (%d)</h2>%s<table><colgroup><col style="width:12%%">'
-            '<col style="width:12%%"><col style="width:15%%"><col style="width:12%%"><col style="width:11%%">'
-            '<col style="width:24%%"><col style="width:14%%"></colgroup><tr><th>state</th><th>stop</th><th>target</th>'
+    return ('<section class="attention"><h2>Needs attention (%d)</h2>%s<table><colgroup><col style="width:9%%">'
+            '<col style="width:13%%"><col style="width:19%%"><col style="width:11%%"><col style="width:11%%">'
+            '<col style="width:24%%"><col style="width:13%%"></colgroup>'
+            '<tr><th>state</th><th>stop</th><th>target</th>'
             '<th>value</th><th>normal band</th><th>reason</th><th>picture</th></tr>%s</table></section>'
             % (len(urgent), hint, "".join(body)))
 
