@@ -174,7 +174,8 @@ def overflow(page):
         let worst = null;
         for (const el of document.querySelectorAll('body *')) {
             const r = el.getBoundingClientRect();
-            if (r.right > width + 0.5 && (!worst || r.right > worst[1])) worst = [el.tagName + '.' + el.className, r.right];
+            if (r.right > width + 0.5 && (!worst || r.right > worst[1]))
+                worst = [el.tagName + '.' + (el.getAttribute('class') || ''), r.right];
         }
         return [doc.scrollWidth, width, worst];
     }""")
