@@ -32,12 +32,11 @@ from inspection_robot.files import PUBLIC_FILE_MODE, write_atomic
 from inspection_robot.nav.gridmap import OCC_OCCUPIED, OCC_UNKNOWN
 from inspection_robot.task.client_view import client_row
 from inspection_robot.task.states import (ALARM_ALARM, ALARM_CHECK, ALARM_FAILED, ALARM_NONE, ALARM_NORMAL,
-                                          ALARM_ORDER, ALARM_TREND, STATUS_FAILED, STATUS_READ, STATUS_UNCERTAIN)
+                                          ALARM_TREND, STATUS_FAILED, STATUS_READ, STATUS_UNCERTAIN)
 from inspection_robot.task.store import READING_COLUMNS
 from inspection_robot.task.track import path_length
 
 REPORT_FILES = ("report.csv", "report.json", "report.html")
-ALARM_RANK = dict((alarm, i) for i, alarm in enumerate(ALARM_ORDER))
 CSV_COLUMNS = READING_COLUMNS + ("display", "review_display")
 # a reading's state in the report, the most urgent first: its alarm, a failure, an uncertain value
 # nobody reviewed yet (review), a trend warning; a stop is coloured by its worst reading
