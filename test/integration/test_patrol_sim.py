@@ -200,6 +200,12 @@ class PatrolSimTest(unittest.TestCase):
             self.assertTrue(os.path.isfile(os.path.join(self.data_root, path)), path)
         with open(os.path.join(self.data_root, paths["report.html"])) as f:
             self.assertIn('<tr class="alarm">', f.read())
+        with open(os.path.join(self.data_root, paths["report.json"])) as f:
+            report = json.load(f)
+        summary = report["summary"]   # the path recorded across the take-over, the kill and the charge cycle
+        self.assertIsNotNone(summary["distance_driven_m"], summary)
+        self.assertGreater(summary["distance_driven_m"], 0.5 * summary["planned_length_m"], summary)
+        self.assertTrue(all(r["display"] for r in report["readings"] if r["status"] != "failed"), report["readings"])
         self.assertGreater(math.hypot(self.pose()[0] - start[0], self.pose()[1] - start[1]), 5.0)
 
     def charge_cycle(self, client):

@@ -6,7 +6,7 @@ import pytest
 
 from inspection_robot.inspection import calibration_schema as schema
 
-GOOD = {"name": "oil", "normal": [0.2, 1.4], "start_angle": -135.0, "end_angle": 135.0, "start_value": 0.0,
+GOOD = {"name": "oil", "digits": 2, "normal": [0.2, 1.4], "start_angle": -135.0, "end_angle": 135.0, "start_value": 0.0,
         "end_value": 1.6, "unit": "MPa %", "centre": [0.5, 0.55], "radius": 0.42, "aspect": 1.25,
         "scale_table": [[0.0, -135.0], [0.8, 0.0], [1.6, 135.0]],
         "marks": [[0.0, 0.18, 0.82], [1.6, 0.82, 0.82]], "pointer_colour": "dark", "ignore_colour": "red",

@@ -29,7 +29,8 @@ def test_rows_and_status_name_files_relative_to_the_data_root_and_carry_the_ther
     row = {"preset": "/d/presets/t1/20260101_120000", "picture": "/d/pictures/t1/a_read_00.jpg", "source_picture": "",
            "kind": "thermal", "unit": ""}   # a row stored before thermal readings had a unit
     assert client_row(row, "/d") == {"preset": "presets/t1/20260101_120000", "picture": "pictures/t1/a_read_00.jpg",
-                                     "source_picture": "", "kind": "thermal", "unit": "C"}
+                                     "source_picture": "", "kind": "thermal", "unit": "C", "display": "",
+                                     "review_display": ""}
     assert client_row(dict(row, kind="lamp"), "/d")["unit"] == ""
     status = {"state": "running", "last_result": {"stop": 1, "preset": "/d/presets/t1/20260101_120000"}}
     assert client_progress(status, "/d")["last_result"]["preset"] == "presets/t1/20260101_120000"

@@ -11,6 +11,7 @@ from inspection_robot.command import CommandError
 from inspection_robot.inspection.reading import result_text, ReadOutcome, uncertain_reasons
 from inspection_robot.task.patrol import OUTCOME_FAILED, OUTCOME_OK, STEP_INSPECT, Inspection, Patrol
 from inspection_robot.task.report import picture_link, render_html, summary, write_reports
+from inspection_robot.task.client_view import client_row
 from inspection_robot.task.review import parse_query, review
 from inspection_robot.task.store import ResultStore
 from test_task_patrol import CONFIG, Clock, run_step, task
@@ -130,7 +131,8 @@ def test_an_old_store_opens_with_the_new_columns_and_its_rows_intact(tmp_path):
     again = ResultStore(path)                                  # a second open changes nothing
     assert len(again.readings()) == 1
     columns = [r[1] for r in sqlite3.connect(path).execute("PRAGMA table_info(readings)")]
-    assert columns[-6:] == ["source_picture", "roi", "review_value", "review_alarm", "review_by", "review_time"]
+    assert columns[-7:] == ["source_picture", "roi", "review_value", "review_alarm", "review_by", "review_time",
+                            "decimals"]
 
 
 def uncertain_store(env, value=0.97):
@@ -207,19 +209,19 @@ def test_report_lists_readings_needing_review_first_with_reason_and_picture(env,
     _, clock, patrol = env
     run_step(patrol, clock, value=1.0)                         # p_lamp read
     readings = store.readings(task_id="t1")
-    links = [dict(r, link=picture_link(r["picture"], str(tmp_path / "rep"), "/")) for r in readings]
+    links = [dict(client_row(r, "/"), link=picture_link(r["picture"], str(tmp_path / "rep"), "/")) for r in readings]
     page = render_html(summary(store.task("t1"), readings, []), links)
-    review_at = page.index("<h2>Needs review (1)</h2>")
-    assert review_at < page.index("<h2>Readings</h2>")
-    assert review_at < page.index(REASON) < page.index("<h2>Readings</h2>")
-    assert review_at < page.index(links[0]["link"]) < page.index("<h2>Readings</h2>")
+    review_at = page.index("<h2>Needs attention (1)</h2>")
+    assert review_at < page.index("<h2>Stops</h2>")
+    assert review_at < page.index(REASON) < page.index("<h2>Stops</h2>")
+    assert review_at < page.index(links[0]["link"]) < page.index("<h2>Stops</h2>")
     assert links[0]["link"].endswith("../pic/read_0.jpg")
-    assert '<tr class="normal uncertain">' in page
+    assert page.count('<tr class="review">') == 2   # in the attention list and at its stop
     review(store, str(tmp_path), json.dumps({"id": row["id"], "value": 0.55, "by": "li"}), 5000.0)
     paths = write_reports(str(tmp_path / "rep"), store.task("t1"), store.readings(task_id="t1"), [], "/", "test")
     with open(paths["report.html"]) as f:
         page = f.read()
-    assert "Needs review" not in page and "reviewed by li: 0.55 MPa" in page
+    assert '<tr class="review">' not in page and "Needs attention (0)" in page and "reviewed by li: 0.55 MPa" in page
     with open(paths["report.json"]) as f:
         counts = json.load(f)["summary"]["counts"]
     assert (counts["uncertain"], counts["needs_review"]) == (1, 0)

@@ -4,7 +4,8 @@ Services:    task_control (ControlService): submit, pause, resume, cancel, retur
              query_tasks, query_results, report, review_queue, review, export_results, plan, routine_save,
              routine_list, routine_delete, schedule_set, schedule_list, schedule_delete (same table as
              task_cmd); answers name files relative to data_root (task.client_view)
-Subscribes:  task_cmd (GeneralCmd), robot_status (RobotStatus: mode, pose)
+Subscribes:  task_cmd (GeneralCmd), robot_status (RobotStatus: mode, pose; the pose, thinned (task.track), is
+             the active task's driven path in the store: the report's map and distance driven)
              read_scale_ack (ReadScaleAck)
              virtual_obstacle_map (nav_msgs/OccupancyGrid, latched by move_base): reachability at submission
 Publishes:   task_ack (GeneralAck), task_status (GeneralTopic, latched, JSON), read_scale_cmd (ReadScaleCmd)
@@ -59,6 +60,7 @@ from inspection_robot.task.schedule import Scheduler, next_run, parse_routine, p
 from inspection_robot.task.spec import check_task_id, parse_task
 from inspection_robot.task.states import ENDED_STATES
 from inspection_robot.task.store import ResultStore, StoreError, export_snapshot
+from inspection_robot.task.track import PathThinner
 from inspection_robot.task.trend import TrendConfig
 from inspection_robot.ros.data_root import data_root, path_param
 
@@ -84,6 +86,7 @@ class TaskManager(object):
         self._default_retries = default_retries
         self._status_period = status_period
         self._pose = None
+        self._tracks = {}   # task id -> PathThinner: poses of the path it drove, not yet stored
         self._overhead_s = 0.0
         self._status_pub = rospy.Publisher("task_status", GeneralTopic, queue_size=5, latch=True)
         self._last_status = None
@@ -129,6 +132,13 @@ class TaskManager(object):
         if len(msg.position) >= 2:
             self._pose = (float(msg.position[0]), float(msg.position[1]), float(msg.orientation))
         with self._lock:
+            active = self.patrol.active
+            if self._pose is not None and active is not None:
+                task_id = active.task.task_id
+                track = self._tracks.get(task_id)
+                if track is None:
+                    track = self._tracks[task_id] = PathThinner(task_id)
+                track.add(time.time(), *self._pose)
             if msg.mode != self.patrol.mode:
                 self.patrol.set_mode(msg.mode)
                 self._changed()
@@ -413,10 +423,13 @@ class TaskManager(object):
 
     def _write_report(self, task_id):
         # the id names the folder: an id stored before ids were restricted ('..') must not escape reports/
+        folder = os.path.join(self._reports_dir, check_task_id(task_id))
+        with self._lock:
+            self._store_paths(task_id)
         readings = self.store.readings(task_id=task_id, limit=10 ** 9)
-        return write_reports(os.path.join(self._reports_dir, check_task_id(task_id)), self.store.task(task_id),
-                             readings, self.store.steps(task_id), self._data_root, version(),
-                             self.store.meter_histories(readings, REPORT_TREND_POINTS))
+        return write_reports(folder, self.store.task(task_id), readings, self.store.steps(task_id), self._data_root,
+                             version(), self.store.meter_histories(readings, REPORT_TREND_POINTS),
+                             self.store.driven_path(task_id), self._reachable.costmap.grid)
 
     def _on_finished(self, task_id):
         """A task ended: its report is written at once (a failure is logged, the patrol goes on),
@@ -443,6 +456,28 @@ class TaskManager(object):
     def _on_status_timer(self, _event):
         with self._lock:
             self._publish_status()
+            self._store_paths()
+
+    def _store_paths(self, task_id=None):
+        """Store the kept poses of every task's path (``task_id``: of that one); a store failure keeps
+        them for the next try (bounded: PathThinner drops the oldest and counts them)."""
+        for tid, track in list(self._tracks.items()):
+            if task_id is not None and tid != task_id:
+                continue
+            ended = tid not in self.patrol.runs
+            poses = track.take(final=ended)
+            if poses:
+                try:
+                    self.store.add_poses(tid, poses)
+                except StoreError as err:
+                    track.give_back(poses)
+                    rospy.logwarn_throttle(10.0, "%s: path of %s not stored yet: %s" % (NODE_NAME, tid, err))
+            if track.dropped:
+                rospy.logwarn("%s: %d pose(s) of the path of %s dropped (the store took none for too long)"
+                              % (NODE_NAME, track.dropped, tid))
+                track.dropped = 0
+            if ended and not track.pending:
+                del self._tracks[tid]   # ended and stored
 
     def _publish_status(self, force=False):
         text = self._status_json()

@@ -7,6 +7,7 @@ import numpy as np
 
 from inspection_robot.command import CommandError
 from inspection_robot.files import confine_data_path, root_relative
+from inspection_robot.inspection.calibration_schema import display_decimals
 from inspection_robot.inspection.preset import PRESET_INI, PresetError, load_preset
 from inspection_robot.nav.costmap import Costmap
 from inspection_robot.nav.gridmap import MapError, load_map
@@ -35,8 +36,9 @@ def resolve_preset(preset_root, name, data_root=None):
         preset = load_preset(path)
     except PresetError as err:
         raise CommandError("unknown preset directory '%s': %s" % (name, err))
-    targets = [{"name": t.name, "kind": t.kind, "unit": target_unit(t.kind, t.params.get("unit", ""))}
-               for t in preset.targets]
+    # decimals: the resolution its readings are shown with (task.display), fixed with the task
+    targets = [{"name": t.name, "kind": t.kind, "unit": target_unit(t.kind, t.params.get("unit", "")),
+                "decimals": display_decimals(t.kind, t.params)} for t in preset.targets]
     # a preset's own alarm bands: ``normal = low,high`` in a target's section, read and checked
     # with the rest of the calibration (inspection.calibration_schema)
     bands = dict((t.name, list(t.params["normal"])) for t in preset.targets if t.params.get("normal"))

@@ -6,9 +6,11 @@ client (task_status, task_action, query_results, review_queue, review, the repor
 robot file relative to the data root, as file_control does (``presets/p1/20260101_120000``,
 ``pictures/p1/..._read_00.jpg``), so a path from one answer is the path of the next request.
 A file outside the data root keeps its absolute path. Rows of tasks stored before thermal
-readings carried their unit get ``C``.
+readings carried their unit get ``C``. Every row carries its value as text rounded to the meter's
+resolution (``display``, ``review_display``: task.display), so no client rounds on its own.
 """
 from inspection_robot.files import root_relative
+from inspection_robot.task.display import row_display
 from inspection_robot.task.states import target_unit
 
 PATH_COLUMNS = ("preset", "picture", "source_picture")   # reading columns naming a robot file
@@ -22,6 +24,7 @@ def client_row(row, data_root):
             out[column] = root_relative(out[column], data_root)
     if out.get("kind") and not out.get("unit"):
         out["unit"] = target_unit(out["kind"])
+    out.update(row_display(out))
     return out
 
 

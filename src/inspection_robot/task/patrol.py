@@ -29,6 +29,7 @@ from collections import namedtuple
 
 from inspection_robot.command import CommandError
 from inspection_robot.interface import MODE_TASK
+from inspection_robot.task.display import row_display
 from inspection_robot.task.spec import Task
 from inspection_robot.task.states import (ALARM_ALARM, ALARM_CHECK, ALARM_NORMAL, ALARM_TREND, STATE_CANCELLED,
                                           STATE_DONE, STATE_FAILED, STATE_IDLE, STATE_PAUSED, STATE_RETURNING_HOME,
@@ -444,19 +445,21 @@ def reading_rows(task_id, stop_index, stop_name, preset_index, preset, inspectio
             source = inspection.sources[k] if inspection.sources else None
         unit = target_unit(target["kind"], target.get("unit", ""))   # also for tasks stored without it
         rows.append(_row(task_id, stop_index, stop_name, preset_index, preset, k, target["name"], target["kind"],
-                         value, unit, band, confidence, picture, pose, now, doubt or reason, bool(doubt), source))
+                         value, unit, band, confidence, picture, pose, now, doubt or reason, bool(doubt), source,
+                         target.get("decimals")))
     if preset.get("foreign"):
         foreign = inspection.foreign if inspection is not None else None
         value, confidence, picture = (float(foreign[0]), float(foreign[1]), foreign[2]) if foreign else (None, None, "")
         rows.append(_row(task_id, stop_index, stop_name, preset_index, preset, len(preset["targets"]), "foreign",
                          "foreign", value, "objects", [0.0, 0.0], confidence, picture, pose, now,
-                         reason or ("" if foreign else "no foreign-object result")))
+                         reason or ("" if foreign else "no foreign-object result"), decimals=0))
     return rows
 
 
 def _row(task_id, stop_index, stop_name, preset_index, preset, target, name, kind, value, unit, band, confidence,
-         picture, pose, now, reason, uncertain=False, source=None):
-    """``source``: {"picture": the picture read, "roi": its box (8 numbers)} or None."""
+         picture, pose, now, reason, uncertain=False, source=None, decimals=None):
+    """``source``: {"picture": the picture read, "roi": its box (8 numbers)} or None; ``decimals``:
+    the target's resolution (task.display; None for tasks stored before targets carried it)."""
     if value is not None and not math.isfinite(value):
         value, reason, uncertain = None, "reading is not a finite number", False
     status = STATUS_FAILED if value is None else STATUS_UNCERTAIN if uncertain else STATUS_READ
@@ -466,14 +469,15 @@ def _row(task_id, stop_index, stop_name, preset_index, preset, target, name, kin
             "low": band[0] if band else None, "high": band[1] if band else None,
             "confidence": confidence, "picture": picture, "x": pose[0], "y": pose[1], "yaw": pose[2], "time": now,
             "reason": reason, "source_picture": source["picture"] if source else "",
-            "roi": ",".join("%.1f" % v for v in source["roi"]) if source else ""}
+            "roi": ",".join("%.1f" % v for v in source["roi"]) if source else "", "decimals": decimals}
 
 
 def result_summary(rows):
     """last_result of task_status: the preset just recorded, its values, alarms and doubts."""
     return {"stop": rows[0]["stop"] + 1, "preset": rows[0]["preset"],
             "readings": [{"target": r["target_name"], "value": r["value"], "unit": r["unit"], "alarm": r["alarm"],
-                          "status": r["status"], "reason": r["reason"]} for r in rows],
+                          "status": r["status"], "reason": r["reason"], "display": row_display(r)["display"]}
+                         for r in rows],
             "alarms": sum(1 for r in rows if r["alarm"] in (ALARM_ALARM, ALARM_CHECK)),
             "uncertain": sum(1 for r in rows if r["status"] == STATUS_UNCERTAIN),
             "failed": sum(1 for r in rows if r["status"] == STATUS_FAILED),

@@ -8,9 +8,10 @@ nor loses a reading. One connection shared under a lock (the node's threads are 
 
 Schema changes: columns added after the first release (ADDED_COLUMNS) are added to an older file
 when it is opened (``ALTER TABLE ... ADD COLUMN`` in one transaction), so every store opens; old
-rows get the columns' defaults (no source picture, not reviewed). Tables added since (routines,
-schedules, missed_runs) are created when missing (``CREATE TABLE IF NOT EXISTS``); an older
-task_manager ignores them.
+rows get the columns' defaults (no source picture, not reviewed, no resolution). Tables added
+since (routines, schedules, missed_runs; ``poses``: the path a task drove, task.track) are created
+when missing (``CREATE TABLE IF NOT EXISTS``): an older task has no path; an older task_manager
+ignores them.
 
 The live file is not what a backend should copy: its latest commits sit in ``results.sqlite-wal``
 until a checkpoint. ``export`` writes a consistent snapshot (sqlite3's online backup API) as a
@@ -49,23 +50,29 @@ CREATE TABLE IF NOT EXISTS schedules (
 CREATE TABLE IF NOT EXISTS missed_runs (
     id INTEGER PRIMARY KEY AUTOINCREMENT, schedule TEXT NOT NULL, at REAL NOT NULL, reason TEXT NOT NULL,
     noted REAL NOT NULL);
+CREATE TABLE IF NOT EXISTS poses (
+    id INTEGER PRIMARY KEY AUTOINCREMENT, task_id TEXT NOT NULL, time REAL NOT NULL, x REAL NOT NULL,
+    y REAL NOT NULL, yaw REAL NOT NULL);
 """
 # readings columns added since the first schema, with their declarations: the picture read and its
 # box (for the bench's field set), the operator's review of an uncertain value (true value or the
-# robot's own when confirmed, its alarm, who, when)
+# robot's own when confirmed, its alarm, who, when); the decimal places the value is shown with
+# (its meter's resolution when read, task.display; null in older rows)
 ADDED_COLUMNS = (("source_picture", "TEXT NOT NULL DEFAULT ''"), ("roi", "TEXT NOT NULL DEFAULT ''"),
                  ("review_value", "REAL"), ("review_alarm", "TEXT NOT NULL DEFAULT ''"),
-                 ("review_by", "TEXT NOT NULL DEFAULT ''"), ("review_time", "REAL"))
+                 ("review_by", "TEXT NOT NULL DEFAULT ''"), ("review_time", "REAL"), ("decimals", "INTEGER"))
 INDEXES = """
 CREATE INDEX IF NOT EXISTS readings_time ON readings (time);
 CREATE INDEX IF NOT EXISTS readings_review ON readings (status, review_time);
 CREATE INDEX IF NOT EXISTS readings_meter ON readings (target_name, time);
+CREATE INDEX IF NOT EXISTS poses_task ON poses (task_id, id);
 """
 READING_COLUMNS = ("id", "task_id", "stop", "stop_name", "preset_index", "preset", "target", "target_name", "kind",
                    "status", "value", "unit", "alarm", "low", "high", "confidence", "picture", "x", "y", "yaw",
                    "time", "reason") + tuple(name for name, _ in ADDED_COLUMNS)
 # what a patrol writes (the review columns are written by set_review only)
 WRITTEN_COLUMNS = tuple(c for c in READING_COLUMNS[1:] if not c.startswith("review_"))
+OPTIONAL_COLUMNS = ("decimals",)   # written columns a row may leave out (null)
 STEP_COLUMNS = ("task_id", "stop", "preset_index", "kind", "outcome", "started", "ended", "reason")
 EXPORTS_KEPT = 10   # snapshots kept in tasks/exports/ (the oldest removed beyond)
 
@@ -197,7 +204,8 @@ class ResultStore(object):
         """Commit the readings of one preset in one transaction; returns how many were new."""
         statements = [("INSERT OR IGNORE INTO readings (%s) VALUES (%s)"
                        % (", ".join(WRITTEN_COLUMNS), ", ".join("?" * len(WRITTEN_COLUMNS))),
-                       tuple(row[c] for c in WRITTEN_COLUMNS)) for row in rows]
+                       tuple(row.get(c) if c in OPTIONAL_COLUMNS else row[c] for c in WRITTEN_COLUMNS))
+                      for row in rows]
         return self._write(statements)
 
     def done_presets(self, task_id):
@@ -256,6 +264,18 @@ class ResultStore(object):
         return self._write([("UPDATE readings SET review_value = ?, review_alarm = ?, review_by = ?, review_time = ? "
                              "WHERE id = ? AND status = ? AND review_time IS NULL",
                              (value, alarm, by, now, row_id, STATUS_UNCERTAIN))]) == 1
+
+    # --- the driven path ------------------------------------------------------------------------
+    def add_poses(self, task_id, poses):
+        """Append [(unix s, x, y, yaw)] (thinned by task.track) to ``task_id``'s path, in one transaction."""
+        return self._write([("INSERT INTO poses (task_id, time, x, y, yaw) VALUES (?, ?, ?, ?, ?)",
+                             (task_id, float(t), float(x), float(y), float(yaw))) for t, x, y, yaw in poses])
+
+    def driven_path(self, task_id):
+        """The poses recorded during ``task_id``, [(unix s, x, y, yaw)] in recording order ([] for a
+        task recorded before paths were)."""
+        return [tuple(r) for r in self._query("SELECT time, x, y, yaw FROM poses WHERE task_id = ? ORDER BY id",
+                                              (task_id,))]
 
     # --- step timings --------------------------------------------------------------------------
     def add_step(self, task_id, stop, preset_index, kind, outcome, started, ended, reason=""):

@@ -1,0 +1,224 @@
+"""The patrol report in a real browser (Debian's chromium, headless, driven by Playwright; no roscore):
+a report of the simulated yard's patrol (its six stops and eight presets on config/maps/substation,
+filled by the patrol state machine with every kind of reading: alarms, checks, failures, uncertain
+values with the reader's long reasons, trends, lamps, switches, thermal, foreign objects, 1920x1080
+pictures) must fit a 1280-px window without horizontal scrolling and an A4 page's width when printed,
+show every picture through its relative link, and print to a sane number of A4 pages. The screenshot
+and the PDF go to test_logs/screens/. Skipped only when chromium or Playwright is absent."""
+import json
+import math
+import os
+import re
+
+import numpy as np
+import pytest
+
+from inspection_robot.lazy import lazy_import
+from inspection_robot.nav.gridmap import load_map
+from inspection_robot.task.patrol import STEP_INSPECT, Inspection, Patrol, PatrolConfig
+from inspection_robot.task.report import write_reports
+from inspection_robot.task.spec import ResolvedPreset, parse_task
+from inspection_robot.task.store import ResultStore
+from inspection_robot.task.track import PathThinner
+from inspection_robot_testing.yard_patrol import YARD_STOPS
+
+cv2 = lazy_import("cv2")
+CHROMIUM = "/usr/bin/chromium"
+HERE = os.path.dirname(os.path.abspath(__file__))
+PACKAGE = os.path.dirname(os.path.dirname(HERE))
+SCREENS = os.path.join(PACKAGE, "test_logs", "screens")
+MAP = os.path.join(PACKAGE, "config", "maps", "substation.yaml")
+WINDOW_PX = 1280
+A4_CONTENT_PX = int((210 - 2 * 12) / 25.4 * 96)   # @page A4 with 12 mm margins, at CSS's 96 px per inch
+DAY_S = 86400.0
+
+if not os.access(CHROMIUM, os.X_OK):
+    pytest.skip("no %s" % CHROMIUM, allow_module_level=True)
+try:
+    from playwright import sync_api
+except ImportError:   # the Python 3.8 (Noetic) unit-test environment has no Playwright
+    pytest.skip("Playwright is not installed in this Python", allow_module_level=True)
+
+# per preset id: its targets (name, kind, unit, decimals)
+TARGETS = {
+    "transformer_1_left": [("transformer_1_left/oil_temp", "pointer", "C", 0),
+                           ("transformer_1_left/oil_level", "pointer", "", 1)],
+    "transformer_1": [("transformer_1/pressure", "pointer", "MPa", 2)],
+    "cabinet_1": [("cabinet_1/ammeter", "pointer", "A", 0), ("cabinet_1/lamp_run", "lamp", "", 0),
+                  ("cabinet_1/switch", "switch", "", 0)],
+    "cabinet_2": [("cabinet_2/voltmeter", "pointer", "kV", 1)],
+    "cabinet_2_zoom": [("cabinet_2/sf6", "pointer", "MPa", 3)],
+    "breaker_1": [("breaker_1/counter_pressure_gauge_with_a_long_name_nobody_shortened", "pointer", "MPa", 2)],
+    "breaker_1_thermal": [("breaker_1/contact_hot_spot", "thermal", "C", 1)],
+    "breaker_2": [("breaker_2/sf6", "pointer", "MPa", 2)],
+}
+# per target name: (value, confidence, the reader's doubt or "")
+VALUES = {
+    "transformer_1_left/oil_temp": (93.4471, 92.0, ""),          # alarm (band 0..85)
+    "transformer_1_left/oil_level": (0.55512, 88.0, ""),
+    "transformer_1/pressure": (0.80273, 35.0, "uncertain: box 0: needle_confidence 35 < 50 and the dial's marks "
+                                              "were found on only 5 of 16 expected positions (glare from the "
+                                              "low sun on the glass covers the upper half of the scale)"),
+    "cabinet_1/ammeter": (412.2, 90.0, ""),
+    "cabinet_1/lamp_run": (2.0, 95.0, ""),
+    "cabinet_1/switch": (0.0, 97.0, ""),                          # alarm: must be closed
+    "cabinet_2/voltmeter": (10.4823, 91.0, ""),
+    "cabinet_2/sf6": (0.61744, 40.0, "uncertain: box 0: pointer_width 2.1 px below 3 px"),   # check (band)
+    "breaker_1/counter_pressure_gauge_with_a_long_name_nobody_shortened": (0.6012, 89.0, ""),   # trend
+    "breaker_1/contact_hot_spot": (55.1963, 99.0, ""),
+}
+BANDS = {"transformer_1_left/oil_temp": [0.0, 85.0], "transformer_1/pressure": [0.4, 1.2],
+         "cabinet_1/ammeter": [0.0, 500.0], "cabinet_1/switch": [1.0, 1.0], "cabinet_2/sf6": [0.65, 0.9],
+         "breaker_1/counter_pressure_gauge_with_a_long_name_nobody_shortened": [0.4, 0.62],
+         "breaker_1/contact_hot_spot": [-50.0, 60.0], "breaker_2/sf6": [0.5, 0.7]}
+
+
+def picture(path, label):
+    """An annotated picture as read_scale writes one: 1920x1080 JPEG."""
+    image = np.full((1080, 1920, 3), 90, np.uint8)
+    cv2.circle(image, (960, 540), 400, (230, 230, 230), -1)
+    cv2.line(image, (960, 540), (1200, 300), (0, 0, 200), 12)
+    cv2.putText(image, label[:40], (40, 100), cv2.FONT_HERSHEY_SIMPLEX, 2.0, (0, 255, 0), 4)
+    os.makedirs(os.path.dirname(path), exist_ok=True)
+    assert cv2.imwrite(path, image)
+
+
+def patrol_store(root):
+    """A results store holding the yard patrol ``yard`` (every stop, breaker_2 unreachable), its
+    driven path and a week of history for the trend; returns (store, task id)."""
+    os.makedirs(os.path.join(root, "tasks"))
+    store = ResultStore(os.path.join(root, "tasks", "results.sqlite"))
+    clock = [1.79e9]
+
+    def resolve(name):
+        preset_id = name.split("/")[-1]
+        targets = [{"name": n, "kind": k, "unit": u, "decimals": d} for n, k, u, d in TARGETS[preset_id]]
+        return ResolvedPreset(os.path.join(root, "presets", preset_id, "20261127_080000"), targets, {})
+
+    # the trending gauge's last week (oldest first), read by earlier patrols
+    trending = "breaker_1/counter_pressure_gauge_with_a_long_name_nobody_shortened"
+    for day, value in enumerate([0.45, 0.48, 0.52, 0.55, 0.58]):
+        store.add_readings([{"task_id": "week_%d" % day, "stop": 0, "stop_name": "breaker_1", "preset_index": 0,
+                             "preset": "/p", "target": 0, "target_name": trending, "kind": "pointer", "status": "read",
+                             "value": value, "unit": "MPa", "alarm": "normal", "low": 0.4, "high": 0.62,
+                             "confidence": 90.0, "picture": "", "x": 0.0, "y": 0.0, "yaw": 0.0,
+                             "time": clock[0] - (5 - day) * DAY_S, "reason": "", "source_picture": "", "roi": ""}])
+    stops = [{"name": name, "pose": {"x": pose[0], "y": pose[1], "yaw": pose[2]},
+              "presets": [{"preset": "presets/" + p[0],
+                           "alarms": dict((n, BANDS[n]) for n, _k, _u, _d in TARGETS[p[0]] if n in BANDS),
+                           "foreign": p[0] == "cabinet_2"} for p in presets]}
+             for name, pose, presets in YARD_STOPS]
+    task = parse_task(json.dumps({"id": "yard_20261127_0800", "stops": stops, "retries": 0}), resolve,
+                      lambda x, y: None, 0)
+    task.planned_length_m = 61.8
+    patrol = Patrol(store, PatrolConfig(1.0, (2.0, 2.0, 0.0), 20.0, 10.0, 0), clock[0])
+    patrol.set_mode(0)
+    patrol.submit(task, clock[0])
+    track = PathThinner(task.task_id)
+    here = (2.0, 2.0)
+    while True:
+        step = patrol.next_step(clock[0])
+        if step is None:
+            break
+        started = clock[0]
+        if step.kind == STEP_INSPECT:
+            names = [t["name"] for t in step.preset["targets"]]
+            pictures = [os.path.join(root, "pictures", step.preset["preset"].split("/")[-1],
+                                     "20261127_08%02d%02d_read_%02d.jpg" % (step.stop, step.preset_index, k))
+                        for k in range(len(names))]
+            for path, name in zip(pictures[:1], names):
+                picture(path, name)
+            pictures = pictures[:1] * len(names)   # one annotated picture per preset, as read_scale writes
+            values = [VALUES.get(n, (0.6, 90.0, ""))[0] for n in names]
+            foreign = (1, 80.0, pictures[0]) if step.preset.get("foreign") else None
+            inspection = Inspection(values, [VALUES.get(n, (0, 90.0, ""))[1] for n in names], pictures,
+                                    (step.x, step.y, step.yaw), foreign, [VALUES.get(n, (0, 0, ""))[2] for n in names])
+            clock[0] += 12.0
+            outcome, detail = "ok", inspection
+        elif step.stop == len(YARD_STOPS) - 1:
+            clock[0] += 30.0
+            outcome, detail = "failed", "no path to the goal: the planner found none (blocked by a parked truck)"
+        else:   # drive there in a straight line at 0.8 m/s, robot_status at 10 Hz
+            steps = int(math.hypot(step.x - here[0], step.y - here[1]) / 0.08) + 1
+            for i in range(1, steps + 1):
+                clock[0] += 0.1
+                track.add(clock[0], here[0] + (step.x - here[0]) * i / steps, here[1] + (step.y - here[1]) * i / steps,
+                          step.yaw)
+            here = (step.x, step.y)
+            outcome, detail = "ok", ""
+        patrol.step_done(step, outcome, detail, started, clock[0])
+    store.add_poses(task.task_id, track.take(final=True))
+    return store, task.task_id
+
+
+@pytest.fixture(scope="module")
+def report(tmp_path_factory):
+    root = str(tmp_path_factory.mktemp("data_root"))
+    store, task_id = patrol_store(root)
+    readings = store.readings(task_id=task_id)
+    paths = write_reports(os.path.join(root, "tasks", "reports", task_id), store.task(task_id), readings,
+                          store.steps(task_id), root, "v-test", store.meter_histories(readings, 20),
+                          store.driven_path(task_id), load_map(MAP))
+    return paths, json.load(open(paths["report.json"]))
+
+
+@pytest.fixture(scope="module")
+def browser():
+    with sync_api.sync_playwright() as playwright:
+        browser = playwright.chromium.launch(executable_path=CHROMIUM, args=["--no-sandbox", "--disable-gpu"])
+        yield browser
+        browser.close()
+
+
+def overflow(page):
+    """(the document's scroll width, its client width, the widest element sticking out, or None)."""
+    return page.evaluate("""() => {
+        const doc = document.documentElement, width = doc.clientWidth;
+        let worst = null;
+        for (const el of document.querySelectorAll('body *')) {
+            const r = el.getBoundingClientRect();
+            if (r.right > width + 0.5 && (!worst || r.right > worst[1]))
+                worst = [el.tagName + '.' + (el.getAttribute('class') || ''), r.right];
+        }
+        return [doc.scrollWidth, width, worst];
+    }""")
+
+
+def test_the_report_fits_a_1280_px_window_with_every_picture_shown(report, browser):
+    paths, data = report
+    counts = data["summary"]["counts"]
+    assert (counts["alarms"], counts["checks"], counts["failed"], counts["needs_review"], counts["trends"]) == \
+        (3, 1, 1, 2, 1)   # the fixture holds every kind of attention (alarms: oil, switch, foreign)
+    assert data["summary"]["distance_driven_m"] > 40.0
+    page = browser.new_page(viewport={"width": WINDOW_PX, "height": 900})
+    page.goto("file://" + paths["report.html"], wait_until="load")
+    os.makedirs(SCREENS, exist_ok=True)
+    page.screenshot(path=os.path.join(SCREENS, "report_1280.png"), full_page=True)
+    scroll, client, worst = overflow(page)
+    assert scroll <= WINDOW_PX and worst is None, (scroll, client, worst)
+    images = page.evaluate("() => Array.from(document.images).map(i => [i.getAttribute('src'), i.naturalWidth])")
+    assert len(images) >= 8 and all(width == 1920 for _src, width in images), images
+    assert page.locator("svg.yard g.stop").count() == len(YARD_STOPS)
+    assert page.locator("svg.yard g.stop.alarm").count() == 3 and page.locator("svg.yard g.stop.failed").count() == 1
+    text = page.inner_text("body")
+    assert "0.80 MPa" in text and "0.80273" not in text and "93 C" in text and "lit green" in text
+    assert text.index("Summary") < text.index("Needs attention (7)") < text.index("Yard map") < text.index("Stops")
+    page.close()
+
+
+def test_the_report_prints_on_a4_without_cutting_anything(report, browser):
+    paths, _data = report
+    page = browser.new_page(viewport={"width": A4_CONTENT_PX, "height": 1000})
+    page.emulate_media(media="print")
+    page.goto("file://" + paths["report.html"], wait_until="load")
+    scroll, client, worst = overflow(page)   # what the printed page's width must hold
+    page.screenshot(path=os.path.join(SCREENS, "report_print_a4_width.png"), full_page=True)
+    assert scroll <= A4_CONTENT_PX and worst is None, (scroll, client, worst)
+    pdf_path = os.path.join(SCREENS, "report_a4.pdf")
+    pdf = page.pdf(path=pdf_path, format="A4", print_background=True, prefer_css_page_size=True)
+    pages = len(re.findall(rb"/Type\s*/Page\b(?!s)", pdf))
+    assert len(pdf) > 20000 and os.path.getsize(pdf_path) == len(pdf)
+    assert 2 <= pages <= 12, pages   # summary + attention + map + eight presets, not one page per picture
+    boxes = re.findall(rb"/MediaBox\s*\[\s*0 0 ([\d.]+) ([\d.]+)\s*\]", pdf)
+    assert boxes and all(abs(float(w) - 595.9) < 2 and abs(float(h) - 842.9) < 2 for w, h in boxes), boxes[:3]
+    page.close()
