@@ -80,6 +80,14 @@ test('a reading in words', () => {
     '0.97 MPa [0.2, 0.8] uncertain: glare · reviewed by li: confirmed');
 });
 
+test('a reading in the robot\'s words: rounded to its meter\'s resolution', () => {
+  const row = { status: 'read', value: 0.80273, unit: 'MPa', low: 0, high: 1.6, display: '0.80 MPa' };
+  assert.strictEqual(readingText(row), '0.80 MPa [0, 1.6]');
+  const reviewed = Object.assign({}, row, { status: 'uncertain', reason: 'glare', review_time: 5, review_by: 'li',
+    review_value: 0.6213, review_display: '0.62 MPa' });
+  assert.strictEqual(readingText(reviewed), '0.80 MPa [0, 1.6] uncertain: glare · reviewed by li: 0.62 MPa');
+});
+
 test('a calibration self-check in words', () => {
   assert.strictEqual(selfCheckText({ read: 0.600928, confidence: 90.6, expected: 0.6, apart_fs_pct: 0.09, reason: '' }),
     'the robot reads 0.6009 (91 %), you 0.6: 0.09 % of full scale apart');

@@ -113,12 +113,13 @@ export function sortReadings(rows) {
 export function readingText(row) {
   if (row.status === 'failed' || row.value === null) return 'failed: ' + row.reason;
   const band = row.low !== null && row.low !== undefined ? ' [' + row.low + ', ' + row.high + ']' : '';
+  // the robot's text (rounded to the meter's resolution, with unit) when the row carries it
   const number = (value) => Number(value.toPrecision(4)) + (row.unit ? ' ' + row.unit : '');
-  let text = number(row.value) + band;
+  let text = (row.display || number(row.value)) + band;
   if (row.status === 'uncertain') text += ' uncertain: ' + row.reason;
   if (row.review_time !== null && row.review_time !== undefined) {
     text += ' · reviewed by ' + row.review_by + ': '
-      + (row.review_value === row.value ? 'confirmed' : number(row.review_value));
+      + (row.review_value === row.value ? 'confirmed' : (row.review_display || number(row.review_value)));
   }
   return text;
 }
