@@ -36,6 +36,8 @@ Command = namedtuple("Command", "velocity_x velocity_yaw wheel_control")
 Progress = namedtuple("Progress", "phase remaining lateral_error command")
 
 ALIGN, TRACK, SPIN, SETTLE, DONE = "align", "track", "spin", "settle", "done"
+# what set the last tracking speed (PathFollower.limit): diagnostics and bench/patrol_drive.py
+LIMIT_CRUISE, LIMIT_PROXIMITY, LIMIT_GOAL, LIMIT_CORNER = "cruise", "proximity", "goal_decel", "corner"
 
 
 class FollowerParams(object):
@@ -98,6 +100,7 @@ class PathFollower(object):
         self.phase = ALIGN
         self._progress_s = 0.0
         self._speed = 0.0  # last commanded speed (m/s), sets the lookahead
+        self.limit = LIMIT_CRUISE  # what set that speed
         self.length = float(self._cum[-1])
         # corner speeds: turning angle at each inner vertex -> the speed to take it with
         heading = np.arctan2(seg[:, 1], seg[:, 0])
@@ -207,20 +210,23 @@ class PathFollower(object):
     def _pursue(self, alpha, goal_dist, remaining, lookahead, scale=1.0):
         to_go = max(remaining, goal_dist)
         # braking profile: constant deceleration, then a proportional approach (no overshoot at 20 Hz)
-        speed = min(self.goal.velocity_x * scale, math.sqrt(2.0 * self.p.decel * to_go),
-                    self.p.approach_gain * to_go, self._corner_limit())
+        limits = ((self.goal.velocity_x, LIMIT_CRUISE), (self.goal.velocity_x * scale, LIMIT_PROXIMITY),
+                  (math.sqrt(2.0 * self.p.decel * to_go), LIMIT_GOAL), (self.p.approach_gain * to_go, LIMIT_GOAL),
+                  (self._corner_limit(), LIMIT_CORNER))
+        speed, self.limit = min(limits, key=lambda pair: pair[0])
         speed = max(speed, self.min_speed)
         lookahead = max(min(lookahead, goal_dist), 1e-3)
         curvature = 2.0 * math.sin(alpha) / lookahead
         if self.p.min_turn_radius > 0 and abs(curvature) > 1.0 / self.p.min_turn_radius:
             curvature = math.copysign(1.0 / self.p.min_turn_radius, curvature)
         # lateral acceleration cap for the curvature actually commanded
-        if abs(curvature) > 1e-9:
-            speed = max(min(speed, math.sqrt(self.p.corner_accel / abs(curvature))), self.min_speed)
+        if abs(curvature) > 1e-9 and speed > math.sqrt(self.p.corner_accel / abs(curvature)):
+            speed, self.limit = max(math.sqrt(self.p.corner_accel / abs(curvature)), self.min_speed), LIMIT_CORNER
         yaw_rate = speed * curvature
         if abs(yaw_rate) > self.goal.velocity_yaw:
             speed *= self.goal.velocity_yaw / abs(yaw_rate)
             yaw_rate = math.copysign(self.goal.velocity_yaw, yaw_rate)
+            self.limit = LIMIT_CORNER
         if abs(alpha) > math.pi / 2:  # target behind (overshoot): back up towards it gently
             speed = -min(speed, self.min_speed)
             yaw_rate = 0.0
