@@ -3,8 +3,9 @@
 ``drive_patrol()`` orders config/sim_world.yaml's patrol stops (inspection_robot_testing.yard_patrol)
 like task_manager's ``order: "shortest"`` (planner path lengths, home closes the tour), then drives
 each leg to a stop (a patrol ends at its last stop) as move_base, robot_control and the chassis
-simulator would: Approach(PathFollower) at move_base's control_rate -> MotionController at robot_control's rate -> SimChassis, all with the
-parameters of config/move_base.yaml and config/robot_control.yaml, on a fake clock (the machine's
+simulator would: Approach(PathFollower) at move_base's control_rate -> MotionController at
+robot_control's rate -> SimChassis, all with the parameters of config/move_base.yaml and
+config/robot_control.yaml, on a fake clock (the machine's
 load cannot distort it). Poses reach the follower as the simulated localizer would send them:
 ``truth`` (sim/true_pose, every control cycle) or ``noisy`` (sim_localizer.yaml: noise, rate,
 latency). Between legs the robot stands still for ``inspect_s`` (the inspection), as in a patrol.
