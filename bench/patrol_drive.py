@@ -8,7 +8,8 @@ robot_control's rate -> SimChassis, all with the parameters of config/move_base.
 config/robot_control.yaml, on a fake clock (the machine's
 load cannot distort it). Poses reach the follower as the simulated localizer would send them:
 ``truth`` (sim/true_pose, every control cycle) or ``noisy`` (sim_localizer.yaml: noise, rate,
-latency). Between legs the robot stands still for ``inspect_s`` (the inspection), as in a patrol.
+latency). Between legs the robot stands still for ``preset_s`` per preset (the inspection: 0.3 to
+1.3 s per preset in `make patrol`), as in a patrol.
 
 Every 10 ms of a drive goes to one phase: ``switch`` (the chassis turns its wheels between
 straight and steer mode), ``align`` (spin in place towards the path), ``spin`` (to the goal's
@@ -33,6 +34,7 @@ from inspection_robot.interface import WHEEL_STRAIGHT  # noqa: E402
 from inspection_robot.motion.controller import MotionController  # noqa: E402
 from inspection_robot.motion.velocity import VelocityLimits  # noqa: E402
 from inspection_robot.nav.costmap import Costmap  # noqa: E402
+from inspection_robot.nav.curves import shape_path  # noqa: E402
 from inspection_robot.nav.follower import ALIGN, DONE, SETTLE, SPIN, Approach, FollowerParams, PathFollower  # noqa
 from inspection_robot.nav.goal import MoveGoal  # noqa: E402
 from inspection_robot.nav.gridmap import load_map  # noqa: E402
@@ -87,7 +89,7 @@ def home_pose():
     return tuple(float(v) for v in _config("sim_site.yaml")["task_manager"]["home_pose"])
 
 
-def drive_patrol(follower_overrides=None, localizer="truth", inspect_s=5.0, seed=1):
+def drive_patrol(follower_overrides=None, localizer="truth", preset_s=0.5, seed=1, task_overrides=None):
     """Drive the yard's patrol; returns (legs, planned length of the legs driven m, drive speed m/s)."""
     move_base, control, task = _config("move_base.yaml"), _config("robot_control.yaml"), _config("task_manager.yaml")
     site = _config("sim_site.yaml")
@@ -96,6 +98,8 @@ def drive_patrol(follower_overrides=None, localizer="truth", inspect_s=5.0, seed
     values = dict(move_base["follower"])
     values.update(follower_overrides or {})
     params = FollowerParams(**values)
+    task.update(task_overrides or {})
+    turn_at_stops = bool(task["turn_at_stops"])   # the yard's stops are not precision stops
     speed, yaw_speed = float(task["velocity_x"]), float(task["velocity_yaw"])
     start = tuple(float(v) for v in site["move_base"]["init_pose"])
     home = home_pose()
@@ -117,11 +121,12 @@ def drive_patrol(follower_overrides=None, localizer="truth", inspect_s=5.0, seed
         pose_period = int(round(1.0 / loc["rate"] / TICK))
     legs, step = [], 0
     # a patrol ends at its last stop: home only closes the tour the order is chosen by
-    for name, goal_pose, _presets in stops:
+    for name, goal_pose, presets in stops:
         (x, y, _yaw), _v = chassis.true_pose()
         plan = planner.plan((x, y), goal_pose[:2])
-        goal = MoveGoal(goal_pose[0], goal_pose[1], goal_pose[2], True, False, False, speed, yaw_speed)
-        follower = PathFollower(plan.points, goal, params, costmap.clearance)
+        goal = MoveGoal(goal_pose[0], goal_pose[1], goal_pose[2], turn_at_stops, False, False, speed, yaw_speed)
+        follower = PathFollower(shape_path(plan.points, chassis.true_pose()[0], goal, params, costmap.clearance),
+                                goal, params, costmap.clearance)
         approach = Approach(follower)
         leg = Leg(name, plan.length, speed)
         stamp, pose, phase, cmd = None, None, None, None
@@ -153,7 +158,7 @@ def drive_patrol(follower_overrides=None, localizer="truth", inspect_s=5.0, seed
                 raise RuntimeError("leg to %s not finished in 600 s" % name)
         legs.append(leg)
         controller.on_move_cmd(SENDER_MOVE_BASE, 0, 0, WHEEL_STRAIGHT)   # move_base's stop at the goal's end
-        for _ in range(int(round(inspect_s / TICK))):   # the inspection: the robot stands
+        for _ in range(int(round(preset_s * len(presets) / TICK))):   # the inspection: the robot stands
             if step % control_period == 0:
                 controller.tick()
             clock[0] += TICK

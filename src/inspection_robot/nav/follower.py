@@ -47,7 +47,8 @@ class FollowerParams(object):
                  min_speed_precise_m_s=0.02, min_yaw_rate_rad_s=0.05, yaw_gain=3.0, yaw_decel_rad_s2=1.3,
                  lookahead_min_m=0.4, lookahead_time_s=1.2, min_turn_radius_m=0.65, corner_accel_m_s2=1.0,
                  corner_decel_m_s2=0.7, proximity_m=0.2, proximity_min_scale=0.4, rest_m=0.005,
-                 rest_rad=0.005, rest_s=0.25, rest_timeout_s=2.0, max_corrections=2):
+                 rest_rad=0.005, rest_s=0.25, rest_timeout_s=2.0, max_corrections=2, curve_max_m=4.0,
+                 curve_max_rad=2.5):
         self.lookahead = float(lookahead_m)
         self.lookahead_min = min(float(lookahead_min_m), self.lookahead)
         self.lookahead_time = float(lookahead_time_s)
@@ -74,6 +75,8 @@ class FollowerParams(object):
         self.rest_s = float(rest_s)
         self.rest_timeout = float(rest_timeout_s)
         self.max_corrections = int(max_corrections)
+        self.curve_max_m = float(curve_max_m)   # nav.curves: departure curves
+        self.curve_max_rad = float(curve_max_rad)
 
 
 STOP = Command(0.0, 0.0, WHEEL_STRAIGHT)
@@ -151,7 +154,7 @@ class PathFollower(object):
                 if self.phase == TRACK and far and abs(alpha) > self.p.spin_enter:
                     self.phase = ALIGN
                 if self.phase == ALIGN:
-                    if abs(alpha) > self.p.spin_exit and goal_dist > self.tolerance * 4:
+                    if abs(alpha) > self._align_exit(lookahead) and goal_dist > self.tolerance * 4:
                         self._speed = 0.0
                         return Progress(ALIGN, remaining, lateral, self._spin(alpha))
                     self.phase = TRACK
@@ -165,6 +168,14 @@ class PathFollower(object):
             else:
                 return Progress(SPIN, remaining, lateral, self._spin(error))
         return Progress(DONE, remaining, lateral, STOP)
+
+    def _align_exit(self, lookahead):
+        """Heading error small enough to drive off without spinning: ``spin_exit``, or the angle to a
+        lookahead point on a circle of ``min_turn_radius`` (a curve the robot can drive in straight
+        mode, such as a departure curve, needs no spin)."""
+        if self.p.min_turn_radius <= 0:
+            return self.p.spin_exit
+        return max(self.p.spin_exit, math.asin(min(1.0, lookahead / (2.0 * self.p.min_turn_radius))) + 0.05)
 
     def goal_point(self):
         return np.array([self.goal.x, self.goal.y])
