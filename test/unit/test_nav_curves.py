@@ -58,16 +58,6 @@ def test_robot_drives_off_sideways_without_spinning_and_is_faster():
     assert curved_s < spun_s - 2.0              # the spin and its two wheel switches (1 s each) saved
 
 
-def test_configured_braking_still_ends_within_the_precision_tolerance():
-    """move_base.yaml brakes at 0.7 m/s^2 (the chassis can 0.8): a precision goal at full speed stays exact."""
-    params = FollowerParams(decel_m_s2=0.7)
-    for speed in (0.8, 1.0):
-        target = MoveGoal(8.0, 0.0, 0.0, True, True, False, speed, 0.8)
-        (x, y, yaw), _s, _phases = drive([[0.0, 0.0], [8.0, 0.0]], target, (0.0, 0.0, 0.0), params=params)
-        assert math.hypot(x - 8.0, y) <= params.xy_tolerance_precise
-        assert abs(yaw) <= params.yaw_tolerance_precise
-
-
 def test_patrol_turns_only_where_the_head_cannot_take_the_heading_difference():
     stop = Step(STEP_MOVE, "t", 0, -1, 1.0, 2.0, 0.5, 0, None)
     assert not turns_to_yaw(stop, False)
