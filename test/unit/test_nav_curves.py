@@ -40,7 +40,8 @@ def test_no_curve_when_it_would_cross_an_obstacle_or_turn_too_far():
     wall_north = lambda x, y: 0.0 if y > 0.3 else float("inf")      # noqa: E731 (lethal north of the path)
     path = np.array(EAST)
     assert departure(path, (0.0, 0.0, math.pi / 2), PARAMS, wall_north) is None
-    assert departure(path, (0.0, 0.0, math.pi), PARAMS) is None            # path behind: spin
+    assert departure(path, (0.0, 0.0, math.pi), FollowerParams(curve_max_rad=2.5)) is None   # spin instead
+    assert departure(path, (0.0, 0.0, math.pi), PARAMS, lambda x, y: 0.0 if abs(y) > 0.3 else 1.0) is None
     assert np.array_equal(shape_path(path, (0.0, 0.0, math.pi / 2), goal(6, 0), PARAMS, wall_north), path)
     assert np.array_equal(shape_path(path, (0.0, 0.0, math.pi / 2), goal(6, 0, backward=True), PARAMS), path)
     off = FollowerParams(curve_max_m=0.0)
@@ -64,3 +65,11 @@ def test_patrol_turns_only_where_the_head_cannot_take_the_heading_difference():
     assert turns_to_yaw(stop, True)
     assert turns_to_yaw(stop._replace(precision=1), False)
     assert turns_to_yaw(stop._replace(kind=STEP_HOME), False)
+
+
+def test_path_behind_is_taken_with_a_u_turn_where_there_is_room():
+    start = (0.0, 0.0, math.pi)                 # came from the east, the next stop is back there
+    shaped = shape_path(np.array(EAST), start, goal(6, 0), PARAMS)
+    assert np.abs(shaped[:, 1]).max() <= 2.0 * PARAMS.min_turn_radius + 0.2
+    (x, y, _yaw), _s, phases = drive(shaped, goal(6, 0), start)
+    assert ALIGN not in phases and math.hypot(x - 6.0, y) <= PARAMS.xy_tolerance

@@ -47,8 +47,8 @@ class FollowerParams(object):
                  min_speed_precise_m_s=0.02, min_yaw_rate_rad_s=0.05, yaw_gain=3.0, yaw_decel_rad_s2=1.3,
                  lookahead_min_m=0.4, lookahead_time_s=1.2, min_turn_radius_m=0.65, corner_accel_m_s2=1.0,
                  corner_decel_m_s2=0.7, proximity_m=0.2, proximity_min_scale=0.4, rest_m=0.005,
-                 rest_rad=0.005, rest_s=0.25, rest_timeout_s=1.0, max_corrections=2, curve_max_m=4.0,
-                 curve_max_rad=2.5):
+                 rest_rad=0.005, rest_s=0.25, rest_timeout_s=1.0, max_corrections=2, curve_max_m=6.0,
+                 curve_max_rad=math.pi):
         self.lookahead = float(lookahead_m)
         self.lookahead_min = min(float(lookahead_min_m), self.lookahead)
         self.lookahead_time = float(lookahead_time_s)
