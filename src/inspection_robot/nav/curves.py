@@ -5,8 +5,8 @@ whenever the path left more than ``spin_exit`` off the robot's heading (at a pat
 faces the equipment, and the next path usually leaves sideways). On this chassis a spin is dear: it
 needs steer mode, and every straight <-> steer switch brings the robot to rest and turns the wheels
 for ``switch_time`` (1 s), so one departure spin cost two switches besides the turn itself
-(bench/patrol_drive.py: 35 % of the time the simulated yard's patrol drives lost against their
-planned length at full speed).
+(bench/patrol_drive.py: about half of the time the simulated yard's patrol drives lost against
+their planned length at full speed).
 
 ``shape_path`` replaces the path's first metres by the curve the robot drives in straight mode from
 its heading onto the path: pure pursuit (lookahead ``lookahead_min_m``) with curvature at most
@@ -15,7 +15,8 @@ joins the path within ``curve_max_m``, the path leaves at most ``curve_max_rad``
 heading, and all of the curve is clear of obstacles (``clearance(x, y) > 0``: outside the inflated
 footprint, as the planner's own path); otherwise the robot spins in place first as before. Pure
 module. (The goal's yaw is still reached by a spin at the end: a curve into the goal along its yaw
-does not settle within the 2° yaw tolerance over a short straight run.)
+does not settle within the 2° yaw tolerance over a short straight run; patrol stops avoid that
+spin differently, task.patrol.turns_to_yaw.)
 """
 import math
 

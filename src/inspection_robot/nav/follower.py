@@ -3,8 +3,10 @@
 Each ``step(pose)`` returns a Command (m/s, rad/s, wheel mode) for robot_control and the progress
 (remaining distance, lateral error). Phases:
 
-- ``align``: heading far from the path direction (more than ``spin_enter``) -> spin in place
-  (steer mode, wheel_control 1);
+- ``align``: heading far from the path direction (more than ``spin_enter`` while driving; at the
+  start, more than a ``min_turn_radius`` curve can take) -> spin in place (steer mode,
+  wheel_control 1); move_base shapes the path's start into a curve the robot can drive instead
+  where there is room (nav/curves.py);
 - ``track``: regulated pure pursuit in straight mode (wheel_control 0, velocity_yaw steers): the
   lookahead grows with speed (``lookahead_time`` x speed, between ``lookahead_min`` and
   ``lookahead``), the curvature is capped at 1 / ``min_turn_radius`` (the chassis' straight-mode
