@@ -28,12 +28,12 @@ class FakeClock(object):
         return self.now
 
 
-def drive(path, goal, start, timeout=90.0):
+def drive(path, goal, start, timeout=90.0, params=None):
     """Return (final pose after the robot came to rest, seconds until DONE, phases seen)."""
     clock = FakeClock()
     chassis = SimChassis(clock, start)
     controller = MotionController(chassis, VelocityLimits(1.0, 1.0, 5.0, 5.0), 0.5, clock)
-    follower = PathFollower(np.asarray(path, dtype=float), goal, FollowerParams())
+    follower = PathFollower(np.asarray(path, dtype=float), goal, params or FollowerParams())
     phases = []
     done_at = None
     step = 0

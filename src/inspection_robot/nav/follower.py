@@ -3,8 +3,10 @@
 Each ``step(pose)`` returns a Command (m/s, rad/s, wheel mode) for robot_control and the progress
 (remaining distance, lateral error). Phases:
 
-- ``align``: heading far from the path direction (more than ``spin_enter``) -> spin in place
-  (steer mode, wheel_control 1);
+- ``align``: heading far from the path direction (more than ``spin_enter`` while driving; at the
+  start, more than a ``min_turn_radius`` curve can take) -> spin in place (steer mode,
+  wheel_control 1); move_base shapes the path's start into a curve the robot can drive instead
+  where there is room (nav/curves.py);
 - ``track``: regulated pure pursuit in straight mode (wheel_control 0, velocity_yaw steers): the
   lookahead grows with speed (``lookahead_time`` x speed, between ``lookahead_min`` and
   ``lookahead``), the curvature is capped at 1 / ``min_turn_radius`` (the chassis' straight-mode
@@ -36,6 +38,8 @@ Command = namedtuple("Command", "velocity_x velocity_yaw wheel_control")
 Progress = namedtuple("Progress", "phase remaining lateral_error command")
 
 ALIGN, TRACK, SPIN, SETTLE, DONE = "align", "track", "spin", "settle", "done"
+# what set the last tracking speed (PathFollower.limit): diagnostics and bench/patrol_drive.py
+LIMIT_CRUISE, LIMIT_PROXIMITY, LIMIT_GOAL, LIMIT_CORNER = "cruise", "proximity", "goal_decel", "corner"
 
 
 class FollowerParams(object):
@@ -45,7 +49,8 @@ class FollowerParams(object):
                  min_speed_precise_m_s=0.02, min_yaw_rate_rad_s=0.05, yaw_gain=3.0, yaw_decel_rad_s2=1.3,
                  lookahead_min_m=0.4, lookahead_time_s=1.2, min_turn_radius_m=0.65, corner_accel_m_s2=1.0,
                  corner_decel_m_s2=0.7, proximity_m=0.2, proximity_min_scale=0.4, rest_m=0.005,
-                 rest_rad=0.005, rest_s=0.25, rest_timeout_s=2.0, max_corrections=2):
+                 rest_rad=0.005, rest_s=0.25, rest_timeout_s=1.0, max_corrections=2, curve_max_m=6.0,
+                 curve_max_rad=math.pi):
         self.lookahead = float(lookahead_m)
         self.lookahead_min = min(float(lookahead_min_m), self.lookahead)
         self.lookahead_time = float(lookahead_time_s)
@@ -72,6 +77,8 @@ class FollowerParams(object):
         self.rest_s = float(rest_s)
         self.rest_timeout = float(rest_timeout_s)
         self.max_corrections = int(max_corrections)
+        self.curve_max_m = float(curve_max_m)   # nav.curves: departure curves
+        self.curve_max_rad = float(curve_max_rad)
 
 
 STOP = Command(0.0, 0.0, WHEEL_STRAIGHT)
@@ -98,6 +105,7 @@ class PathFollower(object):
         self.phase = ALIGN
         self._progress_s = 0.0
         self._speed = 0.0  # last commanded speed (m/s), sets the lookahead
+        self.limit = LIMIT_CRUISE  # what set that speed
         self.length = float(self._cum[-1])
         # corner speeds: turning angle at each inner vertex -> the speed to take it with
         heading = np.arctan2(seg[:, 1], seg[:, 0])
@@ -148,7 +156,7 @@ class PathFollower(object):
                 if self.phase == TRACK and far and abs(alpha) > self.p.spin_enter:
                     self.phase = ALIGN
                 if self.phase == ALIGN:
-                    if abs(alpha) > self.p.spin_exit and goal_dist > self.tolerance * 4:
+                    if abs(alpha) > self._align_exit(lookahead) and goal_dist > self.tolerance * 4:
                         self._speed = 0.0
                         return Progress(ALIGN, remaining, lateral, self._spin(alpha))
                     self.phase = TRACK
@@ -162,6 +170,14 @@ class PathFollower(object):
             else:
                 return Progress(SPIN, remaining, lateral, self._spin(error))
         return Progress(DONE, remaining, lateral, STOP)
+
+    def _align_exit(self, lookahead):
+        """Heading error small enough to drive off without spinning: ``spin_exit``, or the angle to a
+        lookahead point on a circle of ``min_turn_radius`` (a curve the robot can drive in straight
+        mode, such as a departure curve, needs no spin)."""
+        if self.p.min_turn_radius <= 0:
+            return self.p.spin_exit
+        return max(self.p.spin_exit, math.asin(min(1.0, lookahead / (2.0 * self.p.min_turn_radius))) + 0.05)
 
     def goal_point(self):
         return np.array([self.goal.x, self.goal.y])
@@ -207,20 +223,23 @@ class PathFollower(object):
     def _pursue(self, alpha, goal_dist, remaining, lookahead, scale=1.0):
         to_go = max(remaining, goal_dist)
         # braking profile: constant deceleration, then a proportional approach (no overshoot at 20 Hz)
-        speed = min(self.goal.velocity_x * scale, math.sqrt(2.0 * self.p.decel * to_go),
-                    self.p.approach_gain * to_go, self._corner_limit())
+        limits = ((self.goal.velocity_x, LIMIT_CRUISE), (self.goal.velocity_x * scale, LIMIT_PROXIMITY),
+                  (math.sqrt(2.0 * self.p.decel * to_go), LIMIT_GOAL), (self.p.approach_gain * to_go, LIMIT_GOAL),
+                  (self._corner_limit(), LIMIT_CORNER))
+        speed, self.limit = min(limits, key=lambda pair: pair[0])
         speed = max(speed, self.min_speed)
         lookahead = max(min(lookahead, goal_dist), 1e-3)
         curvature = 2.0 * math.sin(alpha) / lookahead
         if self.p.min_turn_radius > 0 and abs(curvature) > 1.0 / self.p.min_turn_radius:
             curvature = math.copysign(1.0 / self.p.min_turn_radius, curvature)
         # lateral acceleration cap for the curvature actually commanded
-        if abs(curvature) > 1e-9:
-            speed = max(min(speed, math.sqrt(self.p.corner_accel / abs(curvature))), self.min_speed)
+        if abs(curvature) > 1e-9 and speed > math.sqrt(self.p.corner_accel / abs(curvature)):
+            speed, self.limit = max(math.sqrt(self.p.corner_accel / abs(curvature)), self.min_speed), LIMIT_CORNER
         yaw_rate = speed * curvature
         if abs(yaw_rate) > self.goal.velocity_yaw:
             speed *= self.goal.velocity_yaw / abs(yaw_rate)
             yaw_rate = math.copysign(self.goal.velocity_yaw, yaw_rate)
+            self.limit = LIMIT_CORNER
         if abs(alpha) > math.pi / 2:  # target behind (overshoot): back up towards it gently
             speed = -min(speed, self.min_speed)
             yaw_rate = 0.0

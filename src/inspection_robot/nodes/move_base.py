@@ -53,6 +53,7 @@ from inspection_robot.interface import (MODE_TASK,
 from inspection_robot.msg import (ControlStatus, GeneralAction, GeneralCmd, GeneralFeedback, GeneralResult,
                                   GeneralTopic, MoveCmd, NavStatus, ObstacleStatus)
 from inspection_robot.nav.costmap import Costmap
+from inspection_robot.nav.curves import shape_path
 from inspection_robot.nav.follower import DONE, Approach, FollowerParams, PathFollower
 from inspection_robot.nav.goal import parse_move_goal
 from inspection_robot.nav.gridmap import load_map
@@ -306,7 +307,8 @@ class MoveBase(object):
         self._publish_plan(plan.points)
         self._feedback(MOVE_FEEDBACK_PLANNED, path_length=round(plan.length, 3),
                        planning_time=round(time.monotonic() - started, 3))
-        return Approach(PathFollower(plan.points, goal, self.follower_params, self.costmap.clearance))
+        points = shape_path(plan.points, pose, goal, self.follower_params, self.costmap.clearance)
+        return Approach(PathFollower(points, goal, self.follower_params, self.costmap.clearance))
 
     def _run(self, goal_msg):
         cfg = self.cfg

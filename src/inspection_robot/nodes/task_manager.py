@@ -21,7 +21,8 @@ Parameters:  data_root (namespace: the robot's state directory): store and repor
              ~retry_delay_s (s, 3.0);
              ~uncertain_retries (int >= 0, 1): inspections again of a preset read uncertain;
              ~trend_window (10), ~trend_min_points (4), ~trend_horizon_days (7.0): the trend warning;
-             ~velocity_x (m/s, 0.8), ~velocity_yaw (rad/s, 0.8); ~move_timeout_s (300),
+             ~velocity_x (m/s, 0.8), ~velocity_yaw (rad/s, 0.8); ~turn_at_stops (bool, false: the
+             head's pan, not the robot, turns to a stop's heading); ~move_timeout_s (300),
              ~find_timeout_s (90), ~read_timeout_s (60); ~move_estimate_s (20), ~preset_estimate_s (10):
              ETA before anything was measured; ~status_period (s, 1.0): task_status (and task_action
              feedback) republished at least this often while a task runs (at once on every change);
@@ -590,6 +591,9 @@ def main():
                 "find": float(rospy.get_param("~find_timeout_s", 90.0)),
                 "read": float(rospy.get_param("~read_timeout_s", 60.0))}
     velocity = (float(rospy.get_param("~velocity_x", 0.8)), float(rospy.get_param("~velocity_yaw", 0.8)))
+    turn_at_stops = rospy.get_param("~turn_at_stops", False)
+    if not isinstance(turn_at_stops, bool):
+        raise ValueError("~turn_at_stops must be true or false, got %r" % (turn_at_stops,))
     store = ResultStore(os.path.join(tasks_dir, "results.sqlite"))
     schedule_check_s = float(rospy.get_param("~schedule_check_s", 10.0))
     schedule_grace_s = float(rospy.get_param("~schedule_grace_s", 600.0))
@@ -600,7 +604,8 @@ def main():
     if status_period <= 0:
         raise ValueError("~status_period must be positive, got %r" % status_period)
     manager = TaskManager(store, os.path.join(tasks_dir, "reports"), config, preset_root, reachable,
-                          lambda pose: StepRunner(NODE_NAME, velocity[0], velocity[1], timeouts, pose), retries,
+                          lambda pose: StepRunner(NODE_NAME, velocity[0], velocity[1], timeouts, pose,
+                                                  turn_at_stops), retries,
                           status_period, os.path.join(root, "corrections"), root,
                           Scheduler(store, schedule_grace_s, time.time()), schedule_check_s)
     rospy.loginfo("%s: results in %s" % (NODE_NAME, store.path))

@@ -25,7 +25,7 @@ from inspection_robot.nav.goal import move_goal_data
 from inspection_robot.msg import GeneralAction, GeneralGoal, ReadScaleAck, ReadScaleCmd
 from inspection_robot.task.drive_progress import DriveProgress
 from inspection_robot.task.patrol import (OUTCOME_FAILED, OUTCOME_INTERRUPTED, OUTCOME_OK, STEP_INSPECT,
-                                          Inspection)
+                                          Inspection, turns_to_yaw)
 
 POLL_S = 0.1
 FOREIGN_DETECT_BOTH = 2
@@ -46,9 +46,11 @@ def _sources(targets, cmd):
 
 
 class StepRunner(object):
-    def __init__(self, node_name, velocity_x, velocity_yaw, timeouts, pose):
-        """``timeouts``: {"move", "find", "read"} s; ``pose()``: latest (x, y, yaw) or None."""
+    def __init__(self, node_name, velocity_x, velocity_yaw, timeouts, pose, turn_at_stops=True):
+        """``timeouts``: {"move", "find", "read"} s; ``pose()``: latest (x, y, yaw) or None;
+        ``turn_at_stops``: drives to stops end turned to the stop's yaw (task.patrol.turns_to_yaw)."""
         self._node_name = node_name
+        self._turn_at_stops = turn_at_stops
         self._velocity = (velocity_x, velocity_yaw)
         self._timeouts = timeouts
         self._pose = pose
@@ -73,7 +75,8 @@ class StepRunner(object):
     # --- move ----------------------------------------------------------------------------------
     def _move(self, step, interrupted, progress):
         data = move_goal_data(step.x, step.y, step.yaw, precision=step.precision, velocity_x=self._velocity[0],
-                              velocity_yaw=self._velocity[1])
+                              velocity_yaw=self._velocity[1],
+                              with_direction=turns_to_yaw(step, self._turn_at_stops))
         drive = DriveProgress()
 
         def on_feedback(_handle, feedback):

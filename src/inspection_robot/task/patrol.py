@@ -58,6 +58,17 @@ FINAL_PROGRESS_KEYS = ("priority", "stop", "stops", "stop_name", "preset", "pres
 # kind: move | inspect | home; stop / preset_index are 0-based (-1 when not applicable); preset: the
 # task's preset entry {"preset", "directory", "targets", "alarms", "foreign"} of an inspection
 Step = namedtuple("Step", "kind task_id stop preset_index x y yaw precision preset")
+
+
+def turns_to_yaw(step, turn_at_stops):
+    """Whether a drive ends turned to the step's yaw (move_action with_direction). The home pose (the
+    dock lines up on it) and precision stops always; other stops only with ``turn_at_stops``: find_scale
+    adds the difference between the preset's recorded heading and the robot's to the pan, so the head
+    turns instead of the robot, which on this chassis saves a stop, two wheel switches (1 s each) and
+    the spin itself (bench/patrol_drive.py)."""
+    return step.kind == STEP_HOME or bool(step.precision) or bool(turn_at_stops)
+
+
 # what the node measured: values/confidences/pictures per target (calibration order), pose (x, y, yaw)
 # or None, optionally foreign = (count, confidence, picture), reasons: per target "" or why the reader
 # doubts the value (read_scale's "uncertain: box <i>: <why>"), sources: per target the picture read

@@ -1,0 +1,123 @@
+"""Departure curves: a planned path reshaped so that the robot drives off without spinning in place.
+
+The planner's path starts at the robot whatever its heading, so the follower used to spin in place
+whenever the path left more than ``spin_exit`` off the robot's heading (at a patrol stop the robot
+faces the equipment, and the next path usually leaves sideways). On this chassis a spin is dear: it
+needs steer mode, and every straight <-> steer switch brings the robot to rest and turns the wheels
+for ``switch_time`` (1 s), so one departure spin cost two switches besides the turn itself
+(bench/patrol_drive.py: about half of the time the simulated yard's patrol drives lost against
+their planned length at full speed).
+
+``shape_path`` replaces the path's first metres by the curve the robot drives in straight mode from
+its heading onto the path: pure pursuit (lookahead ``lookahead_min_m``) with curvature at most
+1 / ``min_turn_radius_m``, driven on paper from the robot's pose. The curve is kept only when it
+joins the path within ``curve_max_m``, the path leaves at most ``curve_max_rad`` off the robot's
+heading, and all of the curve is clear of obstacles (``clearance(x, y) > 0``: outside the inflated
+footprint, as the planner's own path); otherwise the robot spins in place first as before. Pure
+module. (The goal's yaw is still reached by a spin at the end: a curve into the goal along its yaw
+does not settle within the 2° yaw tolerance over a short straight run; patrol stops avoid that
+spin differently, task.patrol.turns_to_yaw.)
+"""
+import math
+
+import numpy as np
+
+from inspection_robot.angles import wrap_angle
+
+STEP_M = 0.05       # m between the points of a curve
+JOIN_M = 0.02       # m, a curve has joined the path this close to it ...
+JOIN_RAD = 0.05     # ... and this parallel to it
+
+
+class _Polyline(object):
+    def __init__(self, points):
+        self.points = np.asarray(points, dtype=float)
+        seg = np.diff(self.points, axis=0)
+        self.seg_len = np.hypot(seg[:, 0], seg[:, 1])
+        self.cum = np.concatenate([[0.0], np.cumsum(self.seg_len)])
+        self.heading = np.arctan2(seg[:, 1], seg[:, 0])
+        self.length = float(self.cum[-1])
+
+    def project(self, x, y, s_min):
+        """(arc length, distance, segment heading) of the closest point at or after ``s_min``."""
+        lo = max(int(np.searchsorted(self.cum, s_min, side="right")) - 1, 0)
+        a, d = self.points[lo:-1], np.diff(self.points[lo:], axis=0)
+        t = np.clip(((x - a[:, 0]) * d[:, 0] + (y - a[:, 1]) * d[:, 1]) / np.maximum((d * d).sum(axis=1), 1e-12),
+                    0.0, 1.0)
+        dist = np.hypot(a[:, 0] + t * d[:, 0] - x, a[:, 1] + t * d[:, 1] - y)
+        i = int(np.argmin(dist))
+        return float(self.cum[lo + i] + t[i] * self.seg_len[lo + i]), float(dist[i]), float(self.heading[lo + i])
+
+    def point_at(self, s):
+        s = min(max(s, 0.0), self.length)
+        i = max(min(int(np.searchsorted(self.cum, s, side="right")) - 1, len(self.seg_len) - 1), 0)
+        t = (s - self.cum[i]) / self.seg_len[i] if self.seg_len[i] > 0 else 0.0
+        return self.points[i] + t * (self.points[i + 1] - self.points[i])
+
+    def after(self, s):
+        """The polyline from arc length ``s`` on."""
+        i = int(np.searchsorted(self.cum, s, side="right"))
+        return np.vstack([self.point_at(s), self.points[i:]])
+
+
+def join_curve(points, x, y, heading, radius, lookahead, max_length):
+    """The curve from (x, y, heading) onto polyline ``points`` (pure pursuit, curvature <= 1 / radius):
+    (curve (K, 2) from (x, y) to where it joins, arc length of the join on the path), or None when it
+    has not joined after ``max_length`` metres or the path ends first."""
+    path = _Polyline(points)
+    if path.length < 1e-6:
+        return None
+    curve, s = [(x, y)], 0.0
+    kappa_max = 1.0 / radius if radius > 0 else float("inf")
+    for _ in range(int(max_length / STEP_M)):
+        s, dist, direction = path.project(x, y, s)
+        if dist <= JOIN_M and abs(wrap_angle(direction - heading)) <= JOIN_RAD:
+            return np.array(curve), s
+        if s + lookahead >= path.length:
+            return None
+        tx, ty = path.point_at(s + lookahead)
+        alpha = wrap_angle(math.atan2(ty - y, tx - x) - heading)
+        kappa = 2.0 * math.sin(alpha) / lookahead if abs(alpha) < math.pi / 2 else math.copysign(kappa_max, alpha)
+        kappa = max(-kappa_max, min(kappa_max, kappa))
+        heading += kappa * STEP_M / 2.0     # midpoint rule
+        x, y = x + STEP_M * math.cos(heading), y + STEP_M * math.sin(heading)
+        heading += kappa * STEP_M / 2.0
+        curve.append((x, y))
+    return None
+
+
+def _clear(curve, clearance):
+    return clearance is None or all(clearance(float(px), float(py)) > 0.0 for px, py in curve)
+
+
+def _initial_turn(points, heading):
+    seg = np.diff(points, axis=0)
+    seg = seg[np.hypot(seg[:, 0], seg[:, 1]) > 1e-9]
+    if not len(seg):
+        return 0.0
+    return abs(wrap_angle(math.atan2(seg[0][1], seg[0][0]) - heading))
+
+
+def departure(points, pose, params, clearance=None):
+    """``points`` starting with the curve the robot drives from ``pose`` (x, y, yaw) onto the path, or
+    None when it would turn more than ``curve_max_rad`` or there is no clear such curve."""
+    x, y, yaw = pose
+    if _initial_turn(points, yaw) > params.curve_max_rad:
+        return None
+    joined = join_curve(points, x, y, yaw, params.min_turn_radius, params.lookahead_min, params.curve_max_m)
+    if joined is None:
+        return None
+    curve, s = joined
+    if not _clear(curve, clearance):
+        return None
+    return np.vstack([curve, _Polyline(points).after(s)[1:]])
+
+
+def shape_path(points, pose, goal, params, clearance=None):
+    """The planned ``points`` with a departure curve from ``pose`` where it is clear (module docstring).
+    Backward goals keep the plan (the robot reverses out without turning)."""
+    points = np.asarray(points, dtype=float).reshape(-1, 2)
+    if goal.backward or params.curve_max_m <= 0 or len(points) < 2:
+        return points
+    shaped = departure(points, pose, params, clearance)
+    return points if shaped is None else shaped
