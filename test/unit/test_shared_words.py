@@ -39,6 +39,9 @@ COINCIDENCES = {
     ("task/action.py", "done"): "a task_action feedback key name",
     ("task/store.py", "alarm"): "a results column name",
     ("nodes/task_manager.py", "read"): "a step timing's name",
+    ("task/report.py", "read"): "a summary tile's label (the count of read values)",
+    ("task/report.py", "failed"): "a summary tile's label",
+    ("task/report.py", "uncertain"): "a summary line's label",
 }
 
 

@@ -47,9 +47,8 @@ STATE_RANK = dict((state, i) for i, state in enumerate(STATE_ORDER))
 ATTENTION_STATES = (ALARM_ALARM, ALARM_CHECK, ALARM_FAILED, STATE_REVIEW, ALARM_TREND)
 STATE_COLOURS = {ALARM_ALARM: "#c62828", ALARM_CHECK: "#ef6c00", ALARM_FAILED: "#616161", STATE_REVIEW: "#6a1b9a",
                  ALARM_TREND: "#f9a825", ALARM_NORMAL: "#2e7d32", ALARM_NONE: "#1565c0", STATE_NOT_READ: "#bdbdbd"}
-STATE_WORDS = {ALARM_ALARM: "alarm", ALARM_CHECK: "check", ALARM_FAILED: "failed",
-               STATE_REVIEW: "needs review", ALARM_TREND: "trend", ALARM_NORMAL: "normal", ALARM_NONE: "no band",
-               STATE_NOT_READ: "not read"}
+# a state in the operator's words where its code does not say it (the others read as their code)
+STATE_WORDS = {STATE_REVIEW: "needs review", ALARM_NONE: "no band", STATE_NOT_READ: "not read"}
 MAP_CELLS = 240   # the yard map's longer side at most this many cells (coarser cells: any occupied wins)
 
 
@@ -256,8 +255,8 @@ def yard_svg(grid, path, stops, readings):
         out.append('<g class="stop %s"><title>%d %s: %s</title><circle cx="%.2f" cy="%.2f" r="%.2f" fill="%s" '
                    'stroke="#000" stroke-width="%.2f"/><text x="%.2f" y="%.2f" font-size="%.2f" text-anchor="middle" '
                    'fill="#fff" font-weight="bold">%d</text></g>'
-                   % (html.escape(state), i + 1, html.escape(stop["name"]), html.escape(STATE_WORDS[state]), x, y,
-                      radius, STATE_COLOURS[state], radius / 8.0, x, y + radius * 0.4, radius * 1.1, i + 1))
+                   % (html.escape(state), i + 1, html.escape(stop["name"]), html.escape(STATE_WORDS.get(state, state)),
+                      x, y, radius, STATE_COLOURS[state], radius / 8.0, x, y + radius * 0.4, radius * 1.1, i + 1))
     out.append("</svg>")
     return "".join(out)
 
@@ -316,7 +315,7 @@ def _metres(value):
 
 def _badge(state):
     return '<span class="state" style="background:%s">%s</span>' % (
-        STATE_COLOURS[state], html.escape(STATE_WORDS[state]))
+        STATE_COLOURS[state], html.escape(STATE_WORDS.get(state, state)))
 
 
 def _band(r):
@@ -388,7 +387,7 @@ def _map_part(yard):
     if not yard:
         return ""
     legend = "".join('<li><span class="dot" style="background:%s"></span>%s</li>'
-                     % (STATE_COLOURS[s], html.escape(STATE_WORDS[s])) for s in STATE_ORDER + (STATE_NOT_READ,))
+                     % (STATE_COLOURS[s], html.escape(STATE_WORDS.get(s, s))) for s in STATE_ORDER + (STATE_NOT_READ,))
     return ('<section class="map"><h2>Yard map</h2><div class="yardbox">%s<ul class="legend">%s<li>'
             '<span class="dot" style="background:#1e88e5;border-radius:0;height:3px"></span>driven path</li>'
             '<li><span class="dot" style="background:#37474f;border-radius:0"></span>obstacle</li></ul></div>'
