@@ -96,3 +96,40 @@ def test_the_report_draws_each_meters_recent_readings_beside_it(tmp_path):
     page = open(paths["report.html"]).read()
     assert page.count('<svg class="trend"') == 1 and "stroke-dasharray" in page   # the band's limits dashed
     assert sparkline([(0.0, 1.0)]) == ""
+
+
+def test_a_year_of_one_meters_readings_comes_in_bounded_pages(tmp_path):
+    """The trend query of issue #29's bad input: a year of hourly readings answers page by page
+    (query_results' limit and after_id), each row once, in order, a page never more than its limit."""
+    import tracemalloc
+    from inspection_robot.task.review import parse_query
+    from inspection_robot.task.store import WRITTEN_COLUMNS
+    store = ResultStore(str(tmp_path / "r.sqlite"))
+    hours = 365 * 24
+    base = dict((c, None) for c in WRITTEN_COLUMNS)
+    base.update(stop=1, stop_name="s", preset="presets/p/1", kind="pointer", status="read", unit="C",
+                alarm="normal", confidence=90.0, picture="", x=0.0, y=0.0, yaw=0.0, reason="", source_picture="",
+                roi="")
+    rows = []
+    for hour in range(hours):   # one task a day, 24 readings each (its presets), two meters
+        for target, name in enumerate(("oil", "winding")):
+            rows.append(dict(base, task_id="day%d" % (hour // 24), preset_index=hour % 24, target=target,
+                             target_name=name,
+                             value=60.0 + hour % 50, time=1.0e9 + hour * 3600.0))
+    assert store.add_readings(rows) == 2 * hours
+    query = parse_query(json.dumps({"target": "oil", "limit": 1000}), ("target", "limit", "after_id"), 1000)
+    seen, pages, after = [], 0, None
+    tracemalloc.start()
+    while True:
+        page = store.readings(limit=query["limit"], target=query["target"], after_id=after)
+        if not page:
+            break
+        assert len(page) <= 1000 and all(r["target_name"] == "oil" for r in page)
+        seen.extend(r["time"] for r in page)
+        after, pages = page[-1]["id"], pages + 1
+        del page
+    peak = tracemalloc.get_traced_memory()[1]
+    tracemalloc.stop()
+    assert seen == [1.0e9 + h * 3600.0 for h in range(hours)]   # every reading once, in recording order
+    assert pages == 9
+    assert peak < 8 * 1024 * 1024   # a page at a time: far below the year's ~17,500 rows held at once
