@@ -81,7 +81,7 @@ class ChargeControlTest(unittest.TestCase):
         cls.voice = Latest("voice_cmd", VoiceCmd)
         cls.control = Latest("control_cmd", GeneralCmd)
         cls.robot = Latest("robot_status", RobotStatus, queue_size=2000)
-        cls.truth = GroundTruth()   # where the robot is (robot_status carries the localizer's noisy pose)
+        cls.true_pose = GroundTruth()   # where the robot is (robot_status carries the localizer's noisy pose)
         cls.alarms = Latest("charge_ack", GeneralAck)
         cls.vo_acks = Latest("virtual_obstacle_ack", GeneralAck)
         cls.vo_cmd = rospy.Publisher("virtual_obstacle_cmd", GeneralCmd, queue_size=10)
@@ -141,7 +141,7 @@ class ChargeControlTest(unittest.TestCase):
 
     def pose_near(self, point, tol):
         """The robot (ground truth) within ``tol`` of ``point`` on each axis."""
-        pos = self.truth.pose()
+        pos = self.true_pose.pose()
         return abs(pos[0] - point[0]) < tol and abs(pos[1] - point[1]) < tol
 
     def test_0_no_cycle_at_start_up(self):
@@ -155,7 +155,7 @@ class ChargeControlTest(unittest.TestCase):
         self.robot.wait(
             lambda m: m.battery_status & BATTERY_CHARGING and m.light_status & LIGHT_CHARGE_RELAY, 10.0,
             "robot_status charging with the relay on")
-        self.assertTrue(self.pose_near(DOCK, 0.05), "charging on the dock: %s" % (self.truth.pose(),))
+        self.assertTrue(self.pose_near(DOCK, 0.05), "charging on the dock: %s" % (self.true_pose.pose(),))
         self.wait_state("idle")
         self.assertEqual(self.task_manager.calls, [("pause", "charge"), ("resume", "charge")])
         self.assertEqual(self.task_manager.state, "running")
@@ -170,7 +170,7 @@ class ChargeControlTest(unittest.TestCase):
         relay_off = [m for _, m in self.status.messages if json.loads(m.data)["state"] == "relay_off"][0]
         self.assertGreaterEqual(json.loads(relay_off.data)["battery"], 60)
         self.robot.wait(lambda m: not m.light_status & LIGHT_CHARGE_RELAY, 5.0, "relay open")
-        self.assertTrue(self.pose_near(APPROACH, 0.1), "backed off to %s" % (self.truth.pose(),))
+        self.assertTrue(self.pose_near(APPROACH, 0.1), "backed off to %s" % (self.true_pose.pose(),))
         spoken = [list(m.data) for _, m in self.voice.messages if m.sender == "charge_control"]
         self.assertEqual(spoken, [["charge_battery_low", "charge_going_to_dock"], ["charge_done"]])
         self.assertEqual(self.current()["alarm"], "")
@@ -198,7 +198,7 @@ class ChargeControlTest(unittest.TestCase):
         self.wait_state("idle")
         self.assertEqual(self.task_manager.calls[-1], ("resume", "charge"))
         self.assertEqual(self.task_manager.state, "running")
-        self.assertTrue(self.pose_near(APPROACH, 0.1), "backed off to %s" % (self.truth.pose(),))
+        self.assertTrue(self.pose_near(APPROACH, 0.1), "backed off to %s" % (self.true_pose.pose(),))
 
     def test_3_unreachable_dock_alarm(self):
         # a virtual wall closed around the dock: the robot lines up, then the docking goal has no path

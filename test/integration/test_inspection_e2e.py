@@ -69,7 +69,7 @@ class TestInspectionAcceptance(unittest.TestCase):
         cls.preset_acks = Latest("preset_scale_ack", PresetScaleAck)
         cls.read_acks = Latest("read_scale_ack", ReadScaleAck)
         cls.nav = Latest("nav_status", NavStatus, queue_size=1)   # the localizer's pose, as preset/find_scale see it
-        cls.truth = GroundTruth()   # where the robot is
+        cls.true_pose = GroundTruth()   # where the robot is
         cls.joints = Latest("terrace_state", JointState, queue_size=1)
         names = ("terrace_control", "camera_control", "sim/set_world_value", "sim/get_world_value",
                  "sim/inject_fault", "arm_control")
@@ -113,7 +113,7 @@ class TestInspectionAcceptance(unittest.TestCase):
     def teleport(self, pose):
         """Set the robot down at ``pose``: there in ground truth, then reported there by the localizer."""
         set_pose_when_at_rest(self.inject, pose, sender="test")
-        self.truth.wait_at(pose, 0.001, 0.001)
+        self.true_pose.wait_at(pose, 0.001, 0.001)
         self.wait_nav_at(pose)
 
     def drive(self, x, y, yaw, precision=0):
@@ -236,7 +236,7 @@ class TestInspectionAcceptance(unittest.TestCase):
                 off = (pose[0] + 0.3 * sign * math.sin(pose[2]), pose[1] - 0.3 * sign * math.cos(pose[2]),
                        pose[2] + sign * math.radians(5.0))
                 self.teleport(off)
-            now = self.truth.wait_still()   # where the robot stands (a goal can end with the final turn braking)
+            now = self.true_pose.wait_still()   # where the robot stands (a goal can end with the final turn braking)
             distance, heading = pose_error(now, pose)
             error = (distance, math.degrees(heading))
             rospy.loginfo("%s: pose error %.3f m, %.2f deg" % ((preset_id,) + error))

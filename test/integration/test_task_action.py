@@ -69,7 +69,7 @@ class TaskActionTest(unittest.TestCase):
         cls.status = Latest("task_status", GeneralTopic, queue_size=500)
         # robot_status carries the localizer's pose: what task_manager plans from (test 5)
         cls.robot = Latest("robot_status", RobotStatus, queue_size=10)
-        cls.truth = GroundTruth()   # where the robot is
+        cls.true_pose = GroundTruth()   # where the robot is
         cls.vo_acks = Latest("virtual_obstacle_ack", GeneralAck)
         cls.vo_cmd = rospy.Publisher("virtual_obstacle_cmd", GeneralCmd, queue_size=10)
         wait_subscribed(cls.vo_cmd, 60.0)
@@ -118,7 +118,7 @@ class TaskActionTest(unittest.TestCase):
     # --- 1 --------------------------------------------------------------------------------------
     def test_1_stops_in_or_behind_virtual_obstacles_are_refused_before_the_robot_moves(self):
         self.wait_idle()
-        start = self.truth.pose()
+        start = self.true_pose.pose()
         fence = {"id": "fence", "points": [[18.5, 20.0], [21.5, 20.0], [21.5, 23.0], [18.5, 23.0]], "closed": True}
         self.virtual("add", fence)
         self.wait_virtual("stop 1 (s0): pose (20.00, 21.40) is unreachable: cut off", "the fence known")
@@ -130,7 +130,7 @@ class TaskActionTest(unittest.TestCase):
         reply = self.tasks.call("submit", task("covered", [(20.0, 21.4)]))
         self.assertEqual((reply.ack, reply.data), ("failed", "stop 1 (s0): pose (20.00, 21.40) is unreachable: "
                                                              "inside a virtual obstacle or too close to one"))
-        now = self.truth.pose()
+        now = self.true_pose.pose()
         self.assertLess(pose_error(now, start)[0], 0.05, "the robot moved from %s to %s" % (start, now))
         self.assertEqual(self.tasks.call("query_tasks").data, "[]")   # nothing was stored either
         self.virtual("delete", {"id": "fence"})
@@ -227,7 +227,7 @@ class TaskActionTest(unittest.TestCase):
         home = self.status.wait(lambda m: json.loads(m.data)["state"] == "idle", 120.0, "idle at home")
         status = json.loads(home.data)
         self.assertEqual((status["task_id"], status["reason"], status["last_ended"]), ("", "", ended))
-        home = self.truth.pose()
+        home = self.true_pose.pose()
         self.assertLess(pose_error(home, HOME + (home[2],))[0], 0.5, home)   # ~home_pose
 
     # --- 5 --------------------------------------------------------------------------------------
