@@ -123,6 +123,9 @@ class TestInspectionAcceptance(unittest.TestCase):
         self.assertTrue(self.move.wait_for_result(rospy.Duration(60.0)), "move_action result")
         result = self.move.get_result()
         self.assertEqual(result.ret_code, "0", result.data)
+        distance, heading = pose_error(self.true_pose.wait_still(), (x, y, yaw))
+        rospy.loginfo("move_action to (%.2f, %.2f, %.1f deg), precision %d: %.4f m, %.2f deg off in ground truth"
+                      % (x, y, math.degrees(yaw), precision, distance, math.degrees(heading)))
 
     def find_goal(self, goal_type, preset_dir, timeout=60.0):
         self.find.send_goal(GeneralGoal(type=goal_type, data=json.dumps({"preset_path": preset_dir})))

@@ -228,6 +228,7 @@ class TaskActionTest(unittest.TestCase):
         status = json.loads(home.data)
         self.assertEqual((status["task_id"], status["reason"], status["last_ended"]), ("", "", ended))
         home = self.true_pose.pose()
+        rospy.loginfo("test_task_action: home %.4f m off in ground truth", pose_error(home, HOME + (home[2],))[0])
         self.assertLess(pose_error(home, HOME + (home[2],))[0], 0.5, home)   # ~home_pose
 
     # --- 5 --------------------------------------------------------------------------------------
