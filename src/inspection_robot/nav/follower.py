@@ -227,13 +227,24 @@ class PathFollower(object):
         return Command(self.direction * speed, yaw_rate, WHEEL_STRAIGHT)
 
 
+def mean_pose(poses):
+    """(x, y, yaw) mean of planar poses, the heading as a circular mean (poses either side of ±pi)."""
+    n = float(len(poses))
+    return (sum(p[0] for p in poses) / n, sum(p[1] for p in poses) / n,
+            math.atan2(sum(math.sin(p[2]) for p in poses), sum(math.cos(p[2]) for p in poses)))
+
+
 class Arrival(object):
     """The pose a finished goal is judged on: the robot at rest, seen on poses received after the stop.
 
     ``update(now, stamp, pose)`` each control cycle (``stamp``: when the pose arrived) returns None
-    while the robot may still move, then the pose at rest: the newest pose when one received at
-    least ``rest_s`` earlier (after the stop) lies within ``rest_m`` and ``rest_rad`` of it, or the
-    newest pose after ``rest_timeout`` (a noisy localizer never looks still).
+    while the robot may still move, then the pose at rest: once a pose received at least ``rest_s``
+    earlier (after the stop) lies within ``rest_m`` and ``rest_rad`` of the newest, the mean of the
+    poses from that one to the newest; after ``rest_timeout`` (a noisy localizer never looks still),
+    the mean of the poses received from ``rest_s`` after the stop (the braking over). A mean, not the
+    newest pose: a localizer's noise (2 cm σ for a good lidar one) is larger than the precise
+    tolerance (1 cm), so one pose would call corrections that only move the robot by the noise;
+    twenty poses of a 10 Hz localizer over the 2 s shrink it to about a fifth.
     """
 
     def __init__(self, params, stopped_at):
@@ -248,14 +259,15 @@ class Arrival(object):
         if not self._poses:
             return None
         newest_stamp, newest = self._poses[-1]
-        earlier = [p for s, p in self._poses if s <= newest_stamp - self.p.rest_s]
+        earlier = [(s, p) for s, p in self._poses if s <= newest_stamp - self.p.rest_s]
         if earlier:
-            then = earlier[-1]
+            then_stamp, then = earlier[-1]
             if math.hypot(newest[0] - then[0], newest[1] - then[1]) <= self.p.rest_m and \
                     abs(wrap_angle(newest[2] - then[2])) <= self.p.rest_rad:
-                return newest
+                return mean_pose([p for s, p in self._poses if s >= then_stamp])
         if now - self.stopped_at >= self.p.rest_timeout:
-            return newest
+            settled = [p for s, p in self._poses if s >= self.stopped_at + self.p.rest_s]
+            return mean_pose(settled or [newest])
         return None
 
 
