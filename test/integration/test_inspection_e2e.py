@@ -162,9 +162,11 @@ class TestInspectionAcceptance(unittest.TestCase):
         self.assertEqual(ack.result, "success", ack.directory)
         return ack.directory
 
-    def calibrate(self, preset_dir):
+    def calibrate(self, preset_dir, pose):
+        """From the world, seen from ``pose`` (where the robot was put; preset.ini has the localizer's)."""
         tool = roslib.packages.find_node("inspection_robot", "calibrate_preset")[0]
-        proc = subprocess.run([sys.executable, tool, preset_dir, "--from-world", self.world_file],
+        proc = subprocess.run([sys.executable, tool, preset_dir, "--from-world", self.world_file,
+                               "--pose", "%.6f,%.6f,%.6f" % tuple(pose)],
                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, universal_newlines=True, timeout=90)
         self.assertEqual(proc.returncode, 0, proc.stderr)
         rospy.loginfo("calibrate_preset: %s" % proc.stdout)
@@ -213,7 +215,7 @@ class TestInspectionAcceptance(unittest.TestCase):
             if infrared:
                 self.assertTrue(os.path.isfile(os.path.join(directory, "thermal.jpg")))
                 self.assertTrue(os.path.isfile(os.path.join(directory, "thermal.png")))
-            self.assertEqual(set(self.calibrate(directory)), EXPECTED[preset_id],
+            self.assertEqual(set(self.calibrate(directory, pose)), EXPECTED[preset_id],
                              open(os.path.join(directory, "preset.ini")).read())
             self.presets[preset_id] = (directory, pose)
         # every value changes: gauges, lamps and switches flip, the hot spot heats up
