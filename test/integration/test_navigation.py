@@ -44,7 +44,7 @@ class NavigationTest(unittest.TestCase):
         cls.feedback = []
         cls.lock = threading.Lock()
         cls.relay = rospy.Publisher("test_pose", PoseWithCovarianceStamped, queue_size=10)
-        # what move_base drives on: ground truth, or sim_localizer's noisy pose (navigation.test localizer:=noisy)
+        # what move_base drives on: sim_localizer's noisy pose (the default), or ground truth (localizer:=truth)
         relay_from = rospy.get_param("~relay_from", "sim/true_pose")
         rospy.Subscriber("sim/true_pose", PoseWithCovarianceStamped, cls.on_true_pose, queue_size=10)
         if relay_from != "sim/true_pose":
