@@ -17,9 +17,11 @@ A problem is one line naming the setting (``move_base/map_file``) and how to fix
 a key no node reads (a typo, with the nearest known name), a setting a real robot needs that is
 unset (:data:`REQUIRED`, the drivers of drivers.DEVICES and what each built-in driver needs,
 :data:`DRIVER_SETTINGS`), a value still pointing at the simulated yard (its map, dock, home or
-initial pose, a ``sim/...`` topic), and malformed values (a map that does not load, a dock
-charge.dock refuses, a secret file others can read). Pure module: no rospy; files are read through
-the parsers the nodes use (nav.gridmap.load_map, charge.dock.parse_dock, files.read_secret_file).
+initial pose, a ``sim/...`` topic), malformed values (a map that does not load, a dock
+charge.dock refuses, a secret file others can read), and a pose_adapter that move_base would not
+read (or a pose_topic nothing publishes: the adapter's output while the adapter is off). Pure
+module: no rospy; files are read through the parsers the nodes use (nav.gridmap.load_map,
+charge.dock.parse_dock, files.read_secret_file, nav.pose_adapter.AdapterParams).
 """
 import difflib
 import math
@@ -32,6 +34,7 @@ from inspection_robot.charge.dock import DockError, parse_dock
 from inspection_robot.drivers import DEVICES, PARAM, PARAMS_PARAM, SIM, DriverConfigError, choose
 from inspection_robot.files import read_secret_file
 from inspection_robot.nav.gridmap import MapError, load_map
+from inspection_robot.nav.pose_adapter import MODE_NONE, MODE_TOPIC, MODES, AdapterParams
 
 DATA_ROOT = "data_root"
 SIM_SITE_FILE = "config/sim_site.yaml"
@@ -52,6 +55,11 @@ REQUIRED = OrderedDict((s.name, s) for s in (
 POSES = ("move_base/init_pose", "task_manager/home_pose")
 DOCK = "charge_control/dock"
 MAP = "move_base/map_file"
+POSE_TOPIC = "move_base/pose_topic"
+ADAPTER = "pose_adapter"
+ADAPTER_MODE = ADAPTER + "/mode"
+ADAPTER_PARAMS = ("input_topic", "output_topic", "rate", "map_frame", "base_frame", "sigma_xy", "sigma_yaw",
+                  "error_period")
 TOKEN_FILE = "rosbridge_websocket/auth_token_file"
 AUTH_ALTERNATIVES = ("rosbridge_websocket/auth_token", "rosbridge_websocket/client_ca")
 
@@ -209,6 +217,41 @@ def _dock_problems(spec, sim_spec):
     return []
 
 
+def _topic(name):
+    return str(name).strip().lstrip("/")
+
+
+def _adapter_problems(effective, given):
+    """pose_adapter: a known mode and valid parameters (checked by AdapterParams, as the node checks
+    them), and move_base/pose_topic its output exactly while it runs (none: the localizer's own topic)."""
+    mode = effective.get(ADAPTER_MODE, MODE_NONE)
+    if mode not in MODES:
+        return ["%s must be one of %s, got %r (none: move_base reads the localizer's topic; tf: a localizer "
+                "with TF map -> base_link only; topic: republish input_topic)" % (ADAPTER_MODE, "|".join(MODES), mode)]
+    kwargs = {n: effective[ADAPTER + "/" + n] for n in ADAPTER_PARAMS if ADAPTER + "/" + n in effective}
+    try:
+        params = AdapterParams(mode, **kwargs)
+    except ValueError as err:
+        return [str(err).replace("~", ADAPTER + "/")]
+    problems = []
+    if mode == MODE_TOPIC and given.get(ADAPTER + "/input_topic") in (None, ""):
+        problems.append("%s/input_topic is not set (pose_adapter/mode topic republishes it; the default %r is an "
+                        "example)" % (ADAPTER, params.input_topic))
+    pose_topic = given.get(POSE_TOPIC)
+    if pose_topic in (None, ""):
+        return problems   # REQUIRED names it
+    reads_adapter = _topic(pose_topic) == _topic(params.output_topic)
+    if mode != MODE_NONE and not reads_adapter:
+        problems.append("%s is %r but %s is %s: move_base must read the adapter's output, set %s: %s "
+                        "(%s/output_topic)" % (POSE_TOPIC, pose_topic, ADAPTER_MODE, mode, POSE_TOPIC,
+                                               params.output_topic, ADAPTER))
+    elif mode == MODE_NONE and reads_adapter:
+        problems.append("%s is %r, pose_adapter's output, but %s is none: nothing publishes it (set %s: tf for a "
+                        "localizer with TF only, or %s to the localizer's own topic)"
+                        % (POSE_TOPIC, pose_topic, ADAPTER_MODE, ADAPTER_MODE, POSE_TOPIC))
+    return problems
+
+
 def _secret_problem(name, path, read_secret):
     if not isinstance(path, str) or not path:
         return "%s is not set" % name
@@ -273,6 +316,7 @@ def site_problems(site, defaults, sim_yard_values, data_root_arg="", insecure=Fa
         problems.extend(_map_problems(given[MAP], sim_yard_values[MAP], load))
     if given.get(DOCK) not in (None, ""):
         problems.extend(_dock_problems(given[DOCK], sim_yard_values[DOCK]))
+    problems.extend(_adapter_problems(effective, given))
 
     for name, value in effective.items():
         if (name.endswith("_topic") or name.endswith("_topics")) and not _free_form(name):

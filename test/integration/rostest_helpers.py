@@ -1,5 +1,6 @@
 """Shared helpers for the rostest scripts: waiting for conditions with a deadline, never sleeping blind."""
 import itertools
+import math
 import os
 import signal
 import socket
@@ -9,7 +10,9 @@ import time
 
 import rosgraph
 import rospy
+from geometry_msgs.msg import PoseWithCovarianceStamped
 
+from inspection_robot.angles import wrap_angle, yaw_from_quaternion
 from inspection_robot.msg import GeneralAck, GeneralCmd
 from inspection_robot.srv import ControlService
 
@@ -68,6 +71,71 @@ class Latest(object):
             except AssertionError:
                 if time.monotonic() >= deadline:
                     raise AssertionError("no reply on %s within %.1f s" % (self._sub.name, timeout))
+
+
+# The localizer's pose agrees with ground truth within this many standard deviations of sim_localizer's
+# noise (a 2-D gaussian error exceeds 5 sigma once in ~270000 poses), and never less than the floor.
+AGREE_SIGMAS = 5.0
+AGREE_FLOOR = (0.002, 0.002)   # m, rad: float32 and rounding on the way through nav_status
+
+
+def planar_pose(pose):
+    """(x, y, yaw) of a geometry_msgs/Pose."""
+    q = pose.orientation
+    return pose.position.x, pose.position.y, yaw_from_quaternion(q.x, q.y, q.z, q.w)
+
+
+def pose_error(a, b):
+    """(distance m, |heading difference| rad) between two (x, y, yaw)."""
+    return math.hypot(a[0] - b[0], a[1] - b[1]), abs(wrap_angle(a[2] - b[2]))
+
+
+def localizer_tolerance():
+    """(m, rad) within which the robot's reported pose (nav_status, robot_status: the localizer's)
+    agrees with ground truth: AGREE_SIGMAS of the running sim_localizer's noise (its parameters), the
+    floor when move_base drives on ground truth (no sim_localizer)."""
+    sigma_xy = float(rospy.get_param("sim_localizer/sigma_xy", 0.0))
+    sigma_yaw = float(rospy.get_param("sim_localizer/sigma_yaw", 0.0))
+    return max(AGREE_SIGMAS * sigma_xy, AGREE_FLOOR[0]), max(AGREE_SIGMAS * sigma_yaw, AGREE_FLOOR[1])
+
+
+class GroundTruth(Latest):
+    """Where the simulated robot really is: the chassis simulator's sim/true_pose. A test asserting that
+    the robot *is* somewhere (arrived, docked, did not move) reads this; nav_status and robot_status carry
+    what the robot *reports*, the localizer's pose (in simulation sim_localizer's noisy copy of this one,
+    docs/interface.md "Simulated localizer")."""
+
+    def __init__(self, queue_size=100):
+        super(GroundTruth, self).__init__("sim/true_pose", PoseWithCovarianceStamped, queue_size)
+
+    def pose(self, timeout=10.0):
+        """The latest (x, y, yaw), waiting up to ``timeout`` for the first one."""
+        return planar_pose(self.wait(timeout=timeout, what="sim/true_pose").pose.pose)
+
+    def wait_at(self, pose, tol_m, tol_rad=None, timeout=10.0):
+        """Wait until the robot is within ``tol_m`` (and ``tol_rad`` of heading, unless None) of (x, y, yaw)."""
+        def there(msg):
+            distance, heading = pose_error(planar_pose(msg.pose.pose), pose)
+            return distance < tol_m and (tol_rad is None or heading < tol_rad)
+        return planar_pose(self.wait(there, timeout, "the robot within %.3f m of %s" % (tol_m, tuple(pose)))
+                           .pose.pose)
+
+    def wait_still(self, window_s=0.3, tol_m=0.001, tol_rad=math.radians(0.05), timeout=10.0):
+        """The pose once the robot has moved less than ``tol_m`` / ``tol_rad`` for ``window_s`` (a goal
+        ends while the final turn may still be braking)."""
+        def still():
+            with self._lock:
+                recent = list(self.messages[-200:])
+            if not recent:
+                return None
+            now_t, now = recent[-1][0], planar_pose(recent[-1][1].pose.pose)
+            old = [planar_pose(m.pose.pose) for t, m in recent if t <= now_t - window_s]
+            if old:
+                distance, heading = pose_error(now, old[-1])
+                if distance < tol_m and heading < tol_rad:
+                    return now
+            return None
+        return wait_for(still, timeout, "the robot at rest (sim/true_pose)", period=0.05)
 
 
 def set_pose_when_at_rest(inject, pose, sender="rostest", timeout=10.0):

@@ -27,7 +27,8 @@ from inspection_robot.msg import (GeneralAction, GeneralGoal, NavStatus, PresetS
                                   ReadScaleAck, ReadScaleCmd)
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from rostest_helpers import Latest, control_proxy, set_pose_when_at_rest, wait_for, wait_subscribed  # noqa: E402
+from rostest_helpers import (GroundTruth, Latest, control_proxy, localizer_tolerance, pose_error,  # noqa: E402
+                             set_pose_when_at_rest, wait_for, wait_subscribed)
 
 HALF_PI = math.pi / 2.0
 # preset id, robot pose (x, y, yaw), height aimed at (m), distance to the side (m), zoom, infrared
@@ -67,7 +68,8 @@ class TestInspectionAcceptance(unittest.TestCase):
         cls.read_pub = rospy.Publisher("read_scale_cmd", ReadScaleCmd, queue_size=1)
         cls.preset_acks = Latest("preset_scale_ack", PresetScaleAck)
         cls.read_acks = Latest("read_scale_ack", ReadScaleAck)
-        cls.nav = Latest("nav_status", NavStatus, queue_size=1)
+        cls.nav = Latest("nav_status", NavStatus, queue_size=1)   # the localizer's pose, as preset/find_scale see it
+        cls.true_pose = GroundTruth()   # where the robot is
         cls.joints = Latest("terrace_state", JointState, queue_size=1)
         names = ("terrace_control", "camera_control", "sim/set_world_value", "sim/get_world_value",
                  "sim/inject_fault", "arm_control")
@@ -95,32 +97,23 @@ class TestInspectionAcceptance(unittest.TestCase):
         msg = self.nav.last
         return None if msg is None or len(msg.position) < 2 else (msg.position[0], msg.position[1], msg.orientation)
 
-    def settled_pose(self, timeout=10.0):
-        """The nav pose once the robot is at rest: nav_status comes at 10 Hz, so the last one can be a
-        tenth of a second old when a goal ends with the final spin just braking."""
-        seen = []
+    def wait_nav_at(self, pose):
+        """Wait until nav_status (what preset_scale records and find_scale turns by) reports ``pose``
+        within the localizer's noise."""
+        tol_m, tol_rad = localizer_tolerance()
 
-        def still():
-            now = self.nav_pose()
-            if now is None:
-                return None
-            seen.append((time.monotonic(), now))
-            old = [p for t, p in seen if t <= seen[-1][0] - 0.3]
-            if old and math.hypot(now[0] - old[-1][0], now[1] - old[-1][1]) < 0.001 and \
-                    abs(math.remainder(now[2] - old[-1][2], 2 * math.pi)) < math.radians(0.05):
-                return now
-            return None
-        return wait_for(still, timeout, "the robot at rest", period=0.05)
-
-    def wait_nav_at(self, pose, tol=0.02):
         def there():
             now = self.nav_pose()
-            return now is not None and math.hypot(now[0] - pose[0], now[1] - pose[1]) < tol and \
-                abs(math.remainder(now[2] - pose[2], 2 * math.pi)) < tol
-        wait_for(there, 10.0, "nav_status at %s" % (pose,))
+            if now is None:
+                return False
+            distance, heading = pose_error(now, pose)
+            return distance < tol_m and heading < tol_rad
+        wait_for(there, 10.0, "nav_status within %.3f m / %.4f rad of %s" % (tol_m, tol_rad, pose))
 
     def teleport(self, pose):
+        """Set the robot down at ``pose``: there in ground truth, then reported there by the localizer."""
         set_pose_when_at_rest(self.inject, pose, sender="test")
+        self.true_pose.wait_at(pose, 0.001, 0.001)
         self.wait_nav_at(pose)
 
     def drive(self, x, y, yaw, precision=0):
@@ -130,6 +123,9 @@ class TestInspectionAcceptance(unittest.TestCase):
         self.assertTrue(self.move.wait_for_result(rospy.Duration(60.0)), "move_action result")
         result = self.move.get_result()
         self.assertEqual(result.ret_code, "0", result.data)
+        distance, heading = pose_error(self.true_pose.wait_still(), (x, y, yaw))
+        rospy.loginfo("move_action to (%.2f, %.2f, %.1f deg), precision %d: %.4f m, %.2f deg off in ground truth"
+                      % (x, y, math.degrees(yaw), precision, distance, math.degrees(heading)))
 
     def find_goal(self, goal_type, preset_dir, timeout=60.0):
         self.find.send_goal(GeneralGoal(type=goal_type, data=json.dumps({"preset_path": preset_dir})))
@@ -166,9 +162,11 @@ class TestInspectionAcceptance(unittest.TestCase):
         self.assertEqual(ack.result, "success", ack.directory)
         return ack.directory
 
-    def calibrate(self, preset_dir):
+    def calibrate(self, preset_dir, pose):
+        """From the world, seen from ``pose`` (where the robot was put; preset.ini has the localizer's)."""
         tool = roslib.packages.find_node("inspection_robot", "calibrate_preset")[0]
-        proc = subprocess.run([sys.executable, tool, preset_dir, "--from-world", self.world_file],
+        proc = subprocess.run([sys.executable, tool, preset_dir, "--from-world", self.world_file,
+                               "--pose", "%.6f,%.6f,%.6f" % tuple(pose)],
                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, universal_newlines=True, timeout=90)
         self.assertEqual(proc.returncode, 0, proc.stderr)
         rospy.loginfo("calibrate_preset: %s" % proc.stdout)
@@ -217,7 +215,7 @@ class TestInspectionAcceptance(unittest.TestCase):
             if infrared:
                 self.assertTrue(os.path.isfile(os.path.join(directory, "thermal.jpg")))
                 self.assertTrue(os.path.isfile(os.path.join(directory, "thermal.png")))
-            self.assertEqual(set(self.calibrate(directory)), EXPECTED[preset_id],
+            self.assertEqual(set(self.calibrate(directory, pose)), EXPECTED[preset_id],
                              open(os.path.join(directory, "preset.ini")).read())
             self.presets[preset_id] = (directory, pose)
         # every value changes: gauges, lamps and switches flip, the hot spot heats up
@@ -243,8 +241,9 @@ class TestInspectionAcceptance(unittest.TestCase):
                 off = (pose[0] + 0.3 * sign * math.sin(pose[2]), pose[1] - 0.3 * sign * math.cos(pose[2]),
                        pose[2] + sign * math.radians(5.0))
                 self.teleport(off)
-            now = self.settled_pose()
-            error = (math.hypot(now[0] - pose[0], now[1] - pose[1]), abs(math.degrees(now[2] - pose[2])))
+            now = self.true_pose.wait_still()   # where the robot stands (a goal can end with the final turn braking)
+            distance, heading = pose_error(now, pose)
+            error = (distance, math.degrees(heading))
             rospy.loginfo("%s: pose error %.3f m, %.2f deg" % ((preset_id,) + error))
             self.assertTrue(0.2 < error[0] < 0.4 and 3.5 < error[1] < 6.5, (preset_id, error))
             self.call(self.camera, "set_zoom_level", "1.00")

@@ -18,7 +18,7 @@ NS = "/robot_7/"
 EXPECTED = ("robot_status", "voice_ack", "control_status", "robot_odom", "sim/true_pose", "move_cmd",
             "client_count", "terrace_state", "arm_ack", "sim/world_state", "camera_zoom", "infrared_ack",
             "map", "obstacle_status", "obstacle_cloud", "preset_scale_ack", "find_scale_action/status",
-            "read_scale_ack", "charge_status")
+            "read_scale_ack", "charge_status", "sim/localization/pose")
 OUTSIDE_OK = ("/rosout", "/rosout_agg")
 
 

@@ -20,7 +20,7 @@ from nav_msgs.msg import OccupancyGrid, Path
 from inspection_robot.interface import MODE_SERVER, MODE_TASK, STOP_OBSTACLE
 from inspection_robot.msg import (ControlStatus, GeneralAck, GeneralAction, GeneralActionFeedback, GeneralCmd,
                                   GeneralGoal, NavStatus)
-from rostest_helpers import Latest, control_proxy, wait_for, wait_subscribed
+from rostest_helpers import Latest, control_proxy, localizer_tolerance, wait_for, wait_subscribed
 
 
 def goal_data(x, y, yaw=0.0, with_direction=0, precision=0, move_style=0, velocity_x=1.0, velocity_yaw=0.8):
@@ -44,7 +44,7 @@ class NavigationTest(unittest.TestCase):
         cls.feedback = []
         cls.lock = threading.Lock()
         cls.relay = rospy.Publisher("test_pose", PoseWithCovarianceStamped, queue_size=10)
-        # what move_base drives on: ground truth, or sim_localizer's noisy pose (navigation.test localizer:=noisy)
+        # what move_base drives on: sim_localizer's noisy pose (the default), or ground truth (localizer:=truth)
         relay_from = rospy.get_param("~relay_from", "sim/true_pose")
         rospy.Subscriber("sim/true_pose", PoseWithCovarianceStamped, cls.on_true_pose, queue_size=10)
         if relay_from != "sim/true_pose":
@@ -336,6 +336,8 @@ class NavigationTest(unittest.TestCase):
     def test_11_location_cmd_last_pose_is_the_saved_pose(self):
         path = rospy.get_param("/move_base/last_pose_file")
         x, y, yaw = self.true_pose  # the robot is at rest: the saved pose (every 0.5 s here) is this one
+        # ... as move_base has it: the localizer's, within its noise of the truth (1 cm on ground truth)
+        tol_m = max(localizer_tolerance()[0], 0.01)
 
         def saved():
             try:
@@ -343,13 +345,19 @@ class NavigationTest(unittest.TestCase):
                     stored = json.load(f)
             except (OSError, ValueError):
                 return None
-            return stored if math.hypot(stored["x"] - x, stored["y"] - y) < 0.01 else None
+            return stored if math.hypot(stored["x"] - x, stored["y"] - y) < tol_m else None
         stored = wait_for(saved, 3.0, "last pose saved")
+        self.initial.clear()
         self.location.publish(GeneralCmd(sender="server", cmd="set_location", data="last_pose"))
-        msg = self.initial.wait(lambda m: abs(m.pose.pose.position.x - stored["x"]) < 1e-6, 3.0, "last_pose")
-        self.assertAlmostEqual(msg.pose.pose.position.y, stored["y"])
-        turn = yaw_of(msg.pose.pose.orientation) - yaw
-        self.assertLess(abs(math.atan2(math.sin(turn), math.cos(turn))), 0.01)
+        msg = self.initial.wait(lambda m: True, 3.0, "last_pose")
+        # the localizer's pose changes with its noise, so the file may have been saved again since read
+        candidates = [stored, wait_for(saved, 3.0, "last pose saved")]
+        sent = (msg.pose.pose.position.x, msg.pose.pose.position.y, yaw_of(msg.pose.pose.orientation))
+        self.assertTrue(any(abs(sent[0] - c["x"]) < 1e-6 and abs(sent[1] - c["y"]) < 1e-6 and
+                            abs(math.atan2(math.sin(sent[2] - c["yaw"]), math.cos(sent[2] - c["yaw"]))) < 1e-6
+                            for c in candidates), (sent, candidates))
+        turn = sent[2] - yaw
+        self.assertLess(abs(math.atan2(math.sin(turn), math.cos(turn))), localizer_tolerance()[1] + 0.01)
 
     def test_12_restart_keeps_virtual_obstacles(self):
         wall = {"id": "keep_me", "points": [[10, 20], [12, 22]], "closed": False}

@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
 """rostest: the real robot's start-up refusals. robot.launch's site check (tools/check_site, run while
 roslaunch parses the file) refuses a missing site file, simulators, unset drivers and misspelt keys
-with one message naming every setting, before any node starts; rosbridge_websocket refuses a
+with one message naming every setting, before any node starts; a site file switches pose_adapter on
+(and is refused when move_base would not read it); rosbridge_websocket refuses a
 non-loopback bind without authentication unless insecure."""
 import os
 import signal
@@ -11,8 +12,10 @@ import time
 import unittest
 
 import rostest
+import yaml
 
 from inspection_robot.drivers import DEVICES
+from inspection_robot_testing.site_files import template_site
 
 LAUNCH_TIMEOUT = 90.0  # s: roslaunch must have stopped by itself long before this
 STOP_TIMEOUT = 20.0    # s for a node to stop on SIGINT (2 s unloaded)
@@ -26,6 +29,14 @@ def run_robot_launch(*args):
     started = time.monotonic()
     proc = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, timeout=LAUNCH_TIMEOUT)
     return proc.returncode, proc.stdout.decode("utf-8", "replace"), time.monotonic() - started
+
+
+def parse_robot_launch(option, *args):
+    """roslaunch ``option`` (--nodes, --dump-params) of robot.launch: the parse, site check included, and
+    nothing started; (exit code, output)."""
+    proc = subprocess.run(["roslaunch", option, "inspection_robot", "robot.launch", "ns:=/robot_launch_test"]
+                          + list(args), stdout=subprocess.PIPE, stderr=subprocess.STDOUT, timeout=LAUNCH_TIMEOUT)
+    return proc.returncode, proc.stdout.decode("utf-8", "replace")
 
 
 def robot_config(drivers):
@@ -87,6 +98,35 @@ class RobotLaunchTest(unittest.TestCase):
         self.assert_refused(result, 7)
         self.assertIn("robot_control/driver is sim: robot.launch drives real devices only", result[1])
         self.assertIn("move_base/robot_radus: unknown setting (did you mean move_base/robot_radius?)", result[1])
+
+    def test_pose_adapter_started_from_the_site_file_and_checked(self):
+        """A TF-only localizer: the site file switches pose_adapter on and move_base reads its output;
+        an adapter move_base would not read is refused by name before anything starts."""
+        with tempfile.TemporaryDirectory() as folder:
+            site = template_site(folder)
+            site["pose_adapter"] = {"mode": "tf", "base_frame": "base_footprint"}
+            site["move_base"]["pose_topic"] = "localization/pose"
+            path = os.path.join(folder, "robot.yaml")
+            with open(path, "w") as f:
+                yaml.safe_dump(site, f)
+            code, output = parse_robot_launch("--nodes", "robot_config:=" + path)
+            self.assertEqual(code, 0, output[-4000:])
+            self.assertIn("/robot_launch_test/pose_adapter", output.split())
+            code, output = parse_robot_launch("--dump-params", "robot_config:=" + path)
+            self.assertEqual(code, 0, output[-4000:])
+            params = yaml.safe_load(output)
+            self.assertEqual((params["/robot_launch_test/pose_adapter/mode"],
+                              params["/robot_launch_test/pose_adapter/base_frame"],
+                              params["/robot_launch_test/pose_adapter/output_topic"],
+                              params["/robot_launch_test/move_base/pose_topic"]),
+                             ("tf", "base_footprint", "localization/pose", "localization/pose"))
+            site["move_base"]["pose_topic"] = "amcl_pose"
+            with open(path, "w") as f:
+                yaml.safe_dump(site, f)
+            result = run_robot_launch("robot_config:=" + path)
+        self.assert_refused(result, 1)
+        self.assertIn("move_base/pose_topic is 'amcl_pose' but pose_adapter/mode is tf: move_base must read the "
+                      "adapter's output, set move_base/pose_topic: localization/pose", result[1])
 
     def test_bridge_refuses_open_bind_without_auth(self):
         code, output = refusal_of("open_bridge", "_address:=0.0.0.0")

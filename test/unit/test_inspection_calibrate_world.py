@@ -23,19 +23,27 @@ OPTICS = os.path.join(ROOT, "config", "camera_optics.yaml")
 WIDTH, HEIGHT = 800, 450
 
 
-def _record(tmp_path, yaw_offset=0.0):
+def _true_pose(yaw_offset=0.0):
+    """3.5 m in front of breaker_1, facing it (plus ``yaw_offset``)."""
+    base, normal, _r, _w = World.load(WORLD).equipment["breaker_1"].side_frame("front")
+    p = base + normal * 3.5
+    return float(p[0]), float(p[1]), math.atan2(-normal[1], -normal[0]) + yaw_offset
+
+
+def _record(tmp_path, yaw_offset=0.0, localizer_error=(0.0, 0.0, 0.0)):
+    """A preset pictured from _true_pose; preset.ini gets that pose plus ``localizer_error`` (what
+    preset_scale records: the localizer's pose)."""
     with open(OPTICS) as f:
         table = yaml.safe_load(f)["camera_optics"]
     optics = ZoomOptics(table["zoom_hfov_deg"], WIDTH, HEIGHT)
     world = World.load(WORLD)
-    base, normal, _r, _w = world.equipment["breaker_1"].side_frame("front")
-    p = base + normal * 3.5
-    pose = (p[0], p[1], math.atan2(-normal[1], -normal[0]) + yaw_offset)
+    pose = _true_pose(yaw_offset)
     tilt = math.degrees(math.atan2(1.2 - 1.8, 3.5))
     head = RenderedHead(Renderer(world, seed=2), optics, pose, 1.2, WIDTH, HEIGHT, ThermalRenderer(world))
     head.set_angles(0.0, tilt)
     head.set_zoom(1.5)
-    state = {"pan_deg": 0.0, "tilt_deg": tilt, "zoom": 1.5, "focus_position": 0, "pose": pose}
+    reported = tuple(v + e for v, e in zip(pose, localizer_error))
+    state = {"pan_deg": 0.0, "tilt_deg": tilt, "zoom": 1.5, "focus_position": 0, "pose": reported}
     return record_preset(head, str(tmp_path), "b1", "20260101_000000", state, infrared=True)
 
 
@@ -52,6 +60,29 @@ def test_from_world_calibrates_every_face_and_hot_spot_in_view(tmp_path, capsys)
     # the default world file, and a subset
     assert run([path, "--from-world", "--only", "breaker_1/sf6_pressure,breaker_1/terminal"]) == 0
     assert [t.name for t in load_preset(path).targets] == ["breaker_1/sf6_pressure", "breaker_1/terminal"]
+
+
+def test_from_world_sees_from_the_true_pose_when_given(tmp_path, capsys):
+    """preset.ini holds the localizer's pose, here 4 cm and 0.7 deg off the pose the picture was taken
+    from (2 sigma of sim_localizer): --pose rebuilds the view where the robot stood, so the gauge's
+    box is where the picture has it; from the recorded pose the box is off by pixels."""
+    path = _record(tmp_path, localizer_error=(0.03, -0.03, math.radians(0.7)))
+    only = ["--only", "breaker_1/sf6_pressure"]
+    boxes = {}
+    for name, extra in (("recorded", []), ("true", ["--pose", "%.6f,%.6f,%.6f" % _true_pose()])):
+        assert run([path, "--from-world", WORLD] + only + extra) == 0, capsys.readouterr().err
+        boxes[name] = load_preset(path).targets[0].boxes[0]
+    exact_dir = tmp_path / "exact"
+    exact_dir.mkdir()
+    exact = _record(exact_dir)
+    assert run([exact, "--from-world", WORLD] + only) == 0
+    truth = load_preset(exact).targets[0].boxes[0]
+    assert np.abs(boxes["true"] - truth).max() < 0.5
+    assert np.abs(boxes["recorded"] - truth).max() > 5.0
+    with pytest.raises(SystemExit):
+        run([path, "--from-world", WORLD, "--pose", "1,2"])
+    with pytest.raises(SystemExit):
+        run([path, "--from-world", WORLD, "--pose", "1,2,nan"])
 
 
 def test_from_world_with_nothing_in_view_fails_and_writes_nothing(tmp_path, capsys):

@@ -1,5 +1,6 @@
 """Path follower geometry against an ideal kinematic robot (unicycle, 20 Hz)."""
 import math
+import random
 
 import numpy as np
 import pytest
@@ -126,18 +127,41 @@ def test_arrival_ignores_poses_from_before_the_stop_and_waits_for_rest():
     assert arrival.update(10.4, 10.35, (1.05, 0.0, 0.0)) is None     # still rolling 3 cm
     assert arrival.update(10.5, 10.5, (1.052, 0.0, 0.0)) is None     # 2 mm since 10.35, but only 0.15 s
     assert arrival.update(10.6, 10.6, (1.052, 0.0, 0.01)) is None    # 0.6 deg turned since 10.35
-    assert arrival.update(10.9, 10.9, (1.053, 0.0, 0.011)) == (1.053, 0.0, 0.011)
+    # at rest from 10.6 to 10.9: the mean of those two poses
+    assert arrival.update(10.9, 10.9, (1.054, 0.0, 0.012)) == pytest.approx((1.053, 0.0, 0.011))
 
 
-def test_arrival_judges_a_noisy_localizer_on_its_newest_pose_after_the_timeout():
+def test_arrival_judges_a_noisy_localizer_on_its_mean_pose_after_the_timeout():
     params = FollowerParams(rest_timeout_s=2.0)
-    arrival = Arrival(params, stopped_at=0.0)
+    arrival = Arrival(params, stopped_at=0.0)   # an ordinary goal: rest_timeout
     i, t, verdict = 0, 0.0, None
     while verdict is None and t < 5.0:
         i += 1
         t = 0.05 * i
         verdict = arrival.update(t, t, (0.01 * (-1) ** i, 0.0, 0.0))  # 2 cm jitter
     assert verdict is not None and 2.0 <= t < 2.1
+    assert verdict == pytest.approx((0.0, 0.0, 0.0), abs=0.001)   # one pose would be 1 cm off
+
+
+def test_arrival_mean_of_a_gaussian_localizer_is_within_the_precise_tolerance():
+    """sim_localizer's noise (2 cm, 0.5 deg sigma at 10 Hz): single poses miss the precise tolerance
+    (1 cm, 0.015 rad) most of the time, the mean at rest almost never; braking poses are left out."""
+    rng = random.Random(7)
+    params = FollowerParams()
+    misses = {"mean": 0, "single": 0}
+    for trial in range(200):
+        arrival = Arrival(params, stopped_at=0.0, precise=True)
+        verdict, t, single = None, 0.0, None
+        arrival.update(0.1, 0.1, (0.3, 0.0, 0.2))   # still braking 0.1 s after the stop: not averaged
+        while verdict is None:
+            t += 0.1
+            single = (rng.gauss(0.0, 0.02), rng.gauss(0.0, 0.02), math.pi + rng.gauss(0.0, 0.0087))
+            verdict = arrival.update(t + 0.1, t + 0.1, single)
+        for name, pose in (("mean", verdict), ("single", single)):
+            heading = abs(math.atan2(math.sin(pose[2] - math.pi), math.cos(pose[2] - math.pi)))
+            misses[name] += math.hypot(pose[0], pose[1]) > params.xy_tolerance_precise or \
+                heading > params.yaw_tolerance_precise
+    assert misses["single"] > 100 and misses["mean"] < 40, misses
 
 
 def test_arrival_waits_while_no_pose_comes():

@@ -15,11 +15,11 @@ def test_defaults_and_the_shipped_config_are_valid():
     with open(os.path.join(root, "config", "pose_adapter.yaml")) as f:
         cfg = yaml.safe_load(f)
     params = AdapterParams(**cfg)
-    assert (params.mode, params.output_topic, params.rate) == ("tf", "localization/pose", 10.0)
+    assert (params.mode, params.output_topic, params.rate) == ("none", "localization/pose", 10.0)   # site: on
 
 
 @pytest.mark.parametrize("kwargs, message", [
-    ({"mode": None}, r"~mode must be one of topic\|tf, got None"),
+    ({"mode": None}, r"~mode must be one of none\|topic\|tf, got None"),
     ({"mode": "amcl"}, "~mode must be one of"),
     ({"mode": "tf", "rate": 0}, "~rate must be a positive number, got 0"),
     ({"mode": "tf", "rate": "fast"}, "~rate must be a positive number"),

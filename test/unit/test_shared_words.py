@@ -24,6 +24,7 @@ COINCIDENCES = {
     ("nodes/rosbridge_websocket.py", "none"): "rosbridge's status levels",
     ("ros/bridge_backend.py", "none"): "rosbridge's compression none",
     ("drivers.py", "none"): "a device fitted with no driver",
+    ("nav/pose_adapter.py", "none"): "pose_adapter's mode: nothing to adapt",
     ("ptz/driver.py", "none"): "a Pelco-D head without a driver",
     ("sim/pelco_head.py", "none"): "the simulated head's fault name",
     ("ros/bag_reading.py", "none"): "bag_report's text for no value",

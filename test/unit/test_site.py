@@ -2,16 +2,14 @@
 all in one list; the template config/robot.example.yaml passes once its files exist."""
 import copy
 import os
-import stat
 
-import numpy as np
 import pytest
 import yaml
 
 from inspection_robot.drivers import DEVICES
-from inspection_robot.nav.gridmap import GridMap, save_map
 from inspection_robot.site import (SiteError, flatten, format_problems, load_site_text, sim_yard,
                                    site_problems)
+from inspection_robot_testing.site_files import template_site
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 # The nodes robot.launch runs and the config files each loads (the tool takes this from roslaunch;
@@ -19,7 +17,7 @@ ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)
 NODE_FILES = {node: [node] for node in (
     "status_control", "robot_voice", "robot_control", "joy_control", "rosbridge_websocket", "cloud_terrace",
     "robot_arm", "camera_node", "infrared_imager", "move_base", "obstacle_detector", "preset_scale",
-    "find_scale", "read_scale", "charge_control", "file_server", "task_manager")}
+    "find_scale", "read_scale", "charge_control", "file_server", "task_manager", "pose_adapter")}
 
 
 def _yaml(name):
@@ -41,24 +39,10 @@ def yard():
     return sim_yard(load_site_text(text, "sim_site.yaml"), _yaml("sim_world.yaml"))
 
 
-def private_file(path, text="s3cret\n"):
-    path.write_text(text)
-    os.chmod(str(path), stat.S_IRUSR | stat.S_IWUSR)
-    return str(path)
-
-
 @pytest.fixture
 def site(tmp_path):
     """config/robot.example.yaml with its map, token and password files made in tmp_path."""
-    with open(os.path.join(ROOT, "config", "robot.example.yaml")) as f:
-        site = load_site_text(f.read(), "robot.example.yaml")
-    occupancy = np.zeros((40, 60), dtype=np.int8)
-    occupancy[10:20, 10:20] = 100
-    save_map(GridMap(occupancy, 0.5, (0.0, 0.0, 0.0)), str(tmp_path / "site_map.yaml"))
-    site["move_base"]["map_file"] = str(tmp_path / "site_map.yaml")
-    site["rosbridge_websocket"]["auth_token_file"] = private_file(tmp_path / "token")
-    site["infrared_imager"]["isapi"]["password_file"] = private_file(tmp_path / "thermal_password")
-    return site
+    return template_site(str(tmp_path))
 
 
 def problems(site, **kwargs):
@@ -163,6 +147,45 @@ def test_insecure_needs_no_token_and_a_data_root_argument_counts(site):
 def test_plugin_keyword_arguments_are_free_form(site):
     site["robot_arm"] = {"driver": "vendor_arm.driver:Arm", "driver_params": {"port": "/dev/ttyS3", "any_key": 1}}
     assert problems(site) == []
+
+
+def test_pose_adapter_on_for_a_tf_localizer_with_move_base_reading_its_output(site):
+    site["pose_adapter"] = {"mode": "tf", "map_frame": "map", "base_frame": "base_footprint"}
+    site["move_base"]["pose_topic"] = "/localization/pose"
+    assert problems(site) == []
+    site["pose_adapter"] = {"mode": "topic", "input_topic": "robot_pose", "output_topic": "localization/pose"}
+    site["move_base"]["pose_topic"] = "localization/pose"
+    assert problems(site) == []
+
+
+@pytest.mark.parametrize("adapter, pose_topic, expected", [
+    ({"mode": "amcl"}, "amcl_pose",
+     "pose_adapter/mode must be one of none|topic|tf, got 'amcl' (none: move_base reads the localizer's topic; "
+     "tf: a localizer with TF map -> base_link only; topic: republish input_topic)"),
+    ({"mode": None}, "amcl_pose", "pose_adapter/mode must be one of none|topic|tf, got None"),
+    ({"mode": "tf"}, "amcl_pose",
+     "move_base/pose_topic is 'amcl_pose' but pose_adapter/mode is tf: move_base must read the adapter's output, "
+     "set move_base/pose_topic: localization/pose (pose_adapter/output_topic)"),
+    ({"mode": "none"}, "localization/pose",
+     "move_base/pose_topic is 'localization/pose', pose_adapter's output, but pose_adapter/mode is none: nothing "
+     "publishes it"),
+    ({"mode": "topic"}, "localization/pose",
+     "pose_adapter/input_topic is not set (pose_adapter/mode topic republishes it; the default 'amcl_pose' is an "
+     "example)"),
+    ({"mode": "topic", "input_topic": "localization/pose"}, "localization/pose",
+     "pose_adapter/input_topic and pose_adapter/output_topic are both 'localization/pose': the adapter would feed "
+     "itself"),
+    ({"mode": "tf", "rate": 0}, "localization/pose", "pose_adapter/rate must be a positive number, got 0"),
+    ({"mode": "topic", "input_topic": "sim/localization/pose"}, "localization/pose",
+     "pose_adapter/input_topic is 'sim/localization/pose', a simulator's topic: give the real robot's topic"),
+    ({"mode": "tf", "base_frme": "base_link"}, "localization/pose",
+     "pose_adapter/base_frme: unknown setting (did you mean pose_adapter/base_frame?)"),
+])
+def test_pose_adapter_settings_are_checked_by_name(site, adapter, pose_topic, expected):
+    site["pose_adapter"] = adapter
+    site["move_base"]["pose_topic"] = pose_topic
+    found = problems(site)
+    assert len(found) == 1 and found[0].startswith(expected), found
 
 
 def test_site_file_text_errors_name_the_file_and_line():

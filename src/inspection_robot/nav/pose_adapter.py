@@ -1,18 +1,22 @@
 """pose_adapter's logic, without ROS: bring a localizer's pose to move_base's pose topic.
 
-Two modes. ``topic``: a localizer that already publishes PoseWithCovarianceStamped in map under
-another name (amcl's ``amcl_pose``) is republished unchanged (setting ``move_base/pose_topic`` to
-that name does the same without a node). ``tf``: a localizer that only broadcasts the transform
-``map`` → ``base_link`` (cartographer, slam_toolbox localization) is looked up at a fixed rate and
-published with a configured covariance, since TF carries none. A lookup that keeps failing
-publishes nothing: move_base's pose timeout then stops the robot, and the adapter says which
-frames it could not join.
+Three modes. ``none``: the localizer already publishes what move_base reads (amcl's ``amcl_pose``
+named in ``move_base/pose_topic``); the node does nothing. robot.launch always starts the adapter, and
+the site file's ``pose_adapter/mode`` switches it on (roslaunch cannot start a node on a value of a
+YAML file), so ``none`` is the shipped default. ``topic``: a localizer that already publishes
+PoseWithCovarianceStamped in map under another name (amcl's ``amcl_pose``) is republished unchanged
+(setting ``move_base/pose_topic`` to that name does the same without a node). ``tf``: a localizer
+that only broadcasts the transform ``map`` → ``base_link`` (cartographer, slam_toolbox localization)
+is looked up at a fixed rate and published with a configured covariance, since TF carries none. A
+lookup that keeps failing publishes nothing: move_base's pose timeout then stops the robot, and the
+adapter says which frames it could not join.
 """
 import math
 
 from inspection_robot.angles import yaw_from_quaternion
 
-MODES = ("topic", "tf")
+MODE_NONE, MODE_TOPIC, MODE_TF = "none", "topic", "tf"
+MODES = (MODE_NONE, MODE_TOPIC, MODE_TF)
 
 
 class AdapterParams(object):
@@ -26,7 +30,7 @@ class AdapterParams(object):
                             ("map_frame", map_frame), ("base_frame", base_frame)):
             if not isinstance(value, str) or not value.strip():
                 raise ValueError("~%s must be a non-empty name, got %r" % (name, value))
-        if mode == "topic" and input_topic == output_topic:
+        if mode == MODE_TOPIC and input_topic == output_topic:
             raise ValueError("~input_topic and ~output_topic are both %r: the adapter would feed itself" % input_topic)
         for name, value in (("rate", rate), ("error_period", error_period)):
             if not isinstance(value, (int, float)) or not math.isfinite(value) or value <= 0:

@@ -132,10 +132,13 @@ def world_specs(world, head, switch_picture_path=None, hot_spot_box_px=None):
 
 
 def calibrate_from_world(preset_dir, world, optics, thermal_hfov_deg=25.0, thermal_size=(384, 288), names=None,
-                         seed=5, check=None):
+                         seed=5, check=None, true_pose=None):
     """Calibrate a recorded preset from the world's ground truth (the calibration tool's --from-world).
 
-    The view is rebuilt from preset.ini (robot pose, pan/tilt, zoom, picture size); every face the
+    The view is rebuilt from preset.ini (robot pose, pan/tilt, zoom, picture size), or from
+    ``true_pose`` (x, y, yaw) when given: preset.ini holds the pose the robot's localizer reported,
+    a few centimetres and tenths of a degree from where the simulator rendered the picture, enough
+    to shift a gauge's calibrated centre and skew its readings by percents. Every face the
     view sees well becomes a target (``names``: only these ids), switch references are rendered
     open and closed, and infrared presets add their visible hot spots as thermal targets.
     Returns the Target list; raises PresetError (nothing written) when no target is in view.
@@ -144,7 +147,8 @@ def calibrate_from_world(preset_dir, world, optics, thermal_hfov_deg=25.0, therm
     info = load_info(preset_dir)
     width, height = (info.width, info.height) if info.width > 0 else (optics.width, optics.height)
     thermal = ThermalRenderer(world, seed=seed) if info.infrared else None
-    head = RenderedHead(Renderer(world, seed=seed), optics, info.pose, world.sensor_height, width, height,
+    pose = info.pose if true_pose is None else tuple(float(v) for v in true_pose)
+    head = RenderedHead(Renderer(world, seed=seed), optics, pose, world.sensor_height, width, height,
                         thermal_renderer=thermal, thermal_size=tuple(thermal_size),
                         thermal_hfov_deg=thermal_hfov_deg)
     head.set_angles(info.pan_deg, info.tilt_deg)

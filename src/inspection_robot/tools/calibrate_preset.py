@@ -4,16 +4,18 @@ calibrate_preset ...`` in an ordinary catkin workspace).
 
     calibrate_preset PRESET_DIR TARGETS_YAML [--optics FILE]
     calibrate_preset PRESET_DIR --from-world [WORLD_YAML] [--only ID[,ID...]] [--optics FILE]
-                     [--thermal-hfov DEG] [--thermal-size WxH]
+                     [--thermal-hfov DEG] [--thermal-size WxH] [--pose X,Y,YAW]
     calibrate_preset PRESET_DIR --command CMD JSON [--optics FILE]
 
 TARGETS_YAML holds ``targets: [{kind: pointer, box: [8 numbers], start_angle: ..}, ..]`` (see
 inspection.calibration). ``--from-world`` calibrates from the simulated world's ground truth
 instead (default world: config/sim_world.yaml): every face the recorded view sees well (and, for
 infrared presets, every hot spot in both pictures) becomes a target (sim.inspection_sim
-.calibrate_from_world). The optics file is config/camera_optics.yaml. Writes
-preset_calib_info.ini and zoomX.xml into PRESET_DIR and prints one line per target; exits 1 with
-the reason on bad input, writing nothing.
+.calibrate_from_world). ``--pose``: where the simulated robot really stood when the preset was
+recorded (map m, m, rad); preset.ini holds the localizer's pose, which is noisy in simulation too
+(sim_localizer), so a test that put the robot somewhere passes that pose. The optics file is
+config/camera_optics.yaml. Writes preset_calib_info.ini and zoomX.xml into PRESET_DIR and prints one
+line per target; exits 1 with the reason on bad input, writing nothing.
 
 ``--command`` runs one of the calibration_control commands (mark_box, set_meter_type, set_zero,
 set_full_scale, set_values, remove_target, clear_draft, get, apply, upload; docs/interface.md) on
@@ -22,6 +24,7 @@ JSON is the command's data without "preset". Prints the answer.
 """
 import argparse
 import json
+import math
 import os
 import sys
 
@@ -59,6 +62,16 @@ def _size(text):
     return width, height
 
 
+def _pose(text):
+    try:
+        values = [float(v) for v in text.split(",")]
+    except ValueError:
+        values = []
+    if len(values) != 3 or not all(math.isfinite(v) for v in values):
+        raise argparse.ArgumentTypeError("expected X,Y,YAW (m, m, rad), e.g. 30.0,14.5,-1.5708")
+    return tuple(values)
+
+
 def run(argv=None):
     """The tool; returns the exit status."""
     parser = argparse.ArgumentParser(description="Calibrate the target boxes of a recorded preset.")
@@ -70,6 +83,9 @@ def run(argv=None):
     parser.add_argument("--optics", default=default_optics_file(), help="camera_optics.yaml")
     parser.add_argument("--thermal-hfov", type=float, default=25.0, help="thermal lens hfov, deg (--from-world)")
     parser.add_argument("--thermal-size", type=_size, default=(384, 288), help="thermal picture WxH (--from-world)")
+    parser.add_argument("--pose", type=_pose, default=None,
+                        help="with --from-world: X,Y,YAW the robot really stood at (default: preset.ini's, "
+                             "the localizer's)")
     parser.add_argument("--command", nargs=2, metavar=("CMD", "JSON"),
                         help="one calibration_control command on PRESET_DIR (JSON without \"preset\")")
     args = parser.parse_args(argv)
@@ -91,7 +107,7 @@ def run(argv=None):
             names = [n for n in args.only.split(",") if n] or None
             targets = calibrate_from_world(args.preset_dir, World.load(world_file), optics,
                                            thermal_hfov_deg=args.thermal_hfov, thermal_size=args.thermal_size,
-                                           names=names, check=check)
+                                           names=names, check=check, true_pose=args.pose)
         else:
             with open(args.targets_yaml) as f:
                 specs = (yaml.safe_load(f) or {}).get("targets", [])
