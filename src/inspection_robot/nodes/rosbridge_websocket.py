@@ -46,7 +46,7 @@ from diagnostic_msgs.msg import DiagnosticStatus
 from std_msgs.msg import Int32
 
 from inspection_robot.bridge.access import Authenticator, FailureLimiter, listen_check, read_token_file
-from inspection_robot.bridge import compat_tornado
+from inspection_robot.bridge import compat_tornado, trace
 from inspection_robot.bridge.codec import Codec
 from inspection_robot.bridge.console import CONSOLE_PATH, console_routes, missing_files
 from inspection_robot.bridge.protocol import Session, SessionConfig
@@ -274,6 +274,9 @@ def main():
         rospy.logwarn("bridge: " + params["insecure_warning"])
         rospy.Timer(rospy.Duration(INSECURE_WARNING_PERIOD),
                     lambda _event: rospy.logwarn("bridge: " + params["insecure_warning"]))
+    if trace.ON:
+        rospy.loginfo("bridge: tracing the echo path of %s into %s", trace.TOPIC, trace.FILE)
+        rospy.on_shutdown(trace.dump)
     rospy.spin()
     io_thread.stop(server.stop)
     executor.shutdown(wait=False)
