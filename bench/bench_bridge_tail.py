@@ -4,7 +4,9 @@
 Uses the running master (ROS_MASTER_URI, e.g. sim.launch) or starts a roscore when none answers.
 Starts two rosbridge_websocket processes on it: A from a git ref of this repository (``--base``,
 default HEAD: the unchanged bridge), B from the working tree, each with its own extra environment
-(``--env-a`` / ``--env-b`` NAME=VALUE,...; e.g. INSPECTION_BRIDGE_TRACE for bridge/trace.py).
+(``--env-a`` / ``--env-b`` NAME=VALUE,...; e.g. INSPECTION_BRIDGE_TRACE for bridge/trace.py; a
+PYTHONPATH given there goes in front of the bridge's own, e.g. for a sitecustomize.py that changes
+one thing in an experiment).
 Then ``--rounds`` times, alternately against A and B, bench_bridge's raw client measures ``--n``
 echo round trips (publish on a topic the client subscribes, through rospy's TCP loopback, and back;
 one topic per bridge). One JSON line per round and one per bridge with the pooled p50 / p99 / max,
@@ -50,14 +52,16 @@ def parse_env(text):
     return dict(pairs)
 
 
-def start_bridge(name, python_path, extra_env, log):
+def start_bridge(name, python_path, extra_env, log, params=()):
     env = dict(os.environ)
+    extra_env = dict(extra_env)
+    python_path = os.pathsep.join(p for p in (extra_env.pop("PYTHONPATH", None), python_path) if p)
     env.update(extra_env)
     if python_path:
         env["PYTHONPATH"] = python_path + os.pathsep + env.get("PYTHONPATH", "")
     return subprocess.Popen([sys.executable, "-c",
                              "from inspection_robot.nodes.rosbridge_websocket import main; main()",
-                             "__name:=%s" % name, "_port:=0", "_address:=127.0.0.1", "_console:=false"],
+                             "__name:=%s" % name, "_port:=0", "_address:=127.0.0.1", "_console:=false"] + list(params),
                             stdout=log, stderr=subprocess.STDOUT, env=env)
 
 
@@ -67,6 +71,7 @@ def main():
     parser.add_argument("--base-b", help="git ref of bridge B (default: the working tree)")
     parser.add_argument("--env-a", default="", help="NAME=VALUE,... for bridge A")
     parser.add_argument("--env-b", default="", help="NAME=VALUE,... for bridge B")
+    parser.add_argument("--params-b", default="", help="private params of bridge B, e.g. _nice:=-5 (space-separated)")
     parser.add_argument("--rounds", type=int, default=6, help="rounds per bridge, alternating")
     parser.add_argument("--n", type=int, default=1000, help="echoes per round")
     parser.add_argument("--log", default=os.devnull, help="file for both bridges' output")
@@ -91,7 +96,8 @@ def main():
         tag = "%d" % os.getpid()
         names = {"A": "tail_a_" + tag, "B": "tail_b_" + tag}
         procs.append(start_bridge(names["A"], export(args.base), parse_env(args.env_a), log))
-        procs.append(start_bridge(names["B"], export(args.base_b) if args.base_b else None, parse_env(args.env_b), log))
+        procs.append(start_bridge(names["B"], export(args.base_b) if args.base_b else None, parse_env(args.env_b), log,
+                                  args.params_b.split()))
         rospy.init_node("bench_bridge_tail_" + tag, disable_signals=True)
         clients = {}
         for arm, name in sorted(names.items()):

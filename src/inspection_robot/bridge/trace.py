@@ -77,13 +77,16 @@ def summary(rows=None, pauses=None):
     inside = [p for p in pauses if any(row["read"] <= p[0] <= row["written"] for row in rows)]
     slowest = sorted(rows, key=lambda row: row["written"] - row["read"])[-10:]
     return {"n": len(rows), "total": stats(totals), "steps": steps,
-            "gc_pauses": dict({"inside_an_echo": len(inside)},
+            "gc_pauses": dict({"inside_an_echo": len(inside),
+                               "inside_max_ms": round(max([p[1] for p in inside] or [0]) * 1e3, 3),
+                               "inside_generations": sorted(set(p[2] for p in inside))},
                               **{"generation_%d" % g: dict(stats([p[1] for p in pauses if p[2] == g]),
                                                            count=sum(1 for p in pauses if p[2] == g))
                                  for g in (0, 1, 2)}),
             "slowest": [{"%s->%s" % (b, a): round((row[a] - row[b]) * 1e3, 3) for b, a in zip(NAMES, NAMES[1:])}
                         for row in slowest],
-            "threads": threading.active_count()}
+            "threads": threading.active_count(), "gc_tracked_objects": len(gc.get_objects()),
+            "gc_frozen_objects": gc.get_freeze_count()}
 
 
 def dump():
