@@ -65,6 +65,30 @@ def start_bridge(name, python_path, extra_env, log, params=()):
                             stdout=log, stderr=subprocess.STDOUT, env=env)
 
 
+def side_client(url, topics):
+    """A second client subscribed to ``topics``, its frames read and dropped by a thread; (client, [count])."""
+    import queue
+    import threading
+
+    from inspection_robot_testing.bridge_client import CLOSED, RawClient
+    client = RawClient(url)
+    for topic in topics.split(","):
+        client.send({"op": "subscribe", "topic": topic})
+    count = [0]
+
+    def drain():
+        while True:
+            try:
+                frame = client.recv(1.0)
+            except queue.Empty:
+                continue
+            if frame is CLOSED:
+                return
+            count[0] += 1
+    threading.Thread(target=drain, daemon=True).start()
+    return client, count
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--base", default="HEAD", help="git ref of bridge A (default HEAD)")
@@ -72,6 +96,9 @@ def main():
     parser.add_argument("--env-a", default="", help="NAME=VALUE,... for bridge A")
     parser.add_argument("--env-b", default="", help="NAME=VALUE,... for bridge B")
     parser.add_argument("--params-b", default="", help="private params of bridge B, e.g. _nice:=-5 (space-separated)")
+    parser.add_argument("--side-topics", default="",
+                        help="comma-separated topics a second client of each bridge subscribes (the fan-out a "
+                             "console causes, e.g. robot_status,camera/image_raw); counted, then dropped")
     parser.add_argument("--rounds", type=int, default=6, help="rounds per bridge, alternating")
     parser.add_argument("--n", type=int, default=1000, help="echoes per round")
     parser.add_argument("--log", default=os.devnull, help="file for both bridges' output")
@@ -107,6 +134,7 @@ def main():
                     raise RuntimeError("bridge %s did not start" % arm)
                 time.sleep(0.1)
             clients[arm] = RawClient("ws://127.0.0.1:%d" % rospy.get_param("/%s/actual_port" % name))
+        side = {arm: side_client(clients[arm].url, args.side_topics) for arm in clients if args.side_topics}
         pooled = {"A": [], "B": []}
         for round_ in range(args.rounds):
             for arm in ("A", "B") if round_ % 2 == 0 else ("B", "A"):
@@ -124,6 +152,9 @@ def main():
         report(bench="bridge_tail_ratio", p50_b_over_a=ratio[0.5],
                p99_b_over_a=ratio[0.99], max_b_over_a=round(max(pooled["B"]) / max(pooled["A"]), 2),
                load_avg=[round(x, 1) for x in os.getloadavg()])
+        for arm, (client, count) in sorted(side.items()):
+            report(bench="bridge_tail_side", bridge=arm, topics=args.side_topics, frames_received=count[0])
+            client.close()
         for client in clients.values():
             client.close()
     finally:
