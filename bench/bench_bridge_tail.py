@@ -14,6 +14,7 @@ and the load average at each round (on a shared machine compare the ratio, not t
 """
 import argparse
 import os
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -35,9 +36,13 @@ for _entry in _sys.path:
 '''
 
 
+EXPORTS = []  # temporary directories, removed at exit
+
+
 def export(ref):
     """The ``src`` folder of ``ref`` in a temporary directory (its path)."""
     where = tempfile.mkdtemp(prefix="bridge_tail_")
+    EXPORTS.append(where)
     archive = subprocess.run(["git", "-C", ROOT, "archive", ref, "src"], stdout=subprocess.PIPE, check=True)
     subprocess.run(["tar", "-x", "-C", where], input=archive.stdout, check=True)
     with open(os.path.join(where, "src", "inspection_robot", "__init__.py"), "w") as out:
@@ -165,6 +170,8 @@ def main():
                 proc.wait(15)
             except subprocess.TimeoutExpired:
                 proc.kill()
+        for where in EXPORTS:
+            shutil.rmtree(where, ignore_errors=True)
     os._exit(0)
 
 
