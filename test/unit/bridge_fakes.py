@@ -17,7 +17,6 @@ class FakeBackend(object):
         self.codec = Codec(self.types)
         self.topic_types = {"/known": "std_msgs/String"}
         self.published = []
-        self.batched = []  # publish(batch=...) per published message
         self.publishers = {}
         self.subscribers = {}
         self.services = {}
@@ -45,10 +44,9 @@ class FakeBackend(object):
         if not self.publishers.get(topic):
             self.publishers.pop(topic, None)
 
-    def publish(self, topic, values, batch=False):
+    def publish(self, topic, values):
         cls = self.types.message_class(self.topic_types[topic])
         self.published.append((topic, self.codec.from_json(cls, values)))
-        self.batched.append(batch)
 
     def publisher_full(self, topic):
         return topic in self.full_topics

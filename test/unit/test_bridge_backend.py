@@ -1,4 +1,5 @@
-"""compat_rospy.write_direct on a real rospy QueuedConnection: sends only while its thread idles, in order."""
+"""compat_rospy.write_direct on a real rospy QueuedConnection: sends only while its thread idles, in order.
+RosBackend.publish's batching: the first message of a loop pass goes at once, the rest in one batch."""
 import socket
 import threading
 import time
@@ -6,6 +7,7 @@ import time
 import pytest
 from rospy.impl.tcpros_pubsub import QueuedConnection
 
+from inspection_robot.ros import bridge_backend
 from inspection_robot.ros.compat_rospy import write_direct
 
 
@@ -104,3 +106,42 @@ def test_too_large_or_closed_goes_the_usual_way(idle):
     transport.done = True
     assert not write_direct(connection, b"x")
     assert not write_direct(object(), b"x")
+
+
+class Handle(object):
+    data_class = object
+
+
+class Codec(object):
+    def from_json(self, cls, values):
+        return values["data"]
+
+
+def test_a_lone_message_goes_at_once_a_burst_once_per_loop_pass(monkeypatch):
+    writes, posted = [], []
+    monkeypatch.setattr(bridge_backend, "publish_batch", lambda handle, messages: writes.append(list(messages)))
+    backend = bridge_backend.RosBackend(None, Codec(), lambda fn, *args: posted.append((fn, args)), None)
+    entry = bridge_backend._Topic(Handle(), "std_msgs/String", bridge_backend.EarlyMessageReplay(0.0))
+    backend._publishers["/t"] = entry
+
+    def next_pass():
+        for fn, args in posted:
+            fn(*args)
+        posted.clear()
+    backend.publish("/t", {"data": "alone"})
+    assert writes == [["alone"]]            # an echo or a command: sent before the pass ends
+    for i in range(4):                      # the rest of a burst read in the same pass
+        backend.publish("/t", {"data": str(i)})
+    assert writes == [["alone"]]
+    next_pass()
+    assert writes == [["alone"], ["0", "1", "2", "3"]]
+    for i in range(4, 7):                   # the burst goes on: the whole pass in one write
+        backend.publish("/t", {"data": str(i)})
+    next_pass()
+    assert writes[2:] == [["4", "5", "6"]]
+    backend.publish("/t", {"data": "last"})  # right after a burst: waits for the end of its pass
+    assert len(writes) == 3
+    next_pass()
+    assert writes[3:] == [["last"]]
+    backend.publish("/t", {"data": "quiet"})  # after a pass with one message: at once again
+    assert writes[4:] == [["quiet"]]

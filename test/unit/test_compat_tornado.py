@@ -8,13 +8,12 @@ from inspection_robot.bridge import compat_tornado
 def test_the_tornado_internals_are_those_the_fast_paths_expect():
     assert compat_tornado.MISSING == [], (
         "tornado %s changed internals that the bridge relies on: %s. It now runs its public-API fallbacks "
-        "(a write per message, no publish batching): update bridge/compat_tornado.py"
+        "(a write per message): update bridge/compat_tornado.py"
         % (compat_tornado.VERSION, compat_tornado.MISSING))
 
 
 class Stream(object):
-    def __init__(self, buffered):
-        self._read_buffer_size = buffered
+    def __init__(self):
         self.written = []
         self.closed = False
 
@@ -27,8 +26,8 @@ class Stream(object):
 
 
 class Connection(object):
-    def __init__(self, buffered=0, closing=False):
-        self.stream = Stream(buffered)
+    def __init__(self, closing=False):
+        self.stream = Stream()
         self.closing = closing
 
     def is_closing(self):
@@ -50,8 +49,7 @@ class Handler(object):
 
 
 def test_fast_paths_on_a_connection():
-    handler = Handler(Connection(buffered=10))
-    assert compat_tornado.more_input(handler) is True
+    handler = Handler(Connection())
     assert compat_tornado.write_frames(handler, ["hi", b"\x00"]) == "future"
     assert handler.ws_connection.stream.written == [b"\x81\x02hi\x82\x01\x00"]
     compat_tornado.abort(handler)
@@ -62,13 +60,12 @@ def test_fast_paths_on_a_connection():
 
 @pytest.fixture
 def old_tornado(monkeypatch):
-    for flag in ("MORE_INPUT", "RAW_WRITE", "TOO_BIG_REASON"):
+    for flag in ("RAW_WRITE", "TOO_BIG_REASON"):
         monkeypatch.setattr(compat_tornado, flag, False)
 
 
 def test_fallbacks_use_the_public_api(old_tornado):
-    handler = Handler(Connection(buffered=10))
-    assert compat_tornado.more_input(handler) is False   # unknown: treated as empty
+    handler = Handler(Connection())
     assert compat_tornado.write_frames(handler, ["hi", b"\x00"]) == "future 2"
     assert handler.messages == [("hi", False), (b"\x00", True)]
     assert handler.ws_connection.stream.written == []

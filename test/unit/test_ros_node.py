@@ -1,7 +1,12 @@
-"""The inbound-handshake guard: a connection that never sends a TCPROS header no longer blocks rospy's accept thread."""
+"""The inbound-handshake guard: a connection that never sends a TCPROS header no longer blocks rospy's accept thread.
+renice: every thread of the process, and those made later."""
 import socket
+import subprocess
+import sys
 import threading
 import time
+
+import pytest
 
 from rosgraph.network import write_ros_handshake_header
 from rospy.impl import tcpros_base
@@ -66,3 +71,26 @@ def test_a_real_tcpros_client_is_still_served_and_its_socket_left_blocking(monke
     client.close()
     server_side.close()
     assert tcpros_base.TCPROSServer._tcp_server_callback.unguarded.__name__ == "_tcp_server_callback"
+
+
+def test_renice_reaches_every_thread_and_the_ones_made_later():
+    # in a child process: a niceness raised cannot be lowered again without privilege
+    script = (
+        "import os, threading\n"
+        "from inspection_robot.ros.node import renice\n"
+        "stop = threading.Event()\n"
+        "early = threading.Thread(target=stop.wait); early.start()\n"
+        "base = os.getpriority(os.PRIO_PROCESS, 0)\n"
+        "target = min(19, base + 3)\n"
+        "assert renice(target) is None\n"
+        "late = threading.Thread(target=stop.wait); late.start()\n"
+        "values = {os.getpriority(os.PRIO_PROCESS, int(t)) for t in os.listdir('/proc/self/task')}\n"
+        "stop.set()\n"
+        "print(sorted(values) == [target], len(os.listdir('/proc/self/task')))\n")
+    out = subprocess.run([sys.executable, "-c", script], stdout=subprocess.PIPE, check=True, universal_newlines=True)
+    assert out.stdout.split()[0] == "True"
+
+
+def test_renice_refuses_an_impossible_niceness():
+    with pytest.raises(ValueError):
+        node.renice(42)

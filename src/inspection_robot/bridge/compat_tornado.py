@@ -1,13 +1,10 @@
 """The one place that touches tornado's websocket internals (the bridge's transport, server.py).
 
 tornado's public websocket API writes one message per call (a future, a frame header built in
-Python, a try at the socket each) and says nothing about bytes already read. The bridge needs
-three things it does not offer; each is checked once, at import, by reading the names tornado's
-own constructors assign (nothing is built), and falls back to the public API when they differ:
+Python, a try at the socket each). The bridge needs three things it does not offer; each is
+checked once, at import, by reading the names tornado's own constructors assign (nothing is
+built), and falls back to the public API when they differ:
 
-- :func:`more_input`: are bytes of the client's next frames already read (IOStream's private
-  ``_read_buffer_size``)? The bridge then batches what the client publishes. Fallback: False
-  (treated as empty: every frame goes to ROS at once, as the last one of a burst does).
 - :func:`write_frames`: many messages as ready-made frames (:func:`ws_frame`) in one write on the
   connection's stream. Fallback: WebSocketHandler.write_message per message.
 - :func:`abort`: close the socket now, with no close handshake. Fallback: WebSocketHandler.close.
@@ -44,8 +41,6 @@ def _check():
                   + _missing("WebSocketProtocol", ["is_closing"], set(dir(protocol))))
     receive = getattr(protocol13, "_receive_frame", None)
     return {
-        "more_input": connection + _missing("BaseIOStream", ["_read_buffer_size"],
-                                            _assigned(tornado.iostream.BaseIOStream.__init__)),
         "write_frames": connection + _missing("BaseIOStream", ["write", "close"],
                                               set(dir(tornado.iostream.BaseIOStream))),
         "too_big_reason": (_missing("WebSocketHandler", ["get_websocket_protocol"], set(dir(handler)))
@@ -58,7 +53,6 @@ def _check():
 
 _CHECKED = _check()
 MISSING = sorted(set(name for names in _CHECKED.values() for name in names))
-MORE_INPUT = not _CHECKED["more_input"]
 RAW_WRITE = not _CHECKED["write_frames"]
 TOO_BIG_REASON = not _CHECKED["too_big_reason"]
 VERSION = tornado.version
@@ -86,15 +80,6 @@ def ws_frame(payload):
     else:
         header = struct.pack("!BBQ", first, 127, size)
     return header + payload
-
-
-def more_input(handler):
-    """True when bytes of the client's next frames are already read from the socket (tornado keeps
-    no public count); False when unknown."""
-    if not MORE_INPUT:
-        return False
-    stream = getattr(handler.ws_connection, "stream", None)
-    return bool(getattr(stream, "_read_buffer_size", 0))
 
 
 def write_frames(handler, payloads):

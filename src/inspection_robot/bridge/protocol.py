@@ -228,7 +228,6 @@ class Session(object):
         self._request_counter = 0
         self._closed = False
         self._last_published = None  # topic of the latest publish (for ros_backlogged)
-        self._more_input = False  # the frame being handled is not the last one the transport holds
         self._log_after = None  # clock time before which protocol errors are counted, not logged
         self._unlogged = 0
         # op name -> handler; every entry of OPS has one (checked by the unit tests)
@@ -256,15 +255,10 @@ class Session(object):
                 self._call_later(config.auth_timeout, self._auth_overdue)
 
     # ------------------------------------------------------------------ incoming frames
-    def on_frame(self, frame, more_input=False):
-        """Handle one websocket frame (str: JSON, bytes: CBOR). Never raises.
-
-        ``more_input``: the transport already holds further frames of this client; a publish may
-        then wait for them to reach ROS in one batch (it goes out at once otherwise).
-        """
+    def on_frame(self, frame):
+        """Handle one websocket frame (str: JSON, bytes: CBOR). Never raises."""
         if self._closed:
             return
-        self._more_input = more_input
         try:
             if isinstance(frame, (bytes, bytearray)):
                 msg = cbor.loads(frame)
@@ -450,7 +444,7 @@ class Session(object):
                 raise BridgeError("Cannot infer topic type for topic %s as it is not yet advertised" % topic)
             self._backend.advertise(self, topic, topic_type, args["latch"], 100)
             self._advertised[topic] = {None}
-        self._backend.publish(topic, args["msg"] or {}, batch=self._more_input)
+        self._backend.publish(topic, args["msg"] or {})
         self._last_published = topic
 
     def _op_subscribe(self, args, mid):

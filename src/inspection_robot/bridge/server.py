@@ -37,7 +37,7 @@ import tornado.web
 import tornado.websocket
 from tornado.iostream import StreamClosedError
 
-from inspection_robot.bridge import compat_tornado
+from inspection_robot.bridge import compat_tornado, trace
 from inspection_robot.bridge.access import Peer, local_names, origin_allowed
 from inspection_robot.bridge.compat_tornado import CLOSE_TOO_BIG
 
@@ -258,10 +258,12 @@ class BridgeHandler(tornado.websocket.WebSocketHandler):
         self.session = self._server.opened(self)
 
     def on_message(self, message):
+        if trace.ON:
+            trace.mark("read")
         self.last_heard = time.monotonic()
         if self.session is None:
             return None
-        self.session.on_frame(message, compat_tornado.more_input(self))
+        self.session.on_frame(message)
         if self.session.ros_backlogged():
             self._unread = 0
             return self._wait_for_ros()
@@ -378,7 +380,10 @@ class BridgeHandler(tornado.websocket.WebSocketHandler):
         if not payloads:
             return None
         try:
-            return compat_tornado.write_frames(self, payloads), size
+            future = compat_tornado.write_frames(self, payloads)
+            if trace.ON:
+                trace.mark("written")
+            return future, size
         except (tornado.websocket.WebSocketClosedError, StreamClosedError):
             self.queue.written(size)
             raise

@@ -3,8 +3,9 @@
 :class:`RosBackend` implements what protocol.Session needs. One rospy.Subscriber per topic
 serves every client; each ROS message is encoded once per compression its clients use, in
 rospy's thread, and handed to the event loop (``post``) for fan-out. Messages clients publish
-reach rospy in batches (compat_rospy.publish_batch), sent from the event loop itself while a
-connection's writer thread is idle (compat_rospy.write_direct: rospy's internals stay there).
+reach rospy at once, in a burst once per event-loop pass in one batch (compat_rospy.publish_batch),
+sent from the event loop itself while a connection's writer thread is idle
+(compat_rospy.write_direct: rospy's internals stay there).
 Service calls and rosapi requests run on a thread pool; their results come back through ``post``.
 Services a client advertises are rospy.Services whose handler forwards the request to that client
 and waits (bounded) for its service_response.
@@ -18,6 +19,7 @@ import rosgraph
 import rospy
 import rosservice
 
+from inspection_robot.bridge import trace
 from inspection_robot.bridge.protocol import BridgeError, Outgoing
 from inspection_robot.ros.compat_rospy import publish_batch, publisher_queue_depth, replay_latched
 
@@ -32,7 +34,7 @@ def type_conflict(topic, wanted, established):
 
 
 class _Topic(object):
-    __slots__ = ("handle", "type_name", "sessions", "early", "high_water", "pending")
+    __slots__ = ("handle", "type_name", "sessions", "early", "high_water", "pending", "in_pass", "bursting")
 
     def __init__(self, handle, type_name, early=None, high_water=None):
         self.handle = handle
@@ -41,6 +43,8 @@ class _Topic(object):
         self.early = early
         self.high_water = high_water
         self.pending = []  # messages converted, not yet handed to rospy (flushed once per loop pass)
+        self.in_pass = 0  # messages published in this event-loop pass (the ones after the first wait for its end)
+        self.bursting = False  # the last pass had more than one: this pass's first message waits too
 
 
 def known_topic_types(master):
@@ -158,22 +162,35 @@ class RosBackend(object):
                 self._flush(topic, entry)
             entry.handle.unregister()
 
-    def publish(self, topic, values, batch=False):
-        """Convert now (errors go to the client) and hand to rospy. ``batch`` (more frames of the
-        client are already buffered): wait for them, up to the end of this loop pass, so a burst
-        reaches rospy in few writes; otherwise this and any waiting messages go out at once."""
+    def publish(self, topic, values):
+        """Convert now (errors go to the client) and hand to rospy.
+
+        A message alone in its event-loop pass (an echo, a teleop command) goes to rospy at once.
+        In a burst (tornado handles up to READ_SLICE frames it already holds before it returns to
+        the loop) the messages of a pass reach rospy in one write at the end of the pass: after a
+        pass that had more than one message of the topic, the next pass's first one waits too; the
+        first message after a quiet pass never waits. No buffered-byte count is needed.
+        """
+        traced = trace.ON and topic == trace.TOPIC
+        if traced:
+            trace.mark("decoded")
         entry = self._publishers[topic]
         msg = self._codec.from_json(entry.handle.data_class, values)
         entry.early.record(msg)
-        if batch:
-            if not entry.pending:
-                self._post(self._flush, topic, entry)
+        if entry.in_pass or entry.bursting:
             entry.pending.append(msg)
-        elif entry.pending:
-            entry.pending.append(msg)
-            self._flush(topic, entry)
         else:
             publish_batch(entry.handle, [msg])
+        entry.in_pass += 1
+        if entry.in_pass == 1:
+            self._post(self._end_pass, topic, entry)
+        if traced:
+            trace.mark("published")
+
+    def _end_pass(self, topic, entry):
+        entry.bursting = entry.in_pass > 1
+        entry.in_pass = 0
+        self._flush(topic, entry)
 
     def _flush(self, topic, entry):
         messages, entry.pending = entry.pending, []
@@ -239,6 +256,9 @@ class RosBackend(object):
         return now.secs, now.nsecs
 
     def _on_message(self, msg, topic):
+        traced = trace.ON and topic == trace.TOPIC
+        if traced:
+            trace.mark("callback")
         entry = self._subscribers.get(topic)
         if entry is None or not entry.sessions:
             return   # a topic the bridge keeps for the robot (subscribe_for_the_robot) with no client on it now
@@ -253,9 +273,13 @@ class RosBackend(object):
         except Exception as exc:  # boundary: a message we cannot convert is logged and skipped
             rospy.logwarn_throttle(5.0, "bridge: cannot convert a message on %s: %r" % (topic, exc))
             return
+        if traced:
+            trace.mark("posted")
         self._post(self._deliver, topic, outgoing)
 
     def _deliver(self, topic, outgoing):
+        if trace.ON and topic == trace.TOPIC:
+            trace.mark("delivered")
         entry = self._subscribers.get(topic)
         if entry is not None:
             for session in list(entry.sessions):

@@ -7,7 +7,11 @@ client on a reused port, a port scanner), blocks that thread forever: the node t
 subscriber and answers no new service call again while it looks alive. The guard bounds the
 handshake with a socket timeout, so such a connection is dropped (one warning from rospy) and the
 next one is served.
+
+:func:`renice` gives a latency-critical node (the backend link) a larger share of a busy CPU.
 """
+import os
+
 import rospy
 
 from inspection_robot.ros import compat_rospy
@@ -19,6 +23,27 @@ def guard_inbound_handshakes(timeout_s=HANDSHAKE_TIMEOUT_S):
     """Bound every inbound handshake of this process to ``timeout_s`` (idempotent; before init_node).
     The patch itself is rospy-internal and lives in compat_rospy; False when this rospy cannot take it."""
     return compat_rospy.guard_inbound_handshakes(timeout_s)
+
+
+def renice(niceness):
+    """Set the scheduling niceness of every thread of this process to ``niceness`` (-20..19); threads
+    made later inherit it from the thread that makes them. Returns None, or why it failed (a value
+    below the current one needs CAP_SYS_NICE or an RLIMIT_NICE that allows it, e.g. systemd's
+    LimitNICE). Linux: each thread has its own niceness, hence every one in /proc/self/task."""
+    if not -20 <= niceness <= 19:
+        raise ValueError("niceness must be -20..19, not %d" % niceness)
+    try:
+        threads = [int(tid) for tid in os.listdir("/proc/self/task")]
+    except OSError:
+        threads = [0]  # no /proc: this thread (and those it makes) only
+    for tid in threads:
+        try:
+            os.setpriority(os.PRIO_PROCESS, tid, niceness)
+        except ProcessLookupError:
+            continue  # the thread ended meanwhile
+        except PermissionError as exc:
+            return "cannot set niceness %d: %s" % (niceness, exc.strerror)
+    return None
 
 
 def init_node(name, **kwargs):
