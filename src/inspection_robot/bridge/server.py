@@ -44,6 +44,10 @@ from inspection_robot.bridge.compat_tornado import CLOSE_TOO_BIG
 KEEPALIVE_TICK = 1.0  # s between checks for silent or over-budget clients (pings go every ping_interval)
 READ_SLICE = 32  # incoming frames handled before the reader yields to the IOLoop once
 BATCH_BYTES = 1 << 20  # outgoing bytes handed to the socket per write (at least one message)
+# bytes the kernel may hold unsent per client (TCP_NOTSENT_LOWAT); by default it takes up to 4 MB,
+# which for a client that stopped reading would be a backlog of ~30 stale video frames the queue_length
+# of its subscription can no longer replace
+UNSENT_BYTES = 128 << 10
 DROP_WARNING_PERIOD = 1.0  # s: at most one drop warning per client and period
 REFUSAL_LOG_PERIOD = 10.0  # s: at most one logged origin refusal per period
 BACKLOG_POLL = 0.001  # s between checks of a full rospy publisher queue while a client's reading is paused
@@ -255,6 +259,7 @@ class BridgeHandler(tornado.websocket.WebSocketHandler):
 
     def open(self):
         self.set_nodelay(True)
+        compat_tornado.limit_unsent(self, UNSENT_BYTES)
         self.session = self._server.opened(self)
 
     def on_message(self, message):
