@@ -28,7 +28,9 @@ ours, rosbridge_server 0.11.17 started from its source tree (``--rosbridge-src D
 RobotWebTools/rosbridge_suite at tag 0.11.17; it needs pymongo's bson on ``--rosbridge-deps DIR``,
 e.g. ``pip install --target DIR pymongo``; rosbridge_msgs is generated with genpy and rosauth, unused
 without ``~authenticate``, is stubbed, both into a temporary folder) and any ``--url ws://...``
-(no CPU figure). A ``bridge_video_ratio`` line compares ours with rosbridge.
+(no CPU figure). A ``bridge_video_ratio`` line compares ours with rosbridge. ``--slow-ms`` adds a
+fourth client that takes that long over each frame and reads its socket only between frames: with
+queue_length 1 it should get fresh frames (few of them), not a growing backlog.
 ``--only burst,image,classic,video`` runs a subset; ``--bursts 10000,100000`` sets the burst sizes;
 ``--image-seconds`` the image and video lines' length.
 """
@@ -40,6 +42,8 @@ import os
 import queue
 import re
 import shutil
+import socket
+import struct
 import subprocess
 import sys
 import tempfile
@@ -441,12 +445,53 @@ def video_client(url, topic, quiet_s=10.0, limit_s=150.0):
     print(json.dumps({"frames": frames, "status": statuses[:3], "error": error}), flush=True)
 
 
-def video_line(name, url, bridge_pid, seconds, rate_hz, round_no=0, clients=3):
-    """The video line against one bridge; reports one line per client and returns the bridge's summary."""
+def slow_video_client(url, topic, slow_ms, quiet_s=10.0, limit_s=150.0):
+    """A client that takes ``slow_ms`` over each frame (a slow browser or link), reading its socket
+    only between frames (a small receive buffer, as a slow link has): what is stale when it reads
+    again is up to the bridge. Records (header.seq, latency ms from header.stamp to the frame read);
+    prints "ready" and then one JSON line, as video_client."""
+    from inspection_robot.bridge import cbor
+    from inspection_robot_testing.bridge_client import SocketClient
+    client = SocketClient(int(url.rsplit(":", 1)[1].rstrip("/")), rcvbuf=16384)
+    client.send(dict(VIDEO_SUBSCRIPTION, op="subscribe", topic=topic, type="sensor_msgs/CompressedImage"))
+    print("ready", flush=True)
+    frames, error = [], None
+    client.sock.settimeout(limit_s)
+    end = time.monotonic() + limit_s
+    try:
+        for opcode, payload in client.frames():
+            if opcode == 0x8 or time.monotonic() > end:
+                break
+            if opcode == 0x9:  # ping: answer (a masked pong), or the bridge's keep-alive drops the client
+                mask = os.urandom(4)
+                client.sock.sendall(struct.pack("!BB", 0x8A, 0x80 | len(payload)) + mask
+                                    + bytes(b ^ mask[i % 4] for i, b in enumerate(payload)))
+                continue
+            if opcode != 0x2:
+                continue
+            msg = cbor.loads(payload)["msg"]
+            read = time.time()
+            stamp = msg["header"]["stamp"]
+            frames.append((msg["header"]["seq"], round((read - stamp["secs"] - stamp["nsecs"] * 1e-9) * 1000.0, 2),
+                           read))
+            client.sock.settimeout(quiet_s)
+            time.sleep(slow_ms / 1000.0)
+    except (OSError, EOFError) as exc:  # the quiet timeout ends the run; anything else is reported
+        if not isinstance(exc, socket.timeout):
+            error = repr(exc)[:200]
+    client.sock.close()
+    print(json.dumps({"frames": frames, "status": [], "error": error}), flush=True)
+
+
+def video_line(name, url, bridge_pid, seconds, rate_hz, round_no=0, clients=3, slow_ms=0):
+    """The video line against one bridge; reports one line per client and returns the bridge's summary.
+    ``slow_ms`` > 0 adds a fourth client that takes that long over each frame (reported apart)."""
     topic = "/bench/video_%s_%d/compressed" % (re.sub(r"[^a-z0-9]", "_", name.lower()), round_no)
-    procs = [subprocess.Popen([sys.executable, os.path.abspath(__file__), "--video-client", topic, url],
-                              stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, universal_newlines=True)
-             for _ in range(clients)]
+    argv = [[sys.executable, os.path.abspath(__file__), "--video-client", topic, url]] * clients
+    if slow_ms > 0:
+        argv.append([sys.executable, os.path.abspath(__file__), "--slow-video-client", topic, url, str(slow_ms)])
+    procs = [subprocess.Popen(args, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, universal_newlines=True)
+             for args in argv]
     try:
         for proc in procs:
             if proc.stdout.readline().strip() != "ready":
@@ -458,7 +503,7 @@ def video_line(name, url, bridge_pid, seconds, rate_hz, round_no=0, clients=3):
         procs.append(publisher)
         published = json.loads(publisher.stdout.readline())   # printed once the last frame went out
         results = [json.loads(proc.communicate(timeout=seconds + 180)[0].strip().splitlines()[-1])
-                   for proc in procs[:clients]]
+                   for proc in procs[:len(argv)]]
         # the clients end quiet_s after their last frame: the bridge's CPU up to then, idle time included
         cpu_s = cpu_seconds(bridge_pid) - cpu0 if bridge_pid else None
         wall_s = time.monotonic() - wall0
@@ -472,18 +517,25 @@ def video_line(name, url, bridge_pid, seconds, rate_hz, round_no=0, clients=3):
     every = []
     for i, result in enumerate(results):
         latencies = [ms for _, ms, _ in result["frames"]]
-        every.extend(latencies)
-        report(bench="bridge_video", bridge=name, round=round_no, client=i, published=published["published"],
+        slow = i >= clients
+        if not slow:
+            every.extend(latencies)
+        report(bench="bridge_video", bridge=name, round=round_no,
+               client="slow: %g ms per frame" % slow_ms if slow else i, published=published["published"],
                received=len(set(seq for seq, _, _ in result["frames"])), rate_hz=rate_hz,
                p50_ms=round(percentile(latencies, 0.5), 1) if latencies else None,
                p99_ms=round(percentile(latencies, 0.99), 1) if latencies else None,
                publisher_late_p99_ms=published["late_p99_ms"], status=result["status"], error=result["error"],
                load_avg_1min=load)
     summary = dict(bridge=name, round=round_no, published=published["published"], clients=clients,
-                   received_min=min(len(r["frames"]) for r in results),
+                   received_min=min(len(r["frames"]) for r in results[:clients]),
                    p50_ms=round(percentile(every, 0.5), 1) if every else None,
                    p99_ms=round(percentile(every, 0.99), 1) if every else None,
                    load_avg_1min=load, jpeg_bytes=len(camera_jpeg()))
+    if slow_ms > 0:
+        latencies = [ms for _, ms, _ in results[clients]["frames"]]
+        summary.update(slow_client_received=len(latencies), slow_client_p50_ms=percentile(latencies, 0.5),
+                       slow_client_max_ms=max(latencies) if latencies else None)
     if cpu_s is not None:
         # everything the bridge spent from before the first publish until every client went quiet
         summary["bridge_cpu_ms_per_frame"] = round(cpu_s * 1000.0 / max(1, published["published"]), 2)
@@ -631,6 +683,9 @@ def main():
     parser.add_argument("--publish-images", help=argparse.SUPPRESS)  # "seconds,rate": the image publisher process
     parser.add_argument("--image-client", nargs=2, help=argparse.SUPPRESS)  # compression url: one image client
     parser.add_argument("--video-rate", type=float, default=15.0, help="Hz of the video line (10-25)")
+    parser.add_argument("--slow-ms", type=float, default=0.0,
+                        help="video line: a fourth client taking this long (ms) over each frame")
+    parser.add_argument("--slow-video-client", nargs=3, help=argparse.SUPPRESS)  # topic url ms: the slow client
     parser.add_argument("--video-rounds", type=int, default=3, help="video line rounds, bridges in alternating order")
     parser.add_argument("--url", action="append", default=[], help="another rosbridge to run the video line against")
     parser.add_argument("--rosbridge-src", help="rosbridge_suite 0.11.17 source tree: the video line runs on it too")
@@ -640,6 +695,9 @@ def main():
     args = parser.parse_args()
     if args.video_client:
         video_client(args.video_client[1], args.video_client[0])
+        return
+    if args.slow_video_client:
+        slow_video_client(args.slow_video_client[1], args.slow_video_client[0], float(args.slow_video_client[2]))
         return
     if args.publish_video:
         topic, seconds, rate_hz = args.publish_video.split(",")
@@ -713,7 +771,7 @@ def main():
             for round_no in range(args.video_rounds):
                 for name, url, pid in (bridges if round_no % 2 == 0 else bridges[::-1]):
                     runs.setdefault(name, []).append(video_line(name, url, pid, args.image_seconds, args.video_rate,
-                                                                round_no))
+                                                                round_no, slow_ms=args.slow_ms))
             ours = runs["ours"]
             for other_name, other in runs.items():
                 if other_name == "ours":
