@@ -16,7 +16,10 @@ messages for the client are dropped and counted per topic; the client gets a rat
 client still over budget ``budget_grace`` s after it first went over is disconnected (1008).
 Replies (service responses, status, requests) are never dropped but count against the budget.
 Frames leave in batches of at most ``BATCH_BYTES``; the next batch waits until the socket took
-the previous one, so the budget covers everything the bridge holds for the client.
+the previous one, so the budget covers everything the bridge holds for the client. The socket
+takes at most ``UNSENT_BYTES`` not yet sent (compat_tornado.limit_unsent): the rest waits here,
+where a queue_length still replaces stale messages (a video client that stalls gets the newest
+frame next, not the kernel's megabytes of old ones).
 
 Keep-alive: every ``ping_interval`` s each client is pinged; one that sent nothing (no frame, no
 pong) for ``ping_timeout`` s has its socket closed within the next second (checks run every
