@@ -16,8 +16,23 @@ Image line (``bridge_image``): a 1080p rgb8 sensor_msgs/Image published at 10 Hz
 process of its own (header.seq numbered) to three client processes (JSON, CBOR, PNG compression): per
 client frames published, received, lost, received per second, and the latency from the publish
 (header.stamp) to the frame's arrival at the client.
-``--only burst,image,classic`` runs a subset; ``--bursts 10000,100000`` sets the burst sizes;
-``--image-seconds`` the image line's length.
+Video line (``bridge_video``, ``--only video``): what the console's live view does. A 1280x720 JPEG
+(the simulated camera's rendered view of the yard, encoded as camera_node encodes it) published as
+sensor_msgs/CompressedImage at ``--video-rate`` Hz by a ROS publisher process, to three client
+processes that subscribe as the console does (``compression: cbor``, ``queue_length: 1``), decode
+the CBOR message and the JPEG (OpenCV) and count what arrives: per client frames published,
+received, latency p50/p99 from the publish (header.stamp) to the decoded picture, and the bridge's
+CPU (% of one core, ms per published frame). The same clients run against every bridge in one run,
+``--video-rounds`` times in alternating order (the ratio line compares the medians of the rounds):
+ours, rosbridge_server 0.11.17 started from its source tree (``--rosbridge-src DIR``: a checkout of
+RobotWebTools/rosbridge_suite at tag 0.11.17; it needs pymongo's bson on ``--rosbridge-deps DIR``,
+e.g. ``pip install --target DIR pymongo``; rosbridge_msgs is generated with genpy and rosauth, unused
+without ``~authenticate``, is stubbed, both into a temporary folder) and any ``--url ws://...``
+(no CPU figure). A ``bridge_video_ratio`` line compares ours with rosbridge. ``--slow-ms`` adds a
+fourth client that takes that long over each frame and reads its socket only between frames: with
+queue_length 1 it should get fresh frames (few of them), not a growing backlog.
+``--only burst,image,classic,video`` runs a subset; ``--bursts 10000,100000`` sets the burst sizes;
+``--image-seconds`` the image and video lines' length.
 """
 import argparse
 import asyncio
@@ -26,13 +41,18 @@ import json
 import os
 import queue
 import re
+import shutil
+import socket
+import struct
 import subprocess
 import sys
+import tempfile
 import threading
 import time
 
 from benchlib import free_port, percentile, report
 
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 N_RTT = 1000
 N_THROUGHPUT = 5000
 N_CALLS = 300
@@ -211,50 +231,66 @@ HEADER = re.compile(r'"header":\{"seq":(\d+),"stamp":\{"secs":(\d+),"nsecs":(\d+
 IMAGE_TOPIC = "/bench/image"
 
 
-def publish_images(seconds, rate_hz, subscribers):
-    """The image line's publisher, run in a process of its own so nothing of the bench delays it.
-
-    Waits for ``subscribers`` connections, then publishes a 1080p rgb8 image every 1/rate_hz s for
-    ``seconds`` (header.seq 0, 1, ...; header.stamp = wall-clock time of the publish) and prints
-    one JSON line: frames published, the wall-clock time of the first, and how late the latest
-    publish started (rospy's queue is large enough that none of these frames can be dropped).
-    Then stays alive (rospy still writes queued frames) until its stdin is closed.
-    """
+def paced_publish(pub, msg, seconds, rate_hz, subscribers):
+    """Wait for ``subscribers`` connections, then publish ``msg`` every 1/rate_hz s for ``seconds``
+    (header.seq 0, 1, ...; header.stamp = wall-clock time of the publish) and print one JSON line:
+    frames published, the wall-clock time of the first, and how late the latest publish started
+    (rospy's queue is large enough that none of these frames can be dropped). Then stays alive
+    (rospy still writes queued frames) until its stdin is closed."""
     import rospy
-    from sensor_msgs.msg import Image
-    rospy.init_node("bench_image_publisher", disable_signals=True)
-    pub = rospy.Publisher(IMAGE_TOPIC, Image, queue_size=int(seconds * rate_hz) + 10)
     deadline = time.monotonic() + 20
     while pub.get_num_connections() < subscribers and time.monotonic() < deadline:
         time.sleep(0.05)
     time.sleep(0.5)  # the bridge's subscriber connection is up; let its clients' subscriptions settle
-    pixels = bytes(bytearray(i % 251 for i in range(1920 * 3))) * 1080
-    image = Image(height=1080, width=1920, encoding="rgb8", step=1920 * 3, data=pixels)
     published, late_ms, t0 = 0, [], time.time()
     while published < int(seconds * rate_hz):
         due = t0 + published / rate_hz
         time.sleep(max(0.0, due - time.time()))
         now = time.time()
         late_ms.append((now - due) * 1000.0)
-        image.header.seq = published
-        image.header.stamp = rospy.Time.from_sec(now)
-        pub.publish(image)
+        msg.header.seq = published
+        msg.header.stamp = rospy.Time.from_sec(now)
+        pub.publish(msg)
         published += 1
     print(json.dumps({"published": published, "t0": t0, "late_p99_ms": round(percentile(late_ms, 0.99), 1)}),
           flush=True)
     sys.stdin.read()  # rospy's connection thread may still be writing queued frames: live until told
 
 
-def image_client(url, kind, quiet_s=10.0, limit_s=150.0):
-    """One image line client, run in a process of its own (the clients must not share one GIL).
+def publish_images(seconds, rate_hz, subscribers):
+    """The image line's publisher (a process of its own so nothing of the bench delays it): 1080p rgb8."""
+    import rospy
+    from sensor_msgs.msg import Image
+    rospy.init_node("bench_image_publisher", disable_signals=True)
+    pub = rospy.Publisher(IMAGE_TOPIC, Image, queue_size=int(seconds * rate_hz) + 10)
+    pixels = bytes(bytearray(i % 251 for i in range(1920 * 3))) * 1080
+    paced_publish(pub, Image(height=1080, width=1920, encoding="rgb8", step=1920 * 3, data=pixels), seconds,
+                  rate_hz, subscribers)
 
-    Subscribes with compression ``kind``, prints "ready", then records (header.seq, latency ms from
-    header.stamp to the frame's arrival on the websocket thread, before decoding) until no frame
-    came for ``quiet_s`` after the first; prints them as one JSON line.
-    """
-    from inspection_robot.bridge import cbor
-    from inspection_robot_testing.bridge_client import CLOSED, RawClient
-    from inspection_robot.bridge.compression import png_decode
+
+def camera_jpeg(width=1280, height=720, quality=80):
+    """The simulated camera's rendered view of the yard as camera_node's JPEG (camera.jpeg, ~80 kB at 720p)."""
+    from inspection_robot.camera.jpeg import encode_jpeg
+    from inspection_robot.sim.render import PinholeCamera, Renderer
+    from inspection_robot.sim.world import World
+    world = World.load(os.path.join(ROOT, "config", "sim_world.yaml"))
+    camera = PinholeCamera.from_pose((0.0, 0.0, 0.3), 0.0, 0.0, world.sensor_height, 0.9 * width, width, height)
+    return encode_jpeg(Renderer(world, 0, 2.0, 0.6, 0.08).render(camera), quality)
+
+
+def publish_video(topic, seconds, rate_hz, subscribers):
+    """The video line's publisher (a process of its own): a 720p JPEG CompressedImage on ``topic``."""
+    import rospy
+    from sensor_msgs.msg import CompressedImage
+    jpeg = camera_jpeg()
+    rospy.init_node("bench_video_publisher", anonymous=True, disable_signals=True)
+    pub = rospy.Publisher(topic, CompressedImage, queue_size=int(seconds * rate_hz) + 10)
+    paced_publish(pub, CompressedImage(format="jpeg", data=jpeg), seconds, rate_hz, subscribers)
+
+
+def timed_client(url):
+    """A RawClient that notes the wall-clock arrival time of every frame (in ``arrivals``)."""
+    from inspection_robot_testing.bridge_client import RawClient
 
     class TimedClient(RawClient):
         def __init__(self, url):
@@ -265,6 +301,19 @@ def image_client(url, kind, quiet_s=10.0, limit_s=150.0):
             if message is not None:
                 self.arrivals.put(time.time())
             RawClient._on_message(self, message)
+    return TimedClient(url)
+
+
+def image_client(url, kind, quiet_s=10.0, limit_s=150.0):
+    """One image line client, run in a process of its own (the clients must not share one GIL).
+
+    Subscribes with compression ``kind``, prints "ready", then records (header.seq, latency ms from
+    header.stamp to the frame's arrival on the websocket thread, before decoding) until no frame
+    came for ``quiet_s`` after the first; prints them as one JSON line.
+    """
+    from inspection_robot.bridge import cbor
+    from inspection_robot_testing.bridge_client import CLOSED
+    from inspection_robot.bridge.compression import png_decode
 
     def header_of(frame):
         if kind == "cbor":
@@ -274,7 +323,7 @@ def image_client(url, kind, quiet_s=10.0, limit_s=150.0):
         seq, secs, nsecs = HEADER.search(text[:300]).groups()
         return int(seq), int(secs) + int(nsecs) * 1e-9
 
-    client = TimedClient(url)
+    client = timed_client(url)
     client.send({"op": "subscribe", "topic": IMAGE_TOPIC, "type": "sensor_msgs/Image", "compression": kind})
     print("ready", flush=True)
     frames, statuses, error = [], [], None
@@ -349,6 +398,187 @@ def image_line(url, bridge_pid, seconds=10.0, rate_hz=10.0):
                bridge_cpu_ms_per_frame=round(cpu_ms / max(1, handled), 1), status=results[kind]["status"],
                error=results[kind]["error"], load_avg_1min=round(os.getloadavg()[0], 1),
                path="ROS publisher process->bridge->3 client processes, 1920x1080 rgb8 sensor_msgs/Image")
+
+
+VIDEO_SUBSCRIPTION = {"compression": "cbor", "queue_length": 1}  # the console's (web/console/images.js VIDEO)
+
+
+def video_client(url, topic, quiet_s=10.0, limit_s=150.0):
+    """One video line client, a process of its own: subscribes to ``topic`` as the console does,
+    prints "ready", then decodes every frame (CBOR, then the JPEG) and records (header.seq, latency
+    ms from header.stamp to the decoded picture, decode time) until no frame came for ``quiet_s``
+    after the first; prints them as one JSON line."""
+    import cv2
+    import numpy as np
+    from inspection_robot.bridge import cbor
+    from inspection_robot_testing.bridge_client import CLOSED
+    client = timed_client(url)
+    client.send(dict(VIDEO_SUBSCRIPTION, op="subscribe", topic=topic, type="sensor_msgs/CompressedImage"))
+    print("ready", flush=True)
+    frames, statuses, error = [], [], None
+    end = time.monotonic() + limit_s
+    while time.monotonic() < end:
+        try:
+            frame = client.recv(quiet_s if frames else limit_s)
+        except queue.Empty:
+            break
+        if frame is CLOSED:
+            error = "closed by the bridge: %s %s" % (client.close_code, client.close_reason)
+            break
+        client.arrivals.get()
+        if isinstance(frame, str):  # status (a JSON frame; publishes come as CBOR)
+            statuses.append(json.loads(frame).get("msg"))
+            continue
+        try:
+            msg = cbor.loads(frame)["msg"]
+            picture = cv2.imdecode(np.frombuffer(msg["data"], np.uint8), cv2.IMREAD_COLOR)
+            if picture is None or picture.shape[:2] != (720, 1280):
+                raise ValueError("not a 720p JPEG")
+            stamp = msg["header"]["stamp"]
+        except (ValueError, KeyError, TypeError) as exc:  # a bug: reported, not fatal
+            error = error or repr(exc)[:200]
+            continue
+        decoded = time.time()
+        frames.append((msg["header"]["seq"], round((decoded - stamp["secs"] - stamp["nsecs"] * 1e-9) * 1000.0, 2),
+                       decoded))
+    client.close()
+    print(json.dumps({"frames": frames, "status": statuses[:3], "error": error}), flush=True)
+
+
+def slow_video_client(url, topic, slow_ms, quiet_s=10.0, limit_s=150.0):
+    """A client that takes ``slow_ms`` over each frame (a slow browser or link), reading its socket
+    only between frames (a small receive buffer, as a slow link has): what is stale when it reads
+    again is up to the bridge. Records (header.seq, latency ms from header.stamp to the frame read);
+    prints "ready" and then one JSON line, as video_client."""
+    from inspection_robot.bridge import cbor
+    from inspection_robot_testing.bridge_client import SocketClient
+    client = SocketClient(int(url.rsplit(":", 1)[1].rstrip("/")), rcvbuf=16384)
+    client.send(dict(VIDEO_SUBSCRIPTION, op="subscribe", topic=topic, type="sensor_msgs/CompressedImage"))
+    print("ready", flush=True)
+    frames, error = [], None
+    client.sock.settimeout(limit_s)
+    end = time.monotonic() + limit_s
+    try:
+        for opcode, payload in client.frames():
+            if opcode == 0x8 or time.monotonic() > end:
+                break
+            if opcode == 0x9:  # ping: answer (a masked pong), or the bridge's keep-alive drops the client
+                mask = os.urandom(4)
+                client.sock.sendall(struct.pack("!BB", 0x8A, 0x80 | len(payload)) + mask
+                                    + bytes(b ^ mask[i % 4] for i, b in enumerate(payload)))
+                continue
+            if opcode != 0x2:
+                continue
+            msg = cbor.loads(payload)["msg"]
+            read = time.time()
+            stamp = msg["header"]["stamp"]
+            frames.append((msg["header"]["seq"], round((read - stamp["secs"] - stamp["nsecs"] * 1e-9) * 1000.0, 2),
+                           read))
+            client.sock.settimeout(quiet_s)
+            time.sleep(slow_ms / 1000.0)
+    except (OSError, EOFError) as exc:  # the quiet timeout ends the run; anything else is reported
+        if not isinstance(exc, socket.timeout):
+            error = repr(exc)[:200]
+    client.sock.close()
+    print(json.dumps({"frames": frames, "status": [], "error": error}), flush=True)
+
+
+def video_line(name, url, bridge_pid, seconds, rate_hz, round_no=0, clients=3, slow_ms=0):
+    """The video line against one bridge; reports one line per client and returns the bridge's summary.
+    ``slow_ms`` > 0 adds a fourth client that takes that long over each frame (reported apart)."""
+    topic = "/bench/video_%s_%d/compressed" % (re.sub(r"[^a-z0-9]", "_", name.lower()), round_no)
+    argv = [[sys.executable, os.path.abspath(__file__), "--video-client", topic, url]] * clients
+    if slow_ms > 0:
+        argv.append([sys.executable, os.path.abspath(__file__), "--slow-video-client", topic, url, str(slow_ms)])
+    procs = [subprocess.Popen(args, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, universal_newlines=True)
+             for args in argv]
+    try:
+        for proc in procs:
+            if proc.stdout.readline().strip() != "ready":
+                raise RuntimeError("a video client did not start")
+        cpu0, wall0 = (cpu_seconds(bridge_pid) if bridge_pid else None), time.monotonic()
+        publisher = subprocess.Popen(
+            [sys.executable, os.path.abspath(__file__), "--publish-video", "%s,%g,%g" % (topic, seconds, rate_hz)],
+            stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, universal_newlines=True)
+        procs.append(publisher)
+        published = json.loads(publisher.stdout.readline())   # printed once the last frame went out
+        results = [json.loads(proc.communicate(timeout=seconds + 180)[0].strip().splitlines()[-1])
+                   for proc in procs[:len(argv)]]
+        # the clients end quiet_s after their last frame: the bridge's CPU up to then, idle time included
+        cpu_s = cpu_seconds(bridge_pid) - cpu0 if bridge_pid else None
+        wall_s = time.monotonic() - wall0
+        publisher.stdin.close()
+    finally:
+        for proc in procs:
+            if proc.poll() is None:
+                proc.kill()
+                proc.wait(10)
+    load = round(os.getloadavg()[0], 1)
+    every = []
+    for i, result in enumerate(results):
+        latencies = [ms for _, ms, _ in result["frames"]]
+        slow = i >= clients
+        if not slow:
+            every.extend(latencies)
+        report(bench="bridge_video", bridge=name, round=round_no,
+               client="slow: %g ms per frame" % slow_ms if slow else i, published=published["published"],
+               received=len(set(seq for seq, _, _ in result["frames"])), rate_hz=rate_hz,
+               p50_ms=round(percentile(latencies, 0.5), 1) if latencies else None,
+               p99_ms=round(percentile(latencies, 0.99), 1) if latencies else None,
+               publisher_late_p99_ms=published["late_p99_ms"], status=result["status"], error=result["error"],
+               load_avg_1min=load)
+    summary = dict(bridge=name, round=round_no, published=published["published"], clients=clients,
+                   received_min=min(len(r["frames"]) for r in results[:clients]),
+                   p50_ms=round(percentile(every, 0.5), 1) if every else None,
+                   p99_ms=round(percentile(every, 0.99), 1) if every else None,
+                   load_avg_1min=load, jpeg_bytes=len(camera_jpeg()))
+    if slow_ms > 0:
+        latencies = [ms for _, ms, _ in results[clients]["frames"]]
+        summary.update(slow_client_received=len(latencies), slow_client_p50_ms=percentile(latencies, 0.5),
+                       slow_client_max_ms=max(latencies) if latencies else None)
+    if cpu_s is not None:
+        # everything the bridge spent from before the first publish until every client went quiet
+        summary["bridge_cpu_ms_per_frame"] = round(cpu_s * 1000.0 / max(1, published["published"]), 2)
+        summary["bridge_cpu_pct_while_streaming"] = round(100.0 * cpu_s / max(1e-9, min(wall_s, seconds + 1.0)), 1)
+    report(bench="bridge_video_summary", path="ROS publisher process->bridge->%d client processes, 1280x720 "
+           "JPEG sensor_msgs/CompressedImage, subscribe %s" % (clients, json.dumps(VIDEO_SUBSCRIPTION)), **summary)
+    return summary
+
+
+def rosbridge_0_11(src, deps, workdir, env):
+    """argv and environment that run rosbridge_server 0.11.17's rosbridge_websocket from its source tree
+    ``src`` (twisted/autobahn, as that release is), with pymongo's bson from ``deps``; rosbridge_msgs is
+    generated with genpy into ``workdir`` and rosauth (imported at start, used only with
+    ``~authenticate``) stubbed there."""
+    shim = os.path.join(workdir, "rosbridge_shim")
+    msg_dir = os.path.join(shim, "rosbridge_msgs", "msg")
+    os.makedirs(msg_dir, exist_ok=True)
+    open(os.path.join(shim, "rosbridge_msgs", "__init__.py"), "w").close()
+    std_msgs = subprocess.check_output(["rospack", "find", "std_msgs"], env=env, universal_newlines=True).strip()
+    generator = "/usr/lib/genpy/genmsg_py.py"
+    for name in ("ConnectedClient", "ConnectedClients"):
+        subprocess.check_call([sys.executable, generator, "-p", "rosbridge_msgs",
+                               "-Irosbridge_msgs:%s/rosbridge_msgs/msg" % src, "-Istd_msgs:%s/msg" % std_msgs,
+                               "-o", msg_dir, "%s/rosbridge_msgs/msg/%s.msg" % (src, name)], env=env)
+    subprocess.check_call([sys.executable, generator, "--initpy", "-o", msg_dir, "-p", "rosbridge_msgs"], env=env)
+    os.makedirs(os.path.join(shim, "rosauth"), exist_ok=True)
+    open(os.path.join(shim, "rosauth", "__init__.py"), "w").close()
+    with open(os.path.join(shim, "rosauth", "srv.py"), "w") as stub:
+        stub.write("class Authentication(object):\n    pass  # stand-in: ~authenticate stays false\n")
+    paths = [shim, deps, os.path.join(src, "rosbridge_library", "src"), os.path.join(src, "rosbridge_server", "src")]
+    run_env = dict(env, PYTHONPATH=os.pathsep.join(paths + [env.get("PYTHONPATH", "")]))
+    return [sys.executable, os.path.join(src, "rosbridge_server", "scripts", "rosbridge_websocket.py"),
+            "__name:=bench_rosbridge", "_port:=0", "_address:=127.0.0.1"], run_env
+
+
+def wait_port(name, deadline_s=30):
+    import rospy
+    deadline = time.monotonic() + deadline_s
+    while not rospy.has_param("/%s/actual_port" % name):
+        if time.monotonic() > deadline:
+            raise RuntimeError("%s did not start" % name)
+        time.sleep(0.1)
+    return "ws://127.0.0.1:%d" % rospy.get_param("/%s/actual_port" % name)
 
 
 def latency_line(name, bridge, echo, **extra):
@@ -445,13 +675,34 @@ def classic(bridge_url, counter):
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--only", default="classic,burst,image", help="comma-separated: classic, burst, image")
+    parser.add_argument("--only", default="classic,burst,image",
+                        help="comma-separated: classic, burst, image, video")
     parser.add_argument("--bursts", default="10000,100000", help="comma-separated burst sizes")
     parser.add_argument("--bridge-log", help="file for the bridge's output (default: discarded)")
     parser.add_argument("--image-seconds", type=float, default=10.0, help="length of the image line (s)")
     parser.add_argument("--publish-images", help=argparse.SUPPRESS)  # "seconds,rate": the image publisher process
     parser.add_argument("--image-client", nargs=2, help=argparse.SUPPRESS)  # compression url: one image client
+    parser.add_argument("--video-rate", type=float, default=15.0, help="Hz of the video line (10-25)")
+    parser.add_argument("--slow-ms", type=float, default=0.0,
+                        help="video line: a fourth client taking this long (ms) over each frame")
+    parser.add_argument("--slow-video-client", nargs=3, help=argparse.SUPPRESS)  # topic url ms: the slow client
+    parser.add_argument("--video-rounds", type=int, default=3, help="video line rounds, bridges in alternating order")
+    parser.add_argument("--url", action="append", default=[], help="another rosbridge to run the video line against")
+    parser.add_argument("--rosbridge-src", help="rosbridge_suite 0.11.17 source tree: the video line runs on it too")
+    parser.add_argument("--rosbridge-deps", default="", help="folder with pymongo's bson for --rosbridge-src")
+    parser.add_argument("--publish-video", help=argparse.SUPPRESS)  # "topic,seconds,rate": the video publisher
+    parser.add_argument("--video-client", nargs=2, help=argparse.SUPPRESS)  # topic url: one video client
     args = parser.parse_args()
+    if args.video_client:
+        video_client(args.video_client[1], args.video_client[0])
+        return
+    if args.slow_video_client:
+        slow_video_client(args.slow_video_client[1], args.slow_video_client[0], float(args.slow_video_client[2]))
+        return
+    if args.publish_video:
+        topic, seconds, rate_hz = args.publish_video.split(",")
+        publish_video(topic, float(seconds), float(rate_hz), 1)
+        return
     if args.image_client:
         image_client(args.image_client[1], args.image_client[0])
         return
@@ -460,6 +711,7 @@ def main():
         publish_images(seconds, rate_hz, 1)
         return
     only = set(args.only.split(","))
+    workdir = tempfile.mkdtemp(prefix="bench_bridge_")
     failed = False
     bridge_log = open(args.bridge_log, "w") if args.bridge_log else subprocess.DEVNULL
     master_port = free_port()
@@ -489,18 +741,14 @@ def main():
         counter = {"n": 0}
         rospy.Subscriber("/bench/to_ros", String, lambda m: counter.__setitem__("n", counter["n"] + 1),
                          queue_size=10000)
-        deadline = time.monotonic() + 20
-        while not rospy.has_param("/bench_bridge/actual_port"):
-            if time.monotonic() > deadline:
-                raise RuntimeError("bridge did not start")
-            time.sleep(0.1)
-        bridge_url = "ws://127.0.0.1:%d" % rospy.get_param("/bench_bridge/actual_port")
+        bridge_url = wait_port("bench_bridge")
+        ours_pid = procs[-1].pid
         if "classic" in only:
             classic(bridge_url, counter)
         if "burst" in only:
             for n in [int(x) for x in args.bursts.split(",") if x]:
                 rate, lost, disordered, delivered, statuses, cpu_us = burst(bridge_url, "/bench/burst%d" % n, n,
-                                                                            procs[-1].pid)
+                                                                            ours_pid)
                 report(bench="bridge_burst", n=n, delivered=delivered, lost=lost, out_of_order=disordered,
                        delivered_msgs_s=round(rate), bridge_cpu_us_per_msg=round(cpu_us, 1),
                        cpu_bound_msgs_s=round(1e6 / cpu_us), status=statuses[:3], client="raw_tornado",
@@ -508,8 +756,38 @@ def main():
                        load_avg_1min=round(os.getloadavg()[0], 1))
                 failed = failed or lost > 0 or disordered > 0
         if "image" in only:
-            image_line(bridge_url, procs[-1].pid, args.image_seconds)
+            image_line(bridge_url, ours_pid, args.image_seconds)
+        if "video" in only:
+            bridges = [("ours", bridge_url, ours_pid)]
+            if args.rosbridge_src:
+                argv, rb_env = rosbridge_0_11(os.path.abspath(args.rosbridge_src), os.path.abspath(args.rosbridge_deps),
+                                              workdir, env)
+                procs.append(subprocess.Popen(argv, stdout=bridge_log, stderr=subprocess.STDOUT, env=rb_env))
+                bridges.append(("rosbridge 0.11.17", wait_port("bench_rosbridge"), procs[-1].pid))
+            bridges.extend((url, url, None) for url in args.url)
+            report(bench="bridge_video_machine", uptime=subprocess.check_output(["uptime"], universal_newlines=True)
+                   .strip(), cores=os.cpu_count())
+            runs = {}  # bridge -> its summaries; rounds alternate the order (the machine's load drifts)
+            for round_no in range(args.video_rounds):
+                for name, url, pid in (bridges if round_no % 2 == 0 else bridges[::-1]):
+                    runs.setdefault(name, []).append(video_line(name, url, pid, args.image_seconds, args.video_rate,
+                                                                round_no, slow_ms=args.slow_ms))
+            ours = runs["ours"]
+            for other_name, other in runs.items():
+                if other_name == "ours":
+                    continue
+                ratio = {}
+                for key in ("p50_ms", "p99_ms", "bridge_cpu_ms_per_frame"):
+                    mine, theirs = [r.get(key) for r in ours], [r.get(key) for r in other]
+                    if all(mine) and all(theirs):
+                        ratio[key] = round(percentile(theirs, 0.5) / percentile(mine, 0.5), 2)
+                report(bench="bridge_video_ratio", other=other_name, other_over_ours_median_of_rounds=ratio,
+                       p99_ms={"ours": [r["p99_ms"] for r in ours], other_name: [r["p99_ms"] for r in other]},
+                       received_min={"ours": [r["received_min"] for r in ours],
+                                     other_name: [r["received_min"] for r in other]},
+                       published=ours[0]["published"], load_avg_1min=round(os.getloadavg()[0], 1))
     finally:
+        shutil.rmtree(workdir, ignore_errors=True)
         for proc in reversed(procs):
             proc.terminate()
         for proc in reversed(procs):

@@ -127,7 +127,7 @@ class SocketClient(object):
     """A websocket client on a plain blocking socket that reads only when asked (or never).
 
     Models a slow or stuck backend: ``rcvbuf`` shrinks the kernel's receive buffer so the
-    server's writes back up quickly. ``send(dict)`` sends one masked text frame (< 126 bytes),
+    server's writes back up quickly. ``send(dict)`` sends one masked text frame (< 64 kB),
 ``send_many`` several in one write;
     ``frames()`` yields the server's frames as (opcode, payload) up to its close frame.
     """
@@ -156,8 +156,10 @@ class SocketClient(object):
         for message in messages:
             payload = json.dumps(message).encode()
             mask = os.urandom(4)
-            assert len(payload) < 126
-            data += struct.pack("!BB", 0x81, 0x80 | len(payload)) + mask + bytes(
+            assert len(payload) <= 0xFFFF
+            head = (struct.pack("!BB", 0x81, 0x80 | len(payload)) if len(payload) < 126
+                    else struct.pack("!BBH", 0x81, 0x80 | 126, len(payload)))
+            data += head + mask + bytes(
                 b ^ mask[i % 4] for i, b in enumerate(payload))
         self.sock.sendall(data)
 

@@ -12,7 +12,7 @@ import rostest
 import yaml
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from geometry_msgs.msg import PoseWithCovarianceStamped
-from sensor_msgs.msg import CameraInfo, Image, JointState
+from sensor_msgs.msg import CameraInfo, CompressedImage, Image, JointState
 from std_msgs.msg import Float64
 
 from inspection_robot.camera.optics import ZoomOptics
@@ -253,6 +253,12 @@ class CameraSimTest(unittest.TestCase):
         self.assertEqual((img.width, img.height, img.encoding), (320, 180, "bgr8"))
         info = infos.wait(lambda m: abs(m.K[0] - self.optics.focal_px(3.0, 320)) < 0.5, 5.0, "camera_info at zoom 3")
         self.assertEqual(info.width, 320)
+        for topic, size, frame_id in (("camera/image_raw/compressed", (180, 320), "camera_optical_frame"),
+                                      ("thermal/image_raw/compressed", (288, 384), "thermal_imager")):
+            jpeg = Latest(topic, CompressedImage, queue_size=5).wait(timeout=10.0, what=topic)
+            picture = cv2.imdecode(np.frombuffer(jpeg.data, np.uint8), cv2.IMREAD_COLOR)
+            self.assertEqual((jpeg.format, jpeg.header.frame_id, picture.shape[:2]), ("jpeg", frame_id, size))
+            self.assertGreater(float(picture.std()), 5.0)   # a picture of the world, not a blank frame
         for hardware_id in ("camera", "thermal_imager"):
             status = diagnostics.wait(lambda m: m.status and m.status[0].hardware_id == hardware_id, 5.0, hardware_id)
             self.assertEqual(status.status[0].level, DiagnosticStatus.OK)

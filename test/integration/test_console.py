@@ -298,8 +298,21 @@ class ConsoleTest(unittest.TestCase):
     def test_5_click_on_picture_turns_head(self):
         self.open_console()
         self.wait_connected()
+        # the live views draw the JPEG topics (<image topic>/compressed): pictures of the world, and new ones
         self.wait_page("window.consoleFrames && window.consoleFrames.picture > 0", "a live picture")
         self.wait_page("window.consoleFrames.thermal > 0", "a live thermal picture")
+        for view in ("picture", "thermal"):
+            drawn = self.page.evaluate("window.consoleFrames.%s" % view)
+            self.wait_page("window.consoleFrames.%s > %d" % (view, drawn), "the %s stream advancing" % view)
+            spread = self.page.evaluate("""(id) => {
+                const c = document.getElementById(id);
+                const px = c.getContext('2d').getImageData(0, 0, c.width, c.height).data;
+                let lo = 255, hi = 0;
+                for (let i = 0; i < px.length; i += 4) { lo = Math.min(lo, px[i + 1]); hi = Math.max(hi, px[i + 1]); }
+                return [c.width, hi - lo];
+            }""", view)
+            self.assertGreater(spread[0], 16, view)
+            self.assertGreater(spread[1], 40, "%s: a blank picture (green channel spread %d)" % (view, spread[1]))
         self.assertIn("hottest", self.page.inner_text("#thermal-caption"))
         pan0 = self.head.wait(lambda m: True, 10.0, "terrace_state").position[0]
         box = self.page.locator("#picture").bounding_box()

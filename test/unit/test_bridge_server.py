@@ -16,6 +16,7 @@ import tornado.httpclient
 import tornado.ioloop
 
 from bridge_fakes import FakeBackend
+from inspection_robot.bridge import cbor
 from inspection_robot_testing.bridge_client import CLOSED, RawClient, SocketClient
 from inspection_robot.bridge.protocol import Outgoing, Session, SessionConfig
 from inspection_robot.bridge.compat_tornado import ws_frame
@@ -232,6 +233,45 @@ def test_a_client_that_never_reads_is_bounded_told_and_disconnected():
         assert "subscribe: dropped " in warnings[0]["msg"] and " messages on /known (" in warnings[0]["msg"]
         server.wait_count(0, timeout=8.0)
         assert any("closed by the bridge (1008 send queue over budget" in line for line in server.logged)
+        client.sock.close()
+    finally:
+        server.stop()
+
+
+def test_a_video_client_that_stops_reading_gets_the_newest_frame_not_a_backlog():
+    """queue_length 1 (the console's video subscription): while a client reads nothing for 2 s of 10 Hz
+    frames, each new frame replaces the one waiting for it; when it reads again the newest frame comes
+    next, behind at most what the socket already held, and every replaced frame is counted. Without the
+    bound on the kernel's unsent bytes all 20 frames arrived, the newest 2 s late."""
+    server = LiveServer(ping_interval=0)
+    try:
+        server.backend.topic_types["/v"] = "sensor_msgs/CompressedImage"
+        client = SocketClient(server.port, rcvbuf=4096)
+        client.send({"op": "subscribe", "topic": "/v", "compression": "cbor", "queue_length": 1})
+        wait_until(lambda: server.backend.subscribers.get("/v"))
+        handler = next(iter(server.server._clients))
+        cls = server.backend.types.message_class("sensor_msgs/CompressedImage")
+        jpeg = b"\xff\xd8" + bytes(bytearray(i % 251 for i in range(150000)))  # a 720p JPEG's size
+        n = 20
+        for seq in range(n):   # 2 s at 10 Hz; the client reads nothing meanwhile
+            msg = cls(format="jpeg", data=jpeg)
+            msg.header.seq = seq
+            run_on_loop(server, lambda: handler.session.deliver(Outgoing("/v", msg, server.backend.codec)))
+            time.sleep(0.1)
+        waiting = run_on_loop(server, lambda: len(handler.queue))
+        assert waiting <= 1   # never a backlog in the bridge
+        seqs = []
+        for opcode, payload in client.frames():   # now it reads
+            message = cbor.loads(payload)
+            assert message["op"] == "publish" and message["msg"]["data"] == jpeg
+            seqs.append(message["msg"]["header"]["seq"])
+            if seqs[-1] == n - 1:
+                break
+        assert seqs == sorted(seqs) and seqs[-1] == n - 1   # the newest frame, in order
+        assert len(seqs) <= 3   # the newest, behind at most what the socket already held (UNSENT_BYTES)
+        stats = run_on_loop(server, server.server.stats)["clients"][0]
+        assert stats["queue_length_dropped"] == n - len(seqs)   # every frame sent or counted as replaced
+        assert stats["dropped"] == 0 and not stats["over_budget"] and server.server.closed_over_budget == 0
         client.sock.close()
     finally:
         server.stop()

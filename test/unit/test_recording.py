@@ -1,16 +1,14 @@
-"""recording/: the recorded topic set, the disk budget, image compression, the run summary and the
-replay comparison, with real files, real JPEGs and made-up runs (no ROS)."""
+"""recording/: the recorded topic set, the disk budget, the run summary and the replay comparison,
+with real files and made-up runs (no ROS)."""
 import math
 import os
 import re
 
-import cv2
-import numpy as np
 import pytest
 
 from inspection_robot.interface import INTERFACE_TOPICS, LIGHT_SOFT_ESTOP, MODE_SERVER, MODE_TASK, NAV_OBSTACLE_3D
 from inspection_robot.recording.compare import compare_runs, rising_edges, status_difference
-from inspection_robot.recording.recorder import (RecorderError, bags_to_delete, compress_image, disk_verdict,
+from inspection_robot.recording.recorder import (RecorderError, bags_to_delete, disk_verdict,
                                                  enforce_budget, list_bags, record_command)
 from inspection_robot.recording.summary import OFFLINE_ALARM, RunAnalyzer, format_summary, mode_time, reading_text
 
@@ -120,20 +118,6 @@ def test_a_missing_folder_holds_no_bags(tmp_path):
 def test_disk_verdict():
     assert disk_verdict(600e6, 500e6) is None
     assert "disk full: 100 MB free, below the 500 MB minimum" == disk_verdict(100e6, 500e6)
-
-
-def test_compress_image_gives_a_jpeg_of_the_picture():
-    img = np.zeros((48, 64, 3), np.uint8)
-    img[:, 32:] = (0, 0, 255)   # right half red (bgr)
-    jpeg = compress_image(img.tobytes(), 64, 48, 64 * 3, "bgr8", 90)
-    back = cv2.imdecode(np.frombuffer(jpeg, np.uint8), cv2.IMREAD_COLOR)
-    assert back.shape == (48, 64, 3) and back[24, 50, 2] > 200 and back[24, 10, 2] < 50
-    rgb = compress_image(img[:, :, ::-1].tobytes(), 64, 48, 64 * 3, "rgb8", 90)
-    assert cv2.imdecode(np.frombuffer(rgb, np.uint8), cv2.IMREAD_COLOR)[24, 50, 2] > 200
-    with pytest.raises(RecorderError, match="encoding '16UC1' not supported"):
-        compress_image(b"", 4, 4, 8, "16UC1")
-    with pytest.raises(RecorderError, match="too short"):
-        compress_image(b"\0" * 10, 64, 48, 192, "bgr8")
 
 
 def status(**changes):

@@ -3,8 +3,8 @@
 import assert from 'node:assert';
 import test from 'node:test';
 
-import { bits, boxQuad, byteArray, decodeStatus, needleAngle, readingText, selfCheckText, sortReadings, trendSeries }
-  from '../../web/console/decode.js';
+import { bits, boxQuad, byteArray, decodeStatus, needleAngle, newestOnly, readingText, selfCheckText, sortReadings,
+  trendSeries } from '../../web/console/decode.js';
 
 const quiet = {
   offline_warn: 0, mode: 0, velocity_x: 0, velocity_yaw: 0, position: [1.5, -2.25], orientation: Math.PI / 2,
@@ -107,4 +107,26 @@ test('a meter\'s trend: oldest first, corrected values and warnings marked, band
   assert.deepStrictEqual(s.band, [0, 1]);
   assert.ok(s.range[0] < 0 && s.range[1] > 1.3);
   assert.deepStrictEqual(trendSeries([]).points, []);
+});
+
+test('newestOnly: one decode at a time; frames arriving meanwhile leave only the newest waiting', async () => {
+  const started = [];
+  const finish = [];
+  const push = newestOnly((frame) => {
+    started.push(frame);
+    return new Promise((resolve, reject) => finish.push([resolve, reject]));
+  });
+  push(1);
+  for (let frame = 2; frame <= 5; frame++) push(frame);   // the browser still decodes frame 1
+  await new Promise((resolve) => setTimeout(resolve, 0));
+  assert.deepStrictEqual(started, [1]);
+  finish.shift()[0]();
+  await new Promise((resolve) => setTimeout(resolve, 0));
+  assert.deepStrictEqual(started, [1, 5]);   // the newest next, the stale ones skipped and counted
+  assert.strictEqual(push.skipped, 3);
+  finish.shift()[1](new Error('corrupt JPEG'));
+  await new Promise((resolve) => setTimeout(resolve, 0));
+  push(6);   // idle again: decoded at once; a failing decode does not stop the next one
+  await new Promise((resolve) => setTimeout(resolve, 0));
+  assert.deepStrictEqual(started, [1, 5, 6]);
 });

@@ -41,6 +41,32 @@ export function byteArray(value) {
   return Array.from(text, (c) => c.charCodeAt(0));
 }
 
+/** ``work(item)`` (may return a promise) run one at a time, newest first: what arrives while one runs
+    replaces whatever was waiting, so a slow JPEG decoder draws the latest video frame instead of
+    working through stale ones. The returned function takes items; its ``skipped`` counts the replaced. */
+export function newestOnly(work) {
+  let busy = false;
+  let waiting = null;
+  const push = (item) => {
+    if (busy) {
+      if (waiting !== null) push.skipped += 1;
+      waiting = item;
+      return;
+    }
+    busy = true;
+    Promise.resolve().then(() => work(item)).catch(() => {}).then(() => {
+      busy = false;
+      if (waiting !== null) {
+        const next = waiting;
+        waiting = null;
+        push(next);
+      }
+    });
+  };
+  push.skipped = 0;
+  return push;
+}
+
 /** Motor faults as words: servo b0 disconnected / b4 fault, stepper b0 error (motor_status). */
 function motorFaults(motorStatus) {
   const faults = [];

@@ -1,8 +1,14 @@
-/* The live pictures: camera/image_raw and thermal/image_raw (CBOR) drawn on canvases, the hottest
-   point marked, and a click on the visible picture turning the head there (preset_rotate). */
+/* The live pictures: camera/image_raw/compressed and thermal/image_raw/compressed (JPEG
+   sensor_msgs/CompressedImage) drawn on canvases, the hottest point marked, and a click on the visible
+   picture turning the head there (preset_rotate). Subscribed with CBOR compression, so the JPEG
+   arrives as bytes (no base64), and queue_length 1, so a slow link gets the newest frame rather than
+   a backlog; a frame arriving while the browser still decodes the previous one replaces the one
+   waiting (decode.newestOnly). */
+import { newestOnly } from './decode.js';
 import { publish, subscribe } from './link.js';
 import { $, canvasPoint, log } from './ui.js';
 
+export const VIDEO = { compression: 'cbor', queue_length: 1 };   // the recommended video subscription
 let hottest = null;   // thermal/hottest: {x, y, temperature}
 
 function bytesOf(data) {
@@ -16,45 +22,33 @@ function bytesOf(data) {
   return Uint8Array.from(data);
 }
 
-/** A bgr8/rgb8/mono8 sensor_msgs/Image onto a canvas (resized to the picture). */
-function drawImage(canvas, msg, marker) {
-  const src = bytesOf(msg.data);
-  const ctx = canvas.getContext('2d');
-  if (canvas.width !== msg.width || canvas.height !== msg.height) {
-    canvas.width = msg.width;
-    canvas.height = msg.height;
-  }
-  const image = ctx.createImageData(msg.width, msg.height);
-  const out = image.data;
-  const channels = msg.encoding === 'mono8' ? 1 : 3;
-  const bgr = msg.encoding === 'bgr8';
-  for (let y = 0; y < msg.height; y++) {
-    let s = y * msg.step;
-    let d = y * msg.width * 4;
-    for (let x = 0; x < msg.width; x++, s += channels, d += 4) {
-      if (channels === 1) {
-        out[d] = out[d + 1] = out[d + 2] = src[s];
-      } else {
-        out[d] = src[bgr ? s + 2 : s];
-        out[d + 1] = src[s + 1];
-        out[d + 2] = src[bgr ? s : s + 2];
+function drawMarker(ctx, marker) {
+  ctx.strokeStyle = '#00e5ff';
+  ctx.lineWidth = 2;
+  ctx.beginPath();
+  ctx.arc(marker.x, marker.y, 8, 0, 2 * Math.PI);
+  ctx.moveTo(marker.x - 14, marker.y);
+  ctx.lineTo(marker.x + 14, marker.y);
+  ctx.moveTo(marker.x, marker.y - 14);
+  ctx.lineTo(marker.x, marker.y + 14);
+  ctx.stroke();
+}
+
+/** Draws a JPEG CompressedImage onto a canvas (resized to the picture), newest frame first. */
+function jpegView(canvas, marker) {
+  return newestOnly((msg) => createImageBitmap(new Blob([bytesOf(msg.data)], { type: 'image/jpeg' }))
+    .then((bitmap) => {
+      if (canvas.width !== bitmap.width || canvas.height !== bitmap.height) {
+        canvas.width = bitmap.width;
+        canvas.height = bitmap.height;
       }
-      out[d + 3] = 255;
-    }
-  }
-  ctx.putImageData(image, 0, 0);
-  window.consoleFrames[canvas.id] += 1;
-  if (marker) {
-    ctx.strokeStyle = '#00e5ff';
-    ctx.lineWidth = 2;
-    ctx.beginPath();
-    ctx.arc(marker.x, marker.y, 8, 0, 2 * Math.PI);
-    ctx.moveTo(marker.x - 14, marker.y);
-    ctx.lineTo(marker.x + 14, marker.y);
-    ctx.moveTo(marker.x, marker.y - 14);
-    ctx.lineTo(marker.x, marker.y + 14);
-    ctx.stroke();
-  }
+      const ctx = canvas.getContext('2d');
+      ctx.drawImage(bitmap, 0, 0);
+      bitmap.close();
+      window.consoleFrames[canvas.id] += 1;
+      const mark = marker();
+      if (mark) drawMarker(ctx, mark);
+    }, (err) => log(canvas.id + ': a frame could not be decoded: ' + err, true)));
 }
 
 function onHottest(msg) {
@@ -75,9 +69,7 @@ export function init() {
     publish('preset_rotate', 'inspection_robot/PresetRotate', { width: canvas.width, height: canvas.height,
       delta_x: Math.round(x - canvas.width / 2), delta_y: Math.round(canvas.height / 2 - y) });
   });
-  subscribe('camera/image_raw', 'sensor_msgs/Image', { compression: 'cbor', queue_length: 1 },
-    (msg) => drawImage($('picture'), msg));
-  subscribe('thermal/image_raw', 'sensor_msgs/Image', { compression: 'cbor', queue_length: 1 },
-    (msg) => drawImage($('thermal'), msg, hottest));
+  subscribe('camera/image_raw/compressed', 'sensor_msgs/CompressedImage', VIDEO, jpegView($('picture'), () => null));
+  subscribe('thermal/image_raw/compressed', 'sensor_msgs/CompressedImage', VIDEO, jpegView($('thermal'), () => hottest));
   subscribe('thermal/hottest', 'inspection_robot/GeneralTopic', { queue_length: 1 }, onHottest);
 }

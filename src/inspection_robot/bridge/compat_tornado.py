@@ -8,12 +8,15 @@ built), and falls back to the public API when they differ:
 - :func:`write_frames`: many messages as ready-made frames (:func:`ws_frame`) in one write on the
   connection's stream. Fallback: WebSocketHandler.write_message per message.
 - :func:`abort`: close the socket now, with no close handshake. Fallback: WebSocketHandler.close.
+- :func:`limit_unsent`: bound the bytes the kernel holds unsent for a client (the connection's
+  socket). Fallback: the kernel's default (no bound).
 - :func:`name_the_size_limit`: the close tornado itself sends for an oversized frame (1009, "message
   too big") carries a reason naming the limit. Fallback: tornado's own reason.
 
 ``MISSING`` lists what was not found; test_compat_tornado fails loudly, naming tornado's version,
 when it is not empty.
 """
+import socket
 import struct
 
 import tornado
@@ -107,6 +110,22 @@ def abort(handler):
         connection.stream.close()
     else:
         handler.close()
+
+
+def limit_unsent(handler, nbytes):
+    """Let the kernel hold at most about ``nbytes`` of this client's data not yet sent (Linux
+    TCP_NOTSENT_LOWAT): past that, writes wait in the bridge, where a subscription's queue_length
+    can still replace them. True when set."""
+    option = getattr(socket, "TCP_NOTSENT_LOWAT", None)
+    stream = getattr(handler.ws_connection, "stream", None) if RAW_WRITE else None
+    sock = getattr(stream, "socket", None)
+    if option is None or sock is None:
+        return False
+    try:
+        sock.setsockopt(socket.IPPROTO_TCP, option, int(nbytes))
+    except OSError:
+        return False
+    return True
 
 
 def name_the_size_limit(protocol, reason_for_too_big):

@@ -16,7 +16,10 @@ messages for the client are dropped and counted per topic; the client gets a rat
 client still over budget ``budget_grace`` s after it first went over is disconnected (1008).
 Replies (service responses, status, requests) are never dropped but count against the budget.
 Frames leave in batches of at most ``BATCH_BYTES``; the next batch waits until the socket took
-the previous one, so the budget covers everything the bridge holds for the client.
+the previous one, so the budget covers everything the bridge holds for the client. The socket
+takes at most ``UNSENT_BYTES`` not yet sent (compat_tornado.limit_unsent): the rest waits here,
+where a queue_length still replaces stale messages (a video client that stalls gets the newest
+frame next, not the kernel's megabytes of old ones).
 
 Keep-alive: every ``ping_interval`` s each client is pinged; one that sent nothing (no frame, no
 pong) for ``ping_timeout`` s has its socket closed within the next second (checks run every
@@ -44,6 +47,10 @@ from inspection_robot.bridge.compat_tornado import CLOSE_TOO_BIG
 KEEPALIVE_TICK = 1.0  # s between checks for silent or over-budget clients (pings go every ping_interval)
 READ_SLICE = 32  # incoming frames handled before the reader yields to the IOLoop once
 BATCH_BYTES = 1 << 20  # outgoing bytes handed to the socket per write (at least one message)
+# bytes the kernel may hold unsent per client (TCP_NOTSENT_LOWAT); by default it takes up to 4 MB,
+# which for a client that stopped reading would be a backlog of ~30 stale video frames the queue_length
+# of its subscription can no longer replace
+UNSENT_BYTES = 128 << 10
 DROP_WARNING_PERIOD = 1.0  # s: at most one drop warning per client and period
 REFUSAL_LOG_PERIOD = 10.0  # s: at most one logged origin refusal per period
 BACKLOG_POLL = 0.001  # s between checks of a full rospy publisher queue while a client's reading is paused
@@ -255,6 +262,7 @@ class BridgeHandler(tornado.websocket.WebSocketHandler):
 
     def open(self):
         self.set_nodelay(True)
+        compat_tornado.limit_unsent(self, UNSENT_BYTES)
         self.session = self._server.opened(self)
 
     def on_message(self, message):

@@ -9,15 +9,15 @@ bag being written) and checks the free space: below ~min_free_mb it stops the re
 (SIGINT: the bag is closed and indexed) and reports ERROR on diagnostics; it starts again once
 twice that space is free. A recorder that dies is restarted (at most every ~check_period).
 
-Subscribes:  ~image_topics (sensor_msgs/Image) only when ~record_images
-Publishes:   <image topic>/compressed (sensor_msgs/CompressedImage, JPEG, at most ~image_rate Hz)
-             diagnostics (diagnostic_msgs/DiagnosticArray, hardware_id "bag_recorder")
+Records:     <image topic>/compressed of each ~image_topics (sensor_msgs/CompressedImage, JPEG, as the camera
+             or thermal node publishes it, at its ~image_rate) only when ~record_images
+Publishes:   diagnostics (diagnostic_msgs/DiagnosticArray, hardware_id "bag_recorder")
 Parameters:  ~enabled (true; false: the node only reports "disabled" on diagnostics, e.g. from robot_config)
              data_root (namespace param: this robot's state directory, ros.data_root)
              ~directory (folder of the bags, relative to data_root unless absolute, "bags"), ~prefix ("run"),
              ~split_size_mb (MB, 100), ~budget_mb (MB, 2000), ~min_free_mb (MB, 500),
              ~check_period (s, 5.0), ~record_images (false), ~image_topics (["camera/image_raw"]),
-             ~image_rate (Hz, 1.0), ~jpeg_quality (0..100, 80), ~extra_topics ([])
+             ~extra_topics ([])
 """
 import os
 import shutil
@@ -27,10 +27,8 @@ import threading
 
 import roslib.packages
 import rospy
-from sensor_msgs.msg import CompressedImage, Image
 
-from inspection_robot.recording.recorder import (IMAGE_SUFFIX, RecorderError, compress_image, disk_verdict,
-                                                 enforce_budget, list_bags, record_command)
+from inspection_robot.recording.recorder import RecorderError, disk_verdict, enforce_budget, list_bags, record_command
 from inspection_robot.ros.data_root import data_root, path_param
 from inspection_robot.ros.diagnostics import DeviceDiagnostics
 from inspection_robot.ros.node import init_node
@@ -38,32 +36,6 @@ from inspection_robot.ros.node import init_node
 HARDWARE_ID = "bag_recorder"
 MB = 1000 * 1000
 STOP_TIMEOUT_S = 15.0
-
-
-class ImageCompressor(object):
-    """Republishes a raw image topic as JPEG at ``<topic>/compressed``, at most ``rate_hz``."""
-
-    def __init__(self, topic, rate_hz, quality):
-        self._topic = topic
-        self._period = 1.0 / rate_hz
-        self._quality = quality
-        self._last = None
-        self._pub = rospy.Publisher(topic + IMAGE_SUFFIX, CompressedImage, queue_size=2)
-        self._sub = rospy.Subscriber(topic, Image, self._on_image, queue_size=1, buff_size=2 ** 24)
-
-    def _on_image(self, msg):
-        now = rospy.get_time()
-        if self._last is not None and 0 <= now - self._last < self._period:
-            return
-        self._last = now
-        try:
-            jpeg = compress_image(msg.data, msg.width, msg.height, msg.step, msg.encoding, self._quality)
-        except RecorderError as exc:
-            rospy.logwarn_throttle(30.0, "bag_recorder: %s: %s; image not recorded" % (self._topic, exc))
-            return
-        out = CompressedImage(format="jpeg", data=jpeg)
-        out.header = msg.header
-        self._pub.publish(out)
 
 
 class BagRecorder(object):
@@ -186,20 +158,15 @@ def main():
     check_period = float(rospy.get_param("~check_period", 5.0))
     record_images = bool(rospy.get_param("~record_images", False))
     image_topics = list(rospy.get_param("~image_topics", ["camera/image_raw"])) if record_images else []
-    image_rate = float(rospy.get_param("~image_rate", 1.0))
-    quality = int(rospy.get_param("~jpeg_quality", 80))
     extra = list(rospy.get_param("~extra_topics", []))
-    if budget_mb < 2 * split_mb or check_period <= 0 or image_rate <= 0 or not 0 <= quality <= 100:
-        raise RecorderError("need ~budget_mb >= 2 * ~split_size_mb, ~check_period > 0, ~image_rate > 0 and "
-                            "~jpeg_quality in 0..100 (got %s, %s, %s, %s, %s)"
-                            % (budget_mb, split_mb, check_period, image_rate, quality))
+    if budget_mb < 2 * split_mb or check_period <= 0:
+        raise RecorderError("need ~budget_mb >= 2 * ~split_size_mb and ~check_period > 0 (got %s, %s, %s)"
+                            % (budget_mb, split_mb, check_period))
     found = roslib.packages.find_node("rosbag", "record")
     if not found:
         raise RecorderError("rosbag's record executable not found (install python3-rosbag / ros-noetic-rosbag)")
     namespace = rospy.get_namespace()
     argv = record_command(directory, prefix, namespace, split_mb, min_free_mb, image_topics, extra, found[0])
-    for topic in image_topics:   # each lives on in its subscriber's callback
-        ImageCompressor(rospy.resolve_name(topic), image_rate, quality)
     recorder = BagRecorder(argv, directory, budget_mb * MB, min_free_mb * MB, check_period,
                            DeviceDiagnostics("bag recorder", HARDWARE_ID))
     rospy.on_shutdown(recorder.close)

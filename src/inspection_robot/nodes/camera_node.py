@@ -6,6 +6,8 @@ Subscribes:  camera_cmd (GeneralCmd) -> answers on camera_ack (GeneralAck), tran
              sim only: sim/true_pose, terrace_state, sim/world_state (nodes.sim_view)
 Publishes:   camera_zoom (std_msgs/Float64, latched, on change)
              camera/image_raw (sensor_msgs/Image, bgr8, ~image_width px wide, ~image_rate Hz)
+             camera/image_raw/compressed (sensor_msgs/CompressedImage, format "jpeg", ~stream_jpeg_quality,
+             the same frames; each form encoded only while it has subscribers)
              camera/camera_info (sensor_msgs/CameraInfo, with each image)
              diagnostics (diagnostic_msgs/DiagnosticArray, hardware_id "camera", ~status_rate Hz)
 Parameters:  ~driver (sim | isapi | none | "package.module:Class" with ~driver_params, required),
@@ -13,7 +15,8 @@ Parameters:  ~driver (sim | isapi | none | "package.module:Class" with ~driver_p
              ~roots (folders capture paths must lie in, under data_root unless absolute; [captures]; a root
              overlapping presets, pictures, tasks ... is refused at start: files.capture_roots),
              ~image_rate (Hz, 1.0; 0 = no image topic), ~image_width (px, 640), ~status_rate (Hz, 2.0),
-             ~jpeg_quality (0..100, 90), ~frame_id ("camera_optical_frame"),
+             ~jpeg_quality (captures, 0..100, 90), ~stream_jpeg_quality (0..100, 80),
+             ~frame_id ("camera_optical_frame"),
              ~isapi/{url ("http://192.168.1.64"), user ("admin"), password (""), channel (1), timeout (s, 2.0),
              snapshot_url ("/onvif-http/snapshot?Profile_1")},
              ~sim/{world_file (required for sim), seed (0), noise_sigma (2.0), blur_sigma (0.6),
@@ -23,16 +26,17 @@ import threading
 import traceback
 
 import rospy
-from sensor_msgs.msg import CameraInfo, Image
+from sensor_msgs.msg import CameraInfo
 from std_msgs.msg import Float64
 
 from inspection_robot.camera.commands import CameraCommands, format_zoom
+from inspection_robot.camera.jpeg import check_quality
 from inspection_robot.camera.driver import CameraError, DeviceHealth, NoCamera
 from inspection_robot.camera.optics import ZoomOptics
 from inspection_robot.drivers import SIM, make_driver
 from inspection_robot.files import capture_roots
 from inspection_robot.ros.diagnostics import DeviceDiagnostics, probe_device
-from inspection_robot.ros.images import bgr_image_msg
+from inspection_robot.ros.images import LiveViewPublisher
 from inspection_robot.ros.node import init_node
 from inspection_robot.ros.twin import CommandTwin
 from inspection_robot.ros.data_root import data_root, path_list_param
@@ -51,7 +55,7 @@ def camera_info_msg(width, height, focal, stamp, frame_id):
 
 
 class CameraNode(object):
-    def __init__(self, driver, optics, roots, image_rate, image_width, status_rate, frame_id):
+    def __init__(self, driver, optics, roots, image_rate, image_width, status_rate, frame_id, stream_quality=80):
         self._driver = driver
         self._optics = optics
         self._image_width = int(image_width)
@@ -61,7 +65,7 @@ class CameraNode(object):
         self._last_zoom = None
         self._zoom_lock = threading.Lock()
         self._zoom_pub = rospy.Publisher("camera_zoom", Float64, queue_size=1, latch=True)
-        self._image_pub = rospy.Publisher("camera/image_raw", Image, queue_size=1)
+        self._live = LiveViewPublisher("camera/image_raw", stream_quality)
         self._info_pub = rospy.Publisher("camera/camera_info", CameraInfo, queue_size=1)
         self._diagnostics = DeviceDiagnostics("camera", HARDWARE_ID)
         self._twin = CommandTwin(self.commands.table, "camera_control", "camera_cmd", "camera_ack", NODE)
@@ -86,7 +90,7 @@ class CameraNode(object):
         self._zoom_pub.publish(Float64(zoom))
 
     def _on_image(self, _event):
-        if self._image_pub.get_num_connections() == 0 and self._info_pub.get_num_connections() == 0:
+        if not self._live.wanted() and self._info_pub.get_num_connections() == 0:
             return   # nobody watches: do not burn CPU rendering or fetching pictures
         try:
             img = self._driver.grab_frame(self._image_width)
@@ -100,7 +104,7 @@ class CameraNode(object):
             return
         stamp = rospy.Time.now()
         height, width = img.shape[:2]
-        self._image_pub.publish(bgr_image_msg(img, stamp, self._frame_id))
+        self._live.publish(img, stamp, self._frame_id)
         self._info_pub.publish(camera_info_msg(width, height, self._optics.focal_px(zoom, width), stamp,
                                                self._frame_id))
 
@@ -147,6 +151,7 @@ def main():
         raise ValueError("~status_rate must be > 0, ~image_rate >= 0, 16 <= ~image_width <= camera width")
     driver = make_camera(rospy.get_param("~driver", ""), optics)
     node = CameraNode(driver, optics, roots, image_rate, image_width, status_rate,
-                      rospy.get_param("~frame_id", "camera_optical_frame"))
+                      rospy.get_param("~frame_id", "camera_optical_frame"),
+                      check_quality(rospy.get_param("~stream_jpeg_quality", 80)))
     rospy.on_shutdown(node.shutdown)
     rospy.spin()

@@ -6,13 +6,16 @@ Subscribes:  infrared_cmd (GeneralCmd) -> answers on infrared_ack (GeneralAck), 
              sim only: sim/true_pose, terrace_state, sim/world_state (nodes.sim_view)
 Publishes:   diagnostics (diagnostic_msgs/DiagnosticArray, hardware_id "thermal_imager", ~status_rate Hz)
              thermal/image_raw (sensor_msgs/Image, bgr8 false colour, ~image_rate Hz, only with subscribers)
+             thermal/image_raw/compressed (sensor_msgs/CompressedImage, format "jpeg", ~stream_jpeg_quality,
+             the same frames, only with subscribers)
              thermal/hottest (GeneralTopic, JSON {"x", "y", "temperature"} of the same frame)
 Parameters:  ~driver (sim | isapi | none | vendor plug-in "package.module:Class", required; none = not fitted:
              every command fails "thermal not fitted (driver: none)" and diagnostics report ERROR),
              ~driver_params (dict of keyword arguments for a plug-in, {}),
              ~width, ~height (px, 384, 288), ~roots (under data_root unless absolute, [thermal];
              a root overlapping presets, pictures, tasks ... is refused at start: files.capture_roots),
-             ~measure_box_px (px, 16), ~status_rate (Hz, 1.0), ~image_rate (Hz, 1.0), ~jpeg_quality (90),
+             ~measure_box_px (px, 16), ~status_rate (Hz, 1.0), ~image_rate (Hz, 1.0), ~jpeg_quality (captures, 90),
+             ~stream_jpeg_quality (0..100, 80),
              ~isapi/{host (required for isapi), port (80), user ("admin"), password_file (required for
              isapi: file holding the password, mode 600), channel (2), timeout (s, 2.0),
              picture_timeout (s, 5.0)} (Hikvision thermographic camera, thermal.isapi),
@@ -22,14 +25,14 @@ Parameters:  ~driver (sim | isapi | none | vendor plug-in "package.module:Class"
 import json
 
 import rospy
-from sensor_msgs.msg import Image
 
 from inspection_robot.camera.driver import DeviceHealth
+from inspection_robot.camera.jpeg import check_quality
 from inspection_robot.command import CommandError
 from inspection_robot.msg import GeneralTopic
 from inspection_robot.drivers import SIM, make_driver
 from inspection_robot.ros.diagnostics import DeviceDiagnostics, probe_device
-from inspection_robot.ros.images import bgr_image_msg
+from inspection_robot.ros.images import LiveViewPublisher
 from inspection_robot.ros.node import init_node
 from inspection_robot.ros.twin import CommandTwin
 from inspection_robot.thermal.commands import ThermalCommands
@@ -42,19 +45,19 @@ HARDWARE_ID = "thermal_imager"
 
 
 class InfraredNode(object):
-    def __init__(self, driver, commands, health, status_rate, image_rate):
+    def __init__(self, driver, commands, health, status_rate, image_rate, stream_quality=80):
         self._driver = driver
         self._health = health
         self.commands = commands
         self._diagnostics = DeviceDiagnostics("thermal imager", HARDWARE_ID)
         self._twin = CommandTwin(commands.table, "infrared_control", "infrared_cmd", "infrared_ack", NODE)
         self._timer = rospy.Timer(rospy.Duration(1.0 / status_rate), self._on_status)
-        self._image_pub = rospy.Publisher("thermal/image_raw", Image, queue_size=1)
+        self._live = LiveViewPublisher("thermal/image_raw", stream_quality)
         self._hottest_pub = rospy.Publisher("thermal/hottest", GeneralTopic, queue_size=1)
         self._image_timer = rospy.Timer(rospy.Duration(1.0 / image_rate), self._on_image)
 
     def _on_image(self, _event):
-        if self._image_pub.get_num_connections() == 0 and self._hottest_pub.get_num_connections() == 0:
+        if not self._live.wanted() and self._hottest_pub.get_num_connections() == 0:
             return   # nobody watches: no frame grabbed
         try:
             picture, hottest = self.commands.live_view()
@@ -62,7 +65,7 @@ class InfraredNode(object):
             rospy.logwarn_throttle(10.0, "%s: no live thermal view: %s" % (NODE, err))
             return
         stamp = rospy.Time.now()
-        self._image_pub.publish(bgr_image_msg(picture, stamp, "thermal_imager"))
+        self._live.publish(picture, stamp, "thermal_imager")
         msg = GeneralTopic(sender=NODE, data=json.dumps(hottest, sort_keys=True))
         msg.header.stamp = stamp
         self._hottest_pub.publish(msg)
@@ -108,5 +111,6 @@ def main():
     roots = capture_roots(path_list_param("~roots", ["thermal"], root), root)
     commands = ThermalCommands(driver, roots, health, width, height,
                                int(rospy.get_param("~measure_box_px", 16)), int(rospy.get_param("~jpeg_quality", 90)))
-    InfraredNode(driver, commands, health, status_rate, image_rate)
+    InfraredNode(driver, commands, health, status_rate, image_rate,
+                 check_quality(rospy.get_param("~stream_jpeg_quality", 80)))
     rospy.spin()

@@ -11,11 +11,12 @@ as the robot's own nodes do and misses nothing. In ``--regex`` mode it would onl
 """
 import os
 
+from inspection_robot.camera.jpeg import COMPRESSED_SUFFIX
 from inspection_robot.interface import INTERFACE_TOPICS
 
 # Raw images never go into a bag (about 1 MB each); with record_images they are recorded as the
-# JPEG CompressedImage topics that bag_recorder publishes at ``<topic>/compressed``.
-IMAGE_SUFFIX = "/compressed"
+# JPEG CompressedImage topics the camera and thermal nodes publish at ``<topic>/compressed``.
+IMAGE_SUFFIX = COMPRESSED_SUFFIX
 BAG_SUFFIX = ".bag"
 ACTIVE_SUFFIX = ".bag.active"   # rosbag record's name for the file it is writing
 
@@ -117,22 +118,3 @@ def disk_verdict(free_bytes, min_free_bytes):
     if free_bytes < min_free_bytes:
         return "disk full: %.0f MB free, below the %.0f MB minimum" % (free_bytes / 1e6, min_free_bytes / 1e6)
     return None
-
-
-def compress_image(data, width, height, step, encoding, quality=80):
-    """JPEG bytes of a raw sensor_msgs/Image's fields; RecorderError for an encoding we do not know."""
-    import cv2
-    import numpy as np
-    channels = {"bgr8": 3, "rgb8": 3, "mono8": 1}.get(encoding)
-    if channels is None:
-        raise RecorderError("image encoding %r not supported (bgr8, rgb8, mono8)" % (encoding,))
-    if step < width * channels or len(data) < step * height:
-        raise RecorderError("image of %d bytes is too short for %dx%d step %d" % (len(data), width, height, step))
-    rows = np.frombuffer(bytes(data), np.uint8)[:step * height].reshape(height, step)
-    img = rows[:, :width * channels].reshape(height, width, channels)
-    if encoding == "rgb8":
-        img = img[:, :, ::-1]
-    ok, jpeg = cv2.imencode(".jpg", np.ascontiguousarray(img), [int(cv2.IMWRITE_JPEG_QUALITY), int(quality)])
-    if not ok:
-        raise RecorderError("JPEG encoding failed for a %dx%d %s image" % (width, height, encoding))
-    return jpeg.tobytes()
