@@ -5,8 +5,10 @@ import pytest
 
 from inspection_robot_testing import fixtures as S
 from inspection_robot.inspection.gauge import GaugeScale
-from inspection_robot.inspection.readers import LAMP_CODES, PointerReader, read_lamp, read_switch, \
-    read_thermal_max, switch_patch
+from inspection_robot.inspection.lamp import LAMP_CODES, read_lamp
+from inspection_robot.inspection.pointer import PointerReader
+from inspection_robot.inspection.switch import read_switch, switch_patch
+from inspection_robot.inspection.thermal_max import read_thermal_max
 
 
 def _scene(patch, rng, centre=(200, 150), side=170, yaw=20.0, pitch=-10.0, roll=5.0, **degrade):
@@ -162,15 +164,21 @@ def test_calibrated_pivot_a_few_percent_off_the_hub_reads_within_1_percent(value
             assert reading.confidence >= 50, (off, direction, reading)
 
 
-def test_needle_beyond_the_scale_end_is_uncertain_not_clamped():
+def test_needle_on_its_stop_pin_reads_the_scale_end_and_says_so():
+    """A needle resting 7 deg before the first mark (on its stop pin) reads as the scale's start,
+    one 7 deg past the last mark as its end, confidently, the detail saying where it rests."""
     rng = np.random.default_rng(14)
     drawn = GaugeScale(225, 135, 0.0, 1.6)
     image, quad = _scene(S.draw_gauge_face(drawn, 0.0, 300), rng)
-    calibrated = GaugeScale(232, 135, 0.0, 1.6)     # the needle rests 7 deg before the calibrated start
-    reading = PointerReader().read(image, quad, calibrated)
-    assert reading.value == 0.0
-    assert reading.confidence < 50 and "outside the scale's sweep" in reading.detail["reason"]
-    assert "start" in reading.detail["reason"]
+    reading = PointerReader().read(image, quad, GaugeScale(232, 135, 0.0, 1.6))
+    assert reading.value == 0.0 and reading.confidence >= 50 and reading.detail["reason"] == "", reading
+    assert reading.detail["stop"].startswith("needle at rest below the first mark"), reading.detail
+    image, quad = _scene(S.draw_gauge_face(drawn, 1.6, 300), rng)
+    reading = PointerReader().read(image, quad, GaugeScale(225, 128, 0.0, 1.6))
+    assert reading.value == 1.6 and reading.confidence >= 50 and reading.detail["reason"] == "", reading
+    assert reading.detail["stop"].startswith("needle past the last mark"), reading.detail
+    inside = PointerReader().read(image, quad, drawn)
+    assert "stop" not in inside.detail and drawn.error_percent_fs(inside.value, 1.6) < 1.0, inside
 
 
 @pytest.mark.parametrize("picture,reason", [(np.full((300, 300, 3), 128, np.uint8), "blank"),

@@ -15,7 +15,7 @@ from inspection_robot.inspection.gauge import GaugeScale
 from inspection_robot.inspection.locate import Locator
 from inspection_robot.inspection.preset import load_preset
 from inspection_robot.inspection.reading import ScaleReader
-from inspection_robot.inspection.readers import PointerReader
+from inspection_robot.inspection.pointer import PointerReader
 from inspection_robot.inspection.recorder import record_preset, zoom_ladder
 from inspection_robot.sim.inspection_sim import RenderedHead, world_specs
 from inspection_robot.sim.render import Renderer, ThermalRenderer

@@ -24,8 +24,12 @@ from inspection_robot.inspection.geometry import quad_inside, quad_is_convex, qu
 from inspection_robot.inspection.locate import LocateError, Locator
 from inspection_robot.inspection.looks import combine_looks
 from inspection_robot.inspection.preset import PresetError, load_preset, zoom_picture_name
-from inspection_robot.inspection.readers import PointerReader, Reading, ReadFailed, face_similarity, read_lamp, \
-    read_switch, read_thermal_max
+from inspection_robot.inspection.lamp import read_lamp
+from inspection_robot.inspection.needle import check_face
+from inspection_robot.inspection.pointer import PointerReader
+from inspection_robot.inspection.readers import Reading, ReadFailed
+from inspection_robot.inspection.switch import face_similarity, read_switch
+from inspection_robot.inspection.thermal_max import read_thermal_max
 from inspection_robot.interface import FOREIGN_DETECT_BOTH, FOREIGN_DETECT_FOREIGN, FOREIGN_DETECT_READ
 
 cv2 = lazy_import("cv2")   # on first use: a node registers before its ~360 libraries load
@@ -229,7 +233,7 @@ class ScaleReader(object):
         reference = cv2.imread(preset.picture(0), cv2.IMREAD_COLOR) if 0 in target.boxes else None
         if reference is None:
             return
-        PointerReader.check_face(rectify(image, quad, 128))
+        check_face(rectify(image, quad, 128))
         similarity = face_similarity(image, quad, reference, target.boxes[0])
         if similarity < MIN_FACE_SIMILARITY:
             raise ReadFailed("the box does not show the calibrated gauge (similarity %.2f to the preset's "
