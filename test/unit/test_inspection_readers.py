@@ -310,3 +310,24 @@ def test_pointer_reader_off_centre_pivot(drop):
         reading = reader.read(image, box, scale, centre, radius, aspect, marks=marks)
         assert reading.detail["frame"]["source"] == "marks", reading.detail
         assert scale.error_percent_fs(reading.value, value) < 1.0, (drop, value, reading)
+
+
+def test_box_partly_outside_the_picture():
+    """The box reaches out of the picture (the finder mapped it there): with the dial's pivot and
+    scale arc inside, the needle reads as usual; with part of the arc outside, the reading is
+    uncertain and says so."""
+    rng = np.random.default_rng(19)
+    scale = S.style_scale("classic")
+    for value in (0.2, 0.9, 1.5):
+        image, quad = _scene(S.draw_gauge_face(scale, value, 300), rng, centre=(78, 78), yaw=0.0, pitch=0.0,
+                             roll=0.0)
+        assert quad.min() < 0
+        reading = PointerReader().read(image, quad, scale)
+        assert scale.error_percent_fs(reading.value, value) < 1.0, (value, reading)
+        assert reading.detail["reason"] == "" and reading.detail["dial_outside"] == 0.0, reading.detail
+        assert reading.detail["box_inside"] < 1.0
+        image, quad = _scene(S.draw_gauge_face(scale, value, 300), rng, centre=(40, 150), yaw=0.0, pitch=0.0,
+                             roll=0.0)
+        reading = PointerReader().read(image, quad, scale)
+        assert "partly outside the picture" in reading.detail["reason"], reading.detail
+        assert reading.detail["dial_outside"] > 0.0

@@ -19,8 +19,8 @@ from inspection_robot.lazy import lazy_import
 from inspection_robot.files import PUBLIC_FILE_MODE, FileError, confine_path, write_atomic
 from inspection_robot.command import CommandError
 from inspection_robot.inspection.foreign import detect_foreign
-from inspection_robot.inspection.geometry import quad_inside, quad_is_convex, quads_from_flat, rectify, \
-    transform_quad
+from inspection_robot.inspection.geometry import quad_inside, quad_is_convex, quad_overlap, quads_from_flat, \
+    rectify, transform_quad
 from inspection_robot.inspection.locate import LocateError, Locator
 from inspection_robot.inspection.looks import combine_looks
 from inspection_robot.inspection.preset import PresetError, load_preset, zoom_picture_name
@@ -178,7 +178,7 @@ class ScaleReader(object):
                 if path not in images:
                     images[path] = self._image(path)
                 image = images[path]
-                _check_quad(quad, image.shape, "box %d" % i)
+                _check_quad(quad, image.shape, "box %d" % i, partly_outside=target.kind == "pointer")
                 try:
                     reading = self.read_target(preset, target, image, quad)
                 except ReadFailed as err:
@@ -203,7 +203,7 @@ class ScaleReader(object):
         if path not in images:
             images[path] = self._image(path)
         image = images[path]
-        _check_quad(quad, image.shape, "box in the second look %s" % os.path.basename(path))
+        _check_quad(quad, image.shape, "box in the second look %s" % os.path.basename(path), partly_outside=True)
         try:
             return self.read_target(preset, target, image, quad)
         except ReadFailed as err:
@@ -359,11 +359,18 @@ def _full_quad(image):
     return [[0, 0], [w - 1, 0], [w - 1, h - 1], [0, h - 1]]
 
 
-def _check_quad(quad, shape, what):
+def _check_quad(quad, shape, what, partly_outside=False):
+    """ReadError for a box that is not a convex quad or not inside the picture. ``partly_outside``
+    (a pointer's box): a box reaching out of the picture is read when part of it is inside; the
+    pointer reader flags the reading when the dial's pivot or scale arc is not (docs/interface.md,
+    read_scale, "A box partly outside the picture")."""
     if not quad_is_convex(quad):
         raise ReadError("%s is not a convex TL,TR,BR,BL quad" % what)
-    if not quad_inside(quad, shape[1], shape[0]):
-        raise ReadError("%s lies outside the %dx%d picture" % (what, shape[1], shape[0]))
+    if quad_inside(quad, shape[1], shape[0]):
+        return
+    if partly_outside and quad_overlap(quad, shape[1], shape[0]) > 0.0:
+        return
+    raise ReadError("%s lies outside the %dx%d picture" % (what, shape[1], shape[0]))
 
 
 def _to_u8(frame):
