@@ -192,8 +192,11 @@ class ScaleReader(object):
             outcome.possibility.append(round(float(reading.confidence), 1))
             why = reading.detail.get("reason", "") if target.kind == "pointer" else ""
             outcome.uncertain.append(why)
-            _annotate(annotated, draw_quad, "%s %s %.4g (%d%%)%s" % (target.kind, target.name, reading.value,
-                                                                     reading.confidence, " uncertain" if why else ""))
+            # a needle on its stop pin reads the scale's end: the picture says so (pointer.py, step 4)
+            stop = (reading.detail or {}).get("stop", "").split(" (")[0] if target.kind == "pointer" else ""
+            _annotate(annotated, draw_quad, "%s %s %.4g (%d%%)%s%s" % (
+                target.kind, target.name, reading.value, reading.confidence, " uncertain" if why else "",
+                ", " + stop if stop else ""))
             outcome.picture_path.append(_save(annotated, out_dir, "%s_read_%02d.jpg" % (stamp, i)))
 
     def _second_look(self, preset, target, path, quad, images):
