@@ -234,7 +234,7 @@ class NeedleFinder(object):
         points, weights = [], []
         for k in range(lo, hi):
             column = dist[idx, k] if like is None else dist[idx, k] * like[idx, k]
-            w = np.clip(column - 0.5 * (column.max() + np.median(dist[:, k])), 0.0, None)
+            w = _run_about(np.clip(column - 0.5 * (column.max() + np.median(dist[:, k])), 0.0, None), i - idx[0])
             if w.sum() <= 0:
                 continue
             theta = math.radians(float((w * angles[idx]).sum() / w.sum()))
@@ -244,11 +244,14 @@ class NeedleFinder(object):
         if len(points) < 4:
             return None
         pts, w = np.array(points), np.array(weights)
-        mean = (pts * w[:, None]).sum(axis=0) / w.sum()
-        d = pts - mean
-        cov = (d * w[:, None]).T.dot(d)
-        _, vectors = np.linalg.eigh(cov)
-        u = vectors[:, -1]
+        mean, u = _weighted_line(pts, w)
+        # a numeral or tick touching the needle shifts the centroid at the radii it covers: those
+        # points lie off the line the others agree on (beyond 3 robust deviations, at least a
+        # pixel), and are left out of a second fit
+        off = np.abs((pts - mean).dot(np.array([-u[1], u[0]])))
+        keep = off <= max(1.0, 3.0 * 1.4826 * float(np.median(off)))
+        if 4 <= keep.sum() < len(pts):
+            mean, u = _weighted_line(pts[keep], w[keep])
         if np.dot(u, pts[-1] - pts[0]) < 0:
             u = -u
         return mean, u
@@ -282,3 +285,28 @@ class NeedleFinder(object):
             if all(line is not None for line in lines):
                 return lines
         return None
+
+
+def _run_about(weights, j):
+    """``weights`` kept only on the contiguous run of positive samples at or nearest index ``j``
+    (the needle's direction): a numeral or tick beside the needle, separated from it by face,
+    does not pull the needle's centroid."""
+    positive = np.flatnonzero(weights > 0)
+    if not len(positive):
+        return weights
+    start = stop = int(positive[np.argmin(np.abs(positive - j))])
+    while start > 0 and weights[start - 1] > 0:
+        start -= 1
+    while stop + 1 < len(weights) and weights[stop + 1] > 0:
+        stop += 1
+    out = np.zeros_like(weights)
+    out[start:stop + 1] = weights[start:stop + 1]
+    return out
+
+
+def _weighted_line(pts, w):
+    """(weighted mean, unit direction of the principal axis) of points ``pts`` with weights ``w``."""
+    mean = (pts * w[:, None]).sum(axis=0) / w.sum()
+    d = pts - mean
+    _, vectors = np.linalg.eigh((d * w[:, None]).T.dot(d))
+    return mean, vectors[:, -1]

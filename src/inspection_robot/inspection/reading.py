@@ -264,7 +264,7 @@ class ScaleReader(object):
                 if reference is None:
                     continue
                 try:
-                    located = self.locator.locate(reference, image, [_full_quad(reference)])
+                    located = self.locator.locate(reference, image, [_full_quad(reference)], align=False)
                 except LocateError:
                     continue
                 if best is None or located.inliers > best[1].inliers:
