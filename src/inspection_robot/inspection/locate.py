@@ -42,12 +42,14 @@ class Locator(object):
     def __init__(self, detector="akaze", max_side=960, ratio=0.8, ransac_px=3.0, min_inliers=12,
                  local_radius=2.5, align=True, align_side=600, align_max_px=0.05, align_mask=0.6):
         """``max_side``: longest side (px) pictures are reduced to for matching; ``local_radius``:
-        matches within this many box sizes of a box refine that box's homography; ``align``: align
-        each box at full resolution (ECC, on a region 1.5 box sizes wide, reduced to
-        ``align_side`` px at most), a correction moving a corner by more than ``align_max_px`` box
-        sizes being refused as a misalignment, the middle ``align_mask`` of the box left out (what
-        changes by design). Chosen on the real set's tuning part and the simulated yard: without
-        the mask the moving needle pulls the alignment on large dials."""
+        matches within this many box sizes of a box refine that box's homography; ``align``: when
+        the pictures were matched at a reduced size, align each box at full resolution (ECC, on a
+        region 1.5 box sizes wide, reduced to ``align_side`` px at most), a correction moving a
+        corner by more than three matching pixels or ``align_max_px`` box sizes being refused as a
+        misalignment, the middle ``align_mask`` of the box left out (what changes by design).
+        Chosen on the real set's tuning part and the simulated yard: without the mask the moving
+        needle pulls the alignment on large dials; on pictures matched at full size it buys
+        nothing and can slip (the bench's world cases at 800 px)."""
         self.align = align
         self.align_side = align_side
         self.align_max_px = align_max_px
@@ -110,8 +112,9 @@ class Locator(object):
         out, confidences = [], []
         for quad in quads:
             mapped, box_inliers = self._refine(np.asarray(quad, np.float64), src, dst, matrix, inliers)
-            if self.align if align is None else align:
-                mapped = self._align(ref.gray, new.gray, np.asarray(quad, np.float64), mapped)
+            coarse = 1.0 / min(ref.scale, new.scale)     # one matching pixel, in picture pixels
+            if (self.align if align is None else align) and coarse > 1.0:
+                mapped = self._align(ref.gray, new.gray, np.asarray(quad, np.float64), mapped, 3.0 * coarse)
             if not quad_is_convex(mapped):
                 raise LocateError("target box maps to a degenerate shape")
             out.append(mapped)
@@ -138,12 +141,14 @@ class Locator(object):
             return mapped, inliers
         return mapped + np.median(residual[agree], axis=0), max(inliers, int(agree.sum()))
 
-    def _align(self, ref_gray, new_gray, quad, mapped):
+    def _align(self, ref_gray, new_gray, quad, mapped, max_move):
         """``mapped`` corrected by the affine map that best aligns (ECC: zero-mean normalised, so a
         change of lighting does not matter) the reference's region about ``quad``, warped into the
         new picture through ``quad`` -> ``mapped``, with the new picture's region about ``mapped``.
         The box's middle, where the target changes (a needle), is left out. ``mapped`` unchanged
-        when the alignment does not converge or moves a corner too far."""
+        when the alignment does not converge or moves a corner farther than ``max_move`` px (three
+        matching pixels: what the matching at reduced size can have missed) or ``align_max_px``
+        box sizes."""
         size = max(np.ptp(mapped[:, 0]), np.ptp(mapped[:, 1]))
         height, width = new_gray.shape[:2]
         c = quad_center(mapped)
@@ -173,7 +178,7 @@ class Locator(object):
         # template pixel x (the box as mapped, in the crop) lies at warp·x in the new picture's crop
         correction = np.linalg.inv(to_crop).dot(np.vstack([warp, [0.0, 0.0, 1.0]])).dot(to_crop)
         aligned = transform_quad(correction, mapped)
-        if np.max(np.hypot(*(aligned - mapped).T)) > self.align_max_px * size:
+        if np.max(np.hypot(*(aligned - mapped).T)) > min(max_move, self.align_max_px * size):
             return mapped
         return aligned
 
