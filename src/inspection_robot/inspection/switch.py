@@ -12,6 +12,8 @@ SWITCH_SIZE = 64
 
 
 def edge_signature(gray):
+    """The smoothed gradient magnitude, zero-mean and unit-norm: the dot product of two is their
+    correlation, whatever the lighting's gain and offset."""
     gray = cv2.GaussianBlur(gray, (3, 3), 0).astype(np.float32)
     gx = cv2.Sobel(gray, cv2.CV_32F, 1, 0)
     gy = cv2.Sobel(gray, cv2.CV_32F, 0, 1)
