@@ -20,8 +20,7 @@ reversed or non-linear scales, obliques), a reliability curve (accuracy per conf
 pictures that are not a gauge, which must fail. BENCH_REAL_DIAL_AXES=1 uses the hand-fitted dial
 ellipses (an oracle, off by default), BENCH_REAL_BOX=label places cross boxes from the labels (a
 perfect finder), BENCH_REAL_CENTRE_OFF=f calibrates the centre f tick radii off the labelled pivot
-(a dial's centre clicked as the pivot), BENCH_REAL_HUB=0 reads without the hub search,
-BENCH_REAL_VERBOSE=1 prints every photo's result.
+(a dial's centre clicked as the pivot), BENCH_REAL_VERBOSE=1 prints every photo's result.
 
 Field part (when ``<data_root>/corrections/`` holds files, BENCH_CORRECTIONS_DIR overrides the
 folder): every uncertain patrol reading an operator confirmed or corrected (task_manager's
@@ -46,7 +45,8 @@ import numpy as np
 from inspection_robot_testing import fixtures as S
 from inspection_robot.inspection.geometry import quad_iou, transform_quad
 from inspection_robot.inspection.locate import LocateError, Locator
-from inspection_robot.inspection.readers import PointerReader, ReadFailed
+from inspection_robot.inspection.pointer import PointerReader
+from inspection_robot.inspection.readers import ReadFailed
 
 import real_set   # bench/real_set.py: the real set's split and protocol
 
@@ -62,8 +62,6 @@ USE_MARKS = os.environ.get("BENCH_REAL_MARKS", "1") != "0"
 # scale's middle (where a dial's centre lies from a pivot below it), the marks' angles measured
 # about that centre, as a calibration of an off-centre-pivot gauge made at the dial's centre is
 CENTRE_OFF = float(os.environ.get("BENCH_REAL_CENTRE_OFF", "0"))
-# 0: the reader does not look for the hub in the picture (PointerReader(find_hubs=False))
-FIND_HUBS = os.environ.get("BENCH_REAL_HUB", "1") != "0"
 # "find": a cross-protocol photo's box is located by feature matching (the robot's path); "label": moved
 # onto its labelled pivot and radius (a finder that is never wrong, to tell finder from reader errors)
 BOX_SOURCE = os.environ.get("BENCH_REAL_BOX", "find")
@@ -267,7 +265,7 @@ def real_cases(photo_dir, tmp):
     by_id = dict((p["id"], p) for p in doc["photos"])
     found = dict((os.path.splitext(n)[0], os.path.join(photo_dir, n)) for n in os.listdir(photo_dir))
     reader = ScaleReader([tmp], [tmp, photo_dir], os.path.join(tmp, "results"),
-                         pointer=PointerReader(find_hubs=FIND_HUBS))
+                         pointer=PointerReader())
     locator = Locator(FIND_DETECTOR)
     out = []
     for label in doc["photos"] + doc["negatives"]:

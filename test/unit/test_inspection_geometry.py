@@ -23,3 +23,10 @@ def test_inside_convex_iou():
     assert not quad_is_convex(square[[0, 2, 1, 3]])
     assert quad_iou(square, square) == pytest.approx(1.0)
     assert quad_iou(square, square + [5, 0]) == pytest.approx(1.0 / 3.0, abs=1e-6)
+
+
+def test_quad_overlap_is_the_share_inside_the_picture():
+    from inspection_robot.inspection.geometry import quad_overlap
+    assert quad_overlap([[10, 10], [50, 10], [50, 50], [10, 50]], 100, 100) == pytest.approx(1.0)
+    assert quad_overlap([[-40, 10], [40, 10], [40, 50], [-40, 50]], 100, 100) == pytest.approx(0.5, abs=0.02)
+    assert quad_overlap([[200, 10], [240, 10], [240, 50], [200, 50]], 100, 100) == 0.0

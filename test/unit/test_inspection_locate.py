@@ -6,7 +6,7 @@ import pytest
 from inspection_robot_testing import fixtures as S
 from inspection_robot.inspection.geometry import quad_iou, transform_quad
 from inspection_robot.inspection.locate import LocateError, Locator
-from inspection_robot.inspection.readers import PointerReader
+from inspection_robot.inspection.pointer import PointerReader
 
 W, H = 640, 360
 

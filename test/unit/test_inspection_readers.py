@@ -5,8 +5,10 @@ import pytest
 
 from inspection_robot_testing import fixtures as S
 from inspection_robot.inspection.gauge import GaugeScale
-from inspection_robot.inspection.readers import LAMP_CODES, PointerReader, read_lamp, read_switch, \
-    read_thermal_max, switch_patch
+from inspection_robot.inspection.lamp import LAMP_CODES, read_lamp
+from inspection_robot.inspection.pointer import PointerReader
+from inspection_robot.inspection.switch import read_switch, switch_patch
+from inspection_robot.inspection.thermal_max import read_thermal_max
 
 
 def _scene(patch, rng, centre=(200, 150), side=170, yaw=20.0, pitch=-10.0, roll=5.0, **degrade):
@@ -162,15 +164,21 @@ def test_calibrated_pivot_a_few_percent_off_the_hub_reads_within_1_percent(value
             assert reading.confidence >= 50, (off, direction, reading)
 
 
-def test_needle_beyond_the_scale_end_is_uncertain_not_clamped():
+def test_needle_on_its_stop_pin_reads_the_scale_end_and_says_so():
+    """A needle resting 7 deg before the first mark (on its stop pin) reads as the scale's start,
+    one 7 deg past the last mark as its end, confidently, the detail saying where it rests."""
     rng = np.random.default_rng(14)
     drawn = GaugeScale(225, 135, 0.0, 1.6)
     image, quad = _scene(S.draw_gauge_face(drawn, 0.0, 300), rng)
-    calibrated = GaugeScale(232, 135, 0.0, 1.6)     # the needle rests 7 deg before the calibrated start
-    reading = PointerReader().read(image, quad, calibrated)
-    assert reading.value == 0.0
-    assert reading.confidence < 50 and "outside the scale's sweep" in reading.detail["reason"]
-    assert "start" in reading.detail["reason"]
+    reading = PointerReader().read(image, quad, GaugeScale(232, 135, 0.0, 1.6))
+    assert reading.value == 0.0 and reading.confidence >= 50 and reading.detail["reason"] == "", reading
+    assert reading.detail["stop"].startswith("needle at rest below the first mark"), reading.detail
+    image, quad = _scene(S.draw_gauge_face(drawn, 1.6, 300), rng)
+    reading = PointerReader().read(image, quad, GaugeScale(225, 128, 0.0, 1.6))
+    assert reading.value == 1.6 and reading.confidence >= 50 and reading.detail["reason"] == "", reading
+    assert reading.detail["stop"].startswith("needle past the last mark"), reading.detail
+    inside = PointerReader().read(image, quad, drawn)
+    assert "stop" not in inside.detail and drawn.error_percent_fs(inside.value, 1.6) < 1.0, inside
 
 
 @pytest.mark.parametrize("picture,reason", [(np.full((300, 300, 3), 128, np.uint8), "blank"),
@@ -302,3 +310,24 @@ def test_pointer_reader_off_centre_pivot(drop):
         reading = reader.read(image, box, scale, centre, radius, aspect, marks=marks)
         assert reading.detail["frame"]["source"] == "marks", reading.detail
         assert scale.error_percent_fs(reading.value, value) < 1.0, (drop, value, reading)
+
+
+def test_box_partly_outside_the_picture():
+    """The box reaches out of the picture (the finder mapped it there): with the dial's pivot and
+    scale arc inside, the needle reads as usual; with part of the arc outside, the reading is
+    uncertain and says so."""
+    rng = np.random.default_rng(19)
+    scale = S.style_scale("classic")
+    for value in (0.2, 0.9, 1.5):
+        image, quad = _scene(S.draw_gauge_face(scale, value, 300), rng, centre=(78, 78), yaw=0.0, pitch=0.0,
+                             roll=0.0)
+        assert quad.min() < 0
+        reading = PointerReader().read(image, quad, scale)
+        assert scale.error_percent_fs(reading.value, value) < 1.0, (value, reading)
+        assert reading.detail["reason"] == "" and reading.detail["dial_outside"] == 0.0, reading.detail
+        assert reading.detail["box_inside"] < 1.0
+        image, quad = _scene(S.draw_gauge_face(scale, value, 300), rng, centre=(40, 150), yaw=0.0, pitch=0.0,
+                             roll=0.0)
+        reading = PointerReader().read(image, quad, scale)
+        assert "partly outside the picture" in reading.detail["reason"], reading.detail
+        assert reading.detail["dial_outside"] > 0.0

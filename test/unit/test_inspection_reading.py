@@ -234,3 +234,31 @@ def test_colour_hints_round_trip_and_old_calibrations_load(setup):
     assert (section["pointer_colour"], section["ignore_colour"]) == ("dark", "red")
     again = Target.from_section(dict((k, str(v)) for k, v in section.items()), old.boxes)
     assert again.params["ignore_colour"] == "red"
+
+
+def test_only_a_pointer_box_may_reach_out_of_the_picture():
+    """A pointer's box partly outside the picture is read (the reader judges the dial inside it);
+    a lamp's or switch's box, or a box wholly outside, is refused."""
+    from inspection_robot.inspection.reading import _check_quad
+    quad = np.array([[-20.0, 10.0], [100.0, 10.0], [100.0, 130.0], [-20.0, 130.0]])
+    _check_quad(quad, (270, 480, 3), "box 0", partly_outside=True)
+    with pytest.raises(ReadError) as err:
+        _check_quad(quad, (270, 480, 3), "box 1")
+    assert "box 1 lies outside the 480x270 picture" in str(err.value)
+    with pytest.raises(ReadError):
+        _check_quad(quad + 1000.0, (270, 480, 3), "box 0", partly_outside=True)
+
+
+def test_the_finder_accepts_a_pointer_box_reaching_out_when_its_dial_is_inside():
+    from types import SimpleNamespace
+    from inspection_robot.inspection.finder import readable_in
+    from inspection_robot.inspection.gauge import GaugeScale
+    pointer = SimpleNamespace(kind="pointer", params={"centre": (0.5, 0.5), "radius": 0.45, "aspect": 1.0},
+                              scale=GaugeScale(225, 135, 0.0, 1.6))
+    lamp = SimpleNamespace(kind="lamp", params={}, scale=None)
+    corner_out = np.array([[-10.0, -10.0], [160.0, -10.0], [160.0, 160.0], [-10.0, 160.0]])  # the dial inside
+    arc_out = corner_out - [60.0, 0.0]                                                        # part of the arc out
+    assert readable_in(pointer, corner_out, (270, 480, 3))
+    assert not readable_in(lamp, corner_out, (270, 480, 3))
+    assert not readable_in(pointer, arc_out, (270, 480, 3))
+    assert readable_in(lamp, corner_out + 20.0, (270, 480, 3))

@@ -15,7 +15,7 @@ from inspection_robot.inspection.gauge import GaugeScale
 from inspection_robot.inspection.locate import Locator
 from inspection_robot.inspection.preset import load_preset
 from inspection_robot.inspection.reading import ScaleReader
-from inspection_robot.inspection.readers import PointerReader
+from inspection_robot.inspection.pointer import PointerReader
 from inspection_robot.inspection.recorder import record_preset, zoom_ladder
 from inspection_robot.sim.inspection_sim import RenderedHead, world_specs
 from inspection_robot.sim.render import Renderer, ThermalRenderer
@@ -157,3 +157,73 @@ def test_red_needle_beside_a_white_number_reads_its_own_line(yard, shift, turn_d
         face.set_value(state)
     assert scale.error_percent_fs(reading.value, truth) < 0.5, reading
     assert reading.confidence >= 80, reading
+
+
+def _panel_preset(tmp_path, world):
+    """patrol_sim's cabinet_1 preset (inspection_robot_testing.yard_patrol.YARD_STOPS): the stop's
+    pose, aimed 1.55 m high from 3 m, zoom 2, the simulator's 1920x1080 camera; calibrated from
+    ground truth."""
+    optics = ZoomOptics(yaml.safe_load(open(os.path.join(ROOT, "config", "camera_optics.yaml")))
+                        ["camera_optics"]["zoom_hfov_deg"], 1920, 1080)
+    stop = (20.0, 21.4, math.pi / 2)
+    tilt = math.degrees(math.atan2(world.sensor_height - 1.55, 3.0))
+    head = RenderedHead(Renderer(world, seed=0), optics, stop, world.sensor_height, 1920, 1080)
+    head.set_angles(0.0, tilt)
+    head.set_zoom(2.0)
+    path = record_preset(head, str(tmp_path), "cabinet_1", "20260101_000000",
+                         {"pan_deg": 0.0, "tilt_deg": tilt, "zoom": 2.0, "pose": stop}, min_zoom=optics.min_zoom)
+    calibrate(path, world_specs(world, head), optics)
+    return path, optics, stop
+
+
+def test_panel_meters_read_within_half_a_percent_after_the_patrol_stop(tmp_path):
+    """issue 26.6: patrol_sim read cabinet_1/voltmeter 10.36 kV for 10.5 (1.1 % FS). On a 90 deg
+    panel meter 1 % FS is 0.9 deg: the numeral "10" beside the needle pulled its line (0.5 % FS
+    low on average), and the box matched at half the picture's size was 1-3 px off (up to 1 %
+    FS). Back at the stop 0.15 m / 3 deg off, found and read with two looks as a patrol does,
+    both panel meters read within 0.5 % FS (before: 39 of 80 such reads beyond it)."""
+    from inspection_robot.inspection.reading import request_filenames
+    world = World.load(os.path.join(ROOT, "config", "sim_world.yaml"))
+    path, optics, stop = _panel_preset(tmp_path, world)
+    preset = load_preset(path)
+    reader = ScaleReader([str(tmp_path)], [str(tmp_path)], str(tmp_path / "out"))
+    rng = np.random.default_rng(26)
+    worst = (0.0, None)
+    for k in range(8):
+        back = (stop[0] + rng.uniform(-0.15, 0.15), stop[1] + rng.uniform(-0.15, 0.15),
+                stop[2] + math.radians(rng.uniform(-3.0, 3.0)))
+        head = RenderedHead(Renderer(world, seed=100 + k), optics, back, world.sensor_height, 1920, 1080)
+        found = Finder(head, optics, Locator("orb"), str(tmp_path / "pic"), max_moves=3).find(
+            preset, "find_scale", math.degrees(stop[2] - back[2]), "20260102_%06d" % k, cv2.imread)
+        out = reader.read(path, 0, request_filenames(found.filename, "", found.second_filename), [],
+                          found.roi_vertex, [], "20260102_%06d" % k)
+        for target, value, why in zip(preset.targets, out.scale, out.uncertain):
+            face = world.faces[target.name]
+            if face.type == "gauge":
+                assert why == "", (target.name, why)
+                error = 100.0 * abs(value - face.value) / (face.range[1] - face.range[0])
+                worst = max(worst, (error, (target.name, k, value, face.value)))
+    assert worst[0] < 0.5, worst
+
+
+def test_a_numeral_beside_the_needle_does_not_pull_its_line():
+    """The voltmeter's face painted frontally at 400 px, the needle swept across its numerals
+    (black on white, like the needle: colour cannot tell them apart): the centroid at each radius
+    follows only the needle's own run of pixels and the line drops the radii a numeral shifts,
+    so every reading stays within 0.6 % FS (before: up to 1.3 % FS beside a numeral)."""
+    from inspection_robot.sim.faces import paint_face
+    world = World.load(os.path.join(ROOT, "config", "sim_world.yaml"))
+    face = world.faces["cabinet_1/voltmeter"]
+    low, high = face.range
+    scale = GaugeScale(face.start_angle, face.end_angle, low, high)
+    fx, fy, radius_m = face.dial_layout()
+    reader, worst = PointerReader(), (0.0, None)
+    for value in np.linspace(low + 0.02 * (high - low), high - 0.02 * (high - low), 25):
+        face.set_value(float(value))
+        image = paint_face(face, 400)
+        h, w = image.shape[:2]
+        quad = np.array([[-0.5, -0.5], [w - 0.5, -0.5], [w - 0.5, h - 0.5], [-0.5, h - 0.5]])   # pixel edges
+        reading = reader.read(image, quad, scale, (fx, fy), radius_m / face.quad.width,
+                              face.quad.width / face.quad.height)
+        worst = max(worst, (scale.error_percent_fs(reading.value, value), value, reading.value))
+    assert worst[0] < 0.6, worst

@@ -19,8 +19,6 @@ GENPY_API = {"_type", "_md5sum", "_full_text", "_has_header", "_slot_types", "_r
 NAMEDTUPLE_API = {"_replace", "_asdict", "_fields", "_make"}   # collections.namedtuple's public methods
 # (module, expression): this package's own classes, used by a sibling in the same module.
 OWN = {
-    (os.path.join("inspection", "readers.py"), "self._outer_reader._read_band"):
-        "PointerReader asks its outer-band PointerReader for the same band read",
     (os.path.join("sim", "render.py"), "painter._SCALE"): "sim/render.py's own painter module's fixed-point scale",
 }
 ACCESSORS = {"getattr", "setattr", "hasattr", "delattr"}

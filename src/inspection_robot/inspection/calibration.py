@@ -18,7 +18,10 @@ from inspection_robot.files import DirUpdate, write_atomic, write_json_atomic
 from inspection_robot.inspection import calibration_schema as schema
 from inspection_robot.inspection.preset import (TARGET_KINDS, PresetError, Target, load_info, write_calibration,
                                                 zoom_picture_name)
-from inspection_robot.inspection.readers import PointerReader, ReadFailed, lamp_patch, switch_patch
+from inspection_robot.inspection.lamp import lamp_patch
+from inspection_robot.inspection.pointer import PointerReader
+from inspection_robot.inspection.readers import ReadFailed
+from inspection_robot.inspection.switch import switch_patch
 from inspection_robot.inspection.reading import read_pointer
 
 cv2 = lazy_import("cv2")   # on first use: a node registers before its ~360 libraries load

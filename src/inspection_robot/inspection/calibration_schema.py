@@ -26,7 +26,8 @@ import numpy as np
 
 from inspection_robot.inspection.gauge import GaugeScale
 from inspection_robot.inspection.geometry import quad_inside, quad_is_convex
-from inspection_robot.inspection.readers import LAMP_COLOURS, POINTER_COLOURS
+from inspection_robot.inspection.lamp import LAMP_COLOURS
+from inspection_robot.inspection.needle import POINTER_COLOURS
 
 TARGET_KINDS = ("pointer", "lamp", "switch", "thermal")
 MAX_ABS_VALUE = 1e9          # a reading (start/end value, scale_table and marks values, normal band)

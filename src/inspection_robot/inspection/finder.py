@@ -9,8 +9,9 @@ with the simulated renderer). Steps for find_scale | find_foreign | find_both:
    and locate every target against zoom0.jpg; if that fails, step out through the wider
    reference pictures (zoom1.jpg ...) until one matches and aim the head at the targets from it;
 3. while the targets sit farther than ``centre_tolerance`` (fraction of the picture) from where
-   they were in the reference, turn the head by the pixel offset converted to angles through the
-   field of view, up to ``max_moves`` moves;
+   they were in the reference, or outside the picture (a pointer's box may reach out of it when
+   its dial's pivot and scale arc are inside: readable_in), turn the head by the pixel offset
+   converted to angles through the field of view, up to ``max_moves`` moves;
 4. presets with a pointer target: a second picture at once from the same pose,
    ``zoom0_<stamp>_<xx>_look2.jpg``, for read_scale's second look (inspection.looks);
 5. thermal presets: thermal picture + radiometric frame, boxes moved by the same angles;
@@ -23,6 +24,7 @@ import numpy as np
 
 from inspection_robot.lazy import lazy_import
 from inspection_robot.inspection.gauge import angle_diff
+from inspection_robot.inspection.dial_frame import dial_outside
 from inspection_robot.inspection.geometry import flat_from_quads, quad_center, quad_inside, transform_quad
 from inspection_robot.inspection.locate import LocateError
 from inspection_robot.interface import FIND_GOAL_BOTH, FIND_GOAL_FOREIGN
@@ -81,6 +83,20 @@ class ThermalGeometry(object):
         c_v = np.array([(width - 1) / 2.0, (height - 1) / 2.0])
         c_t = np.array([(self.width - 1) / 2.0, (self.height - 1) / 2.0]) + self.offset
         return c_v + (np.asarray(points, np.float64).reshape(-1, 2) - c_t) * (float(focal_px) / self.focal_px)
+
+
+def readable_in(target, quad, shape):
+    """True when ``target``'s box ``quad`` can be read in a picture of ``shape``: the box inside the
+    picture, or for a pointer its dial's pivot and scale arc inside (the box's corners beyond
+    the dial are only face; docs/interface.md, read_scale, "A box partly outside the picture")."""
+    height, width = shape[:2]
+    if quad_inside(quad, width, height):
+        return True
+    if target.kind != "pointer":
+        return False
+    p = target.params
+    return dial_outside(quad, width, height, p.get("centre", (0.5, 0.5)), p.get("radius", 0.45),
+                        p.get("aspect", 1.0), target.scale) == 0.0
 
 
 class Finder(object):
@@ -152,7 +168,7 @@ class Finder(object):
                 quads = None
                 reason = str(err)
             if quads is not None:
-                inside = all(quad_inside(q, image.shape[1], image.shape[0]) for q in quads)
+                inside = all(readable_in(t, q, image.shape) for t, q in zip(preset.targets, quads))
                 centre = np.mean([quad_center(q) for q in quads], axis=0)
                 offset = np.abs(centre - ref_centre) / [image.shape[1], image.shape[0]]
                 last = (path, quads, image.shape) if inside else last

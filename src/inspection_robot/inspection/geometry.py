@@ -31,6 +31,17 @@ def quad_inside(quad, width, height, margin=0.0):
                 and np.all(q[:, 1] >= -margin) and np.all(q[:, 1] <= height - 1 + margin))
 
 
+def quad_overlap(quad, width, height):
+    """The share (0..1) of a convex quad's area that lies inside a width x height picture."""
+    q = np.asarray(quad, dtype=np.float32)
+    area = abs(cv2.contourArea(q))
+    if area <= 0:
+        return 0.0
+    frame = np.float32([[0, 0], [width - 1, 0], [width - 1, height - 1], [0, height - 1]])
+    inter, _ = cv2.intersectConvexConvex(q, frame)
+    return float(min(1.0, inter / area))
+
+
 def quad_is_convex(quad):
     """True for a non-degenerate convex quad in clockwise (image) order TL, TR, BR, BL."""
     q = np.asarray(quad, dtype=np.float64)

@@ -183,7 +183,7 @@ class Target(object):
     radius (dial radius as a fraction of the box width), aspect (physical width / height of the
     box), start/end angle (deg clockwise from up) and value, unit, scale_table [(value, angle)],
     marks [(value, u, v)] (the scale marks' positions as fractions of the box: the reader fits
-    their ellipse to undo an oblique view and find the pivot, see readers.dial_from_marks),
+    their ellipse to undo an oblique view and find the pivot, see dial_frame.dial_from_marks),
     pointer_colour, ignore_colour. Lamp: colour, optional on_reference and off_reference (patch
     file names). Switch: open_reference, closed_reference (patch file names in the preset
     directory). Thermal: thermal_box (4x2 in the thermal picture). Any kind: normal [low, high].

@@ -19,13 +19,17 @@ from inspection_robot.lazy import lazy_import
 from inspection_robot.files import PUBLIC_FILE_MODE, FileError, confine_path, write_atomic
 from inspection_robot.command import CommandError
 from inspection_robot.inspection.foreign import detect_foreign
-from inspection_robot.inspection.geometry import quad_inside, quad_is_convex, quads_from_flat, rectify, \
-    transform_quad
+from inspection_robot.inspection.geometry import quad_inside, quad_is_convex, quad_overlap, quads_from_flat, \
+    rectify, transform_quad
 from inspection_robot.inspection.locate import LocateError, Locator
 from inspection_robot.inspection.looks import combine_looks
 from inspection_robot.inspection.preset import PresetError, load_preset, zoom_picture_name
-from inspection_robot.inspection.readers import PointerReader, Reading, ReadFailed, face_similarity, read_lamp, \
-    read_switch, read_thermal_max
+from inspection_robot.inspection.lamp import read_lamp
+from inspection_robot.inspection.needle import check_face
+from inspection_robot.inspection.pointer import PointerReader
+from inspection_robot.inspection.readers import Reading, ReadFailed
+from inspection_robot.inspection.switch import face_similarity, read_switch
+from inspection_robot.inspection.thermal_max import read_thermal_max
 from inspection_robot.interface import FOREIGN_DETECT_BOTH, FOREIGN_DETECT_FOREIGN, FOREIGN_DETECT_READ
 
 cv2 = lazy_import("cv2")   # on first use: a node registers before its ~360 libraries load
@@ -174,7 +178,7 @@ class ScaleReader(object):
                 if path not in images:
                     images[path] = self._image(path)
                 image = images[path]
-                _check_quad(quad, image.shape, "box %d" % i)
+                _check_quad(quad, image.shape, "box %d" % i, partly_outside=target.kind == "pointer")
                 try:
                     reading = self.read_target(preset, target, image, quad)
                 except ReadFailed as err:
@@ -188,8 +192,11 @@ class ScaleReader(object):
             outcome.possibility.append(round(float(reading.confidence), 1))
             why = reading.detail.get("reason", "") if target.kind == "pointer" else ""
             outcome.uncertain.append(why)
-            _annotate(annotated, draw_quad, "%s %s %.4g (%d%%)%s" % (target.kind, target.name, reading.value,
-                                                                     reading.confidence, " uncertain" if why else ""))
+            # a needle on its stop pin reads the scale's end: the picture says so (pointer.py, step 4)
+            stop = (reading.detail or {}).get("stop", "").split(" (")[0] if target.kind == "pointer" else ""
+            _annotate(annotated, draw_quad, "%s %s %.4g (%d%%)%s%s" % (
+                target.kind, target.name, reading.value, reading.confidence, " uncertain" if why else "",
+                ", " + stop if stop else ""))
             outcome.picture_path.append(_save(annotated, out_dir, "%s_read_%02d.jpg" % (stamp, i)))
 
     def _second_look(self, preset, target, path, quad, images):
@@ -199,7 +206,7 @@ class ScaleReader(object):
         if path not in images:
             images[path] = self._image(path)
         image = images[path]
-        _check_quad(quad, image.shape, "box in the second look %s" % os.path.basename(path))
+        _check_quad(quad, image.shape, "box in the second look %s" % os.path.basename(path), partly_outside=True)
         try:
             return self.read_target(preset, target, image, quad)
         except ReadFailed as err:
@@ -229,7 +236,7 @@ class ScaleReader(object):
         reference = cv2.imread(preset.picture(0), cv2.IMREAD_COLOR) if 0 in target.boxes else None
         if reference is None:
             return
-        PointerReader.check_face(rectify(image, quad, 128))
+        check_face(rectify(image, quad, 128))
         similarity = face_similarity(image, quad, reference, target.boxes[0])
         if similarity < MIN_FACE_SIMILARITY:
             raise ReadFailed("the box does not show the calibrated gauge (similarity %.2f to the preset's "
@@ -257,7 +264,7 @@ class ScaleReader(object):
                 if reference is None:
                     continue
                 try:
-                    located = self.locator.locate(reference, image, [_full_quad(reference)])
+                    located = self.locator.locate(reference, image, [_full_quad(reference)], align=False)
                 except LocateError:
                     continue
                 if best is None or located.inliers > best[1].inliers:
@@ -355,11 +362,18 @@ def _full_quad(image):
     return [[0, 0], [w - 1, 0], [w - 1, h - 1], [0, h - 1]]
 
 
-def _check_quad(quad, shape, what):
+def _check_quad(quad, shape, what, partly_outside=False):
+    """ReadError for a box that is not a convex quad or not inside the picture. ``partly_outside``
+    (a pointer's box): a box reaching out of the picture is read when part of it is inside; the
+    pointer reader flags the reading when the dial's pivot or scale arc is not (docs/interface.md,
+    read_scale, "A box partly outside the picture")."""
     if not quad_is_convex(quad):
         raise ReadError("%s is not a convex TL,TR,BR,BL quad" % what)
-    if not quad_inside(quad, shape[1], shape[0]):
-        raise ReadError("%s lies outside the %dx%d picture" % (what, shape[1], shape[0]))
+    if quad_inside(quad, shape[1], shape[0]):
+        return
+    if partly_outside and quad_overlap(quad, shape[1], shape[0]) > 0.0:
+        return
+    raise ReadError("%s lies outside the %dx%d picture" % (what, shape[1], shape[0]))
 
 
 def _to_u8(frame):

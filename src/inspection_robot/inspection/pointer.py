@@ -1,0 +1,173 @@
+"""Pointer gauge reader: the needle found (needle), scored (needle_confidence) and mapped on the
+scale (gauge), in the dial's frame (dial_frame).
+
+Steps, each measured on the real set's tuning part (bench/real_set.py; docs/interface.md,
+"Accuracy"), none chosen on the test part:
+1. the dial's frame: the calibrated box, or the frontal frame the scale marks' ellipse gives
+   (dial_frame.dial_from_marks);
+2. the needle in the inner band of the dial (``inner``..``outer`` dial radii): its line read where
+   it meets the scale circle, its confidence from its contrast, the agreement of its inner and
+   outer halves and the margin over the next pointer candidate;
+3. only when that reading is uncertain, the outer band (``outer_band``: a needle hidden near its
+   hub, an SF6 density meter's inner plate) as a second hypothesis. Its value replaces the first
+   one only when the inner band shows no needle at all, or when both agree within
+   ``agree_pct_fs``; otherwise the first value stays, flagged uncertain with both values;
+4. the angle on the scale: a needle resting before the first mark or past the last (on its stop
+   pin, within the search margin) reads as the scale's start or end, said in
+   ``detail["stop"]``;
+5. the dial partly outside the picture: read as it is when its pivot and scale arc are inside,
+   uncertain (confidence scaled by the share seen) otherwise.
+Dropped (no effect on the tuning part, a gross error on unseen meters): the hub search in the
+picture, the re-centring on the needle's line and the hub search along the scale's axis.
+"""
+import math
+
+import numpy as np
+
+from inspection_robot.inspection.dial_frame import dial_from_marks, dial_outside
+from inspection_robot.inspection.needle import ANGLE_STEP_DEG, GAUGE_SIZE, NeedleFinder, meets_circle
+from inspection_robot.inspection.needle_confidence import CLEAR_CONTRAST, UNCERTAIN_BELOW, agreement, \
+    needle_confidence, rival, weak_reason
+from inspection_robot.inspection.readers import Reading, clip_confidence
+
+BAND_AGREE_PCT_FS = 2.0   # the outer band's value within this of the inner band's: the same needle
+
+
+class PointerReader(object):
+    """Reads a pointer gauge in one box (see the module docstring for the steps)."""
+
+    def __init__(self, size=GAUGE_SIZE, inner=0.22, outer=0.72, step_deg=ANGLE_STEP_DEG, background_deg=12.0,
+                 margin_deg=8.0, reach=(0.72, 0.9), uncertain_below=UNCERTAIN_BELOW, outer_band=(0.6, 0.95),
+                 agree_pct_fs=BAND_AGREE_PCT_FS):
+        self.uncertain_below = uncertain_below
+        self.agree_pct_fs = agree_pct_fs
+        self.inner_band = NeedleFinder(size, inner, outer, step_deg, background_deg, margin_deg, reach)
+        self.outer_band = None
+        if outer_band:
+            self.outer_band = NeedleFinder(size, outer_band[0], outer_band[1], step_deg, background_deg, margin_deg,
+                                           (outer_band[1] - 0.05, outer_band[1] + 0.05))
+
+    def needle_angle(self, image, quad, centre=(0.5, 0.5), radius=0.45, aspect=1.0, scale=None,
+                     pointer_colour="", ignore_colour="", finder=None):
+        """Needle angle (deg clockwise from up, about the calibrated centre) in the face's frontal
+        view, a confidence and a detail dict (``reason``: why the confidence is low, "" when it is
+        not). ``finder``: the band to search (the inner one by default).
+
+        From the calibration: ``centre`` (pivot as fractions of the box width, height), ``radius``
+        (dial radius as a fraction of the box width), ``aspect`` (physical width / height of the
+        box, so the frontal view is not stretched), ``scale`` (the search covers its sweep plus
+        the margin; None: all around), colour hints.
+        """
+        finder = finder or self.inner_band
+        face = finder.face(image, quad, centre, radius, aspect)
+        prof = finder.profile(face, finder.search_angles(scale))
+        detail = {"candidates": len(prof.candidates)}
+        if not prof.candidates:
+            detail.update(reason="needle not found", angle=None, contrast_ratio=0.0)
+            return None, 0.0, detail
+        described = finder.describe(prof)
+        pool = finder.ranked(described, pointer_colour, ignore_colour)
+        chosen = pool[0]
+        i = finder.needle_index(prof, chosen["index"])
+        lines = finder.needle_lines(prof, face, i)
+        if lines is None:
+            detail.update(reason="needle not found (no continuous needle along the radius)", angle=None,
+                          contrast_ratio=0.0)
+            return None, 0.0, detail
+        # where the needle's line meets the scale circle: near the tip, so the line's direction
+        # error (a tapered or shadowed needle) hardly matters, and a pivot off the calibrated
+        # centre moves the reading only by the parallax at the scale, not by a ray's full error
+        angle, inner_angle, outer_angle = (meets_circle(line, face.centre, face.ring) for line in lines)
+        contrast, disagreement, confidence = needle_confidence(prof, i, inner_angle, outer_angle)
+        margin, reason = rival(prof, described, pool, i, finder.step_deg, finder.background_deg,
+                               bool(pointer_colour or ignore_colour))
+        confidence *= margin
+        line = lines[0]
+        foot = line[0] + np.dot(np.asarray(face.centre) - line[0], line[1]) * line[1]
+        normal = np.array([-lines[2][1][1], lines[2][1][0]])
+        height, width = face.bgr.shape[:2]
+        detail["pointers"] = [(round(float(prof.angles[d["index"]]) % 360.0, 1), round(d["score"], 1), d["reach"],
+                               d["colour"]) for d in described]
+        detail.update({"angle": angle, "inner_angle": inner_angle, "outer_angle": outer_angle,
+                       "contrast": float(prof.full[i] - prof.base), "contrast_ratio": float(contrast),
+                       "disagreement": disagreement, "candidate_margin": round(margin, 3),
+                       "colour": chosen["colour"], "reach": chosen["reach"],
+                       "needle_width": finder.needle_width(prof, i, face.rad) / face.rad,
+                       "outer_line_miss": float(abs(np.dot(np.asarray(face.centre) - lines[2][0], normal))) / face.rad,
+                       "pivot": (float(foot[0]) / (width - 1), float(foot[1]) / (height - 1)),
+                       "box_inside": round(face.inside, 3)})
+        if confidence < self.uncertain_below and not reason:
+            reason = weak_reason(face.bgr, contrast, disagreement)
+        detail["reason"] = reason
+        return angle, clip_confidence(confidence), detail
+
+    def read(self, image, quad, scale, centre=(0.5, 0.5), radius=0.45, aspect=1.0, pointer_colour="",
+             ignore_colour="", marks=None):
+        """Reading of a pointer gauge; detail["reason"] is non-empty when the reading is uncertain.
+        Raises ReadFailed when no reading is possible. ``marks`` [(value, u, v)] (the scale marks'
+        positions as fractions of the box): when they fit an ellipse well, the dial is read in the
+        frontal frame they give (dial_from_marks)."""
+        frame = dial_from_marks(quad, centre, radius, aspect, marks) if marks else None
+        if frame is not None:
+            quad, scale, centre, radius, aspect = frame.quad, frame.scale, frame.centre, frame.radius, frame.aspect
+        reading = self._read_bands(image, quad, scale, centre, radius, aspect, pointer_colour, ignore_colour)
+        if frame is not None:
+            reading.detail["frame"] = dict(frame.detail, source="marks")
+        elif marks:
+            reading.detail["frame"] = {"source": "calibration"}
+        return self._outside(reading, image, quad, scale, centre, radius, aspect)
+
+    def _outside(self, reading, image, quad, scale, centre, radius, aspect):
+        """The reading of a box partly outside the picture: as it is when the dial's pivot and
+        scale arc are inside (the rest of the box is only face), uncertain otherwise with its
+        confidence scaled by the share of them the picture shows."""
+        if reading.detail.get("box_inside", 1.0) >= 1.0:
+            return reading
+        share = dial_outside(quad, image.shape[1], image.shape[0], centre, radius, aspect, scale)
+        reading.detail["dial_outside"] = round(share, 3)
+        if share <= 0.0:
+            return reading
+        why = "the dial's pivot or scale arc is partly outside the picture (%.0f %%)" % (100.0 * share)
+        own = reading.detail.get("reason", "")
+        reading.detail["reason"] = "%s; %s" % (why, own) if own else why
+        return Reading(reading.value, clip_confidence(reading.confidence * (1.0 - share)), reading.detail)
+
+    def _read_bands(self, image, quad, scale, centre, radius, aspect, pointer_colour, ignore_colour):
+        """The inner band's reading, or the outer band's when the inner one is uncertain and the
+        outer one confident and not contradicting it (see the module docstring, step 3)."""
+        inner = self._read_band(self.inner_band, image, quad, scale, centre, radius, aspect, pointer_colour,
+                                ignore_colour)
+        inner.detail["band"] = "inner"
+        if inner.confidence >= self.uncertain_below or self.outer_band is None:
+            return inner
+        outer = self._read_band(self.outer_band, image, quad, scale, centre, radius, aspect, pointer_colour,
+                                ignore_colour)
+        if outer.confidence < self.uncertain_below:
+            return inner
+        outer.detail["band"] = "outer"
+        if not math.isfinite(inner.value) or inner.detail.get("contrast_ratio", 0.0) < CLEAR_CONTRAST:
+            return outer        # no needle in the inner band: nothing to contradict the outer one
+        apart, agree = agreement(inner.value, outer.value, scale.full_scale, self.agree_pct_fs)
+        outer.detail["bands_apart_pct_fs"] = round(apart, 2)
+        if agree:
+            return outer
+        # two hypotheses for one needle: the first value, flagged, with both
+        inner.detail["bands_apart_pct_fs"] = round(apart, 2)
+        inner.detail["reason"] = "inner and outer bands read %.4g and %.4g (%.1f %% FS apart); %s" % (
+            inner.value, outer.value, apart, inner.detail.get("reason", ""))
+        confidence = inner.confidence * min(1.0, self.agree_pct_fs / apart)
+        return Reading(inner.value, clip_confidence(confidence), inner.detail)
+
+    def _read_band(self, finder, image, quad, scale, centre, radius, aspect, pointer_colour, ignore_colour):
+        angle, confidence, detail = self.needle_angle(image, quad, centre, radius, aspect, scale, pointer_colour,
+                                                      ignore_colour, finder)
+        if angle is None:
+            return Reading(float("nan"), 0.0, detail)
+        if not scale.in_sweep(angle):
+            # before the first mark or past the last (the search reaches margin_deg beyond them):
+            # a needle resting on its stop pin; the scale's end value, said so
+            over = scale.offset(angle) - scale.sweep
+            under = 360.0 - scale.offset(angle)
+            detail["stop"] = ("needle at rest below the first mark (%.1f deg before it)" % under if under < over
+                              else "needle past the last mark (%.1f deg beyond it)" % over)
+        return Reading(scale.value(angle), confidence, detail)
