@@ -1,4 +1,5 @@
-"""Node start-up shared by every node: rospy.init_node behind a guard on inbound TCPROS handshakes.
+"""Node start-up shared by every node: rospy.init_node behind a guard on inbound TCPROS handshakes,
+with rospy's lost-publisher-update race repaired (compat_rospy.merge_publisher_updates says how).
 
 rospy accepts inbound topic and service connections on one thread and reads each connection's
 handshake header there with no timeout (rospy/impl/tcpros_base.py, TCPROSServer). One client
@@ -47,11 +48,14 @@ def renice(niceness):
 
 
 def init_node(name, **kwargs):
-    """rospy.init_node with inbound handshakes bounded (see the module's docstring)."""
+    """rospy.init_node with inbound handshakes bounded and no publisher update lost (see the module's docstring)."""
     guarded = guard_inbound_handshakes()
+    merged = compat_rospy.merge_publisher_updates()
     rospy.init_node(name, **kwargs)
     if not guarded:
         rospy.logwarn("inbound TCPROS handshakes are not bounded: %s", compat_rospy.describe())
+    if not merged:
+        rospy.logwarn("a subscription may miss a publisher that starts with it: %s", compat_rospy.describe())
 
 
 def site_param(name):
