@@ -7,7 +7,12 @@ that connects and then sends nothing, or something that is not TCPROS (an HTTP o
 client on a reused port, a port scanner), blocks that thread forever: the node takes no new
 subscriber and answers no new service call again while it looks alive. The guard bounds the
 handshake with a socket timeout, so such a connection is dropped (one warning from rospy) and the
-next one is served.
+next one is served. The timeout bounds each read, not the whole header: a loaded subscriber whose
+header trickles in is served; one silent for a whole HANDSHAKE_TIMEOUT_S after connecting is
+dropped, and rospy's subscriber does not retry a refused handshake (its connection closes for good
+until the publisher re-registers). No such drop (`Inbound TCP/IP connection failed: timed out`)
+appears in any stored test run; the subscription that did not connect in a failed patrol_sim run
+had not got as far as a handshake (compat_rospy.merge_publisher_updates).
 
 :func:`renice` gives a latency-critical node (the backend link) a larger share of a busy CPU.
 """
