@@ -231,6 +231,7 @@ def test_dock_unreachable_retried_then_alarm_and_voice():
     rig.low_battery_to_approach()
     rig.finish_goal(False, "no path to the goal")
     assert rig.state == m.TO_APPROACH and "retry 1 of 1" in rig.ports.warnings[-1]
+    rig.advance(m.GOAL_RETRY_S)
     rig.finish_goal(False, "no path to the goal")
     assert rig.state == m.FAILED
     reason, clips = rig.ports.alarms[-1]
@@ -413,3 +414,26 @@ def test_relay_closed_away_from_the_dock_is_left_alone():
     rig = Rig()
     rig.battery(quantity=50, relay=True)
     assert rig.state == m.IDLE and not rig.ports.calls
+
+
+def test_a_failed_goal_is_sent_again_only_after_the_retry_delay():
+    """A move_action server not connected yet fails a goal at once: the retries must not all go within ms."""
+    rig = Rig(CONFIG._replace(retries=2))
+    rig.low_battery_to_approach()
+    first = rig.finish_goal(False, "move_action server not available")
+    goals = [c for c in rig.ports.calls if c[0] == "goal"]
+    rig.advance(m.GOAL_RETRY_S - 0.5)
+    assert rig.state == m.TO_APPROACH and [c for c in rig.ports.calls if c[0] == "goal"] == goals
+    assert rig.machine.status()["waiting"] == ("dock unreachable: approach goal failed: move_action server not "
+                                               "available; sending the goal again 3 s after the failure")
+    rig.advance(0.5)
+    retried = rig.ports.last("goal")
+    assert retried[1] != first[1] and retried[2:] == (DOCK.approach, False, False)
+    rig.finish_goal()
+    assert rig.state == m.DOCKING and rig.ports.last("goal")[2:] == (DOCK.pose, True, False), \
+        "the next leg after a success goes at once"
+    rig.finish_goal(False, "docking failed")
+    assert rig.state == m.TO_APPROACH and rig.ports.last("goal")[2] == DOCK.pose, "lines up again, after the delay"
+    rig.advance(m.GOAL_RETRY_S)
+    assert rig.ports.last("goal")[2:] == (DOCK.approach, False, False)
+    assert not rig.ports.alarms and rig.machine.status()["attempts"] == {"approach": 1, "dock": 1}

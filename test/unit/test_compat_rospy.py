@@ -1,7 +1,9 @@
 """compat_rospy: the rospy internals the fast paths rely on are there, and each fallback is the public API."""
 import importlib.metadata
+import threading
 
 import pytest
+from rospy.impl import registration
 
 from inspection_robot.ros import compat_rospy
 
@@ -27,7 +29,7 @@ class FakePublisher(object):
 @pytest.fixture
 def old_rospy(monkeypatch):
     """As if this rospy had none of the expected internals."""
-    for flag in ("HANDSHAKE_GUARD", "FAST_PUBLISH", "DIRECT_WRITE", "QUEUE_DEPTH", "LATCHED_REPLAY"):
+    for flag in ("UPDATE_MERGE", "HANDSHAKE_GUARD", "FAST_PUBLISH", "DIRECT_WRITE", "QUEUE_DEPTH", "LATCHED_REPLAY"):
         monkeypatch.setattr(compat_rospy, flag, False)
 
 
@@ -40,6 +42,7 @@ def test_publish_batch_falls_back_to_publish_per_message(old_rospy):
 def test_the_other_fallbacks_do_nothing_and_say_so(old_rospy):
     assert compat_rospy.write_direct(object(), b"x") is False
     assert compat_rospy.guard_inbound_handshakes(0.3) is False
+    assert compat_rospy.merge_publisher_updates() is False
 
     class Subscriber(object):
         impl = None
@@ -58,3 +61,64 @@ def test_queue_depth_reads_the_longest_queue():
         class impl(object):
             connections = [type("Queued", (), {"_queue": [1, 2, 3]})(), type("Queued", (), {"_queue": [1]})()]
     assert compat_rospy.publisher_queue_depth(Publisher()) == 3
+
+
+class RecordingHandler(object):
+    """The node handler RegManager's thread asks to connect; records what it is asked."""
+
+    def __init__(self):
+        self.done = False
+        self.connects = []
+        self.asked = threading.Condition()
+
+    def _connect_topic(self, topic, uri):
+        with self.asked:
+            self.connects.append((topic, uri))
+            self.asked.notify_all()
+        return 1, "", 0
+
+
+def connects_after_the_race():
+    """What a real RegManager connects to when the master's publisherUpdate [pub] and the subscriber's
+    older registerSubscriber reply [] are both queued, in that order, before its thread runs (it is busy)."""
+    handler = RecordingHandler()
+    manager = registration.RegManager(handler)
+    manager.publisher_update("/move_action/result", ["http://vm:36127/"])  # the master's publisherUpdate
+    manager.publisher_update("/move_action/status", ["http://vm:36127/"])
+    manager.publisher_update("/move_action/result", [])  # registerSubscriber's reply, queued late
+    thread = threading.Thread(target=manager.run, daemon=True)
+    thread.start()
+    with handler.asked:  # the connects come from RegManager's own short-lived threads
+        handler.asked.wait_for(lambda: len(handler.connects) >= 2, timeout=2.0)
+    handler.done = True
+    thread.join(5.0)
+    return sorted(handler.connects)
+
+
+@pytest.fixture
+def restore_publisher_update(monkeypatch):
+    monkeypatch.setattr(registration.RegManager, "publisher_update", registration.RegManager.publisher_update)
+
+
+def test_rospy_alone_drops_the_newer_publisher_list(restore_publisher_update):
+    """The race merge_publisher_updates repairs; when this fails, rospy fixed it and the repair can go."""
+    if getattr(registration.RegManager.publisher_update, "merges", False):
+        pytest.skip("the repair is already applied in this process")
+    assert connects_after_the_race() == [("/move_action/status", "http://vm:36127/")]
+
+
+def test_merged_updates_keep_every_publisher_of_a_topic(restore_publisher_update):
+    assert compat_rospy.merge_publisher_updates() is True
+    assert compat_rospy.merge_publisher_updates() is True  # idempotent
+    assert connects_after_the_race() == [("/move_action/result", "http://vm:36127/"),
+                                         ("/move_action/status", "http://vm:36127/")]
+
+
+def test_merged_updates_keep_one_entry_per_topic_newest_list_first(restore_publisher_update):
+    compat_rospy.merge_publisher_updates()
+    manager = registration.RegManager(RecordingHandler())
+    manager.publisher_update("/a", ["http://one:1/", "http://two:2/"])
+    manager.publisher_update("/b", ["http://one:1/"])
+    manager.publisher_update("/a", ["http://three:3/", "http://two:2/"])
+    assert manager.updates == [("/b", ["http://one:1/"]),
+                               ("/a", ["http://three:3/", "http://two:2/", "http://one:1/"])]

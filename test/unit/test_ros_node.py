@@ -94,3 +94,29 @@ def test_renice_reaches_every_thread_and_the_ones_made_later():
 def test_renice_refuses_an_impossible_niceness():
     with pytest.raises(ValueError):
         node.renice(42)
+
+
+def test_a_slow_but_live_client_is_served_the_bound_is_per_read(monkeypatch):
+    """A loaded subscriber whose header trickles in (each gap below the timeout, all of it above) is
+    still served: the guard drops only a client silent for a whole timeout, and rospy's subscriber
+    would not retry a dropped handshake (ros/node.py)."""
+    monkeypatch.setattr(tcpros_base.TCPROSServer, "_tcp_server_callback", tcpros_base.TCPROSServer._tcp_server_callback)
+    node.guard_inbound_handshakes(timeout_s=0.3)
+    server = Recorder()
+    client, server_side = connect_pair()
+    sink, source = socket.socketpair()  # the header as rospy's own writer serialises it, sent in pieces
+    write_ros_handshake_header(sink, {"topic": "/move_action/result", "callerid": "/charge_control", "md5sum": "*",
+                                      "type": "*"})
+    sink.close()
+    data = b"".join(iter(lambda: source.recv(4096), b""))
+    source.close()
+    done = serve_in_thread(server, server_side)
+    started = time.monotonic()
+    for start in range(0, len(data), len(data) // 4 + 1):
+        time.sleep(0.15)
+        client.sendall(data[start:start + len(data) // 4 + 1])
+    assert done.wait(5.0)
+    assert time.monotonic() - started > 0.3, "the header took longer than one timeout in all"
+    assert server.topics == ["/move_action/result"]
+    client.close()
+    server_side.close()

@@ -13,10 +13,12 @@ One charge cycle (docs/interface.md, "Charging (charge_control)")::
     wait_current --battery b4--> charging --level >= full--> relay_off --light b0 clear-->
     backing_off (backward to the approach pose) --goal ok--> resuming_task --> idle
 
-A failure is retried ``retries`` times (each kind counted separately within a cycle), then the
-cycle stops in ``failed``: the relay is opened, ``ports.alarm`` raises the reason (topic + voice)
-and the patrol stays paused until an operator sends ``dock`` (try again) or ``undock`` (relay
-off, back off if on the dock, resume the patrol). The robot drives only in task mode; in another
+A failure is retried ``retries`` times (each kind counted separately within a cycle; a failed
+goal is sent again only GOAL_RETRY_S later, so a transient fault such as a move_action server
+not connected yet cannot use up every retry at once), then the cycle stops in ``failed``: the
+relay is opened, ``ports.alarm`` raises the reason (topic + voice) and the patrol stays paused
+until an operator sends ``dock`` (try again) or ``undock`` (relay off, back off if on the dock,
+resume the patrol). The robot drives only in task mode; in another
 mode the machine waits and says why in its status. Found idle on the dock with the relay closed
 (charge_control restarted mid-charge) it adopts that charge and finishes the cycle.
 """
@@ -53,6 +55,7 @@ TRIGGER_RECOVERED = "recovered"  # found on the dock with the relay closed (e.g.
 TASK_QUIET_STATES = (TASK_PAUSED, TASK_IDLE) + TASK_ENDED_STATES
 TASK_HOLD = "charge"  # data of task_control pause/resume
 PAUSE_RETRY_S = 1.0   # s between pause requests to a task_manager that does not answer (e.g. respawning)
+GOAL_RETRY_S = 3.0    # s before a failed move_action goal is sent again
 
 # failure kind -> (voice clip, reason format); the reason is the alarm text (docs/interface.md)
 FAILURES = {
@@ -160,6 +163,8 @@ class ChargeMachine(object):
         self._unreachable = ""       # its last error, for the status and the final warning
         self._task_paused = False  # a charge hold is (or may be) in place on task_manager
         self._after_backoff = RESUMING
+        self._goal_at = 0.0        # no goal before this time (a retry's delay)
+        self._retrying = ""        # the failure a delayed goal retries, for the status
         self._attempts = {}
         self._auto = True          # dock by itself on low battery (off after a manual undock)
         self._charging_seen = self._entered
@@ -390,8 +395,10 @@ class ChargeMachine(object):
     def _step_resuming(self, _now, elapsed, _battery):
         return self._timed_out(elapsed, self._config.pause_timeout, "resume", "no reply %.0f s after resume")
 
-    def _step_driving(self, _now, _elapsed, _battery):
-        if self._awaiting is None and self._in_task_mode():
+    def _step_driving(self, now, _elapsed, _battery):
+        if self._awaiting is None and self._in_task_mode() and now < self._goal_at:
+            self.waiting = "%s; sending the goal again %.0f s after the failure" % (self._retrying, GOAL_RETRY_S)
+        elif self._awaiting is None and self._in_task_mode():
             self._send_goal()
         elif not self._in_task_mode():
             self.waiting = "robot_control in %s mode: waiting for task mode" % (self._mode_name(),)
@@ -454,6 +461,7 @@ class ChargeMachine(object):
         self._attempts[kind] = count
         if count <= self._config.retries:
             self._ports.warn("%s; retry %d of %d" % (reason, count, self._config.retries))
+            self._retrying = reason
             self._retry(kind)
             return
         if kind in ("relay_on", "current", "relay_off"):
@@ -466,7 +474,7 @@ class ChargeMachine(object):
         if kind == "pause":
             self._pause()
         elif kind in ("approach", "dock"):
-            self._drive(TO_APPROACH)  # line up again before the precise approach
+            self._drive(TO_APPROACH, GOAL_RETRY_S)  # line up again before the precise approach
         elif kind == "relay_on":
             self._ports.relay(True)
             self._enter(RELAY_ON)
@@ -479,7 +487,7 @@ class ChargeMachine(object):
             self._ports.relay(False)
             self._enter(RELAY_OFF)
         elif kind == "backoff":
-            self._drive(BACKING_OFF)
+            self._drive(BACKING_OFF, GOAL_RETRY_S)
         else:
             self._resume()
 
@@ -494,8 +502,10 @@ class ChargeMachine(object):
         self._publish_status()  # every state shows, even one the next input leaves at once
         self._step()
 
-    def _drive(self, state):
-        self._enter(state)  # _step sends the goal as soon as the robot is in task mode
+    def _drive(self, state, delay=0.0):
+        """Enter a drive state; _step sends its goal once the robot is in task mode and ``delay`` s have passed."""
+        self._goal_at = self._clock() + delay
+        self._enter(state)
 
     def _send_goal(self):
         dock = self._dock

@@ -36,6 +36,7 @@ from inspection_robot.command import failed
 from inspection_robot.interface import ACK_SUCCESS, MOVE_GOAL_TYPE, MOVE_RESULT_SUCCESS, VOICE_LANGUAGES
 from inspection_robot.msg import GeneralAction, GeneralCmd, GeneralGoal, GeneralTopic, RobotStatus, VoiceCmd
 from inspection_robot.nav.goal import move_goal_data
+from inspection_robot.ros.actions import server_unavailable
 from inspection_robot.ros.node import init_node, site_param
 from inspection_robot.ros.twin import CommandTwin
 from inspection_robot.ros.worker import RequestWorker
@@ -43,6 +44,7 @@ from inspection_robot.srv import ControlService
 
 NODE_NAME = "charge_control"
 EVENT_QUEUE = 1000
+SERVER_WAIT_S = 0.05  # s the event thread waits for move_action's server before failing a goal
 
 
 class _LockedTable(object):
@@ -98,8 +100,9 @@ class RosPorts(ChargePorts):
 
     # move_action --------------------------------------------------------------------------------
     def goal(self, token, pose, precision, backward):
-        if not self._move.wait_for_server(rospy.Duration(0.05)):
-            self._events.submit(("move", token, False, "move_action server not available"))
+        # a short wait: this is the event thread; the machine sends a failed goal again GOAL_RETRY_S later
+        if not self._move.wait_for_server(rospy.Duration(SERVER_WAIT_S)):
+            self._events.submit(("move", token, False, server_unavailable("move_action", self._move, SERVER_WAIT_S)))
             return
         approach_speed, dock_speed, yaw_speed = self._speeds
         data = move_goal_data(pose[0], pose[1], pose[2], precision=precision, backward=backward,

@@ -1,11 +1,13 @@
 """The one place that touches rospy's internals (and threading.Condition's, which rospy's writer waits on).
 
-Three fast paths need what rospy keeps private; each is checked once, at import, by reading the
+Two repairs and three fast paths need what rospy keeps private; each is checked once, at import, by reading the
 names rospy's own constructors assign (no object is built, no thread started), and falls back to
 the public API when those names differ (another rospy than Noetic's frozen 1.15):
 
 - :func:`guard_inbound_handshakes`: patches TCPROSServer._tcp_server_callback so one silent
   client cannot block rospy's accept thread (ros/node.py says why). Fallback: rospy unguarded.
+- :func:`merge_publisher_updates`: a subscription that never connects, from a startup race in
+  rospy's RegManager (the function says how). Fallback: rospy as it is.
 - :func:`publish_batch` / :func:`write_direct`: one write per subscriber connection for a burst of
   messages, sent from the caller's thread while the connection's writer idles (the bridge's
   throughput and echo latency). Fallback: Publisher.publish per message. Measured before keeping
@@ -25,7 +27,7 @@ import threading
 
 import rospy
 import rospy.topics
-from rospy.impl import tcpros_base
+from rospy.impl import registration, tcpros_base
 from rospy.impl.tcpros_pubsub import QueuedConnection
 
 DIRECT_WRITE_BYTES = 65536  # largest write sent straight from the caller's thread (write_direct)
@@ -45,7 +47,11 @@ def _check():
     publisher_fields = _assigned(rospy.topics._TopicImpl.__init__) | _assigned(rospy.topics._PublisherImpl.__init__)
     publisher_methods = set(dir(rospy.topics._PublisherImpl))
     queued = _assigned(QueuedConnection.__init__)
+    manager = registration.RegManager
     return {
+        "merge_updates": (_missing("RegManager", ["updates", "cond"], _assigned(manager.__init__))
+                          + _missing("RegManager.run", ["updates", "cond", "pop"], _assigned(manager.run))
+                          + _missing("RegManager", ["publisher_update"], set(dir(manager)))),
         "handshake_guard": _missing("TCPROSServer", ["_tcp_server_callback"], set(dir(tcpros_base.TCPROSServer))),
         "publish_batch": (_missing("_PublisherImpl", ["seq", "connections", "closed", "is_latch", "latch",
                                                       "message_data_sent"], publisher_fields)
@@ -63,6 +69,7 @@ def _check():
 
 _CHECKED = _check()
 MISSING = sorted(name for names in _CHECKED.values() for name in names)
+UPDATE_MERGE = not _CHECKED["merge_updates"]
 HANDSHAKE_GUARD = not _CHECKED["handshake_guard"]
 FAST_PUBLISH = not _CHECKED["publish_batch"]
 DIRECT_WRITE = FAST_PUBLISH and not _CHECKED["write_direct"]
@@ -97,6 +104,43 @@ def guard_inbound_handshakes(timeout_s):
     guarded_callback.unguarded = unguarded
     guarded_callback.timeout_s = timeout_s
     server_class._tcp_server_callback = guarded_callback
+    return True
+
+
+def merge_publisher_updates():
+    """Make rospy keep every publisher it is told of for a topic until it has connected to them
+    (idempotent; before the node's first Subscriber). Returns False (rospy left as it is) when
+    RegManager is not the expected one.
+
+    rospy queues each publisher list it learns for a topic (registerSubscriber's reply, in the
+    thread that makes the Subscriber; the master's publisherUpdate calls, in an XML-RPC thread),
+    and RegManager's thread connects to the *last queued* list, dropping the earlier ones for that
+    topic as stale. Nothing orders the two sources: when a publisher registers while the
+    subscriber registers (every launch: an action server and its clients), the master may send
+    publisherUpdate [pub] before the subscriber's thread has queued registerSubscriber's older
+    reply []. If RegManager's thread is busy meanwhile (connecting the previous topic, on a
+    loaded machine), it finds [pub] then [] pending, keeps [], and the subscription never
+    connects: the master does not tell it again until that topic's publishers change.
+    patrol_sim caught charge_control's /move_action/result so (actionlib then never sees the
+    server). Here a newly queued list is merged with the ones still pending for its topic
+    instead. RegManager only ever connects with these lists (a publisher that left refuses or
+    denies requestTopic, and rospy gives up on it), so keeping an older URI costs at most that.
+    """
+    if not UPDATE_MERGE:
+        return False
+
+    def publisher_update(self, resolved_name, uris):
+        with self.cond:
+            merged = list(uris)
+            for topic, pending in self.updates:
+                if topic == resolved_name:
+                    merged.extend(uri for uri in pending if uri not in merged)
+            self.updates[:] = [update for update in self.updates if update[0] != resolved_name]
+            self.updates.append((resolved_name, merged))
+            self.cond.notify_all()
+    publisher_update.merges = True
+    if not getattr(registration.RegManager.publisher_update, "merges", False):
+        registration.RegManager.publisher_update = publisher_update
     return True
 
 

@@ -1,4 +1,5 @@
-"""Node start-up shared by every node: rospy.init_node behind a guard on inbound TCPROS handshakes.
+"""Node start-up shared by every node: rospy.init_node behind a guard on inbound TCPROS handshakes,
+with rospy's lost-publisher-update race repaired (compat_rospy.merge_publisher_updates says how).
 
 rospy accepts inbound topic and service connections on one thread and reads each connection's
 handshake header there with no timeout (rospy/impl/tcpros_base.py, TCPROSServer). One client
@@ -6,7 +7,12 @@ that connects and then sends nothing, or something that is not TCPROS (an HTTP o
 client on a reused port, a port scanner), blocks that thread forever: the node takes no new
 subscriber and answers no new service call again while it looks alive. The guard bounds the
 handshake with a socket timeout, so such a connection is dropped (one warning from rospy) and the
-next one is served.
+next one is served. The timeout bounds each read, not the whole header: a loaded subscriber whose
+header trickles in is served; one silent for a whole HANDSHAKE_TIMEOUT_S after connecting is
+dropped, and rospy's subscriber does not retry a refused handshake (its connection closes for good
+until the publisher re-registers). No such drop (`Inbound TCP/IP connection failed: timed out`)
+appears in any stored test run; the subscription that did not connect in a failed patrol_sim run
+had not got as far as a handshake (compat_rospy.merge_publisher_updates).
 
 :func:`renice` gives a latency-critical node (the backend link) a larger share of a busy CPU.
 """
@@ -47,11 +53,14 @@ def renice(niceness):
 
 
 def init_node(name, **kwargs):
-    """rospy.init_node with inbound handshakes bounded (see the module's docstring)."""
+    """rospy.init_node with inbound handshakes bounded and no publisher update lost (see the module's docstring)."""
     guarded = guard_inbound_handshakes()
+    merged = compat_rospy.merge_publisher_updates()
     rospy.init_node(name, **kwargs)
     if not guarded:
         rospy.logwarn("inbound TCPROS handshakes are not bounded: %s", compat_rospy.describe())
+    if not merged:
+        rospy.logwarn("a subscription may miss a publisher that starts with it: %s", compat_rospy.describe())
 
 
 def site_param(name):

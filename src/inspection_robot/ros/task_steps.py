@@ -22,12 +22,14 @@ from inspection_robot.inspection.find_goal import find_goal_data, parse_find_res
 from inspection_robot.interface import (ACK_FAILED, ACK_SUCCESS, FIND_GOAL_BOTH, FIND_GOAL_SCALE, FIND_RESULT_SUCCESS,
                                         MOVE_GOAL_TYPE, MOVE_RESULT_SUCCESS)
 from inspection_robot.nav.goal import move_goal_data
+from inspection_robot.ros.actions import server_unavailable
 from inspection_robot.msg import GeneralAction, GeneralGoal, ReadScaleAck, ReadScaleCmd
 from inspection_robot.task.drive_progress import DriveProgress
 from inspection_robot.task.patrol import (OUTCOME_FAILED, OUTCOME_INTERRUPTED, OUTCOME_OK, STEP_INSPECT,
                                           Inspection, turns_to_yaw)
 
 POLL_S = 0.1
+SERVER_WAIT_S = 5.0  # s an action's server has to be connected before a step fails
 FOREIGN_DETECT_BOTH = 2
 
 
@@ -159,8 +161,8 @@ class StepRunner(object):
     # --- shared goal wait ------------------------------------------------------------------------
     def _goal(self, client, name, goal_type, data, timeout, interrupted, feedback=None):
         """The action's result, or (outcome, reason) when it did not finish normally."""
-        if not client.wait_for_server(rospy.Duration(5.0)):
-            return OUTCOME_FAILED, "%s server not available" % name
+        if not client.wait_for_server(rospy.Duration(SERVER_WAIT_S)):
+            return OUTCOME_FAILED, server_unavailable(name, client, SERVER_WAIT_S)
         handle = client.send_goal(GeneralGoal(type=goal_type, data=data), feedback_cb=feedback)
         deadline = time.monotonic() + timeout
         cancelled = None
