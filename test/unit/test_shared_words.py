@@ -41,6 +41,8 @@ COINCIDENCES = {
     ("task/store.py", "alarm"): "a results column name",
     ("nodes/task_manager.py", "read"): "a step timing's name",
     ("task/report.py", "read"): "a summary tile's label (the count of read values)",
+    ("bridge/trace.py", "read"): "the echo trace's first stage (a frame read), not a reading's status",
+    ("bridge/server.py", "read"): "the echo trace's stage name (bridge/trace.py)",
     ("task/report.py", "failed"): "a summary tile's label",
     ("task/report.py", "uncertain"): "a summary line's label",
 }

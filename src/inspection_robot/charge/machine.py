@@ -287,7 +287,9 @@ class ChargeMachine(object):
             "battery": battery.quantity if battery else None,
             "charging": bool(battery and battery.charging),
             "relay": bool(battery and battery.relay),
-            "docked": bool(battery and battery.pose and is_docked(self._dock, battery.pose)),
+            # the contacts touch: charging current proves it; without current the pose decides (a
+            # noisy localizer's single pose can stray past the 3 cm tolerance while the robot charges)
+            "docked": bool(battery and (battery.charging or (battery.pose and is_docked(self._dock, battery.pose)))),
             "waiting": self.waiting,
             "alarm": self.alarm,
             "task_paused": self._task_paused,

@@ -10,7 +10,7 @@ kept in the reading row; rows stored before it have none and are shown with 4 si
 Lamps and switches are state codes and are shown as words (``off``, ``lit red``; ``closed``,
 ``open``), foreign objects as a count.
 """
-from inspection_robot.inspection.readers import LAMP_COLOURS
+from inspection_robot.inspection.lamp import LAMP_COLOURS
 
 LEGACY_DIGITS = 4   # significant digits of a value stored without its decimals
 SWITCH_STATES = {0: "open", 1: "closed"}
