@@ -14,7 +14,12 @@ from geometry_msgs.msg import PoseWithCovarianceStamped
 
 from inspection_robot.angles import wrap_angle, yaw_from_quaternion
 from inspection_robot.msg import GeneralAck, GeneralCmd
+from inspection_robot.ros import compat_rospy
 from inspection_robot.srv import ControlService
+
+# the tests' own nodes (rospy.init_node in each test) get the nodes' repair of rospy's lost
+# publisher list too (ros/node.init_node; compat_rospy.merge_publisher_updates says why)
+compat_rospy.merge_publisher_updates()
 
 
 def wait_for(condition, timeout, message="condition", period=0.01):
