@@ -50,7 +50,7 @@ import tempfile
 import threading
 import time
 
-from benchlib import free_port, percentile, report
+from benchlib import percentile, report, start_roscore
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 N_RTT = 1000
@@ -714,23 +714,14 @@ def main():
     workdir = tempfile.mkdtemp(prefix="bench_bridge_")
     failed = False
     bridge_log = open(args.bridge_log, "w") if args.bridge_log else subprocess.DEVNULL
-    master_port = free_port()
-    os.environ["ROS_MASTER_URI"] = "http://127.0.0.1:%d" % master_port
+    procs = [start_roscore()]
     env = dict(os.environ)
-    procs = [subprocess.Popen(["roscore", "-p", str(master_port)], stdout=subprocess.DEVNULL,
-                              stderr=subprocess.DEVNULL, env=env)]
     try:
         import rospy
         from std_msgs.msg import String
 
         from inspection_robot.srv import ControlService, ControlServiceResponse
 
-        import rosgraph
-        deadline = time.monotonic() + 20
-        while not rosgraph.is_master_online():
-            if time.monotonic() > deadline:
-                raise RuntimeError("roscore did not start")
-            time.sleep(0.1)
         procs.append(subprocess.Popen(
             [sys.executable, "-c", "from inspection_robot.nodes.rosbridge_websocket import main; main()",
              "__name:=bench_bridge", "_port:=0", "_address:=127.0.0.1"],

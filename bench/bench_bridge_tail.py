@@ -20,7 +20,7 @@ import sys
 import tempfile
 import time
 
-from benchlib import free_port, percentile, report
+from benchlib import percentile, report, start_roscore
 from bench_bridge import raw_rtt
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -109,18 +109,8 @@ def main():
     parser.add_argument("--log", default=os.devnull, help="file for both bridges' output")
     args = parser.parse_args()
     import rosgraph
-    procs = []
-    if not rosgraph.is_master_online():
-        port = free_port()
-        os.environ["ROS_MASTER_URI"] = "http://127.0.0.1:%d" % port
-        procs.append(subprocess.Popen(["roscore", "-p", str(port)], stdout=subprocess.DEVNULL,
-                                      stderr=subprocess.DEVNULL))
+    procs = [] if rosgraph.is_master_online() else [start_roscore()]
     try:
-        deadline = time.monotonic() + 20
-        while not rosgraph.is_master_online():
-            if time.monotonic() > deadline:
-                raise RuntimeError("roscore did not start")
-            time.sleep(0.1)
         import rospy
 
         from inspection_robot_testing.bridge_client import RawClient

@@ -30,3 +30,23 @@ def latency_figures(samples_s, digits=3):
 def report(**fields):
     """Print one figure as one JSON line (the format every bench/bench_*.py prints)."""
     print(json.dumps(fields), flush=True)
+
+
+def start_roscore(timeout_s=20.0):
+    """A roscore of the bench's own on a free port, ROS_MASTER_URI pointed at it (this process and
+    its children); returns its process once the master answers (the caller stops it)."""
+    import os
+    import subprocess
+    import time
+
+    import rosgraph
+    port = free_port()
+    os.environ["ROS_MASTER_URI"] = "http://127.0.0.1:%d" % port
+    proc = subprocess.Popen(["roscore", "-p", str(port)], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    deadline = time.monotonic() + timeout_s
+    while not rosgraph.is_master_online():
+        if proc.poll() is not None or time.monotonic() > deadline:
+            proc.kill()
+            raise RuntimeError("roscore did not start")
+        time.sleep(0.1)
+    return proc
