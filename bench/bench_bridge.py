@@ -304,28 +304,12 @@ def timed_client(url):
     return TimedClient(url)
 
 
-def image_client(url, kind, quiet_s=10.0, limit_s=150.0):
-    """One image line client, run in a process of its own (the clients must not share one GIL).
-
-    Subscribes with compression ``kind``, prints "ready", then records (header.seq, latency ms from
-    header.stamp to the frame's arrival on the websocket thread, before decoding) until no frame
-    came for ``quiet_s`` after the first; prints them as one JSON line.
-    """
-    from inspection_robot.bridge import cbor
+def receive_frames(client, record, quiet_s, limit_s):
+    """The image and video clients' loop: each frame the bridge sends, with its arrival time, to
+    ``record(frame, arrived)`` (returns a (seq, latency ms, time) row, or raises on a frame it cannot
+    read: reported, not fatal) until no frame came for ``quiet_s`` after the first; statuses apart.
+    Prints one JSON line {"frames", "status", "error"}."""
     from inspection_robot_testing.bridge_client import CLOSED
-    from inspection_robot.bridge.compression import png_decode
-
-    def header_of(frame):
-        if kind == "cbor":
-            header = cbor.loads(frame)["msg"]["header"]
-            return header["seq"], header["stamp"]["secs"] + header["stamp"]["nsecs"] * 1e-9
-        text = frame if kind == "none" else png_decode(json.loads(frame)["data"])
-        seq, secs, nsecs = HEADER.search(text[:300]).groups()
-        return int(seq), int(secs) + int(nsecs) * 1e-9
-
-    client = timed_client(url)
-    client.send({"op": "subscribe", "topic": IMAGE_TOPIC, "type": "sensor_msgs/Image", "compression": kind})
-    print("ready", flush=True)
     frames, statuses, error = [], [], None
     end = time.monotonic() + limit_s
     while time.monotonic() < end:
@@ -338,16 +322,42 @@ def image_client(url, kind, quiet_s=10.0, limit_s=150.0):
             break
         arrived = client.arrivals.get()
         if isinstance(frame, str) and '"status"' in frame[:20]:  # {"op": "status", ...}
-            statuses.append(json.loads(frame)["msg"])
+            statuses.append(json.loads(frame).get("msg"))
             continue
         try:
-            seq, stamp = header_of(frame)
+            frames.append(record(frame, arrived))
         except (ValueError, KeyError, AttributeError, TypeError) as exc:  # a bug: reported, not fatal
             error = error or repr(exc)[:200] + " in " + repr(frame[:100])
-            continue
-        frames.append((seq, round((arrived - stamp) * 1000.0, 2), arrived))
     client.close()
     print(json.dumps({"frames": frames, "status": statuses[:3], "error": error}), flush=True)
+
+
+def image_client(url, kind, quiet_s=10.0, limit_s=150.0):
+    """One image line client, run in a process of its own (the clients must not share one GIL).
+
+    Subscribes with compression ``kind``, prints "ready", then records (header.seq, latency ms from
+    header.stamp to the frame's arrival on the websocket thread, before decoding) until no frame
+    came for ``quiet_s`` after the first; prints them as one JSON line.
+    """
+    from inspection_robot.bridge import cbor
+    from inspection_robot.bridge.compression import png_decode
+
+    def header_of(frame):
+        if kind == "cbor":
+            header = cbor.loads(frame)["msg"]["header"]
+            return header["seq"], header["stamp"]["secs"] + header["stamp"]["nsecs"] * 1e-9
+        text = frame if kind == "none" else png_decode(json.loads(frame)["data"])
+        seq, secs, nsecs = HEADER.search(text[:300]).groups()
+        return int(seq), int(secs) + int(nsecs) * 1e-9
+
+    def record(frame, arrived):
+        seq, stamp = header_of(frame)
+        return seq, round((arrived - stamp) * 1000.0, 2), arrived
+
+    client = timed_client(url)
+    client.send({"op": "subscribe", "topic": IMAGE_TOPIC, "type": "sensor_msgs/Image", "compression": kind})
+    print("ready", flush=True)
+    receive_frames(client, record, quiet_s, limit_s)
 
 
 def image_line(url, bridge_pid, seconds=10.0, rate_hz=10.0):
@@ -411,38 +421,20 @@ def video_client(url, topic, quiet_s=10.0, limit_s=150.0):
     import cv2
     import numpy as np
     from inspection_robot.bridge import cbor
-    from inspection_robot_testing.bridge_client import CLOSED
+
+    def record(frame, _arrived):
+        msg = cbor.loads(frame)["msg"]
+        picture = cv2.imdecode(np.frombuffer(msg["data"], np.uint8), cv2.IMREAD_COLOR)
+        if picture is None or picture.shape[:2] != (720, 1280):
+            raise ValueError("not a 720p JPEG")
+        stamp = msg["header"]["stamp"]
+        decoded = time.time()
+        return msg["header"]["seq"], round((decoded - stamp["secs"] - stamp["nsecs"] * 1e-9) * 1000.0, 2), decoded
+
     client = timed_client(url)
     client.send(dict(VIDEO_SUBSCRIPTION, op="subscribe", topic=topic, type="sensor_msgs/CompressedImage"))
     print("ready", flush=True)
-    frames, statuses, error = [], [], None
-    end = time.monotonic() + limit_s
-    while time.monotonic() < end:
-        try:
-            frame = client.recv(quiet_s if frames else limit_s)
-        except queue.Empty:
-            break
-        if frame is CLOSED:
-            error = "closed by the bridge: %s %s" % (client.close_code, client.close_reason)
-            break
-        client.arrivals.get()
-        if isinstance(frame, str):  # status (a JSON frame; publishes come as CBOR)
-            statuses.append(json.loads(frame).get("msg"))
-            continue
-        try:
-            msg = cbor.loads(frame)["msg"]
-            picture = cv2.imdecode(np.frombuffer(msg["data"], np.uint8), cv2.IMREAD_COLOR)
-            if picture is None or picture.shape[:2] != (720, 1280):
-                raise ValueError("not a 720p JPEG")
-            stamp = msg["header"]["stamp"]
-        except (ValueError, KeyError, TypeError) as exc:  # a bug: reported, not fatal
-            error = error or repr(exc)[:200]
-            continue
-        decoded = time.time()
-        frames.append((msg["header"]["seq"], round((decoded - stamp["secs"] - stamp["nsecs"] * 1e-9) * 1000.0, 2),
-                       decoded))
-    client.close()
-    print(json.dumps({"frames": frames, "status": statuses[:3], "error": error}), flush=True)
+    receive_frames(client, record, quiet_s, limit_s)
 
 
 def slow_video_client(url, topic, slow_ms, quiet_s=10.0, limit_s=150.0):
