@@ -85,6 +85,11 @@ def sqlite_rows(path):
         db.close()
 
 
+# move_base's timer saves the localizer's pose there every few seconds; a still robot's pose moves with
+# the noisy localizer's noise, so the file changes without any command (not a write a command made)
+LAST_POSE_FILE = os.path.join("nav", "last_pose.json")
+
+
 def snapshot(root):
     """Every entry under ``root`` (links not followed): kind, size and sha256 of files, link targets.
     An SQLite store counts by its rows (task_manager rewrites its WAL and pages, e.g. an unchanged
@@ -95,7 +100,7 @@ def snapshot(root):
             path = os.path.join(folder, name)
             info = os.lstat(path)
             rel = os.path.relpath(path, root)
-            if name.endswith((".sqlite-wal", ".sqlite-shm")):
+            if name.endswith((".sqlite-wal", ".sqlite-shm")) or rel == LAST_POSE_FILE:
                 continue
             if name.endswith(".sqlite"):
                 tree[rel] = ("sqlite", hashlib.sha256(repr(sqlite_rows(path)).encode()).hexdigest())
