@@ -20,7 +20,7 @@ from nav_msgs.msg import OccupancyGrid, Path
 from inspection_robot.interface import MODE_SERVER, MODE_TASK, STOP_OBSTACLE
 from inspection_robot.msg import (ControlStatus, GeneralAck, GeneralAction, GeneralActionFeedback, GeneralCmd,
                                   GeneralGoal, NavStatus)
-from rostest_helpers import Latest, control_proxy, localizer_tolerance, wait_for, wait_subscribed
+from rostest_helpers import AGREE_SIGMAS, Latest, control_proxy, localizer_tolerance, wait_for, wait_subscribed
 
 
 def goal_data(x, y, yaw=0.0, with_direction=0, precision=0, move_style=0, velocity_x=1.0, velocity_yaw=0.8):
@@ -176,7 +176,11 @@ class NavigationTest(unittest.TestCase):
         heading_error = abs(math.degrees(math.atan2(math.sin(yaw - math.pi / 2), math.cos(yaw - math.pi / 2))))
         rospy.loginfo("test_navigation: 30 m precise goal: position error %.4f m, heading error %.2f deg",
                       position_error, heading_error)
-        self.assertLess(position_error, 0.02)
+        # the robot judges a precise arrival (1 cm) on the mean of the localizer's poses at rest (about
+        # 20 over rest_timeout_precise_s 2 s at 10 Hz): ground truth may differ from that mean by its
+        # error, AGREE_SIGMAS of sigma / sqrt(20) (0 cm on ground truth, 2.2 cm for a 2 cm localizer)
+        sigma_xy = float(rospy.get_param("sim_localizer/sigma_xy", 0.0))
+        self.assertLess(position_error, 0.02 + AGREE_SIGMAS * sigma_xy / math.sqrt(20.0))
         self.assertLess(heading_error, 3.0)
         codes = [m.feedback.event_code for _, m in self.raw_feedback.messages if m.status.goal_id.id == goal_id]
         self.assertEqual(codes[:2], ["0", "1"])
