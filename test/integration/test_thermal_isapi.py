@@ -81,7 +81,9 @@ class ThermalIsapiTest(unittest.TestCase):
         self.assertGreater(self.fake.challenges, 0)   # digest challenges were answered
         paths = [path for _, path, _ in self.fake.requests]
         self.assertIn("/ISAPI/Thermal/channels/2/thermometry/jpegPicWithAppendData?format=json", paths)
-        self.assertIn("/ISAPI/Thermal/channels/2/thermometry/basicParam", paths)   # the status probe
+        # the status probe runs on infrared_imager's status timer: its first tick may come after the above
+        probe = "/ISAPI/Thermal/channels/2/thermometry/basicParam"
+        wait_for(lambda: probe in [path for _, path, _ in list(self.fake.requests)], 10.0, "the status probe")
         hottest = Latest("thermal/hottest", GeneralTopic)
         image = Latest("thermal/image_raw", Image)
         self.assertEqual(json.loads(hottest.wait(timeout=10.0, what="thermal/hottest").data)["temperature"], 95.25)
