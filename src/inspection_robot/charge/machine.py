@@ -398,12 +398,12 @@ class ChargeMachine(object):
         return self._timed_out(elapsed, self._config.pause_timeout, "resume", "no reply %.0f s after resume")
 
     def _step_driving(self, now, _elapsed, _battery):
-        if self._awaiting is None and self._in_task_mode() and now < self._goal_at:
-            self.waiting = "%s; sending the goal again %.0f s after the failure" % (self._retrying, GOAL_RETRY_S)
-        elif self._awaiting is None and self._in_task_mode():
-            self._send_goal()
-        elif not self._in_task_mode():
+        if not self._in_task_mode():
             self.waiting = "robot_control in %s mode: waiting for task mode" % (self._mode_name(),)
+        elif self._awaiting is None and now < self._goal_at:
+            self.waiting = "%s; sending the goal again %.0f s after the failure" % (self._retrying, GOAL_RETRY_S)
+        elif self._awaiting is None:
+            self._send_goal()
         return False
 
     def _step_relay_on(self, _now, elapsed, battery):
