@@ -18,6 +18,7 @@ reachability check against move_base's virtual obstacles (task_action.test).
    submitted by task_manager itself as <routine>_<YYYYMMDD_HHMM>; schedule_list shows the run.
 """
 import json
+import math
 import os
 import time
 import unittest
@@ -37,7 +38,7 @@ from inspection_robot.msg import GeneralAck, GeneralAction, GeneralCmd, GeneralG
 from inspection_robot.task.checks import Reachability
 from inspection_robot.task.route import plan_route
 from inspection_robot.task.spec import ORDER_SHORTEST, Task
-from rostest_helpers import GroundTruth, Latest, TwinClient, pose_error, wait_for, wait_subscribed
+from rostest_helpers import GroundTruth, Latest, TwinClient, localizer_tolerance, pose_error, wait_for, wait_subscribed
 
 PRESET = "act_lamp"
 FAR_STOPS = [(20.0, 21.4), (10.0, 5.0)]
@@ -268,8 +269,11 @@ class TaskActionTest(unittest.TestCase):
         plan = json.loads(plan.data)
         self.assertEqual(([s["name"] for s in plan["stops"]], plan["order"]), (["s1", "s0"], "shortest"))
         self.assertEqual(plan["stops"][0]["presets"], ["presets/%s/20260101_000000" % PRESET])
+        # path[0] is the localizer's pose when plan ran, robot_status's another sample of it: two noisy
+        # poses of a robot that may still be braking after test 5's cancel
         pose = self.robot.last.position
-        self.assertLess(abs(plan["path"][0][0] - pose[0]) + abs(plan["path"][0][1] - pose[1]), 0.05)
+        self.assertLess(math.hypot(plan["path"][0][0] - pose[0], plan["path"][0][1] - pose[1]),
+                        0.05 + math.sqrt(2.0) * localizer_tolerance()[0])
         self.assertEqual(plan["path"][-1], list(HOME))
         self.assertIn([15.5, 10.0], plan["path"])
         self.assertGreater(plan["planned_length_m"], 2 * 31.0)   # home -> (36, 14.5) and back at least
