@@ -15,7 +15,7 @@ import sys
 import threading
 import time
 
-from benchlib import free_port, latency_figures, report  # noqa: E402
+from benchlib import latency_figures, report, start_roscore  # noqa: E402
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 EVENTS = 1000
@@ -58,19 +58,10 @@ class Echo(object):
 
 
 def main():
-    port = free_port()
-    env = dict(os.environ, ROS_MASTER_URI="http://127.0.0.1:%d" % port, ROS_HOSTNAME="127.0.0.1")
-    os.environ.update(env)
-    procs = []
+    os.environ["ROS_HOSTNAME"] = "127.0.0.1"
+    procs = [start_roscore()]   # sets ROS_MASTER_URI for this process and its children
+    env = dict(os.environ)
     try:
-        procs.append(subprocess.Popen(["roscore", "-p", str(port)], env=env, stdout=subprocess.DEVNULL,
-                                      stderr=subprocess.DEVNULL))
-        import rosgraph
-        deadline = time.monotonic() + 20.0
-        while not rosgraph.is_master_online("http://127.0.0.1:%d" % port):
-            if time.monotonic() > deadline:
-                raise RuntimeError("roscore did not start")
-            time.sleep(0.1)
         subprocess.check_call(["rosparam", "load", os.path.join(ROOT, "config", "robot_control.yaml"),
                                "/robot_control"], env=env)
         subprocess.check_call(["rosparam", "set", "/robot_control/driver", "sim"], env=env)

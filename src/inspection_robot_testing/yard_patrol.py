@@ -22,11 +22,11 @@ import threading
 import time
 
 from inspection_robot.interface import ACK_SUCCESS, SENDER_SERVER
+from inspection_robot.inspection.lamp import LAMP_CODES
 from inspection_robot.inspection.preset import load_preset
 
 HALF_PI = math.pi / 2.0
 HOT_SPOT_LIMIT_C = 60.0
-LAMP_CODES = {"red": 1.0, "green": 2.0, "yellow": 3.0, "blue": 4.0, "white": 5.0}
 # stop name, pose (x, y, yaw), presets: (preset id, height aimed at m, distance to the side m, zoom, infrared)
 YARD_STOPS = [
     ("transformer_1_left", (15.5, 10.0, 0.0), [("transformer_1_left", 1.5, 3.0, 2.0, False)]),
@@ -73,7 +73,7 @@ def expected_value(world, name, value):
     if face.type == "gauge":
         return float(value)
     if face.type == "lamp":
-        return LAMP_CODES[face.color] if value == "on" else 0.0
+        return float(LAMP_CODES[face.color]) if value == "on" else 0.0
     return 1.0 if value == "closed" else 0.0
 
 

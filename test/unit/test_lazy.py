@@ -32,5 +32,6 @@ def test_attributes_and_errors_are_the_module_s():
 
 def test_the_node_modules_that_read_pictures_load_without_cv2():
     code = ("import sys\nimport inspection_robot.inspection.reading, inspection_robot.inspection.finder, "
-            "inspection_robot.thermal.commands, inspection_robot.camera.isapi\nassert 'cv2' not in sys.modules\n")
+            "inspection_robot.thermal.commands, inspection_robot.camera.isapi, inspection_robot.camera.jpeg, "
+            "inspection_robot.sim.camera\nassert 'cv2' not in sys.modules\n")
     assert_runs(code)

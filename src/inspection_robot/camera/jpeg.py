@@ -4,8 +4,11 @@ The camera and the thermal imager publish each live picture also as sensor_msgs/
 (``format`` "jpeg") on ``<image topic>/compressed``: a console or a recorder gets ~50 kB instead of
 ~1 MB of raw pixels per frame, and the robot encodes it once for every subscriber.
 """
-import cv2
 import numpy as np
+
+from inspection_robot.lazy import lazy_import
+
+cv2 = lazy_import("cv2")   # on first use: camera_node and infrared_imager import this before they register
 
 COMPRESSED_SUFFIX = "/compressed"  # image_transport's topic name of the compressed plug-in
 # CompressedImage.format (image_transport's plug-in writes "bgr8; jpeg compressed bgr8"; a browser needs neither)

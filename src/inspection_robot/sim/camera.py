@@ -10,6 +10,7 @@ import time
 
 from inspection_robot.lazy import lazy_import
 from inspection_robot.camera.driver import CameraDriver, CameraError
+from inspection_robot.camera.jpeg import encode_jpeg
 from inspection_robot.interface import FOCUS_POSITION_MAX, FOCUS_POSITION_MIN
 from inspection_robot.sim.render import PinholeCamera
 
@@ -187,11 +188,10 @@ class SimulatedCamera(CameraDriver):
         return img
 
     def capture_jpeg(self):
-        img = self._picture(self._optics.width)
-        ok, buf = cv2.imencode(".jpg", img, [cv2.IMWRITE_JPEG_QUALITY, self._jpeg_quality])
-        if not ok:
-            raise CameraError("JPEG encoding failed")
-        return buf.tobytes()
+        try:
+            return encode_jpeg(self._picture(self._optics.width), self._jpeg_quality)
+        except ValueError as exc:
+            raise CameraError(str(exc))
 
     def grab_frame(self, width):
         return self._picture(int(width))

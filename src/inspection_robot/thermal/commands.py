@@ -15,6 +15,7 @@ import os
 
 import numpy as np
 
+from inspection_robot.camera.jpeg import encode_jpeg
 from inspection_robot.lazy import lazy_import
 from inspection_robot.files import PUBLIC_FILE_MODE, new_file_path, write_atomic
 from inspection_robot.command import CommandError, CommandTable, no_data, parse_int, split_fields
@@ -128,10 +129,10 @@ class ThermalCommands(object):
         path = self._target(data)
         picture = self._call(self._driver.capture_jpeg) or None   # _call answers "" for None
         if picture is None:
-            ok, buf = cv2.imencode(".jpg", false_colour(self._frame()), [cv2.IMWRITE_JPEG_QUALITY, self._jpeg_quality])
-            if not ok:
-                raise CommandError("JPEG encoding failed")
-            picture = buf.tobytes()
+            try:
+                picture = encode_jpeg(false_colour(self._frame()), self._jpeg_quality)
+            except ValueError as exc:
+                raise CommandError(str(exc))
         write_atomic(path, picture, replace=False)
         return path
 
