@@ -48,6 +48,20 @@ def test_no_curve_when_it_would_cross_an_obstacle_or_turn_too_far():
     assert np.array_equal(shape_path(path, (0.0, 0.0, math.pi / 2), goal(6, 0), off), path)
 
 
+def test_no_curve_that_points_the_robot_at_equipment_within_the_obstacle_corridor():
+    """patrol_sim: a charge cycle begun mid-turn 2.6 m in front of cabinet_1 (its inflated footprint 2.2 m
+    ahead here), the dock behind the robot. The U-turn itself stays clear, but at its top the robot
+    faces the cabinet within obstacle_detector's corridor, stops there and never leaves: spin instead."""
+    cabinet = lambda x, y: 0.0 if y > 2.2 and abs(x) < 1.0 else float("inf")   # noqa: E731
+    path = np.array([[0.0, 0.0], [-16.46, -16.82]])
+    pose = (0.0, 0.0, 0.87)
+    blind = departure(path, pose, FollowerParams(curve_sight_m=0.0), cabinet)
+    assert blind is not None and blind[:, 1].max() > 0.5                # a U-turn towards the cabinet
+    assert PARAMS.curve_sight >= 1.65                                   # obstacle_detector's front_offset + distance
+    assert departure(path, pose, PARAMS, cabinet) is None
+    assert departure(path, pose, PARAMS) is not None                   # with nothing there the curve stays
+
+
 def test_robot_drives_off_sideways_without_spinning_and_is_faster():
     start = (0.0, 0.0, math.pi / 2)             # facing the equipment, next stop to the east
     shaped = shape_path(np.array(EAST), start, goal(6, 0), PARAMS)

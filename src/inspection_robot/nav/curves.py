@@ -13,7 +13,13 @@ its heading onto the path: pure pursuit (lookahead ``lookahead_min_m``) with cur
 1 / ``min_turn_radius_m``, driven on paper from the robot's pose. The curve is kept only when it
 joins the path within ``curve_max_m``, the path leaves at most ``curve_max_rad`` off the robot's
 heading, and all of the curve is clear of obstacles (``clearance(x, y) > 0``: outside the inflated
-footprint, as the planner's own path); otherwise the robot spins in place first as before. Pure
+footprint, as the planner's own path) and so is the line ``curve_sight_m`` ahead of every point of
+it: obstacle_detector stops the robot at anything in its corridor (front_offset + distance, 1.65 m,
+as wide as the footprint; the default 2.0 m adds the 0.35 m the robot drove wide of the paper curve), and a robot stopped facing equipment with a forward command stays
+stopped (its corridor keeps seeing it), so a U-turn that swings the robot's front at equipment ends
+the goal as "blocked" however often it is retried (patrol_sim: a charge cycle begun mid-turn beside
+cabinet_1). Otherwise the robot spins in place first as before (a spin checks the footprint's disc,
+which is clear wherever the planner puts the robot). Pure
 module. (The goal's yaw is still reached by a spin at the end: a curve into the goal along its yaw
 does not settle within the 2° yaw tolerance over a short straight run; patrol stops avoid that
 spin differently, task.patrol.turns_to_yaw.)
@@ -86,8 +92,22 @@ def join_curve(points, x, y, heading, radius, lookahead, max_length):
     return None
 
 
-def _clear(curve, clearance):
-    return clearance is None or all(clearance(float(px), float(py)) > 0.0 for px, py in curve)
+SIGHT_STEP_M = 0.1  # m between the points checked ahead of the robot along a curve
+
+
+def _clear(curve, yaw, clearance, sight):
+    """Every point of ``curve`` (robot heading ``yaw`` at its start) and the line ``sight`` m ahead of
+    it are clear."""
+    if clearance is None:
+        return True
+    ahead = np.arange(0.0, sight + 1e-9, SIGHT_STEP_M) if sight > 0 else np.zeros(1)
+    steps = np.diff(curve, axis=0)
+    headings = np.concatenate([[yaw], np.arctan2(steps[:, 1], steps[:, 0])])
+    for (px, py), heading in zip(curve, headings):
+        c, s = math.cos(heading), math.sin(heading)
+        if not all(clearance(float(px + d * c), float(py + d * s)) > 0.0 for d in ahead):
+            return False
+    return True
 
 
 def _initial_turn(points, heading):
@@ -108,7 +128,7 @@ def departure(points, pose, params, clearance=None):
     if joined is None:
         return None
     curve, s = joined
-    if not _clear(curve, clearance):
+    if not _clear(curve, yaw, clearance, params.curve_sight):
         return None
     return np.vstack([curve, _Polyline(points).after(s)[1:]])
 

@@ -50,7 +50,7 @@ class FollowerParams(object):
                  lookahead_min_m=0.4, lookahead_time_s=1.2, min_turn_radius_m=0.65, corner_accel_m_s2=1.0,
                  corner_decel_m_s2=0.7, proximity_m=0.2, proximity_min_scale=0.4, rest_m=0.005,
                  rest_rad=0.005, rest_s=0.25, rest_timeout_s=1.0, rest_timeout_precise_s=2.0, max_corrections=2,
-                 curve_max_m=6.0, curve_max_rad=math.pi):
+                 curve_max_m=6.0, curve_max_rad=math.pi, curve_sight_m=2.0):
         self.lookahead = float(lookahead_m)
         self.lookahead_min = min(float(lookahead_min_m), self.lookahead)
         self.lookahead_time = float(lookahead_time_s)
@@ -80,6 +80,7 @@ class FollowerParams(object):
         self.max_corrections = int(max_corrections)
         self.curve_max_m = float(curve_max_m)   # nav.curves: departure curves
         self.curve_max_rad = float(curve_max_rad)
+        self.curve_sight = float(curve_sight_m)
 
 
 STOP = Command(0.0, 0.0, WHEEL_STRAIGHT)
