@@ -15,7 +15,8 @@ joins the path within ``curve_max_m``, the path leaves at most ``curve_max_rad``
 heading, and all of the curve is clear of obstacles (``clearance(x, y) > 0``: outside the inflated
 footprint, as the planner's own path) and so is the line ``curve_sight_m`` ahead of every point of
 it: obstacle_detector stops the robot at anything in its corridor (front_offset + distance, 1.65 m,
-as wide as the footprint; the default 2.0 m adds the 0.35 m the robot drove wide of the paper curve), and a robot stopped facing equipment with a forward command stays
+as wide as the footprint; the default 2.0 m adds the 0.35 m the robot drove wide of the paper
+curve), and a robot stopped facing equipment with a forward command stays
 stopped (its corridor keeps seeing it), so a U-turn that swings the robot's front at equipment ends
 the goal as "blocked" however often it is retried (patrol_sim: a charge cycle begun mid-turn beside
 cabinet_1). Otherwise the robot spins in place first as before (a spin checks the footprint's disc,
