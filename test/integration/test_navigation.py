@@ -226,7 +226,7 @@ class NavigationTest(unittest.TestCase):
         with self.lock:
             return [d for c, d in self.feedback if c == "3"]
 
-    def test_05_obstacle_stops_robot_resumes_when_cleared_and_finishes_3_if_it_stays(self):
+    def test_05_obstacle_stops_robot_resumes_when_cleared_and_finishes_3_if_it_stays_then_turns_away(self):
         x0, y0, yaw0 = self.true_pose
         gx, gy = x0 - 9.0, y0   # drive back west along the free lane
         self.send(goal_data(gx, gy, velocity_x=0.8))
@@ -260,6 +260,14 @@ class NavigationTest(unittest.TestCase):
         self.assertIn("blocked", data["reason"])
         self.assertLess(math.hypot(self.true_pose[0] - stopped_at[0], self.true_pose[1] - stopped_at[1]), 0.05)
         self.assertGreater(self.true_pose[0], rock_x + 0.2 + 0.45)  # never touched the rock
+        # 3. a goal behind the robot while the rock stays ahead: move_base's command while blocked is the
+        #    follower's spin, so obstacle_detector checks the footprint's disc (clear) instead of the corridor
+        #    ahead, releases the robot, and it turns away and arrives (it used to wait on the rock it faced
+        #    and end "3" again). It ends facing west, as the next tests expect.
+        self.send(goal_data(stopped_at[0] + 3.0, stopped_at[1], yaw=math.pi, with_direction=1, velocity_x=0.8))
+        code, data = self.finish(45.0)
+        self.assertEqual(code, "0", data)
+        self.assertGreater(self.true_pose[0], stopped_at[0] + 2.5)
 
     def test_06_cancel_stops_robot_with_4(self):
         x0, y0, _ = self.true_pose   # facing west on the free lane: the goals below start straight away

@@ -4,7 +4,7 @@ import math
 
 import numpy as np
 
-from inspection_robot.nav.curves import STEP_M, departure, shape_path
+from inspection_robot.nav.curves import STEP_M, curved_path, departure, shape_path
 from inspection_robot.nav.follower import ALIGN, FollowerParams
 from inspection_robot.nav.goal import MoveGoal
 from inspection_robot.task.patrol import STEP_HOME, STEP_MOVE, Step, turns_to_yaw
@@ -46,6 +46,8 @@ def test_no_curve_when_it_would_cross_an_obstacle_or_turn_too_far():
     assert np.array_equal(shape_path(path, (0.0, 0.0, math.pi / 2), goal(6, 0, backward=True), PARAMS), path)
     off = FollowerParams(curve_max_m=0.0)
     assert np.array_equal(shape_path(path, (0.0, 0.0, math.pi / 2), goal(6, 0), off), path)
+    assert curved_path(path, (0.0, 0.0, math.pi / 2), goal(6, 0), off) is None
+    assert curved_path(path, (0.0, 0.0, math.pi / 2), goal(6, 0), PARAMS) is not None
 
 
 def test_no_curve_that_points_the_robot_at_equipment_within_the_obstacle_corridor():

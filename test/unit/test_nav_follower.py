@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 
 from inspection_robot.interface import WHEEL_STEER, WHEEL_STRAIGHT
-from inspection_robot.nav.follower import DONE, Arrival, FollowerParams, PathFollower
+from inspection_robot.nav.follower import DONE, Approach, Arrival, FollowerParams, PathFollower
+from inspection_robot.nav.obstacle import FORWARD, CorridorDetector, direction_from_command
 from inspection_robot.nav.goal import MoveGoal
 from inspection_robot.angles import wrap_angle
 
@@ -167,3 +168,25 @@ def test_arrival_mean_of_a_gaussian_localizer_is_within_the_precise_tolerance():
 def test_arrival_waits_while_no_pose_comes():
     arrival = Arrival(FollowerParams(), stopped_at=0.0)
     assert arrival.update(5.0, None, None) is None
+
+
+def test_blocked_by_what_it_faces_the_robot_spins_away_when_its_footprint_is_clear():
+    """A robot stopped facing equipment 1.2 m ahead (obstacle_detector's corridor) while its path
+    leaves behind it: move_base's command while blocked is the follower's spin, the detector then
+    checks the footprint's disc, finds it clear and releases the robot. A path through the
+    equipment keeps a stop, and the detector keeps seeing it."""
+    equipment = np.array([[1.2, dy, dz] for dy in (-0.2, 0.0, 0.2) for dz in (0.5, 1.0)])
+    detector = CorridorDetector(0.45, 0.45, 0.45, 1.2, 0.08, 1.8, 0.8, min_points=5, clear_count=3)
+    assert detector.update(equipment, FORWARD)                     # stopped for it, last command forward
+    behind = Approach(PathFollower([(0.0, 0.0), (-10.0, 0.0)], goal(-10.0, 0.0), FollowerParams()))
+    command = behind.blocked_command((0.0, 0.0, 0.0))
+    assert command.wheel_control == WHEEL_STEER and command.velocity_yaw != 0.0 and command.velocity_x == 0.0
+    direction = direction_from_command(command.velocity_x, command.velocity_yaw, command.wheel_control, FORWARD)
+    assert [detector.update(equipment, direction) for _ in range(3)] == [True, True, False]
+    through = Approach(PathFollower([(0.0, 0.0), (10.0, 0.0)], goal(10.0, 0.0), FollowerParams()))
+    command = through.blocked_command((0.0, 0.0, 0.0))
+    assert (command.velocity_x, command.velocity_yaw) == (0.0, 0.0)
+    detector = CorridorDetector(0.45, 0.45, 0.45, 1.2, 0.08, 1.8, 0.8, min_points=5, clear_count=3)
+    direction = direction_from_command(command.velocity_x, command.velocity_yaw, command.wheel_control, FORWARD)
+    assert all(detector.update(equipment, direction) for _ in range(5))
+    assert behind.blocked_command(None) == through.blocked_command(None)   # no pose: a stop

@@ -46,9 +46,12 @@ def test_pause_longer_than_mode_wait_gives_the_goal_up():
 
 def test_obstacle_stops_then_replans_when_cleared():
     sup = supervisor()
+    assert not sup.obstacle_met
     assert sup.check(5.0, MODE_TASK, True, ALL) == (STOP, OBSTACLE_REASON)
+    assert sup.obstacle_met                   # from now on plans without departure curves
     assert sup.check(9.0, MODE_TASK, True, ALL) == (STOP, None)
     assert sup.check(9.5, MODE_TASK, False, ALL) == (REPLAN, None)
+    assert sup.obstacle_met
 
 
 def test_obstacle_longer_than_obstacle_wait_ends_blocked():

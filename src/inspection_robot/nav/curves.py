@@ -134,11 +134,17 @@ def departure(points, pose, params, clearance=None):
     return np.vstack([curve, _Polyline(points).after(s)[1:]])
 
 
-def shape_path(points, pose, goal, params, clearance=None):
-    """The planned ``points`` with a departure curve from ``pose`` where it is clear (module docstring).
-    Backward goals keep the plan (the robot reverses out without turning)."""
+def curved_path(points, pose, goal, params, clearance=None):
+    """The planned ``points`` starting with a departure curve from ``pose`` (module docstring), or
+    None when there is none: no clear one, curves off (``curve_max_m`` 0), or a backward goal (the
+    robot reverses out without turning)."""
     points = np.asarray(points, dtype=float).reshape(-1, 2)
     if goal.backward or params.curve_max_m <= 0 or len(points) < 2:
-        return points
-    shaped = departure(points, pose, params, clearance)
-    return points if shaped is None else shaped
+        return None
+    return departure(points, pose, params, clearance)
+
+
+def shape_path(points, pose, goal, params, clearance=None):
+    """The planned ``points`` with a departure curve from ``pose`` where there is one (curved_path)."""
+    shaped = curved_path(points, pose, goal, params, clearance)
+    return np.asarray(points, dtype=float).reshape(-1, 2) if shaped is None else shaped

@@ -303,8 +303,9 @@ class Approach(object):
     that pose is within tolerance, or after ``max_corrections`` straight-line corrections from it.
     """
 
-    def __init__(self, follower):
+    def __init__(self, follower, curved=False):
         self.follower = follower
+        self.curved = curved   # follows a departure curve (nav/curves.py): it drives forward first
         self.p = follower.p
         self.corrections = 0
         self.rest = None
@@ -325,6 +326,21 @@ class Approach(object):
         self.corrections += 1
         self.follower, self._arrival = self.follower.correction(*rest), None
         return self.follower.step(*rest)
+
+    def blocked_command(self, pose):
+        """What to send while a 3-D obstacle blocks the goal: the follower's spin in place when that is
+        what it would do from ``pose`` now, else a stop.
+
+        robot_control refuses either while the obstacle stands, but obstacle_detector looks where the
+        last move_cmd points: a stop keeps it looking ahead, so a robot stopped facing equipment would
+        wait for it to go away; a spin makes it check the footprint's disc, and when that is clear the
+        obstacle is released and the robot turns towards its path.
+        """
+        if pose is not None and self.follower.phase in (ALIGN, TRACK, SPIN):
+            command = self.follower.step(*pose).command
+            if command.wheel_control == WHEEL_STEER and command.velocity_yaw != 0.0:
+                return command
+        return STOP
 
 
 def stop_spin_go_params(**overrides):

@@ -5,11 +5,13 @@ that moment and acts on the answer:
 
 - ``PAUSE``: robot_control is in another mode (joystick, server) and ignores move_cmd: send
   nothing; after ``mode_wait`` s the goal ends with ret_code "4";
-- ``STOP``: a 3-D obstacle is in the travel corridor (and its enable bit is set): send a stop;
+- ``STOP``: a 3-D obstacle is in the travel corridor (and its enable bit is set): send a stop, or
+  the follower's spin in place when it wants one (follower.Approach.blocked_command says why);
   after ``obstacle_wait`` s the goal ends with "3";
 - ``REPLAN``: plan again (after a pause or an obstacle wait the world may have changed, a
   virtual obstacle changed, or the robot is off track, at most every ``replan_min_interval`` s);
-  the node then calls ``replanned(now)``;
+  the node then calls ``replanned(now)``; once an obstacle stopped the goal (``obstacle_met``) the
+  plans have no departure curve (a curve drives forward first, towards what stopped the robot);
 - ``FOLLOW``: step the path follower and report its progress with ``followed(progress)``.
 
 ``check`` returns (action, alarm): ``alarm`` is a reason to report once as feedback "3", else
@@ -44,6 +46,7 @@ class GoalSupervisor(object):
         self._blocked_since = None
         self._last_replan = None
         self._replan_requested = False
+        self.obstacle_met = False   # a 3-D obstacle stopped this goal: plan without departure curves
 
     def request_replan(self):
         """The costmap changed (any thread): plan again on the next tick."""
@@ -78,6 +81,7 @@ class GoalSupervisor(object):
         if obstacle and enable_bits & NAV_OBSTACLE_3D:
             if self._blocked_since is None:
                 self._blocked_since = now
+                self.obstacle_met = True
                 return STOP, OBSTACLE_REASON
             if now - self._blocked_since > self.obstacle_wait:
                 raise GoalAborted(MOVE_RESULT_BLOCKED, "blocked by an obstacle for %.1f s" % self.obstacle_wait)

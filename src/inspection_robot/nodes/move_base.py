@@ -53,7 +53,7 @@ from inspection_robot.interface import (MODE_TASK,
 from inspection_robot.msg import (ControlStatus, GeneralAction, GeneralCmd, GeneralFeedback, GeneralResult,
                                   GeneralTopic, MoveCmd, NavStatus, ObstacleStatus)
 from inspection_robot.nav.costmap import Costmap
-from inspection_robot.nav.curves import shape_path
+from inspection_robot.nav.curves import curved_path
 from inspection_robot.nav.follower import DONE, Approach, FollowerParams, PathFollower
 from inspection_robot.nav.goal import parse_move_goal
 from inspection_robot.nav.gridmap import load_map
@@ -290,7 +290,7 @@ class MoveBase(object):
         supervisor.check_localization(self.loc.problem(time.monotonic()), self.enable_bits)
         return self.loc.pose
 
-    def _plan(self, goal, supervisor):
+    def _plan(self, goal, supervisor, curve=True):
         self._feedback(MOVE_FEEDBACK_PLANNING)
         if not self._attached.wait(STARTUP_WAIT):
             raise GoalAborted(MOVE_RESULT_PLAN_FAILED, "costmap not built %.0f s after start-up" % STARTUP_WAIT)
@@ -307,8 +307,11 @@ class MoveBase(object):
         self._publish_plan(plan.points)
         self._feedback(MOVE_FEEDBACK_PLANNED, path_length=round(plan.length, 3),
                        planning_time=round(time.monotonic() - started, 3))
-        points = shape_path(plan.points, pose, goal, self.follower_params, self.costmap.clearance)
-        return Approach(PathFollower(points, goal, self.follower_params, self.costmap.clearance))
+        curved = None
+        if curve and not supervisor.obstacle_met:
+            curved = curved_path(plan.points, pose, goal, self.follower_params, self.costmap.clearance)
+        return Approach(PathFollower(plan.points if curved is None else curved, goal, self.follower_params,
+                                     self.costmap.clearance), curved=curved is not None)
 
     def _run(self, goal_msg):
         cfg = self.cfg
@@ -334,8 +337,11 @@ class MoveBase(object):
                 return MOVE_RESULT_CANCELLED, {"reason": "cancelled"}
             pose = self._check_localization(supervisor)
             action, alarm = supervisor.check(time.monotonic(), self.control_mode, self.obstacle, self.enable_bits)
-            if action == STOP:
-                self.stop()
+            if action == STOP:   # a spin when the follower wants one: obstacle_detector then checks its disc
+                if approach.curved:
+                    approach = self._plan(goal, supervisor, curve=False)
+                cmd = approach.blocked_command(pose)
+                self.send(cmd.velocity_x, cmd.velocity_yaw, cmd.wheel_control)
             if alarm:
                 self._feedback(MOVE_FEEDBACK_ALARM, nav_warn=self.nav_warn(), reason=alarm)
             if action == REPLAN:
