@@ -21,6 +21,7 @@ import rostest
 from actionlib_msgs.msg import GoalStatus
 from sensor_msgs.msg import JointState
 
+from inspection_robot.inspection.lamp import LAMP_CODES
 from inspection_robot.inspection.preset import load_preset
 from inspection_robot.inspection.reading import request_filenames
 from inspection_robot.msg import (GeneralAction, GeneralGoal, NavStatus, PresetScaleAck, PresetScaleCmd,
@@ -47,7 +48,6 @@ EXPECTED = {"cabinet_2": {"cabinet_2/ammeter", "cabinet_2/position"},
 GAUGE_FRACTIONS = {"cabinet_2/ammeter": 0.83, "cabinet_1/ammeter": 0.27, "cabinet_1/voltmeter": 0.64,
                    "transformer_1/oil_temp": 0.41, "transformer_1/winding_temp": 0.18, "transformer_1/oil_level": 0.9,
                    "breaker_2/sf6_pressure": 0.33, "breaker_1/sf6_pressure": 0.71}
-LAMP_CODES = {"red": 1.0, "green": 2.0, "yellow": 3.0, "blue": 4.0, "white": 5.0}
 HOT_SPOT, HOT_C = "breaker_1/terminal", 71.5
 NEST = "breaker_1,front,0.22,1.66,0.22,0.16"
 
@@ -198,7 +198,7 @@ class TestInspectionAcceptance(unittest.TestCase):
             elif name == HOT_SPOT:
                 out[name] = float(value)
             elif "lamp" in name:
-                out[name] = LAMP_CODES[self.lamp_colours[name]] if value == "on" else 0.0
+                out[name] = float(LAMP_CODES[self.lamp_colours[name]]) if value == "on" else 0.0
             else:
                 out[name] = 1.0 if value == "closed" else 0.0
         return out

@@ -6,8 +6,8 @@ import pytest
 from inspection_robot.interface import (MODE_JOY, MODE_SERVER, MODE_TASK, MOVE_RESULT_BLOCKED, MOVE_RESULT_CANCELLED,
                                         MOVE_RESULT_LOCALIZATION_LOST, NAV_LOCALIZATION_LOST, NAV_OBSTACLE_3D,
                                         NAV_OFF_TRACK)
-from inspection_robot.nav.supervisor import (FOLLOW, OBSTACLE_REASON, OFF_TRACK_REASON, PAUSE, REPLAN, STOP,
-                                             GoalAborted, GoalSupervisor)
+from inspection_robot.nav.supervisor import (BLOCKED_TURNS, FOLLOW, OBSTACLE_REASON, OFF_TRACK_REASON, PAUSE, REPLAN,
+                                             STOP, GoalAborted, GoalSupervisor)
 
 ALL = NAV_OFF_TRACK | NAV_LOCALIZATION_LOST | NAV_OBSTACLE_3D
 Progress = namedtuple("Progress", "lateral_error")
@@ -52,6 +52,18 @@ def test_obstacle_stops_then_replans_when_cleared():
     assert sup.check(9.0, MODE_TASK, True, ALL) == (STOP, None)
     assert sup.check(9.5, MODE_TASK, False, ALL) == (REPLAN, None)
     assert sup.obstacle_met
+
+
+def test_turning_away_only_while_robot_control_stops_and_in_the_first_three_obstacle_stops():
+    sup = supervisor()
+    assert not sup.may_turn_away(True)             # no obstacle met
+    for n in range(1, BLOCKED_TURNS + 2):
+        assert sup.check(10.0 * n, MODE_TASK, True, ALL)[0] == STOP
+        assert sup.may_turn_away(True) == (n <= BLOCKED_TURNS)
+        assert not sup.may_turn_away(False)       # robot_control's switch off: a spin would move the robot
+        assert sup.check(10.0 * n + 1.0, MODE_TASK, False, ALL)[0] == REPLAN
+        sup.replanned(10.0 * n + 1.0)
+    assert sup.obstacle_stops == BLOCKED_TURNS + 1
 
 
 def test_obstacle_longer_than_obstacle_wait_ends_blocked():

@@ -14,13 +14,12 @@ its heading onto the path: pure pursuit (lookahead ``lookahead_min_m``) with cur
 joins the path within ``curve_max_m``, the path leaves at most ``curve_max_rad`` off the robot's
 heading, and all of the curve is clear of obstacles (``clearance(x, y) > 0``: outside the inflated
 footprint, as the planner's own path) and so is the line ``curve_sight_m`` ahead of every point of
-it: obstacle_detector stops the robot at anything in its corridor (front_offset + distance, 1.65 m,
-as wide as the footprint; the default 2.0 m adds the 0.35 m the robot drove wide of the paper
-curve), and a robot stopped facing equipment with a forward command stays
-stopped (its corridor keeps seeing it), so a U-turn that swings the robot's front at equipment ends
-the goal as "blocked" however often it is retried (patrol_sim: a charge cycle begun mid-turn beside
-cabinet_1). Otherwise the robot spins in place first as before (a spin checks the footprint's disc,
-which is clear wherever the planner puts the robot). Pure
+it. That line, inflated by the robot's radius as the costmap is, covers obstacle_detector's corridor
+(front_offset + distance = 1.65 m ahead, as wide as the footprint; the default 2.0 m adds the 0.35 m
+the robot drove wide of the paper curve in patrol_sim). The detector stops the robot at anything in
+that corridor, and a U-turn that swings the robot's front at equipment stopped it there: a charge
+cycle begun mid-turn beside cabinet_1 ended "blocked" on every retry. Otherwise the robot spins in
+place first as before (a spin checks the footprint's 0.8 m disc instead). Pure
 module. (The goal's yaw is still reached by a spin at the end: a curve into the goal along its yaw
 does not settle within the 2° yaw tolerance over a short straight run; patrol stops avoid that
 spin differently, task.patrol.turns_to_yaw.)

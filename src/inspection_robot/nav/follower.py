@@ -331,10 +331,12 @@ class Approach(object):
         """What to send while a 3-D obstacle blocks the goal: the follower's spin in place when that is
         what it would do from ``pose`` now, else a stop.
 
-        robot_control refuses either while the obstacle stands, but obstacle_detector looks where the
-        last move_cmd points: a stop keeps it looking ahead, so a robot stopped facing equipment would
-        wait for it to go away; a spin makes it check the footprint's disc, and when that is clear the
-        obstacle is released and the robot turns towards its path.
+        robot_control refuses either while the obstacle stands (move_base sends this only then,
+        supervisor.may_turn_away), but obstacle_detector looks where the last move_cmd points: a stop
+        keeps it looking ahead, so a robot stopped facing equipment would wait for it to go away; a
+        spin makes it check the footprint's disc, and when that is clear the obstacle is released and
+        the robot turns towards its path. The follower spins when its path leaves far off the heading
+        (``spin_enter``; at a fresh plan's start, more than the turn a 0.65 m curve takes).
         """
         if pose is not None and self.follower.phase in (ALIGN, TRACK, SPIN):
             command = self.follower.step(*pose).command

@@ -6,8 +6,8 @@ that moment and acts on the answer:
 - ``PAUSE``: robot_control is in another mode (joystick, server) and ignores move_cmd: send
   nothing; after ``mode_wait`` s the goal ends with ret_code "4";
 - ``STOP``: a 3-D obstacle is in the travel corridor (and its enable bit is set): send a stop, or
-  the follower's spin in place when it wants one (follower.Approach.blocked_command says why);
-  after ``obstacle_wait`` s the goal ends with "3";
+  the follower's spin in place when it wants one and ``may_turn_away`` (follower.Approach.
+  blocked_command says why); after ``obstacle_wait`` s the goal ends with "3";
 - ``REPLAN``: plan again (after a pause or an obstacle wait the world may have changed, a
   virtual obstacle changed, or the robot is off track, at most every ``replan_min_interval`` s);
   the node then calls ``replanned(now)``; once an obstacle stopped the goal (``obstacle_met``) the
@@ -24,6 +24,7 @@ from inspection_robot.interface import (MODE_NAMES, MODE_TASK, MOVE_RESULT_BLOCK
 
 PAUSE, STOP, REPLAN, FOLLOW = "pause", "stop", "replan", "follow"
 OBSTACLE_REASON = "obstacle in the travel corridor"
+BLOCKED_TURNS = 3   # obstacle stops per goal in which move_base may turn away (may_turn_away)
 OFF_TRACK_REASON = "off track, replanning"
 
 
@@ -46,7 +47,22 @@ class GoalSupervisor(object):
         self._blocked_since = None
         self._last_replan = None
         self._replan_requested = False
-        self.obstacle_met = False   # a 3-D obstacle stopped this goal: plan without departure curves
+        self.obstacle_stops = 0   # times a 3-D obstacle stopped this goal
+
+    @property
+    def obstacle_met(self):
+        """A 3-D obstacle stopped this goal: plan without departure curves from now on."""
+        return self.obstacle_stops > 0
+
+    def may_turn_away(self, robot_control_stops):
+        """While STOP: whether move_base may send the follower's spin instead of zeros.
+
+        Only while robot_control refuses motion for the obstacle itself (``robot_control_stops``: its
+        obstacle switch on), so the spin moves nothing until obstacle_detector finds its disc clear;
+        and in at most ``BLOCKED_TURNS`` stops of one goal, so turning away and meeting the obstacle
+        again cannot go on forever (the goal then waits ``obstacle_wait`` and ends "3" as before).
+        """
+        return bool(robot_control_stops) and 0 < self.obstacle_stops <= BLOCKED_TURNS
 
     def request_replan(self):
         """The costmap changed (any thread): plan again on the next tick."""
@@ -81,7 +97,7 @@ class GoalSupervisor(object):
         if obstacle and enable_bits & NAV_OBSTACLE_3D:
             if self._blocked_since is None:
                 self._blocked_since = now
-                self.obstacle_met = True
+                self.obstacle_stops += 1
                 return STOP, OBSTACLE_REASON
             if now - self._blocked_since > self.obstacle_wait:
                 raise GoalAborted(MOVE_RESULT_BLOCKED, "blocked by an obstacle for %.1f s" % self.obstacle_wait)

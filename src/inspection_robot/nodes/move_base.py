@@ -49,7 +49,7 @@ from inspection_robot.interface import (MODE_TASK,
                                         MOVE_RESULT_LOCALIZATION_LOST, MOVE_RESULT_PLAN_FAILED,
                                         MOVE_RESULT_SUCCESS, MOVE_VELOCITY_X_UNIT_M_S, MOVE_VELOCITY_YAW_UNIT_RAD_S,
                                         NAV_LOCALIZATION_LOST, NAV_OBSTACLE_3D, NAV_OFF_TRACK, SENDER_MOVE_BASE,
-                                        WHEEL_STRAIGHT)
+                                        WHEEL_OBSTACLE_OFF, WHEEL_STRAIGHT)
 from inspection_robot.msg import (ControlStatus, GeneralAction, GeneralCmd, GeneralFeedback, GeneralResult,
                                   GeneralTopic, MoveCmd, NavStatus, ObstacleStatus)
 from inspection_robot.nav.costmap import Costmap
@@ -107,6 +107,7 @@ class MoveBase(object):
         self.obstacle = False
         self.off_track = False
         self.control_mode = MODE_TASK  # robot_control's mode; task until heard otherwise
+        self.control_stops_for_obstacles = False  # robot_control's obstacle switch on (wheel_status b5 clear)
         self._costmap_lock = threading.Lock()
         self._supervisor = None  # of the running goal
         self._last_saved_pose = None
@@ -148,6 +149,7 @@ class MoveBase(object):
 
     def _on_control_status(self, msg):
         self.control_mode = int(msg.mode)
+        self.control_stops_for_obstacles = not msg.wheel_status & WHEEL_OBSTACLE_OFF
 
     def _on_control(self, msg):
         if msg.cmd not in OBSTACLE_CONTROL:
@@ -290,7 +292,7 @@ class MoveBase(object):
         supervisor.check_localization(self.loc.problem(time.monotonic()), self.enable_bits)
         return self.loc.pose
 
-    def _plan(self, goal, supervisor, curve=True):
+    def _plan(self, goal, supervisor):
         self._feedback(MOVE_FEEDBACK_PLANNING)
         if not self._attached.wait(STARTUP_WAIT):
             raise GoalAborted(MOVE_RESULT_PLAN_FAILED, "costmap not built %.0f s after start-up" % STARTUP_WAIT)
@@ -308,7 +310,7 @@ class MoveBase(object):
         self._feedback(MOVE_FEEDBACK_PLANNED, path_length=round(plan.length, 3),
                        planning_time=round(time.monotonic() - started, 3))
         curved = None
-        if curve and not supervisor.obstacle_met:
+        if not supervisor.obstacle_met:
             curved = curved_path(plan.points, pose, goal, self.follower_params, self.costmap.clearance)
         return Approach(PathFollower(plan.points if curved is None else curved, goal, self.follower_params,
                                      self.costmap.clearance), curved=curved is not None)
@@ -328,6 +330,18 @@ class MoveBase(object):
         finally:
             self._supervisor = None
 
+    def _plain(self, goal, supervisor, approach):
+        """``approach``, or a plan without its departure curve (a curve drives forward first, towards what
+        stopped the robot); a plan that fails keeps ``approach`` (the goal waits for the obstacle)."""
+        if not approach.curved:
+            return approach
+        try:
+            return self._plan(goal, supervisor)
+        except GoalAborted as err:
+            if err.ret_code != MOVE_RESULT_PLAN_FAILED:
+                raise
+            return approach
+
     def _supervise(self, goal, supervisor):
         approach = self._plan(goal, supervisor)
         rate = rospy.Rate(self.cfg["control_rate"])
@@ -337,13 +351,15 @@ class MoveBase(object):
                 return MOVE_RESULT_CANCELLED, {"reason": "cancelled"}
             pose = self._check_localization(supervisor)
             action, alarm = supervisor.check(time.monotonic(), self.control_mode, self.obstacle, self.enable_bits)
-            if action == STOP:   # a spin when the follower wants one: obstacle_detector then checks its disc
-                if approach.curved:
-                    approach = self._plan(goal, supervisor, curve=False)
-                cmd = approach.blocked_command(pose)
-                self.send(cmd.velocity_x, cmd.velocity_yaw, cmd.wheel_control)
             if alarm:
                 self._feedback(MOVE_FEEDBACK_ALARM, nav_warn=self.nav_warn(), reason=alarm)
+            if action == STOP and supervisor.may_turn_away(self.control_stops_for_obstacles):
+                # the follower's spin when it wants one: obstacle_detector then checks its disc
+                approach = self._plain(goal, supervisor, approach)
+                cmd = approach.blocked_command(pose)
+                self.send(cmd.velocity_x, cmd.velocity_yaw, cmd.wheel_control)
+            elif action == STOP:
+                self.stop()
             if action == REPLAN:
                 approach = self._plan(goal, supervisor)
                 pose = self.loc.pose
