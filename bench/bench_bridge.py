@@ -31,7 +31,12 @@ without ``~authenticate``, is stubbed, both into a temporary folder) and any ``-
 (no CPU figure). A ``bridge_video_ratio`` line compares ours with rosbridge. ``--slow-ms`` adds a
 fourth client that takes that long over each frame and reads its socket only between frames: with
 queue_length 1 it should get fresh frames (few of them), not a growing backlog.
-``--only burst,image,classic,video`` runs a subset; ``--bursts 10000,100000`` sets the burst sizes;
+Side by side (``--only compare``): the raw client's echo round trip (p50/p99 of ``N_RTT``) and a
+10,000-message burst (delivered rate, lost, out of order, bridge CPU per message) against ours and
+every other bridge (``--rosbridge-src``, ``--url``), ``--compare-rounds`` times in alternating order;
+a ``bridge_compare_ratio`` line per other bridge gives ours / theirs for the burst rate and theirs /
+ours for the echo percentiles (medians of the rounds). Only ours' losses fail the bench.
+``--only burst,image,classic,video,compare`` runs a subset; ``--bursts 10000,100000`` sets the burst sizes;
 ``--image-seconds`` the image and video lines' length.
 """
 import argparse
@@ -665,10 +670,42 @@ def classic(bridge_url, counter):
                  roslibpy_rtt(echo_port, "/bench/roslibpy", 300), client="roslibpy")
 
 
+def compare(bridges, rounds, n=10000):
+    """Echo round trip and an unpaced burst against every bridge, rounds in alternating order."""
+    from inspection_robot_testing.bridge_client import RawClient
+    runs, failed = {}, False
+    for round_no in range(rounds):
+        for name, url, pid in (bridges if round_no % 2 == 0 else bridges[::-1]):
+            client = RawClient(url)
+            rtt = raw_rtt(client, "/bench/compare_echo%d" % round_no, N_RTT)
+            client.close()
+            rate, lost, disordered, delivered, _statuses, cpu_us = burst(url, "/bench/compare%d" % round_no, n, pid)
+            figures = {"echo_p50_ms": percentile(rtt, 0.5), "echo_p99_ms": percentile(rtt, 0.99),
+                       "burst_msgs_s": rate}
+            runs.setdefault(name, []).append(figures)
+            report(bench="bridge_compare", bridge=name, round=round_no, echo_n=len(rtt),
+                   echo_p50_ms=round(figures["echo_p50_ms"], 3), echo_p99_ms=round(figures["echo_p99_ms"], 3),
+                   burst_n=n, delivered=delivered, lost=lost, out_of_order=disordered, burst_msgs_s=round(rate),
+                   bridge_cpu_us_per_msg=None if cpu_us is None else round(cpu_us, 1),
+                   load_avg_1min=round(os.getloadavg()[0], 1))
+            failed = failed or (name == "ours" and (lost > 0 or disordered > 0))
+    ours = runs["ours"]
+
+    def median(rows, key):
+        return percentile([r[key] for r in rows], 0.5)
+    for name, theirs in runs.items():
+        if name != "ours":
+            report(bench="bridge_compare_ratio", other=name, rounds=rounds,
+                   burst_ours_over_theirs=round(median(ours, "burst_msgs_s") / median(theirs, "burst_msgs_s"), 2),
+                   echo_p50_theirs_over_ours=round(median(theirs, "echo_p50_ms") / median(ours, "echo_p50_ms"), 2),
+                   echo_p99_theirs_over_ours=round(median(theirs, "echo_p99_ms") / median(ours, "echo_p99_ms"), 2))
+    return failed
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--only", default="classic,burst,image",
-                        help="comma-separated: classic, burst, image, video")
+                        help="comma-separated: classic, burst, image, video, compare")
     parser.add_argument("--bursts", default="10000,100000", help="comma-separated burst sizes")
     parser.add_argument("--bridge-log", help="file for the bridge's output (default: discarded)")
     parser.add_argument("--image-seconds", type=float, default=10.0, help="length of the image line (s)")
@@ -679,8 +716,11 @@ def main():
                         help="video line: a fourth client taking this long (ms) over each frame")
     parser.add_argument("--slow-video-client", nargs=3, help=argparse.SUPPRESS)  # topic url ms: the slow client
     parser.add_argument("--video-rounds", type=int, default=3, help="video line rounds, bridges in alternating order")
-    parser.add_argument("--url", action="append", default=[], help="another rosbridge to run the video line against")
-    parser.add_argument("--rosbridge-src", help="rosbridge_suite 0.11.17 source tree: the video line runs on it too")
+    parser.add_argument("--url", action="append", default=[],
+                        help="another rosbridge to run the video and compare lines against")
+    parser.add_argument("--rosbridge-src",
+                        help="rosbridge_suite 0.11.17 source tree: the video and compare lines run on it too")
+    parser.add_argument("--compare-rounds", type=int, default=3, help="compare line rounds, alternating order")
     parser.add_argument("--rosbridge-deps", default="", help="folder with pymongo's bson for --rosbridge-src")
     parser.add_argument("--publish-video", help=argparse.SUPPRESS)  # "topic,seconds,rate": the video publisher
     parser.add_argument("--video-client", nargs=2, help=argparse.SUPPRESS)  # topic url: one video client
@@ -740,14 +780,16 @@ def main():
                 failed = failed or lost > 0 or disordered > 0
         if "image" in only:
             image_line(bridge_url, ours_pid, args.image_seconds)
+        bridges = [("ours", bridge_url, ours_pid)]   # every bridge the video and compare lines run against
+        if args.rosbridge_src and only & {"video", "compare"}:
+            argv, rb_env = rosbridge_0_11(os.path.abspath(args.rosbridge_src), os.path.abspath(args.rosbridge_deps),
+                                          workdir, env)
+            procs.append(subprocess.Popen(argv, stdout=bridge_log, stderr=subprocess.STDOUT, env=rb_env))
+            bridges.append(("rosbridge 0.11.17", wait_port("bench_rosbridge"), procs[-1].pid))
+        bridges.extend((url, url, None) for url in args.url)
+        if "compare" in only:
+            failed = compare(bridges, args.compare_rounds) or failed
         if "video" in only:
-            bridges = [("ours", bridge_url, ours_pid)]
-            if args.rosbridge_src:
-                argv, rb_env = rosbridge_0_11(os.path.abspath(args.rosbridge_src), os.path.abspath(args.rosbridge_deps),
-                                              workdir, env)
-                procs.append(subprocess.Popen(argv, stdout=bridge_log, stderr=subprocess.STDOUT, env=rb_env))
-                bridges.append(("rosbridge 0.11.17", wait_port("bench_rosbridge"), procs[-1].pid))
-            bridges.extend((url, url, None) for url in args.url)
             report(bench="bridge_video_machine", uptime=subprocess.check_output(["uptime"], universal_newlines=True)
                    .strip(), cores=os.cpu_count())
             runs = {}  # bridge -> its summaries; rounds alternate the order (the machine's load drifts)
