@@ -66,6 +66,16 @@ def test_turning_away_only_while_robot_control_stops_and_in_the_first_three_obst
     assert sup.obstacle_stops == BLOCKED_TURNS + 1
 
 
+def test_a_failed_plan_without_departure_curve_is_tried_again_only_after_the_replan_interval():
+    sup = supervisor()
+    assert sup.check(1.0, MODE_TASK, True, ALL)[0] == STOP
+    assert sup.may_plan_plain(1.0)                 # right after the stop, though the last plan was 1 s ago
+    sup.plain_plan_failed(1.0)
+    assert not sup.may_plan_plain(1.05)            # not on the next tick
+    assert not sup.may_plan_plain(2.9)
+    assert sup.may_plan_plain(3.0)
+
+
 def test_obstacle_longer_than_obstacle_wait_ends_blocked():
     sup = supervisor()
     sup.check(5.0, MODE_TASK, True, ALL)

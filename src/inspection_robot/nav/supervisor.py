@@ -48,6 +48,7 @@ class GoalSupervisor(object):
         self._last_replan = None
         self._replan_requested = False
         self.obstacle_stops = 0   # times a 3-D obstacle stopped this goal
+        self._plain_failed = None  # when a plan without departure curve last failed (move_base's _plain)
 
     @property
     def obstacle_met(self):
@@ -63,6 +64,14 @@ class GoalSupervisor(object):
         again cannot go on forever (the goal then waits ``obstacle_wait`` and ends "3" as before).
         """
         return bool(robot_control_stops) and 0 < self.obstacle_stops <= BLOCKED_TURNS
+
+    def may_plan_plain(self, now):
+        """While blocked: whether to plan without the departure curve now. After such a plan failed
+        (the obstacle walls the goal in), not again before ``replan_min_interval``: not every tick."""
+        return self._plain_failed is None or now - self._plain_failed >= self.replan_min_interval
+
+    def plain_plan_failed(self, now):
+        self._plain_failed = now
 
     def request_replan(self):
         """The costmap changed (any thread): plan again on the next tick."""

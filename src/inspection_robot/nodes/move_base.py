@@ -332,14 +332,16 @@ class MoveBase(object):
 
     def _plain(self, goal, supervisor, approach):
         """``approach``, or a plan without its departure curve (a curve drives forward first, towards what
-        stopped the robot); a plan that fails keeps ``approach`` (the goal waits for the obstacle)."""
-        if not approach.curved:
+        stopped the robot); a plan that fails keeps ``approach`` (the goal waits for the obstacle) and is
+        tried again after supervisor.replan_min_interval."""
+        if not approach.curved or not supervisor.may_plan_plain(time.monotonic()):
             return approach
         try:
             return self._plan(goal, supervisor)
         except GoalAborted as err:
             if err.ret_code != MOVE_RESULT_PLAN_FAILED:
                 raise
+            supervisor.plain_plan_failed(time.monotonic())
             return approach
 
     def _supervise(self, goal, supervisor):
