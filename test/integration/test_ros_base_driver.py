@@ -75,6 +75,14 @@ class Robot(object):
     def moving_commands_since(self, t0):
         return [m for t, m in list(self.cmd_vel.messages) if t >= t0 and (m.linear.x or m.angular.z)]
 
+    def moving_after_the_stop(self, t0):
+        """Moving commands after the first zero one received since ``t0``: robot_control may send a
+        few before it sees the cause, none after (one TCPROS connection keeps their order; how soon
+        it stops is the soak's measure, at the driver, not a wall-clock window on a loaded machine)."""
+        since = [m for t, m in list(self.cmd_vel.messages) if t >= t0]
+        first_zero = next((i for i, m in enumerate(since) if not (m.linear.x or m.angular.z)), 0)  # none: all count
+        return [m for m in since[first_zero:] if m.linear.x or m.angular.z]
+
 
 class RosBaseTest(unittest.TestCase):
     @classmethod
@@ -102,6 +110,11 @@ class RosBaseTest(unittest.TestCase):
 
     def hook(self, name, on):
         self.assertTrue(self.services[name](data=on).success)
+
+    def release(self, hook):
+        """Release a simulated stop input and clear robot_control's latched stop (idempotent)."""
+        self.hook(hook, False)
+        self.robot.control("disable_stop", expect=None)
 
     def base_at_rest(self):
         self.odom.wait(lambda m: m.twist.twist.linear.x == 0.0, 5.0, "base at rest")
@@ -166,11 +179,12 @@ class RosBaseTest(unittest.TestCase):
         self.assertTrue(self.drive(3.0, lambda: self.odom.last.twist.twist.linear.x > 0.2), "not moving")
         t0 = time.monotonic()
         self.hook("press_estop", True)
+        self.addCleanup(self.release, "press_estop")  # a failure here leaves the next tests a base that moves
         self.robot.status.wait(lambda m: m.light_status & LIGHT_HARD_ESTOP, 2.0, "hard e-stop reported")
         wait_for(lambda: any(t >= t0 and not m.linear.x for t, m in list(self.robot.cmd_vel.messages)), 2.0,
                  "zero cmd_vel after the e-stop")
         self.drive(0.5)
-        self.assertEqual(self.robot.moving_commands_since(t0 + 0.1), [])
+        self.assertEqual(self.robot.moving_after_the_stop(t0), [])
         self.base_at_rest()
         self.hook("press_estop", False)
         self.robot.status.wait(lambda m: not m.light_status & LIGHT_HARD_ESTOP, 2.0, "e-stop released")
@@ -178,9 +192,10 @@ class RosBaseTest(unittest.TestCase):
         self.assertTrue(self.drive(3.0, lambda: self.odom.last.twist.twist.linear.x > 0.2), "moves again")
         t0 = time.monotonic()
         self.hook("press_bumper", True)
+        self.addCleanup(self.release, "press_bumper")
         self.robot.status.wait(lambda m: m.stop_status & STOP_FRONT_COLLISION, 2.0, "bumper stop")
         self.drive(0.5)
-        self.assertEqual(self.robot.moving_commands_since(t0 + 0.1), [])
+        self.assertEqual(self.robot.moving_after_the_stop(t0), [])
         self.hook("press_bumper", False)
         self.base_at_rest()
 
@@ -189,7 +204,6 @@ class RosBaseTest(unittest.TestCase):
         t0 = time.monotonic()
         self.hook("stall_odometry", True)
         self.robot.status.wait(lambda m: m.circuit_status & CIRCUIT_STEPPER_COMM, 2.0, "drive fault (circuit b0)")
-        t_fault = time.monotonic()
         t_stop = wait_for(lambda: next((t for t, m in list(self.robot.cmd_vel.messages)
                                         if t >= t0 and not m.linear.x), None), 2.0, "zero cmd_vel")
         line = "stalled odometry -> zero cmd_vel: %.0f ms (odom_timeout 500 ms)" % ((t_stop - t0) * 1000)
@@ -199,7 +213,7 @@ class RosBaseTest(unittest.TestCase):
         wait_for(lambda: self.error_logged("ros_base/odom_topic (/odom)", "stale", "ros_base/odom_timeout",
                                            since=t0), 3.0, "error naming ros_base/odom_topic")
         self.drive(0.6)
-        self.assertEqual(self.robot.moving_commands_since(t_fault + 0.05), [])
+        self.assertEqual(self.robot.moving_after_the_stop(t0), [])
         self.hook("stall_odometry", False)
         self.robot.status.wait(lambda m: not m.circuit_status & CIRCUIT_STEPPER_COMM, 2.0, "fault cleared")
         self.base_at_rest()
@@ -237,10 +251,9 @@ class RosBaseTest(unittest.TestCase):
         t0 = time.monotonic()
         rosnode.kill_nodes(["/sim_diff_drive"])
         self.robot.status.wait(lambda m: m.circuit_status & CIRCUIT_STEPPER_COMM, 3.0, "drive fault after the kill")
-        t_fault = time.monotonic()
         wait_for(lambda: self.error_logged("ros_base/odom_topic", "stale", since=t0), 3.0, "error after the kill")
         self.drive(0.5)
-        self.assertEqual(self.robot.moving_commands_since(t_fault + 0.05), [])
+        self.assertEqual(self.robot.moving_after_the_stop(t0), [])
         self.assertEqual(self.robot.status.last.mode, MODE_SERVER)   # a drive fault stops, it does not release
 
 
