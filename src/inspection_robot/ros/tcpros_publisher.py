@@ -304,7 +304,7 @@ class TcprosPublisher(object):
         try:
             self._master.unregisterPublisher(publication.topic, self.uri)
         except Exception as exc:  # boundary: the master may be gone at shutdown; nothing else to undo
-            self._log("warn", "tcpros: could not unregister %s from the master: %r" % (publication.topic, exc))
+            self._log("warning", "tcpros: could not unregister %s from the master: %r" % (publication.topic, exc))
 
     def _close_publication(self, publication):
         with publication.lock:
@@ -365,7 +365,7 @@ class TcprosPublisher(object):
             now = time.monotonic()
             if connection.drop_logged is None or now - connection.drop_logged >= DROP_LOG_PERIOD_S:
                 connection.drop_logged = now
-                self._log("warn", "tcpros: %s's subscriber %s does not keep up: dropped its %d oldest messages "
+                self._log("warning", "tcpros: %s's subscriber %s does not keep up: dropped its %d oldest messages "
                           "(queue_size %d; %d in all)" % (publication.topic, connection.callerid, dropped, bound,
                                                           connection.dropped))
         if not connection.writing:
@@ -481,7 +481,7 @@ class TcprosPublisher(object):
             except (BlockingIOError, InterruptedError):
                 return
             except OSError as exc:
-                self._log("warn", "tcpros: accept failed on port %d: %r" % (self.port, exc))
+                self._log("warning", "tcpros: accept failed on port %d: %r" % (self.port, exc))
                 return
             threading.Thread(target=self._handshake, args=(sock, address), name="tcpros_handshake",
                              daemon=True).start()
@@ -491,12 +491,12 @@ class TcprosPublisher(object):
         try:
             header = read_header(sock)
         except (HeaderError, OSError) as exc:
-            self._log("warn", "tcpros: refused the subscriber at %s:%s: %s" % (address[0], address[1], exc))
+            self._log("warning", "tcpros: refused the subscriber at %s:%s: %s" % (address[0], address[1], exc))
             sock.close()
             return
         publication, error = self._check(header)
         if error:
-            self._log("warn", "tcpros: refused %s: %s" % (header.get("callerid", address[0]), error))
+            self._log("warning", "tcpros: refused %s: %s" % (header.get("callerid", address[0]), error))
             try:
                 sock.sendall(encode_header({"error": error}))
             except OSError:
@@ -513,7 +513,7 @@ class TcprosPublisher(object):
                                         "message_definition": data_class._full_text, "topic": publication.topic}))
             sock.setblocking(False)
         except OSError as exc:
-            self._log("warn", "tcpros: lost %s during its handshake: %s" % (header["callerid"], exc))
+            self._log("warning", "tcpros: lost %s during its handshake: %s" % (header["callerid"], exc))
             sock.close()
             return
         connection = _Connection(sock, header["callerid"], next(self._numbers))
