@@ -47,3 +47,55 @@ def test_a_lone_message_goes_at_once_a_burst_once_per_loop_pass():
     assert writes[3:] == [["last"]]
     backend.publish("/t", {"data": "quiet"})  # after a pass with one message: at once again
     assert writes[4:] == [["quiet"]]
+
+
+class Types(object):
+    def message_class(self, type_name):
+        return type_name
+
+
+class Master(object):
+    def getTopicTypes(self):
+        return []
+
+
+class Tcpros(object):
+    """What RosBackend uses of a TcprosPublisher."""
+
+    def __init__(self):
+        self.advertised = []
+        self.unadvertised = []
+
+    def advertise(self, topic, data_class, latch, queue_size):
+        handle = Handle()
+        handle.depth = 0
+        handle.queue_depth = lambda: handle.depth
+        self.advertised.append((topic, data_class, latch, queue_size))
+        return handle
+
+    def unadvertise(self, publication):
+        self.unadvertised.append(publication)
+
+
+def test_clients_share_the_tcpros_publication_and_the_last_to_leave_unadvertises_it():
+    tcpros = Tcpros()
+    posted = []
+    backend = bridge_backend.RosBackend(Types(), Codec(), lambda fn, *args: posted.append((fn, args)), None,
+                                        tcpros=tcpros)
+    backend._master = Master()
+    backend.advertise("a", "/t", "std_msgs/String", True, 20)
+    backend.advertise("b", "/t", "std_msgs/String", False, 100)
+    assert tcpros.advertised == [("/t", "std_msgs/String", True, 20)]
+    handle = backend._publishers["/t"].handle
+    assert not backend.publisher_full("/t")
+    handle.depth = 9
+    assert not backend.publisher_full("/t")
+    handle.depth = 10  # half its queue_size: the client is paused before the publisher would drop
+    assert backend.publisher_full("/t")
+    backend.publish("/t", {"data": "x"})
+    backend.publish("/t", {"data": "pending"})  # waits for the end of the loop pass
+    backend.unadvertise("a", "/t")
+    assert tcpros.unadvertised == []
+    backend.unadvertise("b", "/t")
+    assert handle.writes == [["x"], ["pending"]]  # what the client published before leaving still goes out
+    assert tcpros.unadvertised == [handle]
