@@ -31,6 +31,7 @@ import socketserver
 import struct
 import threading
 import time
+import traceback
 import xmlrpc.server
 
 import rosgraph
@@ -396,22 +397,30 @@ class TcprosPublisher(object):
     def _io_loop(self):
         while True:
             for key, events in self._selector.select():
-                if key.fileobj is self._listener:
-                    self._accept()
-                elif key.fileobj is self._wake_r:
-                    try:
-                        while self._wake_r.recv(4096):
-                            pass
-                    except (BlockingIOError, InterruptedError):
-                        pass
-                    if not self._run_ops():
+                try:
+                    if not self._io_event(key, events):
                         return
-                else:
-                    publication, connection = key.data
-                    if events & selectors.EVENT_READ:
-                        self._readable(publication, connection)
-                    if events & selectors.EVENT_WRITE and not connection.closed:
-                        self._flush(publication, connection)
+                except Exception:  # boundary: one connection's surprise must not stop every topic's writes
+                    self._log("error", "tcpros: I/O thread: %s" % traceback.format_exc())
+
+    def _io_event(self, key, events):
+        """Handle one ready socket; False when the thread is to stop."""
+        if key.fileobj is self._listener:
+            self._accept()
+        elif key.fileobj is self._wake_r:
+            try:
+                while self._wake_r.recv(4096):
+                    pass
+            except (BlockingIOError, InterruptedError):
+                pass
+            return self._run_ops()
+        else:
+            publication, connection = key.data
+            if events & selectors.EVENT_READ:
+                self._readable(publication, connection)
+            if events & selectors.EVENT_WRITE and not connection.closed:
+                self._flush(publication, connection)
+        return True
 
     def _run_ops(self):
         while self._ops:
