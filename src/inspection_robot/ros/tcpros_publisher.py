@@ -321,7 +321,10 @@ class TcprosPublisher(object):
         with publication.lock:
             if publication.closed:
                 raise RuntimeError("publish() to the unadvertised topic %s" % publication.topic)
-            early = publication.early_open() and len(publication.early) < EARLY_MAX_MESSAGES
+            early_open = publication.early_open()
+            if not early_open and publication.early:
+                publication.early = []  # the window is over: its messages are not needed any more
+            early = early_open and len(publication.early) < EARLY_MAX_MESSAGES
             if not publication.connections and not publication.latch and not early:
                 return
             data, ends = publication.serialize(messages)
