@@ -100,7 +100,9 @@ class BackendReplayTest(unittest.TestCase):
                  60.0, "the recorder subscribed to the backend's topics", period=0.1)
         # ... and is connected to the bridge's publishers of them (advertised at the bridge's start): a
         # subscriber registered but not yet connected would miss the backend's first messages
-        bridge = xmlrpc.client.ServerProxy(rosnode.get_api_uri(master, "/rosbridge_websocket"))
+        bridge = xmlrpc.client.ServerProxy(wait_for(
+            lambda: rosnode.get_api_uri(master, "/rosbridge_websocket/tcpros", skip_cache=True), 60.0,
+            "the bridge's TCPROS publisher registered", period=0.1))
 
         def recorder_connected():
             _code, _text, bus = bridge.getBusInfo("/test_backend_replay")

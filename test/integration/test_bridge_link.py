@@ -213,8 +213,8 @@ class BridgeLinkTest(unittest.TestCase):
         subscribed before a client's first message; a client advertising it shares that publisher."""
         state = rosgraph.Master("/test_bridge_link").getSystemState()
         publishers, subscribers = ({topic: nodes for topic, nodes in part} for part in state[:2])
-        for topic in BACKEND_TOPIC_TYPES:
-            self.assertIn("/rosbridge_websocket", publishers.get("/" + topic, []), topic)
+        for topic in BACKEND_TOPIC_TYPES:   # published by the bridge's own TCPROS publisher, a node of its own
+            self.assertIn("/rosbridge_websocket/tcpros", publishers.get("/" + topic, []), topic)
         for topic in BACKEND_ACK_TYPES:   # and it listens to their answers from its start, for the clients to join
             self.assertIn("/rosbridge_websocket", subscribers.get("/" + topic, []), topic)
         received = Latest("/server_status", GeneralTopic)
@@ -227,7 +227,7 @@ class BridgeLinkTest(unittest.TestCase):
         self.assertIn("already established with type inspection_robot/GeneralTopic", client.recv_message()["msg"])
         client.send({"op": "unadvertise", "topic": "/server_status"})
         client.close()
-        wait_for(lambda: "/rosbridge_websocket" in dict(
+        wait_for(lambda: "/rosbridge_websocket/tcpros" in dict(
             rosgraph.Master("/test_bridge_link").getSystemState()[0]).get("/server_status", []), 5.0,
             "the bridge still publishing /server_status after the client left")
 

@@ -1,115 +1,17 @@
-"""compat_rospy.write_direct on a real rospy QueuedConnection: sends only while its thread idles, in order.
-RosBackend.publish's batching: the first message of a loop pass goes at once, the rest in one batch."""
-import socket
-import threading
-import time
-
-import pytest
-from rospy.impl.tcpros_pubsub import QueuedConnection
-
+"""RosBackend.publish's batching: the first message of a loop pass goes at once, the rest in one batch.
+(The TCPROS publisher it writes to: test_tcpros_publisher.py.)"""
 from inspection_robot.ros import bridge_backend
-from inspection_robot.ros.compat_rospy import write_direct
-
-
-class FakeTransport(object):
-    """What QueuedConnection uses of a TCPROSTransport, on one end of a socket pair."""
-
-    def __init__(self, sock):
-        self.socket = sock
-        self.done = False
-        self.stat_bytes = 0
-        self.written = []  # writes the connection's thread made
-        self.gate = threading.Event()
-        self.gate.set()
-        self._cleanup = None
-
-    def set_cleanup_callback(self, fn):
-        self._cleanup = fn
-
-    def write_data(self, data):
-        self.gate.wait(5)
-        self.written.append(data)
-        self.socket.sendall(data)
-        self.stat_bytes += len(data)
-
-    def close(self):
-        self.done = True
-        self._cleanup(self)
-
-
-def wait_for(condition, timeout=5.0):
-    deadline = time.monotonic() + timeout
-    while not condition():
-        assert time.monotonic() < deadline, "condition not met in time"
-        time.sleep(0.001)
-
-
-def thread_idle(connection):
-    return bool(connection._cond_data_available._waiters)
-
-
-def recv_exactly(sock, n):
-    data = b""
-    sock.settimeout(5)
-    while len(data) < n:
-        data += sock.recv(n - len(data))
-    return data
-
-
-@pytest.fixture
-def idle():
-    """A QueuedConnection on one end of a socket pair, its thread waiting for data; and the peer."""
-    ours, peer = socket.socketpair()
-    transport = FakeTransport(ours)
-    connection = QueuedConnection(transport, 0)
-    wait_for(lambda: thread_idle(connection))
-    yield connection, transport, peer
-    transport.gate.set()
-    transport.close()
-
-
-def test_idle_thread_the_caller_sends_itself(idle):
-    connection, transport, peer = idle
-    assert write_direct(connection, b"hello")
-    assert recv_exactly(peer, 5) == b"hello"
-    assert transport.written == [] and transport.stat_bytes == 5
-
-
-def test_busy_thread_keeps_the_write_so_nothing_overtakes_it(idle):
-    connection, transport, peer = idle
-    transport.gate.clear()
-    connection.write_data(b"first")
-    wait_for(lambda: not connection._queue)  # the thread took it and is stuck in its write
-    assert not write_direct(connection, b"second")  # queue empty, but the thread is not idle
-    connection.write_data(b"second")
-    transport.gate.set()
-    assert recv_exactly(peer, 11) == b"firstsecond"
-
-
-def test_what_a_full_socket_does_not_take_is_queued_for_the_thread_in_order(idle):
-    connection, transport, peer = idle
-    transport.socket.setsockopt(socket.SOL_SOCKET, socket.SO_SNDBUF, 4096)
-    data = bytes(bytearray(i % 251 for i in range(60000)))
-    assert write_direct(connection, data)  # never blocks: the rest goes to the thread
-    assert recv_exactly(peer, len(data)) == data
-    wait_for(lambda: transport.stat_bytes == len(data))
-    (rest,) = transport.written  # the thread sent only the tail the socket refused
-    assert 0 < len(rest) < len(data) and data.endswith(rest)
-    wait_for(lambda: thread_idle(connection))
-    assert write_direct(connection, b"next")
-    assert recv_exactly(peer, 4) == b"next"
-
-
-def test_too_large_or_closed_goes_the_usual_way(idle):
-    connection, transport, peer = idle
-    assert not write_direct(connection, b"x" * 70000)
-    transport.done = True
-    assert not write_direct(connection, b"x")
-    assert not write_direct(object(), b"x")
 
 
 class Handle(object):
+    """What RosBackend uses of a tcpros_publisher.Publication."""
     data_class = object
+
+    def __init__(self):
+        self.writes = []
+
+    def publish(self, messages):
+        self.writes.append(list(messages))
 
 
 class Codec(object):
@@ -117,11 +19,11 @@ class Codec(object):
         return values["data"]
 
 
-def test_a_lone_message_goes_at_once_a_burst_once_per_loop_pass(monkeypatch):
-    writes, posted = [], []
-    monkeypatch.setattr(bridge_backend, "publish_batch", lambda handle, messages: writes.append(list(messages)))
+def test_a_lone_message_goes_at_once_a_burst_once_per_loop_pass():
+    posted = []
     backend = bridge_backend.RosBackend(None, Codec(), lambda fn, *args: posted.append((fn, args)), None)
-    entry = bridge_backend._Topic(Handle(), "std_msgs/String", bridge_backend.EarlyMessageReplay(0.0))
+    entry = bridge_backend._Topic(Handle(), "std_msgs/String")
+    writes = entry.handle.writes
     backend._publishers["/t"] = entry
 
     def next_pass():
@@ -145,3 +47,55 @@ def test_a_lone_message_goes_at_once_a_burst_once_per_loop_pass(monkeypatch):
     assert writes[3:] == [["last"]]
     backend.publish("/t", {"data": "quiet"})  # after a pass with one message: at once again
     assert writes[4:] == [["quiet"]]
+
+
+class Types(object):
+    def message_class(self, type_name):
+        return type_name
+
+
+class Master(object):
+    def getTopicTypes(self):
+        return []
+
+
+class Tcpros(object):
+    """What RosBackend uses of a TcprosPublisher."""
+
+    def __init__(self):
+        self.advertised = []
+        self.unadvertised = []
+
+    def advertise(self, topic, data_class, latch, queue_size):
+        handle = Handle()
+        handle.depth = 0
+        handle.queue_depth = lambda: handle.depth
+        self.advertised.append((topic, data_class, latch, queue_size))
+        return handle
+
+    def unadvertise(self, publication):
+        self.unadvertised.append(publication)
+
+
+def test_clients_share_the_tcpros_publication_and_the_last_to_leave_unadvertises_it():
+    tcpros = Tcpros()
+    posted = []
+    backend = bridge_backend.RosBackend(Types(), Codec(), lambda fn, *args: posted.append((fn, args)), None,
+                                        tcpros=tcpros)
+    backend._master = Master()
+    backend.advertise("a", "/t", "std_msgs/String", True, 20)
+    backend.advertise("b", "/t", "std_msgs/String", False, 100)
+    assert tcpros.advertised == [("/t", "std_msgs/String", True, 20)]
+    handle = backend._publishers["/t"].handle
+    assert not backend.publisher_full("/t")
+    handle.depth = 9
+    assert not backend.publisher_full("/t")
+    handle.depth = 10  # half its queue_size: the client is paused before the publisher would drop
+    assert backend.publisher_full("/t")
+    backend.publish("/t", {"data": "x"})
+    backend.publish("/t", {"data": "pending"})  # waits for the end of the loop pass
+    backend.unadvertise("a", "/t")
+    assert tcpros.unadvertised == []
+    backend.unadvertise("b", "/t")
+    assert handle.writes == [["x"], ["pending"]]  # what the client published before leaving still goes out
+    assert tcpros.unadvertised == [handle]

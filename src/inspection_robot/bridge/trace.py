@@ -21,7 +21,7 @@ FILE = os.environ.get("INSPECTION_BRIDGE_TRACE_FILE") or "/tmp/bridge_trace.json
 STAGES = (
     ("read", "BridgeHandler.on_message entry: frame read and unmasked by tornado [loop]"),
     ("decoded", "RosBackend.publish entry: JSON parsed, op dispatched [loop]"),
-    ("published", "publish_batch returned: message converted, written to rospy's socket [loop]"),
+    ("published", "message converted, written to the subscriber's socket by the TCPROS publisher [loop]"),
     ("callback", "RosBackend._on_message entry: rospy's receive thread deserialized it [rospy]"),
     ("posted", "encoded to JSON, handed to LoopPoster [rospy]"),
     ("delivered", "RosBackend._deliver entry: the loop ran the posted callback [loop]"),

@@ -8,7 +8,9 @@ Publishes:   client_count (std_msgs/Int32, latched): connected websocket clients
              diagnostics (diagnostic_msgs/DiagnosticArray, diagnostic_updater, 1 Hz): hardware_id
              backend_link, status "rosbridge_websocket: clients": send queues, drop counters
              the topics a backend publishes (interface.BACKEND_TOPIC_TYPES: server_status, every *_cmd, ...),
-             advertised at start; plus every other topic a client advertises (any type)
+             advertised at start; plus every other topic a client advertises (any type). These go out
+             through the bridge's own TCPROS publisher, node name ``<this node>/tcpros`` in rosnode
+             and rostopic info (ros/tcpros_publisher.py)
 Subscribes:  every topic a client subscribes to (one ROS subscriber per topic, shared); the answers to
              a backend's commands (interface.BACKEND_ACK_TYPES: every *_ack) from the start, kept
 Services:    every service a client advertises; calls any ROS service for clients
@@ -54,7 +56,7 @@ from inspection_robot.bridge.codec import Codec
 from inspection_robot.bridge.console import CONSOLE_PATH, console_routes, missing_files
 from inspection_robot.bridge.protocol import Session, SessionConfig
 from inspection_robot.ros import compat_rospy
-from inspection_robot.ros.bridge_backend import RosBackend, RosGraph
+from inspection_robot.ros.bridge_backend import RosBackend, RosGraph, start_tcpros_publisher
 from inspection_robot.ros.message_types import GenpyTypes
 from inspection_robot.bridge.rosapi import RosApi
 from inspection_robot.bridge.server import BridgeServer, LoopPoster, make_ssl_context
@@ -236,8 +238,9 @@ def main():
                                                      thread_name_prefix="bridge_call")
     types = GenpyTypes()
     codec = Codec(types)
+    tcpros = start_tcpros_publisher(log)
     backend = RosBackend(types, codec, LoopPoster(loop, log).post, executor, params["service_timeout"],
-                         params["subscriber_queue_size"], log)
+                         params["subscriber_queue_size"], log, tcpros)
     backend.advertise_for_the_robot(BACKEND_TOPIC_TYPES)
     backend.subscribe_for_the_robot(BACKEND_ACK_TYPES)
     rosapi = RosApi(RosGraph(backend), types)
@@ -298,3 +301,4 @@ def main():
     rospy.spin()
     io_thread.stop(server.stop)
     executor.shutdown(wait=False)
+    tcpros.close()

@@ -3,9 +3,9 @@
 :class:`RosBackend` implements what protocol.Session needs. One rospy.Subscriber per topic
 serves every client; each ROS message is encoded once per compression its clients use, in
 rospy's thread, and handed to the event loop (``post``) for fan-out. Messages clients publish
-reach rospy at once, in a burst once per event-loop pass in one batch (compat_rospy.publish_batch),
-sent from the event loop itself while a connection's writer thread is idle
-(compat_rospy.write_direct: rospy's internals stay there).
+reach ROS at once, in a burst once per event-loop pass in one batch, through the bridge's own
+TCPROS publisher (tcpros_publisher.py: written from the event loop itself, never blocking; public
+APIs only).
 Service calls and rosapi requests run on a thread pool; their results come back through ``post``.
 Services a client advertises are rospy.Services whose handler forwards the request to that client
 and waits (bounded) for its service_response.
@@ -13,7 +13,6 @@ With message_types.py, the bridge's ROS side; both live in the ROS wing.
 """
 import concurrent.futures
 import threading
-import time
 
 import rosgraph
 import rospy
@@ -21,7 +20,8 @@ import rosservice
 
 from inspection_robot.bridge import trace
 from inspection_robot.bridge.protocol import BridgeError, Outgoing
-from inspection_robot.ros.compat_rospy import publish_batch, publisher_queue_depth, replay_latched
+from inspection_robot.ros.compat_rospy import replay_latched
+from inspection_robot.ros.tcpros_publisher import TcprosPublisher
 
 
 MAX_BATCH = 256  # messages converted for one topic before the client's socket waits for a flush
@@ -34,13 +34,12 @@ def type_conflict(topic, wanted, established):
 
 
 class _Topic(object):
-    __slots__ = ("handle", "type_name", "sessions", "early", "high_water", "pending", "in_pass", "bursting")
+    __slots__ = ("handle", "type_name", "sessions", "high_water", "pending", "in_pass", "bursting")
 
-    def __init__(self, handle, type_name, early=None, high_water=None):
-        self.handle = handle
+    def __init__(self, handle, type_name, high_water=None):
+        self.handle = handle    # a tcpros_publisher.Publication, or a rospy.Subscriber
         self.type_name = type_name
         self.sessions = set()
-        self.early = early
         self.high_water = high_water
         self.pending = []  # messages converted, not yet handed to rospy (flushed once per loop pass)
         self.in_pass = 0  # messages published in this event-loop pass (the ones after the first wait for its end)
@@ -54,54 +53,31 @@ def known_topic_types(master):
     return [(name, type_name) for name, type_name in master.getTopicTypes() if type_name != rosgraph.names.ANYTYPE]
 
 
-class EarlyMessageReplay(rospy.SubscribeListener):
-    """Hands messages published in the first ``window`` s of a publisher to late-connecting subscribers.
-
-    A client typically advertises and publishes at once, before TCPROS connections to the
-    topic's subscribers exist; rospy would drop those messages. rosbridge_library does the same
-    as this (its PublisherConsistencyListener, 1 s window), and backends rely on it.
-    """
-
-    MAX_MESSAGES = 100
-
-    def __init__(self, window=1.0):
-        super(EarlyMessageReplay, self).__init__()
-        self._window = float(window)
-        self._created = time.monotonic()
-        self._lock = threading.Lock()
-        self._messages = []
-
-    def _open(self):
-        return time.monotonic() - self._created < self._window
-
-    def record(self, msg):
-        if self._open():
-            with self._lock:
-                if len(self._messages) < self.MAX_MESSAGES:
-                    self._messages.append(msg)
-
-    def peer_subscribe(self, topic_name, topic_publish, peer_publish):
-        if not self._open():
-            return
-        with self._lock:
-            messages = list(self._messages)
-        for msg in messages:
-            peer_publish(msg)
+def start_tcpros_publisher(log):
+    """The bridge's TCPROS publisher, as ``<node>/tcpros`` (its own caller_id: rosmaster shuts down a
+    caller_id's old URI when it registers again with another), closed (its topics unregistered) on
+    rospy shutdown. Its slave API's shutdown (rosnode kill) stops the bridge: it is a part of it."""
+    caller_id = rospy.get_name() + "/tcpros"
+    publisher = TcprosPublisher(caller_id, rosgraph.Master(caller_id), log=log,
+                                on_shutdown_request=rospy.signal_shutdown)
+    rospy.on_shutdown(publisher.close)
+    return publisher
 
 
 class RosBackend(object):
     """ROS operations for the sessions. ``post(fn, *args)`` runs fn on the event-loop thread."""
 
     def __init__(self, types, codec, post, executor, service_timeout=10.0, subscriber_queue_size=100,
-                 log=None):
+                 log=None, tcpros=None):
         self._types = types
+        self._tcpros = tcpros   # TcprosPublisher: every topic clients publish
         self._codec = codec
         self._post = post
         self._executor = executor
         self._service_timeout = float(service_timeout)
         self._sub_queue = int(subscriber_queue_size)
         self._log = log or (lambda level, text: None)
-        self._publishers = {}   # topic -> _Topic(rospy.Publisher)
+        self._publishers = {}   # topic -> _Topic(tcpros_publisher.Publication)
         self._subscribers = {}  # topic -> _Topic(rospy.Subscriber)
         self._kept = set()      # topics subscribed for the robot: kept when their last client leaves
         self._services = {}     # service -> (rospy.Service, session, type)
@@ -136,9 +112,8 @@ class RosBackend(object):
         if entry is None:
             self.check_type(topic, type_name)
             cls = self._types.message_class(type_name)
-            early = EarlyMessageReplay()
-            entry = _Topic(rospy.Publisher(topic, cls, latch=latch, queue_size=queue_size,
-                                           subscriber_listener=early), type_name, early, max(1, queue_size // 2))
+            publication = self._tcpros.advertise(rospy.resolve_name(topic), cls, latch, queue_size)
+            entry = _Topic(publication, type_name, max(1, queue_size // 2))
             self._publishers[topic] = entry
         elif entry.type_name != type_name:
             raise type_conflict(topic, type_name, entry.type_name)
@@ -157,17 +132,16 @@ class RosBackend(object):
             return
         entry.sessions.discard(session)
         if not entry.sessions:
+            self._flush(topic, entry)  # what the client published before unadvertising still goes out
             del self._publishers[topic]
-            if entry.pending:  # what the client published before unadvertising still goes out
-                self._flush(topic, entry)
-            entry.handle.unregister()
+            self._tcpros.unadvertise(entry.handle)
 
     def publish(self, topic, values):
-        """Convert now (errors go to the client) and hand to rospy.
+        """Convert now (errors go to the client) and hand to the TCPROS publisher.
 
-        A message alone in its event-loop pass (an echo, a teleop command) goes to rospy at once.
+        A message alone in its event-loop pass (an echo, a teleop command) goes out at once.
         In a burst (tornado handles up to READ_SLICE frames it already holds before it returns to
-        the loop) the messages of a pass reach rospy in one write at the end of the pass: after a
+        the loop) the messages of a pass go out in one write at the end of the pass: after a
         pass that had more than one message of the topic, the next pass's first one waits too; the
         first message after a quiet pass never waits. No buffered-byte count is needed.
         """
@@ -176,11 +150,10 @@ class RosBackend(object):
             trace.mark("decoded")
         entry = self._publishers[topic]
         msg = self._codec.from_json(entry.handle.data_class, values)
-        entry.early.record(msg)
         if entry.in_pass or entry.bursting:
             entry.pending.append(msg)
         else:
-            publish_batch(entry.handle, [msg])
+            entry.handle.publish([msg])
         entry.in_pass += 1
         if entry.in_pass == 1:
             self._post(self._end_pass, topic, entry)
@@ -195,12 +168,13 @@ class RosBackend(object):
     def _flush(self, topic, entry):
         messages, entry.pending = entry.pending, []
         if messages and self._publishers.get(topic) is entry:
-            publish_batch(entry.handle, messages)
+            entry.handle.publish(messages)
 
     def publisher_full(self, topic):
-        """True while a connection queue of the topic's rospy publisher is at half its queue_size or more."""
+        """True while a subscriber connection's queue of the topic is at half its queue_size or more
+        (the publisher would drop its oldest messages when full)."""
         entry = self._publishers.get(topic)
-        return entry is not None and (publisher_queue_depth(entry.handle) >= entry.high_water
+        return entry is not None and (entry.handle.queue_depth() >= entry.high_water
                                       or len(entry.pending) >= MAX_BATCH)
 
     # ---------------------------------------------------------------- subscribing
