@@ -7,6 +7,7 @@ import socket
 import subprocess
 import threading
 import time
+import xmlrpc.client
 
 import rosgraph
 import rospy
@@ -31,6 +32,15 @@ def wait_for(condition, timeout, message="condition", period=0.01):
             return value
         time.sleep(period)
     raise AssertionError("timed out after %.1f s waiting for %s" % (timeout, message))
+
+
+class _ShortTransport(xmlrpc.client.Transport):
+    """XML-RPC with a 2 s socket timeout (a node that stopped answering must not hang a test's set-up)."""
+
+    def make_connection(self, host):
+        connection = super(_ShortTransport, self).make_connection(host)
+        connection.timeout = 2.0
+        return connection
 
 
 class Latest(object):
@@ -60,7 +70,28 @@ class Latest(object):
                         timeout, what)
 
     def wait_connected(self, timeout=5.0):
+        """Until a publisher is connected and every publisher of the topic has added this node.
+
+        A subscriber counts its connection once it has read the publisher's header, before the
+        publisher adds the connection to its list: what it publishes in between (the ack of a
+        test's first request) is lost. A publisher's getBusInfo (slave API) lists its connections.
+        """
         wait_for(lambda: self._sub.get_num_connections() > 0, timeout, "publisher of " + self._sub.name)
+        wait_for(self._publishers_added_me, timeout, "publishers of %s to add this subscriber" % self._sub.name)
+
+    def _publishers_added_me(self):
+        me = rospy.get_name()
+        master = rosgraph.Master(me)
+        topic = self._sub.resolved_name
+        for node in next((nodes for name, nodes in master.getSystemState()[0] if name == topic), []):
+            try:
+                code, _, info = xmlrpc.client.ServerProxy(master.lookupNode(node),
+                                                          transport=_ShortTransport()).getBusInfo(me)
+            except (rosgraph.MasterError, OSError, xmlrpc.client.Error):
+                continue  # gone or not answering: it publishes nothing to wait for
+            if code == 1 and not any(c[1] == me and c[2] == "o" and c[4] == topic for c in info):
+                return False
+        return True
 
     def handshake(self, send, predicate, timeout=10.0, period=0.5):
         """Repeat ``send()`` until a reply satisfying ``predicate`` arrives.

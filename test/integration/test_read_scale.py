@@ -46,6 +46,11 @@ class TestReadScale(unittest.TestCase):
         wait_subscribed(cls.pub, 10.0)
         cls.acks.wait_connected(10.0)
 
+        def probe():  # a request refused at once: its ack proves both connections carry messages
+            cls.trans_id += 1
+            cls.pub.publish(ReadScaleCmd(sender="server", trans_id=cls.trans_id, directory="/nonexistent"))
+        cls.acks.handshake(probe, lambda a: a.trans_id == cls.trans_id, timeout=20.0)
+
     def request(self, **fields):
         TestReadScale.trans_id += 1
         msg = ReadScaleCmd(sender="server", trans_id=self.trans_id, directory=self.preset, foreign_detect=0,
