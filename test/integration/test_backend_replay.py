@@ -104,10 +104,16 @@ class BackendReplayTest(unittest.TestCase):
             lambda: rosnode.get_api_uri(master, "/rosbridge_websocket/tcpros", skip_cache=True), 60.0,
             "the bridge's TCPROS publisher registered", period=0.1))
 
-        def recorder_connected():
+        # ... as are the robot's nodes (on a loaded machine a node's subscriptions connect one by one:
+        # a heartbeat sent before status_control's did would make the live run go online a beat late)
+        wanted = {("/run_record", "/server_status"), ("/run_record", "/mode_cmd"),
+                  ("/status_control", "/server_status"), ("/robot_control", "/mode_cmd")}
+
+        def subscribers_connected():
             _code, _text, bus = bridge.getBusInfo("/test_backend_replay")
-            return {"/server_status", "/mode_cmd"} <= {c[4] for c in bus if c[1] == "/run_record" and c[2] == "o"}
-        wait_for(recorder_connected, 60.0, "the recorder connected to the bridge's backend topics", period=0.1)
+            return wanted <= {(c[1], c[4]) for c in bus if c[2] == "o"}
+        wait_for(subscribers_connected, 60.0, "the recorder and the robot connected to the bridge's backend topics",
+                 period=0.1)
         port = int(wait_for(lambda: rospy.get_param("rosbridge_websocket/actual_port", None), 60.0, "bridge port"))
         cls.run_live(Backend(port))
         active = glob.glob(os.path.join(cls.dir, "bags", "*.bag.active"))

@@ -234,8 +234,10 @@ class CameraSimTest(unittest.TestCase):
     def test_joystick_busy_rule(self):
         try:
             self.control_pub.publish(ControlStatus(mode=2))
+            # camera_node and infrared_imager each take control_status in their own time
             wait_for(lambda: self.call("camera_control", "get_zoom_level") == ("failed", "busy"), 3.0, "busy")
-            self.assertEqual(self.call("infrared_control", "get_high_temperature"), ("failed", "busy"))
+            wait_for(lambda: self.call("infrared_control", "get_high_temperature") == ("failed", "busy"), 3.0,
+                     "thermal busy")
             self.assertEqual(self.topic("camera", "get_wdr_level"), ("failed", "busy"))
             ack, _ = self.call("camera_control", "get_zoom_level", sender="joy_control")
             self.assertEqual(ack, "success")
