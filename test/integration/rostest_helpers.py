@@ -43,6 +43,17 @@ class _ShortTransport(xmlrpc.client.Transport):
         return connection
 
 
+def outbound_connections(master, node):
+    """{(subscriber, topic)} of the connections ``node`` publishes on, from its getBusInfo (slave
+    API): what its publishers have added, not only what subscribers count; None when it does not answer."""
+    try:
+        code, _, info = xmlrpc.client.ServerProxy(master.lookupNode(node),
+                                                  transport=_ShortTransport()).getBusInfo(master.caller_id)
+    except (rosgraph.MasterError, OSError, xmlrpc.client.Error):
+        return None
+    return {(c[1], c[4]) for c in info if c[2] == "o"} if code == 1 else None
+
+
 class Latest(object):
     """Subscribes to a topic and keeps every message (and the latest) for assertions."""
 
@@ -84,12 +95,9 @@ class Latest(object):
         master = rosgraph.Master(me)
         topic = self._sub.resolved_name
         for node in next((nodes for name, nodes in master.getSystemState()[0] if name == topic), []):
-            try:
-                code, _, info = xmlrpc.client.ServerProxy(master.lookupNode(node),
-                                                          transport=_ShortTransport()).getBusInfo(me)
-            except (rosgraph.MasterError, OSError, xmlrpc.client.Error):
-                continue  # gone or not answering: it publishes nothing to wait for
-            if code == 1 and not any(c[1] == me and c[2] == "o" and c[4] == topic for c in info):
+            connections = outbound_connections(master, node)
+            # None: gone or not answering, it publishes nothing to wait for
+            if connections is not None and (me, topic) not in connections:
                 return False
         return True
 

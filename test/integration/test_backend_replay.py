@@ -12,7 +12,6 @@ import os
 import queue
 import time
 import unittest
-import xmlrpc.client
 
 import rosbag
 import rosgraph
@@ -25,7 +24,7 @@ from inspection_robot.interface import MODE_SERVER, MODE_TASK
 from inspection_robot.msg import RobotStatus
 from inspection_robot.recording.compare import transition_differences, transitions
 from inspection_robot.ros.bag_reading import status_fields
-from rostest_helpers import Latest, replay_bag, wait_for
+from rostest_helpers import Latest, outbound_connections, replay_bag, wait_for
 
 FIELDS = ("offline_warn", "mode")
 HEARTBEAT_TIMEOUT = 3.0   # config/status_control.yaml
@@ -100,20 +99,12 @@ class BackendReplayTest(unittest.TestCase):
                  60.0, "the recorder subscribed to the backend's topics", period=0.1)
         # ... and is connected to the bridge's publishers of them (advertised at the bridge's start): a
         # subscriber registered but not yet connected would miss the backend's first messages
-        bridge = xmlrpc.client.ServerProxy(wait_for(
-            lambda: rosnode.get_api_uri(master, "/rosbridge_websocket/tcpros", skip_cache=True), 60.0,
-            "the bridge's TCPROS publisher registered", period=0.1))
-
         # ... as are the robot's nodes (on a loaded machine a node's subscriptions connect one by one:
         # a heartbeat sent before status_control's did would make the live run go online a beat late)
         wanted = {("/run_record", "/server_status"), ("/run_record", "/mode_cmd"),
                   ("/status_control", "/server_status"), ("/robot_control", "/mode_cmd")}
-
-        def subscribers_connected():
-            _code, _text, bus = bridge.getBusInfo("/test_backend_replay")
-            return wanted <= {(c[1], c[4]) for c in bus if c[2] == "o"}
-        wait_for(subscribers_connected, 60.0, "the recorder and the robot connected to the bridge's backend topics",
-                 period=0.1)
+        wait_for(lambda: wanted <= (outbound_connections(master, "/rosbridge_websocket/tcpros") or set()), 60.0,
+                 "the recorder and the robot connected to the bridge's backend topics", period=0.1)
         port = int(wait_for(lambda: rospy.get_param("rosbridge_websocket/actual_port", None), 60.0, "bridge port"))
         cls.run_live(Backend(port))
         active = glob.glob(os.path.join(cls.dir, "bags", "*.bag.active"))

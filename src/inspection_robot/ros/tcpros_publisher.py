@@ -19,8 +19,8 @@ publisher serves the bridge's topics itself, as the ROS wiki specifies TCPROS
   first EARLY_WINDOW_S go to subscribers that connect within that window (clients advertise and
   publish at once, before any subscriber has connected; rosbridge_library does the same).
 
-No rospy here: the node passes caller_id, the master and the addresses, so the unit tests run it
-on 127.0.0.1 without a roscore.
+No rospy API here (ros/node.py only lends its handshake bound): the node passes caller_id, the
+master and the addresses, so the unit tests run it on 127.0.0.1 without a roscore.
 """
 import collections
 import io
