@@ -1,5 +1,6 @@
 """The inbound-handshake guard: a connection that never sends a TCPROS header no longer blocks rospy's accept thread.
 renice: every thread of the process, and those made later."""
+import os
 import socket
 import subprocess
 import sys
@@ -89,6 +90,41 @@ def test_renice_reaches_every_thread_and_the_ones_made_later():
         "print(sorted(values) == [target], len(os.listdir('/proc/self/task')))\n")
     out = subprocess.run([sys.executable, "-c", script], stdout=subprocess.PIPE, check=True, universal_newlines=True)
     assert out.stdout.split()[0] == "True"
+
+
+def autogroup_nice_after(code, new_session, env=None):
+    """The autogroup niceness a child process reports after running ``code`` (Linux with autogroup)."""
+    script = ("from inspection_robot.ros import node\n" + code +
+              "\nprint(open('/proc/self/autogroup').read().split()[-1])\n")
+    out = subprocess.run([sys.executable, "-c", script], stdout=subprocess.PIPE, check=True, universal_newlines=True,
+                         start_new_session=new_session, env=dict(os.environ, **(env or {})))
+    return out.stdout.split()
+
+
+@pytest.mark.skipif(not os.path.exists("/proc/self/autogroup"), reason="kernel without autogroup scheduling")
+def test_renice_reaches_the_session_a_node_leads_and_leaves_a_shell_s_alone():
+    # roslaunch starts every node in its own session: with autogroup the CPU is shared between sessions
+    # first, so a node's niceness counts against the other nodes only through its autogroup
+    assert autogroup_nice_after("assert node.renice(7) is None", new_session=True) == ["7"]
+    base = open("/proc/self/autogroup").read().split()[-1]
+    assert autogroup_nice_after("assert node.renice(7) is None", new_session=False) == [base]
+
+
+@pytest.mark.skipif(not os.path.exists("/proc/self/autogroup"), reason="kernel without autogroup scheduling")
+def test_the_environment_renices_a_node_and_a_bad_value_is_named_not_applied():
+    code = "print(node.renice_from_environment())"
+    assert autogroup_nice_after(code, True, {node.NICE_ENV: "6"}) == ["None", "6"]
+    out = autogroup_nice_after(code, True, {node.NICE_ENV: "fast"})
+    assert " ".join(out[:-1]) == "INSPECTION_ROBOT_NICE='fast' is not a niceness (-20..19): ignored"
+    assert out[-1] == "0"
+    assert autogroup_nice_after(code, True, {node.NICE_ENV: "25"})[-1] == "0"
+    assert autogroup_nice_after(code, True, {node.NICE_ENV: ""}) == ["None", "0"]
+
+
+def test_an_autogroup_refusal_is_named_and_a_kernel_without_autogroup_passed_over(tmp_path):
+    assert node.set_autogroup_niceness(3, str(tmp_path / "missing")) is None
+    refused = node.set_autogroup_niceness(3, str(tmp_path))
+    assert refused == "cannot set the session's autogroup niceness 3: Is a directory"
 
 
 def test_renice_refuses_an_impossible_niceness():

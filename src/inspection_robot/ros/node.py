@@ -14,15 +14,23 @@ until the publisher re-registers). No such drop (`Inbound TCP/IP connection fail
 appears in any stored test run; the subscription that did not connect in a failed patrol_sim run
 had not got as far as a handshake (compat_rospy.merge_publisher_updates).
 
-:func:`renice` gives a latency-critical node (the backend link) a larger share of a busy CPU.
+:func:`renice` gives a latency-critical node (the backend link) a larger share of a busy CPU; the
+environment variable ``INSPECTION_ROBOT_NICE`` (:data:`NICE_ENV`) renices every node of this package at
+start-up (a test machine's suites yielding to the chaos soak's robot, or a site's robot beside
+weightier work).
 """
+import errno
 import os
+import time
 
 import rospy
 
 from inspection_robot.ros import compat_rospy
 
 HANDSHAKE_TIMEOUT_S = 5.0   # a TCPROS client sends its header right after connecting
+NICE_ENV = "INSPECTION_ROBOT_NICE"   # niceness every node of this package takes at start-up (init_node)
+AUTOGROUP_FILE = "/proc/self/autogroup"
+AUTOGROUP_RETRY_S = 1.0     # Linux takes one unprivileged autogroup change every 100 ms, system-wide
 
 
 def guard_inbound_handshakes(timeout_s=HANDSHAKE_TIMEOUT_S):
@@ -32,10 +40,11 @@ def guard_inbound_handshakes(timeout_s=HANDSHAKE_TIMEOUT_S):
 
 
 def renice(niceness):
-    """Set the scheduling niceness of every thread of this process to ``niceness`` (-20..19); threads
-    made later inherit it from the thread that makes them. Returns None, or why it failed (a value
-    below the current one needs CAP_SYS_NICE or an RLIMIT_NICE that allows it, e.g. systemd's
-    LimitNICE). Linux: each thread has its own niceness, hence every one in /proc/self/task."""
+    """Set the scheduling niceness of every thread of this process to ``niceness`` (-20..19), and of its
+    session's autogroup when this process leads its session. Threads made later inherit it from the
+    thread that makes them. Returns None, or why it failed (a value below the current one needs
+    CAP_SYS_NICE or an RLIMIT_NICE that allows it, e.g. systemd's LimitNICE). Linux: each thread has
+    its own niceness, hence every one in /proc/self/task; the autogroup: see :func:`renice_session`."""
     if not -20 <= niceness <= 19:
         raise ValueError("niceness must be -20..19, not %d" % niceness)
     try:
@@ -49,7 +58,59 @@ def renice(niceness):
             continue  # the thread ended meanwhile
         except PermissionError as exc:
             return "cannot set niceness %d: %s" % (niceness, exc.strerror)
-    return None
+    return renice_session(niceness)
+
+
+def renice_session(niceness):
+    """With autogroup scheduling (on by default in kernels built with it, as Ubuntu's) Linux shares the CPU
+    between sessions first and by niceness only inside one, and roslaunch starts every node in a
+    session of its own: a thread niceness alone then changes nothing against the other nodes. So the
+    autogroup takes the niceness too when this process leads its session (as every node under
+    roslaunch does); started from a shell, the session is the shell's and is left alone. Returns None,
+    or why it failed; nothing to do without autogroup support."""
+    if os.getsid(0) != os.getpid():
+        return None
+    return set_autogroup_niceness(niceness, AUTOGROUP_FILE)
+
+
+def set_autogroup_niceness(niceness, autogroup_file):
+    """Write ``niceness`` to a session's autogroup file (/proc/PID/autogroup of any process in it):
+    None, or why it failed; None when the kernel has no autogroup scheduling (no such file)."""
+    deadline = time.monotonic() + AUTOGROUP_RETRY_S
+    while True:
+        try:
+            with open(autogroup_file, "w") as handle:
+                handle.write("%d" % niceness)
+            return None
+        except FileNotFoundError:
+            return None  # a kernel without autogroup scheduling: the thread niceness is all there is
+        except OSError as exc:
+            if exc.errno != errno.EAGAIN or time.monotonic() > deadline:
+                return "cannot set the session's autogroup niceness %d: %s" % (niceness, exc.strerror)
+        time.sleep(0.05)
+
+
+def niceness_from_environment():
+    """(niceness, None) from :data:`NICE_ENV`, (None, None) when it is not set, (None, why) when bad."""
+    value = os.environ.get(NICE_ENV, "").strip()
+    if not value:
+        return None, None
+    try:
+        niceness = int(value)
+    except ValueError:
+        niceness = None
+    if niceness is None or not -20 <= niceness <= 19:
+        return None, "%s=%r is not a niceness (-20..19): ignored" % (NICE_ENV, value)
+    return niceness, None
+
+
+def renice_from_environment():
+    """Apply :data:`NICE_ENV` when it is set: None, or why not (a bad value, or what renice says)."""
+    niceness, bad = niceness_from_environment()
+    if niceness is None:
+        return bad
+    failed = renice(niceness)
+    return "%s=%d not applied: %s" % (NICE_ENV, niceness, failed) if failed else None
 
 
 def init_node(name, **kwargs):
@@ -57,6 +118,9 @@ def init_node(name, **kwargs):
     guarded = guard_inbound_handshakes()
     merged = compat_rospy.merge_publisher_updates()
     rospy.init_node(name, **kwargs)
+    not_reniced = renice_from_environment()
+    if not_reniced:
+        rospy.logwarn(not_reniced)
     if not guarded:
         rospy.logwarn("inbound TCPROS handshakes are not bounded: %s", compat_rospy.describe())
     if not merged:
