@@ -35,7 +35,7 @@ TUNE_CASES = int(os.environ.get("BENCH_NUMERAL_TUNE_CASES", "150"))
 TEST_CASES = int(os.environ.get("BENCH_NUMERAL_TEST_CASES", "300"))
 TEST_SEED0 = 1000
 OFFSET_DEG = 4.0       # the needle within this of a numbered major tick: over its numeral
-BOX_JITTER_PX = 0.5    # sigma of the box corners' error (a finder's re-centring, in picture px)
+BOX_JITTER_PX = 0.0    # sigma of the box corners' error (px); 0: the true box, so the figure is the needle fit's own
 LIMIT_PCT_FS = 0.5     # patrol_sim's GAUGE_LIMIT_PCT_FS
 
 
