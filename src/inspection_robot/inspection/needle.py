@@ -22,6 +22,12 @@ ANGLE_STEP_DEG = 0.5      # angular sampling of the polar profile
 # Pointer colour classes a calibration may name (pointer_colour: the current pointer; ignore_colour:
 # a drag / max pointer or set-point needle to leave alone). "dark"/"light" are relative to the face.
 POINTER_COLOURS = ("dark", "light", "red", "black", "white")
+# A needle's run of samples wider than its own width (a straight line of width against radius) by
+# this share and this many px, its centre JOINED_PX off the needle's line: a numeral or tick is
+# joined to it there and pulls it (NeedleFinder._joined). Chosen on bench_needle_numeral's tuning part.
+WIDENED_SHARE = 0.3
+WIDENED_PX = 0.5
+JOINED_PX = 0.5
 
 # The radial profiles along the rays from the calibrated pivot (NeedleFinder.profile), their median
 # over the radius (``full``, its median ``base``), the pointer candidates and each ray's distance
@@ -223,27 +229,61 @@ class NeedleFinder(object):
         over = prof.dist[window] > 0.5 * (prof.dist[i][None] + np.median(prof.dist, axis=0)[None])
         return float(np.median(over.sum(axis=0) * math.radians(self.step_deg) * self.radii * rad))
 
-    def _line(self, dist, angles, i, centre, radius, lo, hi, like=None):
-        """The needle's centre line near direction index ``i`` from the samples of radii ``lo:hi``:
-        the angular centroid of the needle at each radius gives a point; a weighted least-squares
-        line through them. ``like`` (angles x radii, 0..1): how much each sample has the needle's
-        own colour; it scales the weights, so a number or tick of another colour beside the needle
-        does not pull the centroid. Returns (point on the line, unit direction outwards) or None."""
+    def _centres(self, dist, angles, i, centre, radius, like=None):
+        """The needle's centre at every radius near direction index ``i``: the angular centroid of
+        the needle's run of samples (``_run_about``) gives a point. ``like`` (angles x radii, 0..1):
+        how much each sample has the needle's own colour; it scales the weights, so a number or
+        tick of another colour beside the needle does not pull the centroid. Returns (points px,
+        weights, run widths px, whether each radius has a point), one row per radius; a run's
+        width is its weight over its peak's (not its count of samples: a continuous measure, not
+        steps of one sample, up to 1 px at the outer radii)."""
         half = max(2, int(round(6.0 / self.step_deg)))
         idx = np.arange(max(0, i - half), min(len(angles), i + half + 1))
-        points, weights = [], []
-        for k in range(lo, hi):
-            column = dist[idx, k] if like is None else dist[idx, k] * like[idx, k]
-            w = _run_about(np.clip(column - 0.5 * (column.max() + np.median(dist[:, k])), 0.0, None), i - idx[0])
-            if w.sum() <= 0:
+        columns = dist[idx] if like is None else dist[idx] * like[idx]
+        level = 0.5 * (columns.max(axis=0) + np.median(dist, axis=0))
+        n = len(self.radii)
+        points, weights, widths = np.zeros((n, 2)), np.zeros(n), np.zeros(n)
+        for k in range(n):
+            w = _run_about(np.clip(columns[:, k] - level[k], 0.0, None), i - idx[0])
+            weights[k] = float(w.sum())
+            if weights[k] <= 0:
                 continue
-            theta = math.radians(float((w * angles[idx]).sum() / w.sum()))
+            theta = math.radians(float((w * angles[idx]).sum() / weights[k]))
             r = self.radii[k] * radius
-            points.append((centre[0] + r * math.sin(theta), centre[1] - r * math.cos(theta)))
-            weights.append(float(w.sum()))
+            points[k] = (centre[0] + r * math.sin(theta), centre[1] - r * math.cos(theta))
+            widths[k] = weights[k] / float(w.max()) * math.radians(self.step_deg) * r
+        return points, weights, widths, weights > 0
+
+    @staticmethod
+    def _widened(widths, valid, radii, px_floor=WIDENED_PX, share=WIDENED_SHARE):
+        """Radii where something of the needle's ink is joined to it: a numeral's strokes or a
+        tick the needle lies on widen its run there (and pull its centroid to their side). The
+        needle's own width changes smoothly along it (a taper): a robust straight line of width
+        against radius (Theil-Sen), refitted without the radii it finds widened (joined ink only
+        ever widens the run, so the first line lies too high); a run wider than that line by more
+        than ``share`` of it and ``px_floor`` px is widened."""
+        widened = np.zeros(len(widths), bool)
+        for _ in range(3):
+            k = np.flatnonzero(valid & ~widened)
+            if len(k) < 4:
+                break
+            x, y = radii[k], widths[k]
+            a, b = np.triu_indices(len(k), 1)
+            slope = float(np.median((y[b] - y[a]) / (x[b] - x[a])))
+            expected = float(np.median(y - slope * x)) + slope * radii
+            found = valid & (widths - expected > np.maximum(px_floor, share * expected))
+            if np.array_equal(found, widened):
+                break
+            widened = found
+        return widened
+
+    @staticmethod
+    def _line(points, weights):
+        """A weighted least-squares line through the needle's centre points, or None for fewer than
+        4. Returns (point on the line, unit direction outwards)."""
         if len(points) < 4:
             return None
-        pts, w = np.array(points), np.array(weights)
+        pts, w = points, weights
         mean, u = _weighted_line(pts, w)
         # a numeral or tick touching the needle shifts the centroid at the radii it covers: those
         # points lie off the line the others agree on (beyond 3 robust deviations, at least a
@@ -277,14 +317,33 @@ class NeedleFinder(object):
     def needle_lines(self, prof, face, i):
         """The needle's whole, inner-half and outer-half centre lines, or None. Fitted to the samples
         of the needle's own colour; to all of them where that leaves too few (a needle hardly apart
-        from the face)."""
-        k = len(self.radii) // 2
-        bands = ((0, len(self.radii)), (0, k), (k, len(self.radii)))
+        from the face). The whole line, the one read, leaves out the radii where other ink is
+        joined to the needle (``_joined``); the halves, which only measure how straight the needle
+        is (needle_confidence), keep every radius."""
+        n = len(self.radii)
+        halves = (np.arange(n) < n // 2, np.arange(n) >= n // 2)
         for like in (self._needle_likeness(prof, i), None):
-            lines = [self._line(prof.dist, prof.angles, i, face.centre, face.rad, lo, hi, like) for lo, hi in bands]
+            points, weights, widths, valid = self._centres(prof.dist, prof.angles, i, face.centre, face.rad, like)
+            whole = valid & ~self._joined(points, weights, widths, valid)
+            lines = [self._line(points[whole], weights[whole])]
+            lines += [self._line(points[valid & half], weights[valid & half]) for half in halves]
             if all(line is not None for line in lines):
                 return lines
         return None
+
+    def _joined(self, points, weights, widths, valid, px_floor=JOINED_PX):
+        """Radii where a numeral or tick joined to the needle pulls its centre: the run is widened
+        there (``_widened``) and its centre lies off the line through the other radii by more than
+        ``px_floor`` px and 3 robust deviations of theirs. Both, so a needle whose own width is not
+        a straight taper (widening towards a lance tip) keeps its radii: they stay on its line.
+        None left out when that would leave fewer than half the radii."""
+        widened = self._widened(widths, valid, self.radii)
+        clean = valid & ~widened
+        if not widened.any() or clean.sum() < 4 or 2 * clean.sum() < valid.sum():
+            return np.zeros(len(valid), bool)
+        mean, u = _weighted_line(points[clean], weights[clean])
+        off = np.abs((points - mean).dot(np.array([-u[1], u[0]])))
+        return widened & (off > max(px_floor, 3.0 * 1.4826 * float(np.median(off[clean]))))
 
 
 def _run_about(weights, j):
