@@ -48,7 +48,12 @@ def renice_child_sessions():
     while todo:
         for pid, session in children.get(todo.pop(), []):
             todo.append(pid)
-            if pid == session and not ros_node.set_autogroup_niceness(niceness, "/proc/%d/autogroup" % pid):
+            if pid != session:
+                continue
+            refused = ros_node.set_autogroup_niceness(niceness, "/proc/%d/autogroup" % pid, retry_s=5.0)
+            if refused:
+                sys.stderr.write("rostest_helpers: session %d: %s\n" % (pid, refused))
+            else:
                 sessions.append(pid)
     return sessions
 

@@ -1,5 +1,6 @@
 """The inbound-handshake guard: a connection that never sends a TCPROS header no longer blocks rospy's accept thread.
 renice: every thread of the process, and those made later."""
+import errno
 import os
 import socket
 import subprocess
@@ -92,12 +93,18 @@ def test_renice_reaches_every_thread_and_the_ones_made_later():
     assert out.stdout.split()[0] == "True"
 
 
-def autogroup_nice_after(code, new_session, env=None):
-    """The autogroup niceness a child process reports after running ``code`` (Linux with autogroup)."""
-    script = ("from inspection_robot.ros import node\n" + code +
-              "\nprint(open('/proc/self/autogroup').read().split()[-1])\n")
-    out = subprocess.run([sys.executable, "-c", script], stdout=subprocess.PIPE, check=True, universal_newlines=True,
-                         start_new_session=new_session, env=dict(os.environ, **(env or {})))
+def autogroup_nice_after(code, new_session, env=None, expected=None):
+    """The autogroup niceness a child process reports after running ``code`` (Linux with autogroup).
+    A busy kernel may refuse a change for a moment (EAGAIN without CAP_SYS_ADMIN) and renice then
+    tries again in the background: the child waits up to 5 s for ``expected`` before it reports."""
+    script = ("import sys, time\nfrom inspection_robot.ros import node\n" + code +
+              "\nend = time.monotonic() + 5.0\n"
+              "while sys.argv[1] not in ('None', open('/proc/self/autogroup').read().split()[-1])"
+              " and time.monotonic() < end:\n"
+              "    time.sleep(0.05)\n"
+              "print(open('/proc/self/autogroup').read().split()[-1])\n")
+    out = subprocess.run([sys.executable, "-c", script, str(expected)], stdout=subprocess.PIPE, check=True,
+                         universal_newlines=True, start_new_session=new_session, env=dict(os.environ, **(env or {})))
     return out.stdout.split()
 
 
@@ -105,7 +112,7 @@ def autogroup_nice_after(code, new_session, env=None):
 def test_renice_reaches_the_session_a_node_leads_and_leaves_a_shell_s_alone():
     # roslaunch starts every node in its own session: with autogroup the CPU is shared between sessions
     # first, so a node's niceness counts against the other nodes only through its autogroup
-    assert autogroup_nice_after("assert node.renice(7) is None", new_session=True) == ["7"]
+    assert autogroup_nice_after("assert node.renice(7) is None", new_session=True, expected=7) == ["7"]
     base = open("/proc/self/autogroup").read().split()[-1]
     assert autogroup_nice_after("assert node.renice(7) is None", new_session=False) == [base]
 
@@ -113,7 +120,7 @@ def test_renice_reaches_the_session_a_node_leads_and_leaves_a_shell_s_alone():
 @pytest.mark.skipif(not os.path.exists("/proc/self/autogroup"), reason="kernel without autogroup scheduling")
 def test_the_environment_renices_a_node_and_a_bad_value_is_named_not_applied():
     code = "print(node.renice_from_environment())"
-    assert autogroup_nice_after(code, True, {node.NICE_ENV: "6"}) == ["None", "6"]
+    assert autogroup_nice_after(code, True, {node.NICE_ENV: "6"}, expected=6) == ["None", "6"]
     out = autogroup_nice_after(code, True, {node.NICE_ENV: "fast"})
     assert " ".join(out[:-1]) == "INSPECTION_ROBOT_NICE='fast' is not a niceness (-20..19): ignored"
     assert out[-1] == "0"
@@ -125,6 +132,17 @@ def test_an_autogroup_refusal_is_named_and_a_kernel_without_autogroup_passed_ove
     assert node.set_autogroup_niceness(3, str(tmp_path / "missing")) is None
     refused = node.set_autogroup_niceness(3, str(tmp_path))
     assert refused == "cannot set the session's autogroup niceness 3: Is a directory"
+
+
+def test_a_change_the_kernel_refuses_for_now_is_tried_again(monkeypatch):
+    answers = [OSError(errno.EAGAIN, "busy"), OSError(errno.EAGAIN, "busy"), None]
+    monkeypatch.setattr(node, "_write_autogroup", lambda niceness, path: answers.pop(0))
+    monkeypatch.setattr(node.random, "uniform", lambda lo, hi: 0.0)
+    assert node.set_autogroup_niceness(5, "autogroup") is None
+    assert answers == []
+    monkeypatch.setattr(node, "_write_autogroup", lambda niceness, path: OSError(errno.EAGAIN, "busy"))
+    refused = node.set_autogroup_niceness(5, "autogroup", retry_s=0.0)
+    assert refused == "cannot set the session's autogroup niceness 5: busy"
 
 
 def test_renice_refuses_an_impossible_niceness():

@@ -21,6 +21,8 @@ weightier work).
 """
 import errno
 import os
+import random
+import threading
 import time
 
 import rospy
@@ -30,7 +32,9 @@ from inspection_robot.ros import compat_rospy
 HANDSHAKE_TIMEOUT_S = 5.0   # a TCPROS client sends its header right after connecting
 NICE_ENV = "INSPECTION_ROBOT_NICE"   # niceness every node of this package takes at start-up (init_node)
 AUTOGROUP_FILE = "/proc/self/autogroup"
-AUTOGROUP_RETRY_S = 1.0     # Linux takes one unprivileged autogroup change every 100 ms, system-wide
+# Linux takes one autogroup change every 100 ms, system-wide, from a process without CAP_SYS_ADMIN:
+# a launch's nodes starting together queue for it
+AUTOGROUP_RETRY_S = 30.0
 
 
 def guard_inbound_handshakes(timeout_s=HANDSHAKE_TIMEOUT_S):
@@ -67,27 +71,51 @@ def renice_session(niceness):
     session of its own: a thread niceness alone then changes nothing against the other nodes. So the
     autogroup takes the niceness too when this process leads its session (as every node under
     roslaunch does); started from a shell, the session is the shell's and is left alone. Returns None,
-    or why it failed; nothing to do without autogroup support."""
+    or why it failed; nothing to do without autogroup support. When the kernel's rate limit says
+    "not now" (EAGAIN) it is tried again beside the node's start-up, which it does not hold up; a
+    warning is logged if that fails too."""
     if os.getsid(0) != os.getpid():
         return None
-    return set_autogroup_niceness(niceness, AUTOGROUP_FILE)
+    error = _write_autogroup(niceness, AUTOGROUP_FILE)
+    if error is None or error.errno != errno.EAGAIN:
+        return _autogroup_failure(niceness, error)
+    threading.Thread(target=_renice_session_later, args=(niceness,), name="autogroup_nice", daemon=True).start()
+    return None
 
 
-def set_autogroup_niceness(niceness, autogroup_file):
-    """Write ``niceness`` to a session's autogroup file (/proc/PID/autogroup of any process in it):
-    None, or why it failed; None when the kernel has no autogroup scheduling (no such file)."""
-    deadline = time.monotonic() + AUTOGROUP_RETRY_S
-    while True:
-        try:
-            with open(autogroup_file, "w") as handle:
-                handle.write("%d" % niceness)
-            return None
-        except FileNotFoundError:
-            return None  # a kernel without autogroup scheduling: the thread niceness is all there is
-        except OSError as exc:
-            if exc.errno != errno.EAGAIN or time.monotonic() > deadline:
-                return "cannot set the session's autogroup niceness %d: %s" % (niceness, exc.strerror)
-        time.sleep(0.05)
+def _renice_session_later(niceness):
+    failed = set_autogroup_niceness(niceness, AUTOGROUP_FILE)
+    if failed:
+        rospy.logwarn(failed)
+
+
+def set_autogroup_niceness(niceness, autogroup_file, retry_s=AUTOGROUP_RETRY_S):
+    """Write ``niceness`` to a session's autogroup file (/proc/PID/autogroup of any process in it),
+    trying again for ``retry_s`` while the kernel's rate limit refuses (EAGAIN, at jittered times so
+    that nodes starting together do not keep colliding): None, or why it failed; None when the
+    kernel has no autogroup scheduling (no such file)."""
+    deadline = time.monotonic() + retry_s
+    error = _write_autogroup(niceness, autogroup_file)
+    while error is not None and error.errno == errno.EAGAIN and time.monotonic() < deadline:
+        time.sleep(random.uniform(0.05, 0.3))
+        error = _write_autogroup(niceness, autogroup_file)
+    return _autogroup_failure(niceness, error)
+
+
+def _write_autogroup(niceness, autogroup_file):
+    """None when written, or when the kernel has no autogroup scheduling; else the OSError."""
+    try:
+        with open(autogroup_file, "w") as handle:
+            handle.write("%d" % niceness)
+    except FileNotFoundError:
+        return None  # the thread niceness is all there is
+    except OSError as exc:
+        return exc
+    return None
+
+
+def _autogroup_failure(niceness, error):
+    return None if error is None else "cannot set the session's autogroup niceness %d: %s" % (niceness, error.strerror)
 
 
 def niceness_from_environment():
