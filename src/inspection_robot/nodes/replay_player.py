@@ -20,6 +20,8 @@ import sys
 
 import roslib.packages
 
+from inspection_robot.ros.node import renice_from_environment
+
 AT_END = ("exit", "hold")
 
 
@@ -51,6 +53,11 @@ def main():
     if not found:
         print("replay_player: rosbag's play executable not found (install ros-noetic-rosbag)", file=sys.stderr)
         sys.exit(2)
+    # play runs in this process's session: INSPECTION_ROBOT_NICE reaches it as it reaches the nodes it
+    # replays to (make test's suites), so that on a busy CPU the bag does not run ahead of them
+    not_reniced = renice_from_environment()
+    if not_reniced:
+        print("replay_player: %s" % not_reniced, file=sys.stderr)
     child = subprocess.Popen([found[0]] + args)
     while True:
         try:
