@@ -301,7 +301,9 @@ class TaskManager(object):
             try:
                 if routine is None:
                     raise CommandError("unknown routine '%s'" % run.routine)
-                self._submit(json.dumps(routine_task(routine["task"], run.task_id)))
+                with self._lock:   # its task and its schedule's last_run are seen together (schedule_list)
+                    self._submit(json.dumps(routine_task(routine["task"], run.task_id)))
+                    self._scheduler.started_run(run, time.time())
             except BusyError:   # a task started while this one was checked: it waits on
                 with self._lock:
                     self._scheduler.busy_run(run)
@@ -311,8 +313,6 @@ class TaskManager(object):
                     self._scheduler.failed_run(run, reason, time.time())
                 missed.append((run, reason))
             else:
-                with self._lock:
-                    self._scheduler.started_run(run, time.time())
                 rospy.loginfo("%s: schedule '%s' started task %s" % (NODE_NAME, run.schedule, run.task_id))
         for run, reason in missed:
             rospy.logwarn("%s: schedule '%s' missed its run of %s (task %s): %s" % (
