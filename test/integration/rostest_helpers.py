@@ -5,7 +5,6 @@ import os
 import signal
 import socket
 import subprocess
-import sys
 import threading
 import time
 import xmlrpc.client
@@ -17,45 +16,11 @@ from geometry_msgs.msg import PoseWithCovarianceStamped
 from inspection_robot.angles import wrap_angle, yaw_from_quaternion
 from inspection_robot.msg import GeneralAck, GeneralCmd
 from inspection_robot.ros import compat_rospy
-from inspection_robot.ros import node as ros_node
 from inspection_robot.srv import ControlService
 
 # the tests' own nodes (rospy.init_node in each test) get the nodes' repair of rospy's lost
 # publisher list too (ros/node.init_node; compat_rospy.merge_publisher_updates says why)
 compat_rospy.merge_publisher_updates()
-# and the niceness scripts/test gives every suite's node (ros_node.NICE_ENV), a browser it starts included
-_NOT_RENICED = ros_node.renice_from_environment()
-if _NOT_RENICED:
-    sys.stderr.write("rostest_helpers: %s\n" % _NOT_RENICED)
-
-
-def renice_child_sessions():
-    """Give the sessions this test's child processes lead the niceness this test took
-    (ros_node.NICE_ENV): Playwright starts the browser in a session of its own, whose autogroup would
-    otherwise stay at 0 however niced the test is. Returns the sessions' ids."""
-    niceness, _bad = ros_node.niceness_from_environment()
-    if niceness is None:
-        return []
-    children = {}
-    for entry in filter(str.isdigit, os.listdir("/proc")):
-        try:
-            with open("/proc/%s/stat" % entry) as handle:
-                fields = handle.read().rsplit(")", 1)[1].split()   # state, ppid, pgrp, session, ...
-        except (OSError, IndexError):
-            continue  # not a process, or it ended meanwhile
-        children.setdefault(int(fields[1]), []).append((int(entry), int(fields[3])))
-    sessions, todo = [], [os.getpid()]
-    while todo:
-        for pid, session in children.get(todo.pop(), []):
-            todo.append(pid)
-            if pid != session:
-                continue
-            refused = ros_node.set_autogroup_niceness(niceness, "/proc/%d/autogroup" % pid, retry_s=5.0)
-            if refused:
-                sys.stderr.write("rostest_helpers: session %d: %s\n" % (pid, refused))
-            else:
-                sessions.append(pid)
-    return sessions
 
 
 def wait_for(condition, timeout, message="condition", period=0.01):

@@ -32,7 +32,7 @@ from sensor_msgs.msg import JointState
 from inspection_robot.msg import GeneralAck, GeneralCmd, GeneralTopic, MoveCmd, RobotStatus
 from inspection_robot.task.patrol import Inspection, reading_rows
 from inspection_robot.task.store import ResultStore
-from rostest_helpers import Latest, control_proxy, localizer_tolerance, renice_child_sessions, wait_for, wait_subscribed
+from rostest_helpers import Latest, control_proxy, localizer_tolerance, wait_for, wait_subscribed
 
 CHROMIUM = "/usr/bin/chromium"
 CHROMIUM_ARGS = ["--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
@@ -83,7 +83,6 @@ class ConsoleTest(unittest.TestCase):
         cls.calibrated_preset = None   # test_8's preset directory, patrolled by test_9
         cls.playwright = sync_playwright().start()
         cls.browser = cls.playwright.chromium.launch(executable_path=CHROMIUM, args=CHROMIUM_ARGS)
-        renice_child_sessions()   # the browser yields to the chaos soak as the rest of this test does
 
     @classmethod
     def tearDownClass(cls):
