@@ -14,8 +14,9 @@ One charge cycle (docs/interface.md, "Charging (charge_control)")::
     backing_off (backward to the approach pose) --goal ok--> resuming_task --> idle
 
 A failure is retried ``retries`` times (each kind counted separately within a cycle; a failed
-goal is sent again only GOAL_RETRY_S later, so a transient fault such as a move_action server
-not connected yet cannot use up every retry at once), then the cycle stops in ``failed``: the
+goal is sent again only GOAL_RETRY_S later, so a transient fault cannot use up every retry at
+once; a move_action server that is not up yet, as while move_base starts, is asked again every
+SERVER_RETRY_S and counts as a failure only after SERVER_TIMEOUT_S), then the cycle stops in ``failed``: the
 relay is opened, ``ports.alarm`` raises the reason (topic + voice) and the patrol stays paused
 until an operator sends ``dock`` (try again) or ``undock`` (relay off, back off if on the dock,
 resume the patrol). The robot drives only in task mode; in another
@@ -46,6 +47,7 @@ FAILED = "failed"
 STATES = (IDLE, PAUSING, TO_APPROACH, DOCKING, RELAY_ON, WAIT_CURRENT, CHARGING, RELAY_OFF, BACKING_OFF,
           RESUMING, FAILED)
 DRIVE_STATES = (TO_APPROACH, DOCKING, BACKING_OFF)
+DRIVE_FAILURES = {TO_APPROACH: "approach", DOCKING: "dock", BACKING_OFF: "backoff"}  # state -> failure kind
 
 TRIGGER_LOW_BATTERY = "low_battery"
 TRIGGER_MANUAL = "manual"
@@ -56,6 +58,8 @@ TASK_QUIET_STATES = (TASK_PAUSED, TASK_IDLE) + TASK_ENDED_STATES
 TASK_HOLD = "charge"  # data of task_control pause/resume
 PAUSE_RETRY_S = 1.0   # s between pause requests to a task_manager that does not answer (e.g. respawning)
 GOAL_RETRY_S = 3.0    # s before a failed move_action goal is sent again
+SERVER_RETRY_S = 1.0  # s between goals while move_action's server is not up (move_base starting or respawning)
+SERVER_TIMEOUT_S = 60.0  # s a drive state waits for that server before it counts as a failed goal
 
 # failure kind -> (voice clip, reason format); the reason is the alarm text (docs/interface.md)
 FAILURES = {
@@ -116,7 +120,8 @@ class ChargePorts(object):
         raise NotImplementedError
 
     def goal(self, token, pose, precision, backward):
-        """Send a move_action goal to ``pose`` (x, y, yaw); answer ``on_move_result(token, ok, reason)``."""
+        """Send a move_action goal to ``pose`` (x, y, yaw); answer ``on_move_result(token, ok, reason)``,
+        ok None when the goal could not be sent because move_action's server is not up."""
         raise NotImplementedError
 
     def cancel_goal(self):
@@ -165,6 +170,7 @@ class ChargeMachine(object):
         self._after_backoff = RESUMING
         self._goal_at = 0.0        # no goal before this time (a retry's delay)
         self._retrying = ""        # the failure a delayed goal retries, for the status
+        self._no_server = ""       # why the last goal could not be sent (move_action's server not up)
         self._attempts = {}
         self._auto = True          # dock by itself on low battery (off after a manual undock)
         self._charging_seen = self._entered
@@ -224,9 +230,18 @@ class ChargeMachine(object):
             self._fail("resume", "refused: %s" % (data,))
 
     def on_move_result(self, token, ok, reason):
+        """move_base's answer to our goal: ``ok`` True, False, or None: the server is not up, the goal not sent."""
         if token != self._token or self._awaiting != "goal" or self.state not in DRIVE_STATES:
             return
         self._awaiting = None
+        if ok is None:
+            # move_base still starting (it loads the map first) or respawning: not a dock fault until
+            # SERVER_TIMEOUT_S; the goal goes again SERVER_RETRY_S later (_step_driving)
+            self._no_server = reason
+            self._goal_at = self._clock() + SERVER_RETRY_S
+            self._step()
+            return
+        self._no_server = ""
         if ok:
             if self.state == TO_APPROACH:
                 self._drive(DOCKING)
@@ -241,8 +256,7 @@ class ChargeMachine(object):
             # _step sends it again once robot_control is back in task mode
             self._step()
             return
-        kind = {TO_APPROACH: "approach", DOCKING: "dock", BACKING_OFF: "backoff"}[self.state]
-        self._fail(kind, reason)
+        self._fail(DRIVE_FAILURES[self.state], reason)
 
     def tick(self):
         self._step()
@@ -397,9 +411,15 @@ class ChargeMachine(object):
     def _step_resuming(self, _now, elapsed, _battery):
         return self._timed_out(elapsed, self._config.pause_timeout, "resume", "no reply %.0f s after resume")
 
-    def _step_driving(self, now, _elapsed, _battery):
+    def _step_driving(self, now, elapsed, _battery):
         if not self._in_task_mode():
             self.waiting = "robot_control in %s mode: waiting for task mode" % (self._mode_name(),)
+        elif self._no_server and self._awaiting is None and elapsed > SERVER_TIMEOUT_S:
+            reason, self._no_server = self._no_server, ""
+            self._fail(DRIVE_FAILURES[self.state], "%s (for %.0f s)" % (reason, elapsed))
+            return True
+        elif self._no_server and self._awaiting is None and now < self._goal_at:
+            self.waiting = "%s: asking again" % (self._no_server,)
         elif self._awaiting is None and now < self._goal_at:
             self.waiting = "%s; sending the goal again %.0f s after the failure" % (self._retrying, GOAL_RETRY_S)
         elif self._awaiting is None:
@@ -499,6 +519,7 @@ class ChargeMachine(object):
         self._entered = self._clock()
         self._charging_seen = self._entered
         self._awaiting = None
+        self._no_server = ""
         self._token += 1  # late replies to anything sent before are ignored
         self.waiting = ""
         self._publish_status()  # every state shows, even one the next input leaves at once

@@ -100,9 +100,9 @@ class RosPorts(ChargePorts):
 
     # move_action --------------------------------------------------------------------------------
     def goal(self, token, pose, precision, backward):
-        # a short wait: this is the event thread; the machine sends a failed goal again GOAL_RETRY_S later
+        # a short wait: this is the event thread; the machine asks again SERVER_RETRY_S later
         if not self._move.wait_for_server(rospy.Duration(SERVER_WAIT_S)):
-            self._events.submit(("move", token, False, server_unavailable("move_action", self._move, SERVER_WAIT_S)))
+            self._events.submit(("move", token, None, server_unavailable("move_action", self._move, SERVER_WAIT_S)))
             return
         approach_speed, dock_speed, yaw_speed = self._speeds
         data = move_goal_data(pose[0], pose[1], pose[2], precision=precision, backward=backward,
