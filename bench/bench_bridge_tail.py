@@ -2,7 +2,9 @@
 """Echo tail latency of two bridges side by side (A/B/A/B), inside a running robot or on a bare roscore.
 
 Uses the running master (ROS_MASTER_URI, e.g. sim.launch) or starts a roscore when none answers.
-Starts two rosbridge_websocket processes on it: A from a git ref of this repository (``--base``,
+Starts two rosbridge_websocket processes on it, each in a session of its own as roslaunch starts
+nodes (so that a ``~nice`` reaches the session's autogroup, ros/node.renice_session): A from a git
+ref of this repository (``--base``,
 default HEAD: the unchanged bridge), B from the working tree, each with its own extra environment
 (``--env-a`` / ``--env-b`` NAME=VALUE,...; e.g. INSPECTION_BRIDGE_TRACE for bridge/trace.py; a
 PYTHONPATH given there goes in front of the bridge's own, e.g. for a sitecustomize.py that changes
@@ -67,7 +69,7 @@ def start_bridge(name, python_path, extra_env, log, params=()):
     return subprocess.Popen([sys.executable, "-c",
                              "from inspection_robot.nodes.rosbridge_websocket import main; main()",
                              "__name:=%s" % name, "_port:=0", "_address:=127.0.0.1", "_console:=false"] + list(params),
-                            stdout=log, stderr=subprocess.STDOUT, env=env)
+                            stdout=log, stderr=subprocess.STDOUT, env=env, start_new_session=True)
 
 
 def side_client(url, topics):
@@ -100,6 +102,7 @@ def main():
     parser.add_argument("--base-b", help="git ref of bridge B (default: the working tree)")
     parser.add_argument("--env-a", default="", help="NAME=VALUE,... for bridge A")
     parser.add_argument("--env-b", default="", help="NAME=VALUE,... for bridge B")
+    parser.add_argument("--params-a", default="", help="private params of bridge A, e.g. _nice:=-10 (space-separated)")
     parser.add_argument("--params-b", default="", help="private params of bridge B, e.g. _nice:=-5 (space-separated)")
     parser.add_argument("--side-topics", default="",
                         help="comma-separated topics a second client of each bridge subscribes (the fan-out a "
@@ -117,7 +120,7 @@ def main():
         log = open(args.log, "a")
         tag = "%d" % os.getpid()
         names = {"A": "tail_a_" + tag, "B": "tail_b_" + tag}
-        procs.append(start_bridge(names["A"], export(args.base), parse_env(args.env_a), log))
+        procs.append(start_bridge(names["A"], export(args.base), parse_env(args.env_a), log, args.params_a.split()))
         procs.append(start_bridge(names["B"], export(args.base_b) if args.base_b else None, parse_env(args.env_b), log,
                                   args.params_b.split()))
         rospy.init_node("bench_bridge_tail_" + tag, disable_signals=True)

@@ -128,6 +128,23 @@ class RobotLaunchTest(unittest.TestCase):
         self.assertIn("move_base/pose_topic is 'amcl_pose' but pose_adapter/mode is tf: move_base must read the "
                       "adapter's output, set move_base/pose_topic: localization/pose", result[1])
 
+    def test_bridge_gets_the_cpu_first_on_the_robot_unless_the_site_file_says_otherwise(self):
+        """robot.launch gives the bridge niceness -10 (the link's echo tail during a patrol, docs/operations.md);
+        the site file, loaded after it, can change that."""
+        with tempfile.TemporaryDirectory() as folder:
+            site = template_site(folder)
+            path = os.path.join(folder, "robot.yaml")
+            niceness = []
+            for bridge in (None, {"nice": 0}):
+                if bridge is not None:
+                    site["rosbridge_websocket"] = dict(site.get("rosbridge_websocket", {}), **bridge)
+                with open(path, "w") as f:
+                    yaml.safe_dump(site, f)
+                code, output = parse_robot_launch("--dump-params", "robot_config:=" + path)
+                self.assertEqual(code, 0, output[-4000:])
+                niceness.append(yaml.safe_load(output)["/robot_launch_test/rosbridge_websocket/nice"])
+        self.assertEqual(niceness, [-10, 0])
+
     def test_bridge_refuses_open_bind_without_auth(self):
         code, output = refusal_of("open_bridge", "_address:=0.0.0.0")
         self.assertNotEqual(code, 0)
