@@ -91,9 +91,6 @@ class TaskActionTest(unittest.TestCase):
     def tearDownClass(cls):
         cls.ros.terminate()
 
-    def current(self):
-        return json.loads(self.status.last.data)
-
     def virtual(self, cmd, obstacle):
         trans_id = int(rospy.get_time() * 1000) % 1000000
         self.vo_cmd.publish(GeneralCmd(sender="rostest", cmd=cmd, trans_id=trans_id, data=json.dumps(obstacle)))

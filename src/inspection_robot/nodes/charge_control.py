@@ -44,7 +44,7 @@ from inspection_robot.srv import ControlService
 
 NODE_NAME = "charge_control"
 EVENT_QUEUE = 1000
-SERVER_WAIT_S = 0.05  # s the event thread waits for move_action's server before failing a goal
+SERVER_WAIT_S = 0.05  # s the event thread waits for move_action's server before the machine asks again
 
 
 class _LockedTable(object):
