@@ -91,6 +91,9 @@ class BackendReplayTest(unittest.TestCase):
         cls.dir = rospy.get_param("test_bag_dir")
         cls.live = Latest("robot_status", RobotStatus, queue_size=5000)
         cls.live.wait_connected(60.0)
+        # the live stream must hold the offline start the bag holds: connected is not yet received (CI
+        # once saw the first status arrive after the backend's first heartbeat, so no offline state live)
+        cls.live.wait(lambda m: m.offline_warn == 1, 60.0, "an offline robot_status before the backend comes")
         # the recorder runs (it has subscribed to every interface topic) before the backend comes
         wait_for(lambda: glob.glob(os.path.join(cls.dir, "bags", "*.bag.active")), 60.0, "recording")
         master = rosgraph.Master(rospy.get_name())
