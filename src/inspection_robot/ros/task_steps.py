@@ -29,7 +29,9 @@ from inspection_robot.task.patrol import (OUTCOME_FAILED, OUTCOME_INTERRUPTED, O
                                           Inspection, turns_to_yaw)
 
 POLL_S = 0.1
-SERVER_WAIT_S = 5.0  # s an action's server has to be connected before a step fails
+# s a step waits for its action's server before it fails: move_base loading its map after a start-up,
+# or a node respawning, is not a failed stop (charge_control's drives wait as long: charge.machine)
+SERVER_TIMEOUT_S = 60.0
 FOREIGN_DETECT_BOTH = 2
 
 
@@ -45,6 +47,20 @@ def _sources(targets, cmd):
         else:
             sources.append({"picture": cmd.filename[0], "roi": list(cmd.roi_vertex[8 * k:8 * k + 8])})
     return sources
+
+
+def wait_for_server(client, name, interrupted):
+    """None once ``client``'s server is up; (outcome, reason) when task_manager interrupts the step,
+    rospy shuts down, or SERVER_TIMEOUT_S pass first."""
+    deadline = time.monotonic() + SERVER_TIMEOUT_S
+    while not client.wait_for_server(rospy.Duration(POLL_S)):
+        if rospy.is_shutdown():
+            return OUTCOME_INTERRUPTED, "shutdown"
+        if interrupted():
+            return OUTCOME_INTERRUPTED, "cancelled by task_manager"
+        if time.monotonic() > deadline:
+            return OUTCOME_FAILED, server_unavailable(name, client, SERVER_TIMEOUT_S)
+    return None
 
 
 class StepRunner(object):
@@ -161,8 +177,9 @@ class StepRunner(object):
     # --- shared goal wait ------------------------------------------------------------------------
     def _goal(self, client, name, goal_type, data, timeout, interrupted, feedback=None):
         """The action's result, or (outcome, reason) when it did not finish normally."""
-        if not client.wait_for_server(rospy.Duration(SERVER_WAIT_S)):
-            return OUTCOME_FAILED, server_unavailable(name, client, SERVER_WAIT_S)
+        not_up = wait_for_server(client, name, interrupted)
+        if not_up is not None:
+            return not_up
         handle = client.send_goal(GeneralGoal(type=goal_type, data=data), feedback_cb=feedback)
         deadline = time.monotonic() + timeout
         cancelled = None
