@@ -23,7 +23,8 @@ Parameters:  data_root (namespace: the robot's state directory): store and repor
              ~trend_window (10), ~trend_min_points (4), ~trend_horizon_days (7.0): the trend warning;
              ~velocity_x (m/s, 0.8), ~velocity_yaw (rad/s, 0.8); ~turn_at_stops (bool, false: the
              head's pan, not the robot, turns to a stop's heading); ~move_timeout_s (300),
-             ~find_timeout_s (90), ~read_timeout_s (60); ~move_estimate_s (20), ~preset_estimate_s (10):
+             ~find_timeout_s (90), ~read_timeout_s (60), ~server_timeout_s (60: a step waits this long
+             for an action server that is not up); ~move_estimate_s (20), ~preset_estimate_s (10):
              ETA before anything was measured; ~status_period (s, 1.0): task_status (and task_action
              feedback) republished at least this often while a task runs (at once on every change);
              ~virtual_wait_s (s, 5.0): a submission waits this long for move_base's virtual obstacles;
@@ -589,7 +590,8 @@ def main():
                              float(rospy.get_param("~virtual_wait_s", 5.0)))
     timeouts = {"move": float(rospy.get_param("~move_timeout_s", 300.0)),
                 "find": float(rospy.get_param("~find_timeout_s", 90.0)),
-                "read": float(rospy.get_param("~read_timeout_s", 60.0))}
+                "read": float(rospy.get_param("~read_timeout_s", 60.0)),
+                "server": float(rospy.get_param("~server_timeout_s", 60.0))}
     velocity = (float(rospy.get_param("~velocity_x", 0.8)), float(rospy.get_param("~velocity_yaw", 0.8)))
     turn_at_stops = rospy.get_param("~turn_at_stops", False)
     if not isinstance(turn_at_stops, bool):

@@ -29,9 +29,6 @@ from inspection_robot.task.patrol import (OUTCOME_FAILED, OUTCOME_INTERRUPTED, O
                                           Inspection, turns_to_yaw)
 
 POLL_S = 0.1
-# s a step waits for its action's server before it fails: move_base loading its map after a start-up,
-# or a node respawning, is not a failed stop (charge_control's drives wait as long: charge.machine)
-SERVER_TIMEOUT_S = 60.0
 FOREIGN_DETECT_BOTH = 2
 
 
@@ -49,23 +46,24 @@ def _sources(targets, cmd):
     return sources
 
 
-def wait_for_server(client, name, interrupted):
+def wait_for_server(client, name, interrupted, timeout):
     """None once ``client``'s server is up; (outcome, reason) when task_manager interrupts the step,
-    rospy shuts down, or SERVER_TIMEOUT_S pass first."""
-    deadline = time.monotonic() + SERVER_TIMEOUT_S
+    rospy shuts down, or ``timeout`` s pass first. A server that is not up yet (move_base loading its
+    map after a start-up, a node respawning) is waited for rather than failing the stop."""
+    deadline = time.monotonic() + timeout
     while not client.wait_for_server(rospy.Duration(POLL_S)):
         if rospy.is_shutdown():
             return OUTCOME_INTERRUPTED, "shutdown"
         if interrupted():
             return OUTCOME_INTERRUPTED, "cancelled by task_manager"
         if time.monotonic() > deadline:
-            return OUTCOME_FAILED, server_unavailable(name, client, SERVER_TIMEOUT_S)
+            return OUTCOME_FAILED, server_unavailable(name, client, timeout)
     return None
 
 
 class StepRunner(object):
     def __init__(self, node_name, velocity_x, velocity_yaw, timeouts, pose, turn_at_stops=True):
-        """``timeouts``: {"move", "find", "read"} s; ``pose()``: latest (x, y, yaw) or None;
+        """``timeouts``: {"move", "find", "read", "server"} s; ``pose()``: latest (x, y, yaw) or None;
         ``turn_at_stops``: drives to stops end turned to the stop's yaw (task.patrol.turns_to_yaw)."""
         self._node_name = node_name
         self._turn_at_stops = turn_at_stops
@@ -177,7 +175,7 @@ class StepRunner(object):
     # --- shared goal wait ------------------------------------------------------------------------
     def _goal(self, client, name, goal_type, data, timeout, interrupted, feedback=None):
         """The action's result, or (outcome, reason) when it did not finish normally."""
-        not_up = wait_for_server(client, name, interrupted)
+        not_up = wait_for_server(client, name, interrupted, self._timeouts["server"])
         if not_up is not None:
             return not_up
         handle = client.send_goal(GeneralGoal(type=goal_type, data=data), feedback_cb=feedback)
