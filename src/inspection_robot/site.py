@@ -30,9 +30,11 @@ from collections import OrderedDict, namedtuple
 
 import yaml
 
+from inspection_robot.bridge.access import AccessError, check_fixed
 from inspection_robot.charge.dock import DockError, parse_dock
 from inspection_robot.drivers import DEVICES, PARAM, PARAMS_PARAM, SIM, DriverConfigError, choose
 from inspection_robot.files import read_secret_file
+from inspection_robot.fixed_settings import FIXED_KEYS
 from inspection_robot.nav.gridmap import MapError, load_map
 from inspection_robot.nav.pose_adapter import MODE_NONE, MODE_TOPIC, MODES, AdapterParams
 
@@ -60,6 +62,7 @@ ADAPTER = "pose_adapter"
 ADAPTER_MODE = ADAPTER + "/mode"
 ADAPTER_PARAMS = ("input_topic", "output_topic", "rate", "map_frame", "base_frame", "sigma_xy", "sigma_yaw",
                   "error_period")
+BRIDGE = "rosbridge_websocket"
 TOKEN_FILE = "rosbridge_websocket/auth_token_file"
 AUTH_ALTERNATIVES = ("rosbridge_websocket/auth_token", "rosbridge_websocket/client_ca")
 
@@ -345,7 +348,25 @@ def site_problems(site, defaults, sim_yard_values, data_root_arg="", insecure=Fa
             problem = _secret_problem(name, given[name], read_secret)
             if problem:
                 problems.append(problem)
+    problems.extend(_bridge_problems(effective, insecure))
     return problems
+
+
+def _bridge_problems(effective, insecure):
+    """The bridge's own start-up check of its security settings (access.check_fixed), so a setting it
+    would refuse at every respawn stops robot.launch instead; and no open surface on a robot."""
+    prefix = BRIDGE + "/"
+    settings = {name[len(prefix):]: value for name, value in effective.items()
+                if name.startswith(prefix) and name[len(prefix):] in FIXED_KEYS[BRIDGE]}
+    settings["insecure"] = bool(insecure)
+    try:
+        check_fixed(settings)
+    except AccessError as err:
+        return ["%s: %s" % (BRIDGE, str(err).replace("~", prefix))]
+    if settings.get("surface", "robot") != "robot":
+        return ["%ssurface is %r: a robot serves the backend surface only (surface: robot; sim and open are for "
+                "the simulator and protocol tests)" % (prefix, settings["surface"])]
+    return []
 
 
 def format_problems(problems, site_path):

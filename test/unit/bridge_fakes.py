@@ -102,7 +102,7 @@ class Timer(object):
 class Harness(object):
     """A Session wired to FakeBackend, a fake clock/timers and a list of sent frames."""
 
-    def __init__(self, backend=None, config=None, rosapi=None, peer=None):
+    def __init__(self, backend=None, config=None, rosapi=None, peer=None, surface=None):
         self.backend = backend or FakeBackend()
         self.logged = []
         self.now = 0.0
@@ -110,7 +110,8 @@ class Harness(object):
         self.sent = []
         self.closed = False
         self.session = Session(1, self.backend, self._send, lambda: self.now, self._call_later, self._close,
-                               config or SessionConfig(), rosapi, lambda level, text: self.logged.append(text), peer)
+                               config or SessionConfig(), rosapi, lambda level, text: self.logged.append(text), peer,
+                               surface)
 
     def _send(self, frames, key=None, limit=None, droppable=True):
         self.sent.append(frames)

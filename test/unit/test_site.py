@@ -201,3 +201,19 @@ def test_one_message_lists_every_problem():
     assert text.startswith("robot.launch refused to start, 2 site setting(s) to fix in /etc/inspection_robot/"
                            "robot.yaml ")
     assert text.endswith("\n  - a is not set\n  - b is sim")
+
+
+@pytest.mark.parametrize("settings, expected", [
+    ({"auth_token": "x"}, "rosbridge_websocket: set rosbridge_websocket/auth_token_file or "
+                          "rosbridge_websocket/auth_token, not both"),
+    ({"allowed_origins": "https://backend:8443"}, "rosbridge_websocket: rosbridge_websocket/allowed_origins must be "
+                                                  "a list of origins"),
+    ({"client_ca": "/etc/robot/ca.pem"}, "rosbridge_websocket: rosbridge_websocket/client_ca needs"),
+    ({"surface": "open"}, "rosbridge_websocket/surface is 'open': a robot serves the backend surface only"),
+    ({"surface": "wide"}, "rosbridge_websocket: rosbridge_websocket/surface must be one of robot, sim, open"),
+])
+def test_settings_the_bridge_would_refuse_at_every_respawn_stop_the_launch(site, settings, expected):
+    site["rosbridge_websocket"].update(settings)
+    found = problems(site)
+    assert any(p.startswith(expected) for p in found), found
+    assert len(found) == 1, found

@@ -96,7 +96,8 @@ function setLink(text, up) {
 }
 
 function connect() {
-  const url = (location.protocol === 'https:' ? 'wss://' : 'ws://') + location.host + '/';
+  // the console's own websocket path: the bridge gives it the console's role (docs/interface.md, Backend surface)
+  const url = (location.protocol === 'https:' ? 'wss://' : 'ws://') + location.host + '/console/link';
   const token = sessionStorage.getItem('robot-token');
   link.waitingForToken = link.authRequired && !token;
   if (link.waitingForToken) {   // the robot closes a connection that does not authenticate in time

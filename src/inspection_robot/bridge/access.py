@@ -24,6 +24,7 @@ import secrets
 import socket
 from urllib.parse import urlsplit
 
+from inspection_robot.bridge.surface import SURFACES
 from inspection_robot.files import read_secret_file
 
 INSECURE_WARNING = ("INSECURE: the backend link listens on %s without authentication (insecure:=true): anyone "
@@ -67,8 +68,12 @@ def listen_check(address, authenticated, client_certificates, insecure):
                       "network)" % shown)
 
 
-class Peer(collections.namedtuple("Peer", "address secure")):
-    """Who is on the other end of a connection: ``address`` (IP text), ``secure`` (the link is TLS)."""
+class Peer(collections.namedtuple("Peer", "address secure path")):
+    """Who is on the other end of a connection: ``address`` (IP text), ``secure`` (the link is TLS),
+    ``path`` (the websocket's URL path, which chooses the client's role: bridge.surface.role_of_path)."""
+
+    def __new__(cls, address, secure, path="/"):
+        return super(Peer, cls).__new__(cls, address, secure, path)
 
     @property
     def private(self):
@@ -223,3 +228,26 @@ def local_names():
     except OSError:
         pass
     return tuple(sorted(n for n in names if n))
+
+
+def check_fixed(settings):
+    """Raise AccessError unless the bridge's security settings (fixed_settings.FIXED_KEYS) can start it:
+    the one check of rosbridge_websocket at start-up and of check_site while robot.launch parses, so a
+    site file the bridge would refuse at every respawn is refused before anything starts."""
+    for key in ("address", "certfile", "keyfile", "client_ca", "auth_token", "auth_token_file"):
+        if key in settings and not isinstance(settings[key], str):
+            raise AccessError("~%s must be a string, not %r" % (key, settings[key]))
+    if "insecure" in settings and not isinstance(settings["insecure"], bool):
+        raise AccessError("~insecure must be true or false, not %r" % (settings["insecure"],))
+    origins = settings.get("allowed_origins", [])
+    if not isinstance(origins, list) or not all(isinstance(o, str) and "://" in o for o in origins):
+        raise AccessError("~allowed_origins must be a list of origins like 'https://backend.example:8443', not %r"
+                          % (origins,))
+    if settings.get("surface", "robot") not in SURFACES:
+        raise AccessError("~surface must be one of %s, not %r" % (", ".join(SURFACES), settings.get("surface")))
+    if settings.get("keyfile") and not settings.get("certfile"):
+        raise AccessError("~keyfile given without ~certfile")
+    if settings.get("client_ca") and not settings.get("certfile"):
+        raise AccessError("~client_ca needs ~certfile/~keyfile (client certificates are checked over TLS)")
+    if settings.get("auth_token_file") and settings.get("auth_token"):
+        raise AccessError("set ~auth_token_file or ~auth_token, not both")

@@ -16,6 +16,7 @@ import math
 from inspection_robot.bridge import cbor
 from inspection_robot.bridge.access import Peer
 from inspection_robot.bridge.compression import Defragmenter, FragmentError, fragments, png_encode
+from inspection_robot.bridge.surface import SurfaceError
 
 LEVELS = {"info": 0, "warning": 1, "error": 2, "none": 3}
 DEFAULT_LEVEL = "error"
@@ -206,8 +207,9 @@ class Session(object):
     """
 
     def __init__(self, client_id, backend, send, clock, call_later, close, config, rosapi=None, log=None,
-                 peer=None):
+                 peer=None, surface=None):
         self.client_id = client_id
+        self.surface = surface  # bridge.surface.Surface: what this client may reach (None: everything)
         self.peer = peer or Peer("127.0.0.1", False)
         self._backend = backend
         self._send = send
@@ -416,8 +418,17 @@ class Session(object):
         self._send(frames, outgoing.topic, sub.queue_length or None, True)
 
     # ------------------------------------------------------------------ topics
+    def _allowed(self, kind, name):
+        """Raise BridgeError unless this client's role may ``kind`` ``name`` (bridge.surface)."""
+        if self.surface is not None:
+            try:
+                self.surface.check(kind, name)
+            except SurfaceError as exc:
+                raise BridgeError(str(exc))
+
     def _op_advertise(self, args, mid):
         topic = args["topic"]
+        self._allowed("publish", topic)
         ids = self._advertised.get(topic)
         if ids is None:
             self._backend.advertise(self, topic, args["type"], args["latch"], max(1, args["queue_size"]))
@@ -438,6 +449,7 @@ class Session(object):
 
     def _op_publish(self, args, mid):
         topic = args["topic"]
+        self._allowed("publish", topic)
         if topic not in self._advertised:
             topic_type = self._backend.topic_type(topic)
             if not topic_type:
@@ -449,6 +461,7 @@ class Session(object):
 
     def _op_subscribe(self, args, mid):
         topic = args["topic"]
+        self._allowed("subscribe", topic)
         if args["compression"] not in COMPRESSIONS:
             raise BridgeError("compression must be one of %s, not %r"
                               % (", ".join(COMPRESSIONS), args["compression"]))
@@ -507,13 +520,20 @@ class Session(object):
             self._send_json(message, fragment_size, compression)
 
         call_args = args["args"] if args["args"] is not None else {}
+        refusal = self._call_refusal(service, call_args)
+        if refusal:   # answered like a failed call: roslibjs/roslibpy see the reason as the call's error
+            done(False, refusal)
+            return
         if timeout is not None:
             # as rosbridge (ros2 branch): past the timeout the call fails; a late response is dropped
             state["timer"] = self._call_later(timeout, lambda: done(
                 False, "Timeout exceeded while waiting for service %s (%g s)" % (service, timeout)))
         try:
             if self._rosapi is not None and self._rosapi.handles(service):
-                self._backend.run_blocking(lambda: self._rosapi.call(service, call_args), done)
+                visible = None
+                if self.surface is not None:
+                    visible = lambda name: self.surface.allows("params", name)  # noqa: E731
+                self._backend.run_blocking(lambda: self._rosapi.call(service, call_args, visible), done)
             else:
                 self._backend.call_service(service, call_args, args["type"], timeout, done)
         except Exception:
@@ -522,8 +542,24 @@ class Session(object):
                 state["timer"].cancel()
             raise
 
+    def _call_refusal(self, service, call_args):
+        """Why this client's role may not make this call (the service, or the parameter a rosapi call
+        names), or None."""
+        try:
+            self._allowed("call", service)
+            if self._rosapi is not None and self._rosapi.handles(service):
+                name = self._rosapi.param_name(service, call_args)
+                if name is not None:
+                    self._allowed("params", name)
+        except BridgeError as exc:
+            return str(exc)
+        return None
+
     def _op_advertise_service(self, args, mid):
         service = args["service"]
+        if self.surface is not None and not self.surface.open:
+            raise BridgeError("advertising services is refused: no role offers services to the robot (rule "
+                              "%s.advertise_service; docs/interface.md, Backend surface)" % self.surface.role)
         if self._rosapi is not None and self._rosapi.handles(service):
             raise BridgeError("Service %s is provided by the bridge itself" % service)
         if service in self._services:

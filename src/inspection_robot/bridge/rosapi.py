@@ -12,6 +12,7 @@ import json
 from inspection_robot.bridge.codec import PRIMITIVE_TYPES, TIME_TYPES, split_array
 
 PREFIX = "/rosapi/"
+PARAM_SERVICES = ("get_param", "has_param", "search_param", "set_param", "delete_param")
 ACTION_SUFFIXES = ("goal", "cancel", "status", "feedback", "result")
 
 
@@ -123,13 +124,34 @@ class RosApi(object):
         short = self._short_name(service)
         return "rosapi/" + self._handlers[short][0] if short in self._handlers else None
 
-    def call(self, service, args):
-        """The response dict of rosapi service ``service`` for request ``args`` (dict or list)."""
+    @staticmethod
+    def _request(args):
         if isinstance(args, list):
             args = {} if not args else args[0] if isinstance(args[0], dict) else None
             if args is None:
                 raise RosApiError("rosapi requests take an object of named fields")
-        return self._handlers[self._short_name(service)][1](args)
+        return args
+
+    def param_name(self, service, args):
+        """The parameter a get_param/has_param/search_param/set_param/delete_param request names (None for
+        other services or a request without one), for the caller's access check before the call."""
+        if self._short_name(service) not in PARAM_SERVICES:
+            return None
+        try:
+            name = self._request(args).get("name")
+        except (RosApiError, AttributeError):
+            return None
+        return name if isinstance(name, str) else None
+
+    def call(self, service, args, param_visible=None):
+        """The response dict of rosapi service ``service`` for request ``args`` (dict or list).
+        ``param_visible(name)``: False hides a parameter from get_param_names (None: all shown)."""
+        args = self._request(args)
+        short = self._short_name(service)
+        result = self._handlers[short][1](args)
+        if short == "get_param_names" and param_visible is not None:
+            result["names"] = [n for n in result["names"] if param_visible(n)]
+        return result
 
     # ---------------------------------------------------------------- graph
     def topics(self, args):

@@ -30,6 +30,7 @@ Every close the bridge decides is logged with its reason. TLS when an ssl contex
 """
 import asyncio
 import collections
+import re
 import ssl
 import time
 
@@ -427,12 +428,14 @@ class BridgeServer(object):
     ``on_client_count(n)`` is called on every connect/disconnect. ``budget`` (bytes) and
     ``budget_grace`` (s) bound each client's send queue (module docstring). Must be started on the
     thread that runs the tornado IOLoop. :meth:`stats` feeds the node's diagnostics.
-    ``extra_routes``: further tornado routes (pattern, handler, kwargs) matched before the websocket.
+    ``extra_routes``: further tornado routes (pattern, handler, kwargs) matched before the websocket;
+    ``websocket_paths``: exact paths that are the websocket even inside extra_routes (the console's link).
     """
 
     def __init__(self, make_session, address="127.0.0.1", port=9090, ssl_context=None, ping_interval=10.0,
                  ping_timeout=30.0, max_message_size=10000000, budget=64 << 20, budget_grace=5.0,
-                 on_client_count=None, log=None, extra_routes=(), allowed_origins=(), handshake_timeout=10.0):
+                 on_client_count=None, log=None, extra_routes=(), allowed_origins=(), handshake_timeout=10.0,
+                 websocket_paths=()):
         self._make_session = make_session
         self._handshake_timeout = float(handshake_timeout)
         self._allowed_origins = tuple(allowed_origins)
@@ -449,6 +452,7 @@ class BridgeServer(object):
         self.budget_grace = float(budget_grace)
         self._on_count = on_client_count or (lambda n: None)
         self._extra_routes = list(extra_routes)
+        self._websocket_paths = list(websocket_paths)  # websocket paths matched before extra_routes
         self.log = log or (lambda level, text: None)
         self._clients = set()
         self._next_id = 0
@@ -461,7 +465,9 @@ class BridgeServer(object):
 
     def routes(self):
         """The HTTP application's routes: any extra ones first, the websocket on every other path."""
-        return self._extra_routes + [(r"/.*", BridgeHandler, {"server": self})]
+        websocket = {"server": self}
+        return ([(re.escape(path), BridgeHandler, websocket) for path in self._websocket_paths] + self._extra_routes
+                + [(r"/.*", BridgeHandler, websocket)])
 
     def start(self):
         """Bind and listen; returns the actual port."""
@@ -545,7 +551,8 @@ class BridgeServer(object):
         session = self._make_session(
             self._next_id, handler.send,
             lambda delay, fn: _Timer(loop, loop.call_later(delay, fn)),
-            handler.close_after_flush, Peer(handler.request.remote_ip, handler.request.protocol == "https"))
+            handler.close_after_flush, Peer(handler.request.remote_ip, handler.request.protocol == "https",
+                                            handler.request.path))
         self._clients.add(handler)
         self.log("info", "client %d connected from %s (%d clients)"
                  % (self._next_id, handler.request.remote_ip, len(self._clients)))

@@ -41,6 +41,7 @@ import asyncio
 import concurrent.futures
 import gc
 import ssl
+import sys
 import threading
 import time
 
@@ -50,7 +51,7 @@ import tornado.ioloop
 from diagnostic_msgs.msg import DiagnosticStatus
 from std_msgs.msg import Int32
 
-from inspection_robot.bridge.access import Authenticator, FailureLimiter, listen_check, read_token_file
+from inspection_robot.bridge.access import Authenticator, FailureLimiter, check_fixed, listen_check, read_token_file
 from inspection_robot.bridge import compat_tornado, trace
 from inspection_robot.bridge.codec import Codec
 from inspection_robot.bridge.console import CONSOLE_PATH, console_routes, missing_files
@@ -60,9 +61,13 @@ from inspection_robot.ros.bridge_backend import RosBackend, RosGraph, start_tcpr
 from inspection_robot.ros.message_types import GenpyTypes
 from inspection_robot.bridge.rosapi import RosApi
 from inspection_robot.bridge.server import BridgeServer, LoopPoster, make_ssl_context
+from inspection_robot.bridge.surface import CONSOLE_LINK_PATH, Surface, role_of_path
+from inspection_robot.fixed_settings import FIXED_KEYS, fixed_settings, overridden
 from inspection_robot.interface import BACKEND_ACK_TYPES, BACKEND_TOPIC_TYPES
+from inspection_robot.ros.package_share import share_file
 from inspection_robot.ros.node import init_node, renice
 
+NODE = "rosbridge_websocket"
 INSECURE_WARNING_PERIOD = 60.0  # s between warnings while insecure:=true leaves the link open
 
 # A client repeating one bad request must not flood the log: identical lines once a second.
@@ -75,21 +80,36 @@ def log(level, text):
     LOGGERS.get(level, rospy.loginfo)("bridge: " + text)
 
 
+def read_fixed():
+    """The security settings (fixed_settings.FIXED_KEYS): from the defaults file, the site file and the
+    command line only; a parameter-server value that differs is ignored and named in a warning."""
+    fixed = fixed_settings(NODE, sys.argv[1:], share_file("config", NODE + ".yaml"))
+    current = {key: rospy.get_param("~" + key) for key in FIXED_KEYS[NODE] if rospy.has_param("~" + key)}
+    changed = overridden(fixed, current)
+    if changed:
+        rospy.logwarn("bridge: ignoring the parameter server's %s: security settings come only from %s, the site "
+                      "file (%s) and the command line (docs/operations.md, Backend link security)",
+                      ", ".join("~" + k for k in changed), "config/%s.yaml" % NODE, fixed["site_file"] or "none")
+    return fixed
+
+
 def read_params():
+    fixed = read_fixed()
     params = {
         "port": int(rospy.get_param("~port", 9090)),
-        "address": str(rospy.get_param("~address", "127.0.0.1")),
-        "certfile": str(rospy.get_param("~certfile", "")),
-        "keyfile": str(rospy.get_param("~keyfile", "")),
-        "auth_token": str(rospy.get_param("~auth_token", "")),
-        "auth_token_file": str(rospy.get_param("~auth_token_file", "")),
-        "client_ca": str(rospy.get_param("~client_ca", "")),
-        "insecure": bool(rospy.get_param("~insecure", False)),
+        "address": str(fixed.get("address", "127.0.0.1")),
+        "certfile": str(fixed.get("certfile", "")),
+        "keyfile": str(fixed.get("keyfile", "")),
+        "auth_token": str(fixed.get("auth_token", "")),
+        "auth_token_file": str(fixed.get("auth_token_file", "")),
+        "client_ca": str(fixed.get("client_ca", "")),
+        "insecure": fixed.get("insecure", False),
+        "surface": fixed.get("surface", "robot"),
         "auth_window": float(rospy.get_param("~auth_window", 60.0)),
         "auth_max_failures": int(rospy.get_param("~auth_max_failures", 5)),
         "auth_timeout": float(rospy.get_param("~auth_timeout", 10.0)),
         "handshake_timeout": float(rospy.get_param("~handshake_timeout", 10.0)),
-        "allowed_origins": rospy.get_param("~allowed_origins", []),
+        "allowed_origins": fixed.get("allowed_origins", []),
         "max_message_size": int(rospy.get_param("~max_message_size", 10000000)),
         "ping_interval": float(rospy.get_param("~ping_interval", 10.0)),
         "ping_timeout": float(rospy.get_param("~ping_timeout", 30.0)),
@@ -104,14 +124,11 @@ def read_params():
         "console_vendor_dir": str(rospy.get_param("~console_vendor_dir", "")),
         "nice": int(rospy.get_param("~nice", 0)),
     }
+    check_fixed(params)
     if not -20 <= params["nice"] <= 19:
         raise ValueError("~nice must be -20..19, not %d" % params["nice"])
     if not 0 <= params["port"] <= 65535:
         raise ValueError("~port must be 0..65535, not %d" % params["port"])
-    origins = params["allowed_origins"]
-    if not isinstance(origins, list) or not all(isinstance(o, str) and "://" in o for o in origins):
-        raise ValueError("~allowed_origins must be a list of origins like 'https://backend.example:8443', not %r"
-                         % (origins,))
     for name in ("max_message_size", "client_budget", "service_threads", "auth_max_failures"):
         if params[name] < 1:
             raise ValueError("~%s must be positive" % name)
@@ -121,13 +138,7 @@ def read_params():
     for name in ("subscriber_queue_size", "budget_grace"):
         if params[name] < 0:
             raise ValueError("~%s must not be negative" % name)
-    if bool(params["certfile"]) != bool(params["keyfile"]) and not params["certfile"]:
-        raise ValueError("~keyfile given without ~certfile")
-    if params["client_ca"] and not params["certfile"]:
-        raise ValueError("~client_ca needs ~certfile/~keyfile (client certificates are checked over TLS)")
     if params["auth_token_file"]:
-        if params["auth_token"]:
-            raise ValueError("set ~auth_token_file or ~auth_token, not both")
         params["auth_token"] = read_token_file(params["auth_token_file"])
     params["insecure_warning"] = listen_check(params["address"], bool(params["auth_token"]),
                                               bool(params["client_ca"]), params["insecure"])
@@ -254,8 +265,11 @@ def main():
                            params["service_timeout"], params["auth_timeout"])
     count_pub = rospy.Publisher("client_count", Int32, queue_size=1, latch=True)
 
+    surfaces = {role: Surface(role, params["surface"], rospy.resolve_name) for role in ("backend", "console")}
+
     def make_session(client_id, send, call_later, close, peer):
-        return Session(client_id, backend, send, time.monotonic, call_later, close, config, rosapi, log, peer)
+        return Session(client_id, backend, send, time.monotonic, call_later, close, config, rosapi, log, peer,
+                       surfaces[role_of_path(peer.path)])
 
     http_routes = []
     if params["console"]:
@@ -272,7 +286,7 @@ def main():
                           params["ping_interval"], params["ping_timeout"], params["max_message_size"],
                           params["client_budget"], params["budget_grace"], lambda n: count_pub.publish(Int32(n)),
                           log, extra_routes=http_routes, allowed_origins=params["allowed_origins"],
-                          handshake_timeout=params["handshake_timeout"])
+                          handshake_timeout=params["handshake_timeout"], websocket_paths=(CONSOLE_LINK_PATH,))
     port = io_thread.run_sync(server.start)
     updater = diagnostic_updater.Updater()
     updater.setHardwareID("backend_link")
