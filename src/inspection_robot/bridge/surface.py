@@ -47,8 +47,8 @@ ROSAPI_PARAM_SERVICES = ("/rosapi/get_param", "/rosapi/has_param", "/rosapi/sear
 SECRET_PARAMS = ("*/auth_token", "*/auth_token_file", "*/keyfile", "*/certfile", "*/client_ca")
 
 BACKEND = OrderedDict([
-    ("publish", tuple(sorted(BACKEND_TOPIC_TYPES)) + tuple("%s/%s" % (a, t) for a in ACTION_NAMES
-                                                          for t in ("goal", "cancel"))),
+    ("publish", tuple(sorted(BACKEND_TOPIC_TYPES))
+     + tuple("%s/%s" % (a, t) for a in ACTION_NAMES for t in ("goal", "cancel"))),
     ("subscribe", tuple(sorted(set(INTERFACE_TOPICS) | set(BACKEND_ACK_TYPES)))
      + ("camera/*", "thermal/*")),
     ("call", ROBOT_SERVICES + ROSAPI_READ_ONLY),
@@ -158,6 +158,6 @@ def markdown_table():
             lines.append("| %s | %s (%s) | %s |" % (role, kind, KIND_OPS[kind], names))
     for kind in KINDS:
         if SIM_EXTRA[kind]:
-            lines.append("| + `surface: sim` | %s (%s) | %s |" % (kind, KIND_OPS[kind],
-                                                                ", ".join("`%s`" % g for g in SIM_EXTRA[kind])))
+            names = ", ".join("`%s`" % g for g in SIM_EXTRA[kind])
+            lines.append("| + `surface: sim` | %s (%s) | %s |" % (kind, KIND_OPS[kind], names))
     return "\n".join(lines)
