@@ -685,6 +685,74 @@ class SecurityTest(unittest.TestCase):
         client.send({"op": "call_service", "service": "/rosapi/get_time", "id": "alive"})
         self.assertTrue(client.recv_message(lambda m: m.get("id") == "alive", timeout=10.0)["result"])
 
+    # ------------------------------------------------------------------ 8: the backend surface (#39 item 1)
+    def refused_by_surface(self, client, message, fragment):
+        """``message`` (with an id) gets an error status containing ``fragment``; returns its text."""
+        message = dict(message, id="surface-%d" % next(TRANS_IDS))
+        client.send(message)
+        reply = client.recv_message(lambda m: m.get("id") == message["id"] and m.get("op") == "status",
+                                    timeout=10.0)
+        self.assertEqual(reply["level"], "error", reply)
+        self.assertIn(fragment, reply["msg"])
+        self.refusals.append(("surface %s" % message["op"], message.get("topic") or message.get("service"),
+                              reply["msg"]))
+        return reply["msg"]
+
+    def rosapi(self, client, service, args):
+        mid = "rosapi-%d" % next(TRANS_IDS)
+        client.send({"op": "call_service", "id": mid, "service": "/rosapi/" + service, "args": args})
+        return client.recv_message(lambda m: m.get("id") == mid and m.get("op") == "service_response", timeout=10.0)
+
+    def test_8_backend_surface(self):
+        """Nothing outside the backend table reaches the robot; what is in it works beside each refusal."""
+        client = self.raw(port=self.port)
+        stop_status0 = self.status.wait(timeout=5.0).stop_status
+        probes = [
+            ({"op": "publish", "topic": "/obstacle_status",
+              "msg": {"sender": "obstacle_detector", "obstacle": False}}, "rule backend.publish"),
+            ({"op": "advertise", "topic": "/robot_status", "type": "inspection_robot/RobotStatus"},
+             "rule backend.publish"),
+            ({"op": "publish", "topic": "/joy", "msg": {}}, "rule backend.publish"),
+            ({"op": "subscribe", "topic": "/rosout"}, "rule backend.subscribe"),
+            ({"op": "advertise_service", "service": "/file_control", "type": "inspection_robot/ControlService"},
+             "rule backend.advertise_service"),
+            ({"op": "call_service", "service": "/rosapi/set_param",
+              "args": {"name": "/rosbridge_websocket/insecure", "value": "true"}}, "rule backend.call"),
+            ({"op": "call_service", "service": "/rosapi/set_param",
+              "args": {"name": "/file_server/roots", "value": "[\"/etc\"]"}}, "rule backend.call"),
+            ({"op": "call_service", "service": "/rosapi/delete_param", "args": {"name": "/rosbridge_auth/auth_token"}},
+             "rule backend.call"),
+            ({"op": "call_service", "service": "/rosout/set_logger_level",
+              "args": {"logger": "rosout", "level": "fatal"}}, "rule backend.call"),
+            ({"op": "call_service", "service": "/rosapi/get_param", "args": {"name": "/rosbridge_auth/auth_token"}},
+             "secret_params"),
+        ]
+        for message, fragment in probes:
+            self.refused_by_surface(client, message, fragment)
+        # positive controls: what the table lists works on the same connection
+        self.assertEqual(json.loads(self.rosapi(client, "get_param", {"name": "/file_server/roots"})["values"]
+                                    ["value"]), rospy.get_param("/file_server/roots"))
+        names = self.rosapi(client, "get_param_names", {})["values"]["names"]
+        self.assertIn("/file_server/roots", names)
+        self.assertFalse([n for n in names if n.endswith(("auth_token", "auth_token_file"))], names)
+        client.send({"op": "subscribe", "id": "sub", "topic": "/obstacle_status",
+                     "type": "inspection_robot/ObstacleStatus"})
+        latched = client.recv_message(lambda m: m.get("op") == "publish" and m.get("topic") == "/obstacle_status",
+                                      timeout=10.0)
+        self.assertEqual(latched["msg"]["sender"], "obstacle_detector")
+        ack, _ = self._call("/file_control", "stat", json.dumps({"path": "tasks"}))
+        self.assertEqual(ack, "success")
+        # the auth bridge serves the robot surface: the simulator's fault injection is not in it
+        friend = self.raw()
+        self.mac_auth(friend)
+        self.refused_by_surface(friend, {"op": "call_service", "service": "/sim/inject_fault",
+                                         "args": {"cmd": "hard_estop", "data": "1"}}, "rule backend.call")
+        self.served(friend)
+        # nothing took effect
+        self.assertIs(rospy.get_param("/rosbridge_websocket/insecure"), False)
+        self.assertEqual(rospy.get_param("/rosbridge_auth/auth_token"), TOKEN)
+        self.assertEqual(self.status.wait(timeout=5.0).stop_status, stop_status0)
+
     # ------------------------------------------------------------------ 5: afterwards
     def test_9_nothing_moved_nothing_written_nobody_died(self):
         pose = self.true_pose.wait(timeout=5.0).pose.pose
@@ -697,6 +765,46 @@ class SecurityTest(unittest.TestCase):
         self.assertTrue(all(math.isfinite(v) for v in list(status.position) + [status.orientation]), status)
         self.assert_tree_unchanged("the whole suite")
         self.assertEqual(self._node_pids(), self.nodes, "a node died or was respawned")
+
+    # ------------------------------------------------------------------ z: restarts (#39 item 3), after test_9
+    def test_z_a_restart_comes_back_as_strong_as_the_site_file(self):
+        """Writes a ROS client with direct access could make (the link refuses them: test_8), then the
+        bridges and file_server killed and respawned: each comes back with its launch's settings."""
+        rospy.set_param("/rosbridge_auth/auth_token", "")
+        rospy.set_param("/rosbridge_auth/insecure", True)
+        rospy.set_param("/rosbridge_websocket/surface", "open")
+        rospy.set_param("/file_server/roots", ["/etc"])
+        nodes = ("/rosbridge_auth", "/rosbridge_websocket", "/file_server")
+        before = self._node_pids()
+        for node in ("rosbridge_auth", "rosbridge_websocket"):
+            rospy.delete_param("/%s/actual_port" % node)
+        rosnode.kill_nodes(list(nodes))
+        wait_for(lambda: all(n in self._node_pids() and self._node_pids()[n] != before[n] for n in nodes), 60.0,
+                 "the three nodes respawned")
+        auth_port, port = self._bridge_port("rosbridge_auth"), self._bridge_port("rosbridge_websocket")
+        intruder = self.raw(port=auth_port)
+        intruder.send({"op": "call_service", "service": "/rosapi/get_time", "id": "t"})
+        self.closed_with(intruder, "Not authenticated: the first message must be an auth op")
+        friend = self.raw(port=auth_port)
+        self.mac_auth(friend)
+        self.served(friend)
+        client = self.raw(port=port)
+        self.refused_by_surface(client, {"op": "publish", "topic": "/obstacle_status", "msg": {"obstacle": False}},
+                                "rule backend.publish")
+
+        def read(path):
+            mid = "read-%d" % next(TRANS_IDS)
+            request = {"sender": "server", "trans_id": 1, "cmd": "read", "data": json.dumps({"path": path})}
+            client.send({"op": "call_service", "id": mid, "service": "/file_control",
+                         "type": "inspection_robot/ControlService", "args": request})
+            reply = client.recv_message(lambda m: m.get("id") == mid and m.get("op") == "service_response", 20.0)
+            if not reply["result"]:
+                return "no call", reply["values"]
+            return reply["values"]["ack"], reply["values"]["data"]
+        wait_for(lambda: read("captures/existing.jpg")[0] == "success", 60.0, "file_control after its respawn")
+        ack, reason = read("/etc/passwd")
+        self.assert_refused("file_control read after respawn", "/etc/passwd", ack, reason,
+                            ("outside the allowed roots",))
 
 
 if __name__ == "__main__":
