@@ -154,7 +154,7 @@ def markdown_table():
              "|---|---|---|"]
     for role, table in ROLES.items():
         for kind in KINDS:
-            names = ", ".join("`%s`" % g for g in table[kind]) or "none"
+            names = ", ".join("`%s`" % g for g in table[kind]) or "nothing"
             lines.append("| %s | %s (%s) | %s |" % (role, kind, KIND_OPS[kind], names))
     for kind in KINDS:
         if SIM_EXTRA[kind]:

@@ -44,7 +44,7 @@ def main():
     if changed:
         rospy.logwarn("%s: ignoring the parameter server's %s: the folders served come only from "
                       "config/file_server.yaml, the site file (%s) and the command line"
-                      % (NODE_NAME, ", ".join("~" + k for k in changed), fixed["site_file"] or "none"))
+                      % (NODE_NAME, ", ".join("~" + k for k in changed), fixed["site_file"] or "not given"))
     root = os.path.abspath(os.path.expanduser(fixed["data_root"])) if fixed.get("data_root") else data_root()
     roots = list(fixed.get("roots", ["presets", "pictures", "captures", "thermal", "tasks"]))
     preset_roots = list(fixed.get("preset_roots", ["presets"]))

@@ -89,7 +89,7 @@ def read_fixed():
     if changed:
         rospy.logwarn("bridge: ignoring the parameter server's %s: security settings come only from %s, the site "
                       "file (%s) and the command line (docs/operations.md, Backend link security)",
-                      ", ".join("~" + k for k in changed), "config/%s.yaml" % NODE, fixed["site_file"] or "none")
+                      ", ".join("~" + k for k in changed), "config/%s.yaml" % NODE, fixed["site_file"] or "not given")
     return fixed
 
 
