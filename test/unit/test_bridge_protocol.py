@@ -512,3 +512,14 @@ def test_repeated_fragments_are_bounded_and_freed_when_the_client_leaves():
     assert "together" in errors(h.messages())[0]["msg"] and h.session.fragment_bytes == 800
     h.session.close()
     assert h.session.fragment_bytes == 0
+
+
+def test_leaving_or_authenticating_cancels_the_auth_timer():
+    """The auth_timeout timer refers to the session and so to its connection's buffers: a client that
+    left must not stay in memory until it fires."""
+    for finish in (lambda h: h.session.close(), lambda h: h.send({"op": "auth", "mac": "s3cret"})):
+        h = Harness(config=auth_config(), peer=Peer("127.0.0.1", False))
+        (timer,) = h.timers
+        assert not timer.cancelled
+        finish(h)
+        assert timer.cancelled
