@@ -23,6 +23,7 @@ import shutil
 import socket
 import sqlite3
 import stat
+import struct
 import tempfile
 import threading
 import time
@@ -752,6 +753,152 @@ class SecurityTest(unittest.TestCase):
         self.assertIs(rospy.get_param("/rosbridge_websocket/insecure"), False)
         self.assertEqual(rospy.get_param("/rosbridge_auth/auth_token"), TOKEN)
         self.assertEqual(self.status.wait(timeout=5.0).stop_status, stop_status0)
+
+    # ------------------------------------------------------------------ 8: limits before trust (issue #39 items 3-5, 8)
+    # The auth bridge's limits: max_message_size 100 kB, and the shipped ~preauth_bytes (16384) and
+    # ~max_clients_per_address (32). Each case from a loopback address of its own (127.0.0.2 is
+    # blocked by test_1's failures), each with a positive control.
+    def bridge_rss_mb(self):
+        with open("/proc/%d/status" % self.nodes["/rosbridge_auth"]) as status:
+            return next(int(line.split()[1]) for line in status if line.startswith("VmRSS:")) / 1024.0
+
+    def unfinished_frame(self, source, size):
+        """A raw connection from ``source`` that announces a ``size``-byte frame and sends only part of
+        it; (code, reason) of the bridge's close frame."""
+        return self.raw_close(source, struct.pack("!BBQ", 0x82, 0x80 | 127, size) + b"mask" + b"\0" * 1000)
+
+    def raw_close(self, source, frames=b""):
+        """(code, reason) of the close frame the bridge sends a raw connection from ``source`` after
+        its handshake and ``frames`` (a raw socket: RawClient may miss a close that comes at once)."""
+        sock = socket.create_connection(("127.0.0.1", self.auth_port), timeout=10.0, source_address=(source, 0))
+        try:
+            sock.sendall(b"GET / HTTP/1.1\r\nHost: 127.0.0.1\r\nUpgrade: websocket\r\nConnection: Upgrade\r\n"
+                         b"Sec-WebSocket-Key: c2Vjc3VpdGUgbGltaXRzIQ==\r\nSec-WebSocket-Version: 13\r\n\r\n")
+            data = b""
+            while b"\r\n\r\n" not in data:
+                chunk = sock.recv(4096)
+                self.assertTrue(chunk, "closed during the handshake")
+                data += chunk
+            data = data.split(b"\r\n\r\n", 1)[1]
+            sock.sendall(frames)
+            while len(data) < 4 or len(data) < 2 + (data[1] & 0x7F):
+                chunk = sock.recv(4096)
+                self.assertTrue(chunk, "closed without a close frame")
+                data += chunk
+            self.assertEqual(data[0] & 0x0F, 0x8, data[:20])
+            payload = data[2:2 + (data[1] & 0x7F)]
+            return struct.unpack("!H", payload[:2])[0], payload[2:].decode()
+        finally:
+            sock.close()
+
+    def test_8a_repeated_fragments_are_bounded(self):
+        client = self.raw("127.0.0.6")
+        self.mac_auth(client)
+        piece = "x" * 60000
+        for _ in range(30):   # the same number again and again, 60 kB each: 1.8 MB sent, 60 kB held
+            client.send({"op": "fragment", "id": "rep", "data": piece, "num": 0, "total": 3})
+        client.send({"op": "fragment", "id": "rep", "data": piece, "num": 1, "total": 3})
+        status = client.recv_message(lambda m: m.get("op") == "status", timeout=10.0)
+        self.assertIn("fragmented message larger than 100000 bytes (max_message_size)", status["msg"])
+        self.refusals.append(("bridge repeated fragments", "30 x 60 kB as num 0, then num 1", status["msg"]))
+        self.served(client)   # the connection stays up
+        call = json.dumps({"op": "call_service", "service": "/rosapi/get_time", "id": "in_pieces",
+                           "args": {}, "pad": "p" * 30000})   # a whole message within the bound still passes
+        for num in range(3):
+            client.send({"op": "fragment", "id": "ok", "data": call[num * 11000:(num + 1) * 11000], "num": num,
+                         "total": 3})
+        self.assertTrue(client.recv_message(lambda m: m.get("id") == "in_pieces", timeout=10.0)["result"])
+
+    def test_8b_preauth_flood_is_bounded(self):
+        friend = self.raw("127.0.0.7")
+        self.mac_auth(friend)
+        self.served(friend)
+        start = self.bridge_rss_mb()
+        results = []
+
+        def flood():
+            results.append(self.unfinished_frame("127.0.0.8", 90000))   # under max_message_size, over preauth_bytes
+        for _ in range(3):
+            threads = [threading.Thread(target=flood) for _ in range(20)]
+            for thread in threads:
+                thread.start()
+            for thread in threads:
+                thread.join(30.0)
+            self.served(friend)   # served while the flood goes on
+        self.assertEqual(len(results), 60)
+        expected = (1009, "message too big: a frame over 16384 bytes before authenticating (~preauth_bytes)")
+        self.assertEqual(set(results), {expected})
+        # small frames that together pass the budget before authenticating close the connection too
+        chatty = self.raw("127.0.0.8")
+        for i in range(5):
+            chatty.send({"op": "auth_challenge", "id": i, "pad": "x" * 4000})
+        wait_for(lambda: chatty.close_code is not None, 10.0, "the pre-auth budget's close")
+        self.assertEqual((chatty.close_code, chatty.close_reason),
+                         (1008, "more than 16384 bytes before authenticating (~preauth_bytes)"))
+        self.refusals.append(("bridge pre-auth flood", "60 unfinished 90 kB frames, 5 x 4 kB", "%s / %s %s"
+                              % (expected, chatty.close_code, chatty.close_reason)))
+        # authenticated, a frame of the same size is taken
+        friend.send({"op": "call_service", "service": "/rosapi/get_time", "id": "big", "pad": "b" * 90000})
+        self.assertTrue(friend.recv_message(lambda m: m.get("id") == "big", timeout=10.0)["result"])
+        wait_for(lambda: self.bridge_rss_mb() < start * 1.1, 10.0, "the bridge's RSS back within 10 percent of %.0f MB"
+                 % start)
+
+    def test_8c_connections_per_address_are_capped(self):
+        address = "127.0.0.9"
+        clients = []
+        for _ in range(32):   # ~max_clients_per_address
+            client = self.raw(address)
+            client.send({"op": "auth", "mac": TOKEN})   # the token itself: a loopback peer
+            clients.append(client)
+        for client in clients:
+            self.served(client)
+        extra = self.raw_close(address)
+        self.assertEqual(extra, (1008, "too many connections from %s (max 32: ~max_clients_per_address)" % address))
+        self.refusals.append(("bridge per-address cap", "33 connections", extra[1]))
+        other = self.raw("127.0.0.10")   # another address is unaffected
+        self.mac_auth(other)
+        self.served(other)
+        clients.pop().close()
+        again = None
+        deadline = time.monotonic() + 10.0
+        while again is None:   # once one left, the address may connect again
+            candidate = self.raw(address)
+            candidate.send({"op": "auth", "mac": TOKEN})
+            try:
+                self.served(candidate)
+                again = candidate
+            except ConnectionError:
+                self.assertLess(time.monotonic(), deadline, "no connection admitted after one closed")
+        for client in clients:
+            client.close()
+
+    def test_8d_malformed_auth_closes_and_a_nan_id_is_not_echoed(self):
+        for message, reason in (({"op": "auth"}, "auth: Expected a mac field but none was found.; closing"),
+                                ({"op": "auth", "mac": 5}, "auth: Expected field mac to be str"),
+                                ({"op": "auth", "mac": "x", "t": "soon"}, "auth: Expected field t to be time")):
+            client = self.raw("127.0.0.11")
+            client.send(message)
+            self.closed_with(client, reason)
+        friend = self.raw("127.0.0.11")   # a well-formed auth from there still opens
+        self.mac_auth(friend)
+        self.served(friend)
+
+        def refuse(constant):
+            raise AssertionError("the bridge sent invalid JSON: a bare %s" % constant)
+        for bridge_port in (self.port, self.auth_port):
+            client = RawClient("ws://127.0.0.1:%d" % bridge_port)
+            self.addCleanup(client.close)
+            if bridge_port == self.auth_port:
+                client.send({"op": "auth", "mac": TOKEN})
+            for literal in ("NaN", "Infinity", "-Infinity"):
+                client.send('{"op": "dance", "id": %s}' % literal)
+                status = json.loads(client.recv(10.0), parse_constant=refuse)
+                self.assertNotIn("id", status)
+                self.assertIn("Unknown operation", status["msg"])
+                client.send('{"op": "call_service", "service": "/rosapi/get_time", "id": %s}' % literal)
+                reply = json.loads(client.recv(10.0), parse_constant=refuse)
+                self.assertEqual((reply["op"], reply["result"], "id" in reply), ("service_response", True, False))
+            self.refusals.append(("bridge NaN id", "NaN / Infinity", "not echoed"))
 
     # ------------------------------------------------------------------ 5: afterwards
     def test_9_nothing_moved_nothing_written_nobody_died(self):

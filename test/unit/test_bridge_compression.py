@@ -47,3 +47,32 @@ def test_defragmenter_out_of_order_duplicates_and_limits():
     assert defrag.pending == 1
     with pytest.raises(FragmentError, match="larger"):
         defrag.add("e", 1, 2, "y" * 60)
+
+
+def test_a_repeated_fragment_number_replaces_its_piece_and_counts_again():
+    """issue #39 item 3: the size of a number sent again was not counted, so re-sending small-then-big
+    pieces passed max_message_size and held memory without bound."""
+    defrag = Defragmenter(lambda: 0.0, max_bytes=50)
+    for _ in range(100):   # the same piece again and again: held once
+        assert defrag.add("a", 0, 3, "x" * 20) is None
+    assert defrag.held_bytes == 20
+    assert defrag.add("a", 0, 3, "y") is None   # replaced by a smaller one: its bytes given back
+    assert defrag.held_bytes == 1
+    assert defrag.add("a", 1, 3, "z" * 45) is None
+    with pytest.raises(FragmentError, match="larger than 50 bytes"):
+        defrag.add("a", 0, 3, "w" * 10)   # 10 + 45 > 50: refused, the message dropped
+    assert defrag.pending == 0 and defrag.held_bytes == 0
+    assert defrag.add("b", 0, 2, "y" * 25) is None   # a whole message within the bound still passes
+    assert defrag.add("b", 1, 2, "z" * 25) == "y" * 25 + "z" * 25
+
+
+def test_the_messages_in_progress_share_one_bound_and_clear_frees_them():
+    defrag = Defragmenter(lambda: 0.0, max_bytes=50, max_total_bytes=60)
+    defrag.add("a", 0, 2, "x" * 40)
+    with pytest.raises(FragmentError, match="larger than 60 bytes together"):
+        defrag.add("b", 0, 2, "y" * 30)
+    assert defrag.pending == 1 and defrag.held_bytes == 40
+    defrag.add("c", 0, 2, "é" * 10)   # counted in UTF-8 bytes, as it came over the wire
+    assert defrag.held_bytes == 60
+    defrag.clear()
+    assert defrag.pending == 0 and defrag.held_bytes == 0

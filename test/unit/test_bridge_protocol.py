@@ -424,3 +424,102 @@ def test_an_unauthenticated_client_is_closed_after_auth_timeout():
     ok.send({"op": "auth", "mac": "s3cret"})
     ok.advance(60.0)
     assert authenticated(ok)
+
+
+# ---------------------------------------------------------------- issue #39: limits before trust (branch limits)
+def strict_messages(h):
+    """The frames sent, parsed as strict JSON: a bare NaN / Infinity (invalid JSON) fails the test."""
+    def refuse(constant):
+        raise AssertionError("invalid JSON: bare %s" % constant)
+    out = [json.loads(frame, parse_constant=refuse) for frames in h.sent for frame in frames]
+    del h.sent[:]
+    return out
+
+
+def test_a_malformed_auth_closes_the_connection_with_its_reason():
+    config = auth_config(FailureLimiter(lambda: 0.0, max_failures=100))
+    for auth, reason in (({"op": "auth"}, "auth: Expected a mac field but none was found.; closing"),
+                         ({"op": "auth", "mac": 5}, "auth: Expected field mac to be str. Invalid value: 5; closing"),
+                         ({"op": "auth", "mac": "x", "t": "soon"}, "Expected field t to be time"),
+                         ({"op": "auth", "mac": "x", "client": ["a"]}, "Expected field client to be str")):
+        h = Harness(config=config, peer=REMOTE)
+        h.send(dict(auth, id="a"))
+        (err,) = errors(h.messages())
+        assert h.closed and reason in err["msg"] and err["id"] == "a", err
+        assert not authenticated(h)
+    ok = Harness(config=config, peer=Peer("127.0.0.1", False))   # a well-formed auth still opens
+    ok.send({"op": "auth", "mac": "s3cret"})
+    assert authenticated(ok) and ok.session.authenticated
+
+
+def test_a_malformed_op_after_auth_keeps_the_connection():
+    h = Harness(config=auth_config(), peer=Peer("127.0.0.1", False))
+    h.send({"op": "auth", "mac": "s3cret"})
+    h.send({"op": "subscribe", "topic": 5})
+    assert "Expected field topic to be str" in errors(h.messages())[0]["msg"] and not h.closed
+
+
+def test_a_non_finite_id_is_not_echoed_and_replies_stay_valid_json():
+    for literal in ("NaN", "Infinity", "-Infinity", "1e400"):
+        h = Harness()
+        h.send('{"op": "publish", "id": %s, "topic": "/unknown", "msg": {}}' % literal)
+        h.send('{"op": "call_service", "id": %s, "service": "/echo", "args": {"x": 1}}' % literal)
+        h.send('{"op": "dance", "id": %s}' % literal)
+        status, response, unknown = strict_messages(h)
+        assert "id" not in status and "Cannot infer topic type" in status["msg"]
+        assert "id" not in response and response["values"] == {"echo": {"x": 1}}
+        assert "id" not in unknown and "Unknown operation" in unknown["msg"]
+    h = Harness()
+    h.send(cbor.dumps({"op": "dance", "id": float("nan")}))   # CBOR carries NaN as is
+    (status,) = strict_messages(h)
+    assert "id" not in status
+    h.send('{"op": "fragment", "id": NaN, "data": "x", "num": 0, "total": 2}')
+    (status,) = strict_messages(h)
+    assert "fragment id must be a string or a finite number" in status["msg"]
+    h.send('{"op": "dance", "id": 7.5}')   # a finite number is echoed as it came
+    assert strict_messages(h)[0]["id"] == 7.5
+
+
+def test_non_finite_values_in_a_reply_become_null():
+    h = Harness()
+    h.send('{"op": "call_service", "id": "n", "service": "/echo", "args": {"x": NaN, "y": [Infinity, 1.5]}}')
+    (response,) = strict_messages(h)
+    assert response["id"] == "n" and response["values"] == {"echo": {"x": None, "y": [None, 1.5]}}
+
+
+def test_repeated_fragments_are_bounded_and_freed_when_the_client_leaves():
+    """issue #39 item 3: re-sending fragment numbers grew the bridge without bound and let a
+    message over max_message_size through."""
+    h = Harness(config=SessionConfig(max_message_size=1000))
+    for _ in range(50):   # the same numbers again and again, 600 bytes each: held once
+        h.send({"op": "fragment", "id": "f", "data": "x" * 600, "num": 0, "total": 3})
+    assert h.session.fragment_bytes == 600 and errors(h.messages()) == []
+    h.send({"op": "fragment", "id": "f", "data": "y" * 600, "num": 1, "total": 3})
+    (err,) = errors(h.messages())
+    assert err["msg"] == "fragment: fragmented message larger than 1000 bytes (max_message_size)"
+    assert h.session.fragment_bytes == 0
+    text = json.dumps({"op": "publish", "topic": "/known", "msg": {"data": "z" * 1000}})   # over 1000 bytes whole
+    for part in fragments(text, 300, "big"):
+        h.send(part)
+    assert "larger than 1000 bytes" in errors(h.messages())[0]["msg"] and h.backend.published == []
+    text = json.dumps({"op": "publish", "topic": "/known", "msg": {"data": "z" * 500}})   # within: passes
+    for part in fragments(text, 300, "ok"):
+        h.send(part)
+    assert h.backend.published[-1][1].data == "z" * 500
+    h.send({"op": "fragment", "id": "g", "data": "x" * 400, "num": 0, "total": 2})
+    h.send({"op": "fragment", "id": "h", "data": "x" * 400, "num": 0, "total": 2})
+    h.send({"op": "fragment", "id": "i", "data": "x" * 400, "num": 0, "total": 2})   # 1200 together: refused
+    assert "together" in errors(h.messages())[0]["msg"] and h.session.fragment_bytes == 800
+    h.session.close()
+    assert h.session.fragment_bytes == 0
+
+
+def test_leaving_or_authenticating_cancels_the_auth_timer():
+    """The auth_timeout timer refers to the session and so to its connection's buffers: a client that
+    left must not stay in memory until it fires."""
+    for finish in (lambda h: h.session.close(), lambda h: h.send({"op": "auth", "mac": "s3cret"})):
+        h = Harness(config=auth_config(), peer=Peer("127.0.0.1", False))
+        (timer,) = h.timers
+        assert not timer.cancelled
+        finish(h)
+        assert timer.cancelled

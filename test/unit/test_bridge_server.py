@@ -1,15 +1,20 @@
 """server: bounded send queue; a live tornado server with the fake backend (TLS, size limit, keep-alive)."""
 import asyncio
+import base64
 import concurrent.futures
+import gc
 import json
+import os
 import queue
 import shutil
 import socket
 import struct
 import subprocess
 import ssl
+import sys
 import threading
 import time
+import weakref
 
 import pytest
 import tornado.httpclient
@@ -17,6 +22,7 @@ import tornado.ioloop
 
 from bridge_fakes import FakeBackend
 from inspection_robot.bridge import cbor
+from inspection_robot.bridge.access import Authenticator, FailureLimiter
 from inspection_robot_testing.bridge_client import CLOSED, RawClient, SocketClient
 from inspection_robot.bridge.protocol import Outgoing, Session, SessionConfig
 from inspection_robot.bridge.compat_tornado import ws_frame
@@ -70,7 +76,8 @@ def test_replies_over_the_budget_mark_the_client_over_budget():
 
 
 class LiveServer(object):
-    def __init__(self, **kwargs):
+    def __init__(self, session_config=None, **kwargs):
+        self.session_config = session_config or SessionConfig()
         self.backend = FakeBackend()
         self.counts = []
         self.logged = []
@@ -85,7 +92,7 @@ class LiveServer(object):
         self.loop = tornado.ioloop.IOLoop.current()
 
         def make_session(client_id, send, call_later, close, peer):
-            return Session(client_id, self.backend, send, time.monotonic, call_later, close, SessionConfig(),
+            return Session(client_id, self.backend, send, time.monotonic, call_later, close, self.session_config,
                            peer=peer)
         self.server = BridgeServer(make_session, "127.0.0.1", 0, on_client_count=self.counts.append,
                                    log=lambda level, text: self.logged.append(text), **kwargs)
@@ -372,3 +379,201 @@ def test_tls(tmp_path):
             RawClient("ws://127.0.0.1:%d" % server.port, timeout=2.0)
     finally:
         server.stop()
+
+
+# ---------------------------------------------------------------- issue #39: limits before trust (branch limits)
+def auth_server(**kwargs):
+    limiter = FailureLimiter(time.monotonic, 100)
+    config = SessionConfig(authenticator=Authenticator("s3cret", time.time, limiter=limiter))
+    return LiveServer(session_config=config, ping_interval=0, **kwargs)
+
+
+def handshake(port, source="127.0.0.1"):
+    """A raw socket past the websocket handshake (the test writes the frames itself)."""
+    sock = socket.create_connection(("127.0.0.1", port), timeout=10.0, source_address=(source, 0))
+    key = base64.b64encode(os.urandom(16)).decode()
+    sock.sendall(("GET / HTTP/1.1\r\nHost: 127.0.0.1\r\nUpgrade: websocket\r\nConnection: Upgrade\r\n"
+                  "Sec-WebSocket-Key: %s\r\nSec-WebSocket-Version: 13\r\n\r\n" % key).encode())
+    head = b""
+    while b"\r\n\r\n" not in head:
+        head += sock.recv(1)
+    assert b" 101 " in head.split(b"\r\n")[0], head
+    return sock
+
+
+def close_frame(sock):
+    """(code, reason) of the server's close frame (skipping other frames)."""
+    def take(n):
+        data = b""
+        while len(data) < n:
+            chunk = sock.recv(n - len(data))
+            assert chunk, "connection closed without a close frame"
+            data += chunk
+        return data
+    while True:
+        first, length = struct.unpack("!BB", take(2))
+        if length == 126:
+            length = struct.unpack("!H", take(2))[0]
+        elif length == 127:
+            length = struct.unpack("!Q", take(8))[0]
+        payload = take(length)
+        if first & 0x0F == 0x8:
+            return struct.unpack("!H", payload[:2])[0], payload[2:].decode()
+
+
+def test_before_auth_a_big_frame_is_refused_from_its_header_and_after_auth_it_passes():
+    """issue #39 item 4: unauthenticated connections each buffered a 9.9 MB unfinished frame."""
+    server = auth_server(max_message_size=10000000, preauth_bytes=1000)
+    try:
+        sock = handshake(server.port)
+        sock.sendall(struct.pack("!BBQ", 0x82, 0x80 | 127, 5000000) + b"mask" + b"\0" * 1000)  # never finished
+        assert close_frame(sock) == (1009, "message too big: a frame over 1000 bytes before authenticating "
+                                           "(~preauth_bytes)")
+        sock.close()
+        stranger = RawClient("ws://127.0.0.1:%d" % server.port)   # 1001 bytes in one frame: too big as well
+        stranger.send(json.dumps({"op": "auth_challenge", "pad": "x" * 970}))
+        assert stranger.recv(5) is CLOSED and stranger.close_code == 1009
+        friend = RawClient("ws://127.0.0.1:%d" % server.port)   # positive control
+        friend.send({"op": "auth", "mac": "s3cret"})
+        friend.send({"op": "call_service", "id": "big", "service": "/echo", "args": {"s": "z" * 200000}})
+        assert friend.recv_message(timeout=10)["values"] == {"echo": {"s": "z" * 200000}}
+        friend.close()
+    finally:
+        server.stop()
+
+
+def test_before_auth_frames_together_are_bounded():
+    server = auth_server(preauth_bytes=2000)
+    try:
+        client = RawClient("ws://127.0.0.1:%d" % server.port)
+        for i in range(5):   # 5 x ~600 bytes: each frame is small, together they pass 2000
+            client.send(json.dumps({"op": "auth_challenge", "id": i, "pad": "x" * 560}))
+        frames = []
+        while True:
+            frame = client.recv(5)
+            if frame is CLOSED:
+                break
+            frames.append(json.loads(frame))
+        assert [f["id"] for f in frames] == [0, 1, 2]   # answered until the budget was spent
+        assert client.close_code == 1008
+        assert client.close_reason == "more than 2000 bytes before authenticating (~preauth_bytes)"
+        friend = RawClient("ws://127.0.0.1:%d" % server.port)
+        friend.send(json.dumps({"op": "auth_challenge", "id": "c", "pad": "x" * 560}))
+        assert friend.recv_message()["id"] == "c"
+        friend.send({"op": "auth", "mac": "s3cret"})
+        for i in range(5):   # authenticated: the pre-auth budget no longer counts
+            friend.send({"op": "call_service", "id": i, "service": "/echo", "args": {"pad": "x" * 560}})
+            assert friend.recv_message()["id"] == i
+        friend.close()
+    finally:
+        server.stop()
+
+
+def test_a_departed_clients_memory_is_collected_without_waiting_for_pythons_collector():
+    """A closed connection's tornado objects refer to each other and hold its read buffer: with the
+    cycle collector off, only the server's own collection frees them."""
+    server = LiveServer(ping_interval=0, max_message_size=10000000)
+    gc.disable()
+    try:
+        sock = handshake(server.port)
+        server.wait_count(1)
+        handler = weakref.ref(run_on_loop(server, lambda: next(iter(server.server._clients))))
+        sock.sendall(struct.pack("!BBQ", 0x82, 0x80 | 127, 5000000) + b"mask" + b"\0" * 4000000)
+        sock.close()
+        server.wait_count(0)
+        wait_until(lambda: handler() is None, 5.0)
+    finally:
+        gc.enable()
+        server.stop()
+
+
+def test_at_most_max_clients_per_address_and_others_unaffected():
+    server = LiveServer(ping_interval=0, max_clients_per_address=3)
+    try:
+        url = "ws://127.0.0.1:%d" % server.port
+        clients = [RawClient(url) for _ in range(3)]
+        server.wait_count(3)
+        extra = handshake(server.port)   # a raw socket: the close comes at once, before RawClient is ready
+        assert close_frame(extra) == (1008, "too many connections from 127.0.0.1 (max 3: ~max_clients_per_address)")
+        extra.close()
+        other = RawClient(url, source_ip="127.0.0.2")   # another address is served
+        other.send({"op": "call_service", "id": "o", "service": "/echo"})
+        assert other.recv_message()["id"] == "o"
+        for client in clients:   # the three first are served throughout
+            client.send({"op": "call_service", "id": "c", "service": "/echo"})
+            assert client.recv_message()["id"] == "c"
+        clients.pop().close()
+        server.wait_count(3)   # 2 from 127.0.0.1 and the other
+        again = RawClient(url)
+        again.send({"op": "call_service", "id": "a", "service": "/echo"})
+        assert again.recv_message()["id"] == "a"
+        assert server.server.address_refused == 1
+        assert sum("refused a connection from 127.0.0.1: it has 3 open" in line for line in server.logged) == 1
+    finally:
+        server.stop()
+
+
+FD_LIMIT_SERVER = """
+import asyncio, resource, sys, time
+sys.path.insert(0, sys.argv[1])
+import tornado.ioloop
+from bridge_fakes import FakeBackend
+from inspection_robot.bridge.protocol import Session, SessionConfig
+from inspection_robot.bridge.server import BridgeServer
+asyncio.set_event_loop(asyncio.new_event_loop())
+backend = FakeBackend()
+def make_session(client_id, send, call_later, close, peer):
+    return Session(client_id, backend, send, time.monotonic, call_later, close, SessionConfig(), peer=peer)
+log = open(sys.argv[2], "w", buffering=1)
+server = BridgeServer(make_session, "127.0.0.1", 0, ping_interval=0, handshake_timeout=60.0,
+                      log=lambda level, text: log.write(text + "\\n"))
+print(server.start(), flush=True)
+resource.setrlimit(resource.RLIMIT_NOFILE, (64, resource.getrlimit(resource.RLIMIT_NOFILE)[1]))
+tornado.ioloop.IOLoop.current().start()
+"""
+
+
+def cpu_seconds(pid):
+    with open("/proc/%d/stat" % pid) as stat:
+        fields = stat.read().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / float(os.sysconf("SC_CLK_TCK"))
+
+
+def test_at_the_file_descriptor_limit_connections_are_refused_without_a_busy_loop(tmp_path):
+    """issue #39 item 5: past RLIMIT_NOFILE tornado's accept loop spun at 94 % CPU printing tracebacks."""
+    log = tmp_path / "server.log"
+    proc = subprocess.Popen([sys.executable, "-c", FD_LIMIT_SERVER, os.path.dirname(__file__), str(log)],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    held = []
+    try:
+        port = int(proc.stdout.readline())
+        for _ in range(100):   # 64 descriptors in all: most of these are over the limit
+            held.append(socket.create_connection(("127.0.0.1", port), timeout=10.0))
+        refused = 0
+        for sock in held:   # a refused connection is closed at once; an accepted one waits for its handshake
+            sock.settimeout(0.2)
+            try:
+                refused += sock.recv(1) == b""
+            except socket.timeout:
+                pass
+            except ConnectionResetError:
+                refused += 1
+        assert refused >= 30
+        wait_until(lambda: "at its file-descriptor limit" in log.read_text(), 5.0)
+        before = cpu_seconds(proc.pid)
+        time.sleep(1.0)   # a busy accept loop would burn most of this second
+        assert cpu_seconds(proc.pid) - before < 0.3
+        assert log.read_text().count("file-descriptor limit") == 1   # throttled
+        for sock in held:
+            sock.close()
+        held = []
+        client = RawClient("ws://127.0.0.1:%d" % port, timeout=10.0)   # served again once descriptors are free
+        client.send({"op": "call_service", "id": "after", "service": "/echo"})
+        assert client.recv_message()["id"] == "after"
+        client.close()
+    finally:
+        for sock in held:
+            sock.close()
+        proc.kill()
+        stderr = proc.communicate()[1]
+    assert b"Traceback" not in stderr, stderr[-2000:]

@@ -12,6 +12,9 @@ built), and falls back to the public API when they differ:
   socket). Fallback: the kernel's default (no bound).
 - :func:`name_the_size_limit`: the close tornado itself sends for an oversized frame (1009, "message
   too big") carries a reason naming the limit. Fallback: tornado's own reason.
+- :func:`set_frame_limit`: change one connection's frame size limit while it is open (tornado reads
+  it from the connection's params before it buffers each frame's payload), so an unauthenticated
+  client may send only small frames. Fallback: the application's limit for every frame.
 
 ``MISSING`` lists what was not found; test_compat_tornado fails loudly, naming tornado's version,
 when it is not empty.
@@ -43,7 +46,11 @@ def _check():
                   + _missing("WebSocketProtocol", ["stream"], _assigned(protocol.__init__))
                   + _missing("WebSocketProtocol", ["is_closing"], set(dir(protocol))))
     receive = getattr(protocol13, "_receive_frame", None)
+    receive_names = _assigned(receive)
     return {
+        "frame_limit": (_missing("WebSocketProtocol13", ["params"], _assigned(getattr(protocol13, "__init__", None)))
+                        + _missing("WebSocketProtocol13._receive_frame", ["params", "max_message_size"],
+                                   receive_names)),
         "write_frames": connection + _missing("BaseIOStream", ["write", "close"],
                                               set(dir(tornado.iostream.BaseIOStream))),
         "too_big_reason": (_missing("WebSocketHandler", ["get_websocket_protocol"], set(dir(handler)))
@@ -58,6 +65,7 @@ _CHECKED = _check()
 MISSING = sorted(set(name for names in _CHECKED.values() for name in names))
 RAW_WRITE = not _CHECKED["write_frames"]
 TOO_BIG_REASON = not _CHECKED["too_big_reason"]
+FRAME_LIMIT = not _CHECKED["frame_limit"]
 VERSION = tornado.version
 
 
@@ -141,3 +149,13 @@ def name_the_size_limit(protocol, reason_for_too_big):
         close(code, reason)
     protocol.close = close_with_reason
     return protocol
+
+
+def set_frame_limit(handler, nbytes):
+    """Frames over ``nbytes`` (announced in their header) close this connection with 1009 before their
+    payload is read; True when set (tornado reads ``params.max_message_size`` for every frame)."""
+    params = getattr(handler.ws_connection, "params", None) if FRAME_LIMIT else None
+    if params is None or not hasattr(params, "max_message_size"):
+        return False
+    params.max_message_size = int(nbytes)
+    return True

@@ -3,8 +3,8 @@
 PNG: as rosbridge does it, the UTF-8 JSON text is padded with ``\\n`` to fill a near-square RGB
 image, written as an 8-bit PNG (zlib, filter 0) and base64-encoded into ``{"op": "png"}``.
 Fragments: the text is cut into ``fragment_size`` pieces sent as ``{"op": "fragment", "id",
-"data", "num", "total"}``; :class:`Defragmenter` rebuilds incoming ones, bounded in size,
-count and age.
+"data", "num", "total"}``; :class:`Defragmenter` rebuilds incoming ones, bounded in size (per
+message and per connection, counted on every fragment), count and age.
 """
 import base64
 import math
@@ -83,29 +83,47 @@ class FragmentError(ValueError):
     """An incoming fragment that cannot be accepted."""
 
 
+def _size(data):
+    """Bytes of a fragment's text as it came (UTF-8), cheap for the usual ASCII (base64, JSON)."""
+    return len(data) if data.isascii() else len(data.encode("utf-8", "surrogatepass"))
+
+
 class Defragmenter(object):
     """Collects incoming fragments per id; returns the whole text once every piece arrived.
 
-    ``max_bytes`` bounds one message, ``max_pending`` the messages being assembled at once and
-    ``timeout`` (s) how long an incomplete message is kept (``clock`` gives seconds).
+    ``max_bytes`` bounds one message, ``max_total_bytes`` (default ``max_bytes``) all the messages
+    being assembled at once together, ``max_pending`` their count and ``timeout`` (s) how long an
+    incomplete message is kept (``clock`` gives seconds). Sizes are counted on every fragment: a
+    number that comes again replaces the piece it had (its old size is given back first), so
+    repeating numbers never grows what is held. A fragment that would pass a bound is refused and
+    its whole message dropped (FragmentError). :meth:`clear` drops everything (the client left).
     """
 
-    def __init__(self, clock, timeout=600.0, max_bytes=10000000, max_pending=16):
+    def __init__(self, clock, timeout=600.0, max_bytes=10000000, max_pending=16, max_total_bytes=None):
         self._clock = clock
         self._timeout = float(timeout)
         self._max_bytes = int(max_bytes)
+        self._max_total = int(max_total_bytes if max_total_bytes is not None else max_bytes)
         self._max_pending = int(max_pending)
-        self._pending = {}  # id -> [deadline, total, {num: data}, size]
+        self._pending = {}  # id -> [deadline, total, {num: (data, size)}, size]
+        self.held_bytes = 0  # all pending messages' bytes
 
     @property
     def pending(self):
         return len(self._pending)
 
+    def _drop(self, message_id):
+        self.held_bytes -= self._pending.pop(message_id)[3]
+
+    def clear(self):
+        self._pending.clear()
+        self.held_bytes = 0
+
     def add(self, message_id, num, total, data):
         """Store one fragment; return the reassembled text when complete, else None."""
         now = self._clock()
         for key in [k for k, v in self._pending.items() if v[0] < now]:
-            del self._pending[key]
+            self._drop(key)
         if total < 1 or not 0 <= num < total:
             raise FragmentError("fragment num %d outside 0..%d" % (num, total - 1))
         entry = self._pending.get(message_id)
@@ -114,16 +132,23 @@ class Defragmenter(object):
                 raise FragmentError("too many fragmented messages in progress (max %d)" % self._max_pending)
             entry = self._pending[message_id] = [now + self._timeout, total, {}, 0]
         if entry[1] != total:
-            del self._pending[message_id]
+            self._drop(message_id)
             raise FragmentError("fragment total changed from %d to %d" % (entry[1], total))
         entry[0] = now + self._timeout
-        if num not in entry[2]:
-            entry[3] += len(data)
-        entry[2][num] = data
-        if entry[3] > self._max_bytes:
-            del self._pending[message_id]
-            raise FragmentError("fragmented message larger than %d bytes" % self._max_bytes)
+        size = _size(data)
+        old = entry[2].get(num)
+        grows = size - (old[1] if old is not None else 0)
+        if entry[3] + grows > self._max_bytes:
+            self._drop(message_id)
+            raise FragmentError("fragmented message larger than %d bytes (max_message_size)" % self._max_bytes)
+        if self.held_bytes + grows > self._max_total:
+            self._drop(message_id)
+            raise FragmentError("fragmented messages in progress larger than %d bytes together (max_message_size)"
+                                % self._max_total)
+        entry[2][num] = (data, size)
+        entry[3] += grows
+        self.held_bytes += grows
         if len(entry[2]) < total:
             return None
-        del self._pending[message_id]
-        return "".join(entry[2][i] for i in range(total))
+        self._drop(message_id)
+        return "".join(entry[2][i][0] for i in range(total))

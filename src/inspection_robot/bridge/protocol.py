@@ -27,6 +27,7 @@ ORIGINAL_MAX = 200  # characters of an offending frame quoted back in a status m
 LOG_PERIOD = 5.0  # s: at most one logged protocol error per client and period
 # one shared compact encoder: json.dumps(..., separators=...) would build a new encoder per call
 compact_json = json.JSONEncoder(separators=(",", ":")).encode
+_strict_json = json.JSONEncoder(separators=(",", ":"), allow_nan=False, default=repr).encode
 _PUBLISH_PREFIX = {}  # topic -> '{"op":"publish","topic":"<topic>","msg":'
 
 
@@ -98,6 +99,35 @@ def check_fields(op, msg):
                               % (field.name, field.type_name, _short(json.dumps(value, default=repr))))
         args[field.name] = value
     return args
+
+
+def _finite(value):
+    """``value`` with every NaN / infinite float replaced by None (JSON has neither)."""
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if isinstance(value, dict):
+        return dict((key, _finite(item)) for key, item in value.items())
+    if isinstance(value, (list, tuple)):
+        return [_finite(item) for item in value]
+    return value
+
+
+def reply_json(message):
+    """Compact JSON text of a reply built from a client's values: never invalid JSON (a NaN or
+    infinity, which Python's encoder would write as a bare NaN / Infinity, becomes null)."""
+    try:
+        return _strict_json(message)
+    except ValueError:
+        return _strict_json(_finite(message))
+
+
+def valid_id(mid):
+    """The request id to echo: a string or a finite number (not bool); None for anything else."""
+    if isinstance(mid, bool) or not isinstance(mid, ANY_ID):
+        return None
+    if isinstance(mid, float) and not math.isfinite(mid):
+        return None
+    return mid
 
 
 def _short(text):
@@ -222,7 +252,10 @@ class Session(object):
         self._level = LEVELS[DEFAULT_LEVEL]
         self._authenticated = config.authenticator is None
         self._nonce = None  # the auth_challenge nonce issued to this client, until an auth uses it
-        self._defrag = Defragmenter(clock, config.fragment_timeout, config.max_message_size)
+        self._auth_timer = None  # cancelled when the client authenticates or leaves: it holds the session
+        # one bound for a message and for all of a client's messages in progress together
+        self._defrag = Defragmenter(clock, config.fragment_timeout, config.max_message_size,
+                                    max_total_bytes=config.max_message_size)
         self._advertised = {}   # topic -> set of advertise ids
         self._subscriptions = {}  # topic -> _Subscription
         self._services = set()  # services this client provides
@@ -254,7 +287,17 @@ class Session(object):
                 self._refuse("Too many failed authentications from %s: try again in %d s; closing"
                              % (self.peer.address, math.ceil(wait)))
             else:  # a connection that never authenticates must not hold a slot forever
-                self._call_later(config.auth_timeout, self._auth_overdue)
+                self._auth_timer = self._call_later(config.auth_timeout, self._auth_overdue)
+
+    @property
+    def authenticated(self):
+        """True once the client may use every op (at once when no authentication is required)."""
+        return self._authenticated
+
+    @property
+    def fragment_bytes(self):
+        """Bytes of this client's incomplete fragmented messages held for reassembly."""
+        return self._defrag.held_bytes
 
     # ------------------------------------------------------------------ incoming frames
     def on_frame(self, frame):
@@ -279,9 +322,7 @@ class Session(object):
         if not isinstance(msg, dict):
             self.status("error", "Received a message that is not a JSON object: %s" % _short(_text(original)))
             return
-        mid = msg.get("id")
-        if mid is not None and not isinstance(mid, ANY_ID) or isinstance(mid, bool):
-            mid = None
+        mid = valid_id(msg.get("id"))
         op = msg.get("op")
         if not self._authenticated and op not in ("auth", "auth_challenge"):
             self._refuse("Not authenticated: the first message must be an auth op (or auth_challenge); closing",
@@ -297,6 +338,13 @@ class Session(object):
             return
         try:
             args = check_fields(op, msg)
+        except BridgeError as exc:
+            if not self._authenticated:   # a malformed auth / auth_challenge is a failed attempt
+                self._refuse("%s: %s; closing" % (op, exc), mid)
+                return
+            self.status(exc.level, "%s: %s" % (op, exc), mid, op)
+            return
+        try:
             self.handlers[op](args, mid)
         except BridgeError as exc:
             self.status(exc.level, "%s: %s" % (op, exc), mid, op)
@@ -327,7 +375,7 @@ class Session(object):
         message = {"op": "status", "level": level, "msg": text}
         if mid is not None:
             message["id"] = mid
-        self._send([json.dumps(message, default=repr)], None, None, False)
+        self._send([reply_json(message)], None, None, False)
 
     def _log_throttled(self, level, text):
         now = self._clock()
@@ -363,7 +411,7 @@ class Session(object):
         if compression in ("cbor", "cbor-raw"):
             self._send([cbor.dumps(message)], None, None, droppable)
             return
-        text = compact_json(message)
+        text = reply_json(message)
         if compression == "png":
             text = compact_json({"op": "png", "data": png_encode(text)})
         self._send(self._fragmented(text, fragment_size, message.get("id")), None, None, droppable)
@@ -614,6 +662,8 @@ class Session(object):
         self._level = LEVELS[args["level"]]
 
     def _op_fragment(self, args, mid):
+        if valid_id(args["id"]) is None:
+            raise BridgeError("fragment id must be a string or a finite number")
         try:
             text = self._defrag.add(args["id"], args["num"], args["total"], args["data"])
         except FragmentError as exc:
@@ -632,6 +682,14 @@ class Session(object):
             self._refuse("auth: authentication failed: %s; closing" % refusal, mid)
             return
         self._authenticated = True
+        self._cancel_auth_timer()
+
+    def _cancel_auth_timer(self):
+        # the timer refers to this session and so to the connection's buffers: a closed connection
+        # must not stay in memory for ~auth_timeout (the bench's 360 refused connections held 25 MB)
+        if self._auth_timer is not None:
+            self._auth_timer.cancel()
+            self._auth_timer = None
 
     def _op_auth_challenge(self, args, mid):
         authenticator = self._config.authenticator
@@ -645,7 +703,10 @@ class Session(object):
 
     # ------------------------------------------------------------------ teardown
     def close(self):
-        """The client left: remove its publishers, subscribers and services; fail its pending calls."""
+        """The client left: remove its publishers, subscribers and services; fail its pending calls;
+        free its incomplete fragmented messages."""
+        self._defrag.clear()
+        self._cancel_auth_timer()
         if self._closed:
             return
         self._closed = True

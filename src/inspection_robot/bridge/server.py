@@ -27,10 +27,29 @@ KEEPALIVE_TICK s), at once: no close handshake is awaited from a peer that is no
 A frame over ``max_message_size`` bytes closes the connection with 1009 and a readable reason.
 Every close the bridge decides is logged with its reason. TLS when an ssl context is given.
 :class:`LoopPoster` hands work from other threads to the event loop.
+
+Limits before trust (issue #39): while a client has not authenticated (its Session says so) a frame
+over ``preauth_bytes`` is refused from its header, before its payload is buffered, and a client
+whose frames together pass ``preauth_bytes`` is closed (an auth message is a few hundred bytes);
+the application's ``max_message_size`` applies once it authenticated. At most
+``max_clients_per_address`` websocket clients per peer address (loopback included); one more is
+closed at once with 1008. No HTTP request may carry a body over ``HTTP_BODY_BYTES``. At the
+process's file-descriptor limit the listening socket refuses instead of spinning
+(:class:`GuardedListener`). A closed connection's objects (tornado's handler, protocol and stream
+refer to each other) hold its read buffer, up to ``max_message_size``, until Python's cycle
+collector runs, which counts objects, not bytes: the server runs a collection at most every
+``COLLECT_PERIOD`` s after clients left, then glibc's malloc_trim, so a departed client's memory
+is returned to the system.
 """
 import asyncio
 import collections
+import ctypes
+import ctypes.util
+import errno
+import gc
+import os
 import re
+import socket
 import ssl
 import time
 
@@ -57,6 +76,20 @@ REFUSAL_LOG_PERIOD = 10.0  # s: at most one logged origin refusal per period
 BACKLOG_POLL = 0.001  # s between checks of a full rospy publisher queue while a client's reading is paused
 CLOSE_POLICY = 1008  # websocket close codes (RFC 6455 7.4.1)
 CLOSE_GOING_AWAY = 1001
+HTTP_BODY_BYTES = 65536  # largest HTTP request body taken (the websocket and the console need none)
+COLLECT_PERIOD = 1.0  # s: at most one cycle collection per period after clients left
+ACCEPT_PAUSE = 0.5  # s the listening socket is not polled when even a spare descriptor is gone
+
+
+def _malloc_trim():
+    """glibc's malloc_trim(0) (gives the free pages of every malloc arena back to the system), or a
+    no-op where the C library has none."""
+    try:
+        trim = ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6").malloc_trim
+    except (OSError, AttributeError):
+        return lambda: None
+    trim.argtypes = [ctypes.c_size_t]
+    return lambda: trim(0)
 
 
 class LoopPoster(object):
@@ -231,6 +264,7 @@ class BridgeHandler(tornado.websocket.WebSocketHandler):
         self.close_reason_sent = None
         self.session = None
         self.last_heard = time.monotonic()
+        self.preauth_left = None  # bytes an unauthenticated client may still send (None: authenticated)
 
     def check_origin(self, origin):
         # only browsers send an Origin (tornado lets clients without one through): a page from another
@@ -253,7 +287,11 @@ class BridgeHandler(tornado.websocket.WebSocketHandler):
     def _too_big_reason(self):
         if self.close_reason_sent is not None:
             return None
-        reason = "message too big: a frame over max_message_size (%d bytes)" % self._server.max_message_size
+        if self.preauth_left is not None:
+            reason = ("message too big: a frame over %d bytes before authenticating (~preauth_bytes)"
+                      % self._server.preauth_bytes)
+        else:
+            reason = "message too big: a frame over max_message_size (%d bytes)" % self._server.max_message_size
         self.close_reason_sent = (CLOSE_TOO_BIG, reason)
         return reason
 
@@ -264,13 +302,30 @@ class BridgeHandler(tornado.websocket.WebSocketHandler):
     def open(self):
         self.set_nodelay(True)
         compat_tornado.limit_unsent(self, UNSENT_BYTES)
+        if not self._server.admit(self):
+            return
         self.session = self._server.opened(self)
+        if not self.session.authenticated:
+            # before the first frame is read: until it authenticates, the client's frames stay small
+            self.preauth_left = self._server.preauth_bytes
+            compat_tornado.set_frame_limit(self, self._server.preauth_bytes)
 
     def on_message(self, message):
         if trace.ON:
             trace.mark("read")
         self.last_heard = time.monotonic()
-        if self.session is None:
+        if self.session is None or self.close_reason_sent is not None:
+            return None
+        if self.preauth_left is not None:
+            self.preauth_left -= len(message)
+            if self.preauth_left < 0:
+                self.close_with(CLOSE_POLICY, "more than %d bytes before authenticating (~preauth_bytes)"
+                                % self._server.preauth_bytes)
+                return None
+            self.session.on_frame(message)
+            if self.session.authenticated:
+                self.preauth_left = None
+                compat_tornado.set_frame_limit(self, self._server.max_message_size)
             return None
         self.session.on_frame(message)
         if self.session.ros_backlogged():
@@ -430,13 +485,25 @@ class BridgeServer(object):
     thread that runs the tornado IOLoop. :meth:`stats` feeds the node's diagnostics.
     ``extra_routes``: further tornado routes (pattern, handler, kwargs) matched before the websocket;
     ``websocket_paths``: exact paths that are the websocket even inside extra_routes (the console's link).
+    ``preauth_bytes``: what an unauthenticated client may send, per frame and in all;
+    ``max_clients_per_address``: websocket clients per peer address (module docstring).
     """
 
     def __init__(self, make_session, address="127.0.0.1", port=9090, ssl_context=None, ping_interval=10.0,
                  ping_timeout=30.0, max_message_size=10000000, budget=64 << 20, budget_grace=5.0,
                  on_client_count=None, log=None, extra_routes=(), allowed_origins=(), handshake_timeout=10.0,
-                 websocket_paths=()):
+                 preauth_bytes=16384, max_clients_per_address=32, websocket_paths=()):
         self._make_session = make_session
+        self.preauth_bytes = int(preauth_bytes)
+        self.max_clients_per_address = int(max_clients_per_address)
+        self._per_address = collections.Counter()  # peer address -> open websocket clients
+        self.address_refused = 0
+        self._address_log_after = 0.0
+        self.accept_refused = 0
+        self._accept_log_after = 0.0
+        self._collect_pending = False
+        self._last_collect = 0.0
+        self._trim = _malloc_trim()
         self._handshake_timeout = float(handshake_timeout)
         self._allowed_origins = tuple(allowed_origins)
         self._local_names = local_names()
@@ -475,11 +542,13 @@ class BridgeServer(object):
         self._pinger = tornado.ioloop.PeriodicCallback(self._keep_alive, tick * 1000.0)
         self._pinger.start()
         app = tornado.web.Application(self.routes(), websocket_max_message_size=self.max_message_size)
-        sockets = tornado.netutil.bind_sockets(self._port, self._address or None)
+        sockets = [GuardedListener.wrap(sock, self._accept_refused)
+                   for sock in tornado.netutil.bind_sockets(self._port, self._address or None)]
         # a handshake (TLS and HTTP headers) or request body that takes longer is dropped: slow-loris
         # clients cannot pile up half-open connections
         self._http = tornado.httpserver.HTTPServer(app, ssl_options=self._ssl,
                                                    max_buffer_size=self.max_message_size + 65536,
+                                                   max_body_size=HTTP_BODY_BYTES,
                                                    idle_connection_timeout=self._handshake_timeout,
                                                    body_timeout=self._handshake_timeout)
         self._http.add_sockets(sockets)
@@ -541,6 +610,49 @@ class BridgeServer(object):
         self.log("warning", "refused a browser connection from %s: origin %s is neither the console's nor in "
                  "~allowed_origins (%d refused so far)" % (address, origin[:200], self.origins_refused))
 
+    def _accept_refused(self):
+        """The listening socket refused a connection at the file-descriptor limit (GuardedListener)."""
+        self.accept_refused += 1
+        now = time.monotonic()
+        if now < self._accept_log_after:
+            return
+        self._accept_log_after = now + REFUSAL_LOG_PERIOD
+        self.log("warning", "refusing connections: the process is at its file-descriptor limit (RLIMIT_NOFILE; "
+                 "systemd LimitNOFILE) with %d clients (%d refused so far)"
+                 % (len(self._clients), self.accept_refused))
+
+    def admit(self, handler):
+        """False (and the connection closed with 1008) when its address has max_clients_per_address open."""
+        address = handler.request.remote_ip
+        if self._per_address[address] < self.max_clients_per_address:
+            return True
+        self.address_refused += 1
+        handler.close_with(CLOSE_POLICY, "too many connections from %s (max %d: ~max_clients_per_address)"
+                           % (address, self.max_clients_per_address))
+        now = time.monotonic()
+        if now >= self._address_log_after:
+            self._address_log_after = now + REFUSAL_LOG_PERIOD
+            self.log("warning", "refused a connection from %s: it has %d open (~max_clients_per_address; %d "
+                     "refused so far)" % (address, self._per_address[address], self.address_refused))
+        return False
+
+    def _collect_soon(self):
+        # a departed client's buffers are in reference cycles (module docstring): collect them, at
+        # most once per COLLECT_PERIOD however many clients leave
+        if self._collect_pending:
+            return
+        self._collect_pending = True
+        wait = max(0.0, self._last_collect + COLLECT_PERIOD - time.monotonic())
+        tornado.ioloop.IOLoop.current().call_later(wait, self._collect)
+
+    def _collect(self):
+        self._collect_pending = False
+        self._last_collect = time.monotonic()
+        gc.collect()
+        # the event loop's thread allocates from its own malloc arena, which keeps freed buffers
+        # (the bench's 9.9 MB unfinished frames: +45 % of the bridge's start-up RSS without this)
+        self._trim()
+
     @property
     def client_count(self):
         return len(self._clients)
@@ -554,15 +666,21 @@ class BridgeServer(object):
             handler.close_after_flush, Peer(handler.request.remote_ip, handler.request.protocol == "https",
                                             handler.request.path))
         self._clients.add(handler)
+        self._per_address[handler.request.remote_ip] += 1
         self.log("info", "client %d connected from %s (%d clients)"
                  % (self._next_id, handler.request.remote_ip, len(self._clients)))
         self._on_count(len(self._clients))
         return session
 
     def closed(self, handler):
+        self._collect_soon()
         if handler not in self._clients:
             return
         self._clients.discard(handler)
+        address = handler.request.remote_ip
+        self._per_address[address] -= 1
+        if self._per_address[address] <= 0:
+            del self._per_address[address]
         if handler.session is not None:
             handler.session.close()
         if handler.close_reason_sent is not None:
@@ -587,7 +705,70 @@ class BridgeServer(object):
                             "over_budget": queue.over_since is not None})
         return {"clients": clients, "dropped_by_topic": dict(self.dropped_by_topic),
                 "closed_over_budget": self.closed_over_budget, "budget": self.budget,
-                "origins_refused": self.origins_refused}
+                "origins_refused": self.origins_refused, "address_refused": self.address_refused,
+                "accept_refused": self.accept_refused}
+
+
+class GuardedListener(socket.socket):
+    """A listening socket whose accept() refuses connections at the file-descriptor limit instead of failing.
+
+    tornado's accept loop catches only BlockingIOError: an EMFILE / ENFILE went up to the event
+    loop as a traceback, and the socket, still readable, was polled again at once (a busy loop at
+    94 % CPU, ~5 MB/s of tracebacks). Here the error becomes a refusal: a spare descriptor is given
+    up for a moment to accept the waiting connection and close it at once (the client sees the
+    connection closed, not a hang), then BlockingIOError ends tornado's loop for this pass. Should
+    even the spare be gone, the socket is not polled for ACCEPT_PAUSE s (IOLoop.update_handler).
+    ``on_refused()`` is called for every refusal. Public APIs only (socket, IOLoop).
+    """
+
+    @classmethod
+    def wrap(cls, sock, on_refused):
+        listener = cls(sock.family, sock.type, sock.proto, fileno=sock.detach())
+        listener.setblocking(False)
+        listener._on_refused = on_refused
+        listener._spare = None
+        listener._reserve()
+        return listener
+
+    def _reserve(self):
+        try:
+            self._spare = os.open(os.devnull, os.O_RDONLY)
+        except OSError:
+            self._spare = None
+
+    def accept(self):
+        try:
+            return super(GuardedListener, self).accept()
+        except OSError as exc:
+            if exc.errno not in (errno.EMFILE, errno.ENFILE):
+                raise
+        self._on_refused()
+        if self._spare is not None:
+            os.close(self._spare)
+            self._spare = None
+            try:
+                conn, _address = super(GuardedListener, self).accept()
+                conn.close()
+            except OSError:
+                pass
+            self._reserve()
+        if self._spare is None:
+            loop = tornado.ioloop.IOLoop.current()
+            loop.update_handler(self, 0)
+            loop.call_later(ACCEPT_PAUSE, self._resume)
+        raise BlockingIOError(errno.EAGAIN, "connection refused at the file-descriptor limit")
+
+    def _resume(self):
+        if self.fileno() >= 0:
+            if self._spare is None:
+                self._reserve()
+            tornado.ioloop.IOLoop.current().update_handler(self, tornado.ioloop.IOLoop.READ)
+
+    def close(self):
+        if getattr(self, "_spare", None) is not None:
+            os.close(self._spare)
+            self._spare = None
+        super(GuardedListener, self).close()
 
 
 def make_ssl_context(certfile, keyfile):

@@ -25,7 +25,10 @@ Parameters:  ~port (int, 9090; 0 = any free port), ~address (str, "127.0.0.1"; "
              60 s before it is refused for 60 s), ~allowed_origins (list of str, []: browser origins
              accepted besides the console's own), ~auth_timeout (s, 10.0: an unauthenticated client is
              closed after it), ~handshake_timeout (s, 10.0: TLS + HTTP handshake of a connection),
-             ~max_message_size (bytes, 10000000),
+             ~max_message_size (bytes, 10000000: a frame, a fragmented message, a client's fragmented
+             messages in progress together), ~preauth_bytes (bytes, 16384: what an unauthenticated client
+             may send, per frame and in all, before it is closed), ~max_clients_per_address (int, 32:
+             websocket clients per peer address, loopback included),
              ~ping_interval (s, 10.0; 0 = off), ~ping_timeout (s, 30.0),
              ~client_budget (bytes per client send queue, 67108864), ~budget_grace (s, 5.0: over budget
              that long = disconnected), ~fragment_timeout (s, 600.0),
@@ -111,6 +114,8 @@ def read_params():
         "handshake_timeout": float(rospy.get_param("~handshake_timeout", 10.0)),
         "allowed_origins": fixed.get("allowed_origins", []),
         "max_message_size": int(rospy.get_param("~max_message_size", 10000000)),
+        "preauth_bytes": int(rospy.get_param("~preauth_bytes", 16384)),
+        "max_clients_per_address": int(rospy.get_param("~max_clients_per_address", 32)),
         "ping_interval": float(rospy.get_param("~ping_interval", 10.0)),
         "ping_timeout": float(rospy.get_param("~ping_timeout", 30.0)),
         "client_budget": int(rospy.get_param("~client_budget", 64 << 20)),
@@ -129,7 +134,8 @@ def read_params():
         raise ValueError("~nice must be -20..19, not %d" % params["nice"])
     if not 0 <= params["port"] <= 65535:
         raise ValueError("~port must be 0..65535, not %d" % params["port"])
-    for name in ("max_message_size", "client_budget", "service_threads", "auth_max_failures"):
+    for name in ("max_message_size", "client_budget", "service_threads", "auth_max_failures", "preauth_bytes",
+                 "max_clients_per_address"):
         if params[name] < 1:
             raise ValueError("~%s must be positive" % name)
     for name in ("auth_timeout", "handshake_timeout"):
@@ -216,6 +222,8 @@ class LinkDiagnostics(diagnostic_updater.DiagnosticTask):
         stat.add("dropped", str(dropped))
         stat.add("closed_over_budget", str(stats["closed_over_budget"]))
         stat.add("origins_refused", str(stats["origins_refused"]))
+        stat.add("address_refused", str(stats["address_refused"]))
+        stat.add("accept_refused", str(stats["accept_refused"]))
         for topic, count in sorted(stats["dropped_by_topic"].items()):
             stat.add("dropped %s" % topic, str(count))
         for client in stats["clients"]:
@@ -286,7 +294,9 @@ def main():
                           params["ping_interval"], params["ping_timeout"], params["max_message_size"],
                           params["client_budget"], params["budget_grace"], lambda n: count_pub.publish(Int32(n)),
                           log, extra_routes=http_routes, allowed_origins=params["allowed_origins"],
-                          handshake_timeout=params["handshake_timeout"], websocket_paths=(CONSOLE_LINK_PATH,))
+                          handshake_timeout=params["handshake_timeout"], preauth_bytes=params["preauth_bytes"],
+                          max_clients_per_address=params["max_clients_per_address"],
+                          websocket_paths=(CONSOLE_LINK_PATH,))
     port = io_thread.run_sync(server.start)
     updater = diagnostic_updater.Updater()
     updater.setHardwareID("backend_link")
