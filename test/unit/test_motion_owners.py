@@ -39,15 +39,15 @@ def test_a_sender_nobody_owns_is_anyones():
     assert check.refused() == {}
 
 
-def test_the_refusal_names_the_caller_the_owner_and_the_count():
+def test_the_refusal_names_the_caller_and_the_owner():
     check = OwnerCheck("/")
     check.allows("obstacle_status", "/rosbridge_websocket/tcpros")
     assert check.refusal("obstacle_status", "/rosbridge_websocket/tcpros") == (
-        "obstacle_status from /rosbridge_websocket/tcpros ignored: only /obstacle_detector may send it "
-        "(1 refused so far)")
+        "obstacle_status from /rosbridge_websocket/tcpros ignored: only /obstacle_detector may send it")
     check.allows("joy_control", None)
     assert check.refusal("joy_control", None) == (
-        "sender 'joy_control' from an unknown caller ignored: only /joy_control may send it (1 refused so far)")
+        "sender 'joy_control' from an unknown caller ignored: only /joy_control may send it")
+    assert check.refused() == {"obstacle_status": 1, "joy_control": 1}
 
 
 def test_a_test_rig_names_its_own_node_and_keeps_the_other_defaults():

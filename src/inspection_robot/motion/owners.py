@@ -66,12 +66,10 @@ class OwnerCheck(object):
         return False
 
     def refusal(self, key, caller_id):
-        """The warning for a refused message: what, from whom, who owns it, how many so far."""
-        with self._lock:
-            count = self._refused.get(key, 0)
-        return ("%s from %s ignored: only %s may send it (%d refused so far)"
+        """Why a message was refused: what, from whom, who owns it."""
+        return ("%s from %s ignored: only %s may send it"
                 % (key if key in (OBSTACLE_STATUS, ROBOT_STATUS) else "sender '%s'" % key,
-                   caller_id or "an unknown caller", self.owners.get(key), count))
+                   caller_id or "an unknown caller", self.owners.get(key)))
 
     def refused(self):
         """{key: refused messages} so far (diagnostics, logs)."""
