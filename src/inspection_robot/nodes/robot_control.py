@@ -57,7 +57,7 @@ from nav_msgs.msg import Odometry
 
 from inspection_robot.angles import quaternion_from_yaw
 from inspection_robot.drivers import SIM, make_driver
-from inspection_robot.interface import ACK_SUCCESS, VOICE_LANGUAGES
+from inspection_robot.interface import ACK_FAILED, ACK_SUCCESS, VOICE_LANGUAGES
 from inspection_robot.motion.arbitration import REFUSAL_NOT_ALLOWED
 from inspection_robot.motion.chassis import ChassisError, NoChassis
 from inspection_robot.motion.controller import MotionController
@@ -160,7 +160,7 @@ class RobotControl(object):
         if not refusal:
             return True
         if topic == "mode_cmd":
-            ack = GeneralAck(sender=NODE_NAME, receiver=msg.sender, trans_id=msg.trans_id, ack="failed",
+            ack = GeneralAck(sender=NODE_NAME, receiver=msg.sender, trans_id=msg.trans_id, ack=ACK_FAILED,
                              data="%s: %s" % (REFUSAL_NOT_ALLOWED, refusal))
             ack.header.stamp = rospy.Time.now()
             self._mode_ack_pub.publish(ack)
