@@ -16,6 +16,15 @@ Reply = namedtuple("Reply", "ack data")
 # Longest number text the parsers look at. Python's str -> int is quadratic in the digit count
 # (Python 3.8 has no limit), so a 10 MB run of digits from a careless client would stall a node.
 MAX_NUMBER_CHARS = 64
+# Longest part of a caller's unknown name echoed in a reply: an ack goes to every subscriber of the
+# topic, so a 100 kB name must not come back 100 kB to each of them.
+MAX_ECHO_CHARS = 40
+
+
+def echoed(text, limit=MAX_ECHO_CHARS):
+    """``text`` as a reply may quote it: its first ``limit`` characters, then ``...`` when it was longer."""
+    text = str(text)
+    return text if len(text) <= limit else text[:limit] + "..."
 
 
 class CommandError(Exception):
@@ -53,7 +62,7 @@ class CommandTable(object):
     def dispatch(self, cmd, data):
         handler = self._handlers.get(cmd)
         if handler is None:
-            return failed("unknown command '%s'" % (cmd,))
+            return failed("unknown command '%s'" % (echoed(cmd),))
         try:
             result = handler(data)
         except CommandError as err:

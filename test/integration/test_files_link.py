@@ -51,6 +51,7 @@ class FilesLinkTest(unittest.TestCase):
         roslibpy.Topic(cls.ros, "/mode_ack", "inspection_robot/GeneralAck").subscribe(cls._on_mode_ack)
         cls.mode_cmd = roslibpy.Topic(cls.ros, "/mode_cmd", "inspection_robot/GeneralCmd")
         cls.server_status = roslibpy.Topic(cls.ros, "/server_status", "inspection_robot/GeneralTopic")
+        cls.joy = roslibpy.Topic(cls.ros, "/joy", "sensor_msgs/Joy")   # joystick_reader's part: joy_control acts
         for name in ("/file_control", "/calibration_control"):
             wait_for(lambda: name in cls.ros.get_services(), 30.0, name)
 
@@ -85,6 +86,26 @@ class FilesLinkTest(unittest.TestCase):
         self.assertEqual((ack["receiver"], ack["sender"]), (sender, "robot_control"))
         return ack["ack"], ack["data"]
 
+    def joystick(self, button):
+        """Press a pad button (config/joy_control.yaml: 7 START acquires, 6 BACK releases) on /joy, as
+        joystick_reader would, until joy_control's mode_cmd is answered; returns that ack. Only
+        joy_control's own mode_cmd takes joystick mode: the link's claim to be it is refused."""
+        with self.lock:
+            seen = len(self.mode_acks)
+
+        def answered():
+            for pressed in (0, 1):
+                buttons = [0] * 11
+                buttons[button] = pressed
+                self.joy.publish(roslibpy.Message({"axes": [0.0] * 8, "buttons": buttons}))
+            with self.lock:
+                # joy_control's own, not the late answers to the link's repeated claim to be it
+                found = [a for a in self.mode_acks[seen:] if a["receiver"] == "joy_control"
+                         and "from /rosbridge_websocket/tcpros" not in a["data"]]
+            return found[0] if found else None
+        ack = wait_for(answered, 15.0, "mode_ack of joy_control's mode_cmd", period=0.5)
+        return ack["ack"], ack["data"]
+
     def test_1_mode_ack_says_why(self):
         # no heartbeat yet: the backend is offline
         self.assertEqual(self.mode("server", "acquire", "server")[0], "failed")
@@ -100,11 +121,15 @@ class FilesLinkTest(unittest.TestCase):
         try:
             wait_for(lambda: self.mode("server", "acquire", "server")[0] == "success", 15.0, "server mode granted")
             self.assertEqual(self.mode("server", "acquire", "server"), ("success", "server"))
-            self.assertEqual(self.mode("joy_control", "acquire", "joy"), ("success", "joy"))
+            ack, data = self.mode("joy_control", "acquire", "joy")   # the link is not the joystick
+            self.assertEqual(ack, "failed")
+            self.assertTrue(data.startswith("not_allowed: sender 'joy_control' from /rosbridge_websocket/tcpros "
+                                            "ignored: only /joy_control may send it"), data)
+            self.assertEqual(self.joystick(7), ("success", "joy"))
             self.assertEqual(self.mode("server", "acquire", "server"),
                              ("failed", "busy: acquire server refused: joy mode has priority"))
             self.assertEqual(self.mode("server", "grab", "server")[1].split(":")[0], "bad_request")
-            self.assertEqual(self.mode("joy_control", "release", ""), ("success", "task"))
+            self.assertEqual(self.joystick(6), ("success", "task"))
             self.assertTrue(self.mode("server", "release", "")[1].startswith("not_held: "))
         finally:
             stop.set()

@@ -4,8 +4,15 @@
 Latencies are measured from just before the test publishes an input (or calls the fault service) to
 the stamp of the zero-velocity command on sim/chassis_cmd, which robot_control stamps when the
 command reaches the driver: an upper bound of arrival -> driver.
+
+The test node plays the owners of the safety inputs (motion.test names it in robot_control's
+~owners): it is obstacle_detector (re-asserting its state every 0.5 s, as the detector does every
+1 s), status_control and joy_control. test_spoofed_* show that the same messages from another node
+(rostopic pub, as any client could) change nothing.
 """
 import math
+import subprocess
+import threading
 import time
 import unittest
 
@@ -19,10 +26,13 @@ from inspection_robot.interface import (LIGHT_CHARGE_RELAY, LIGHT_HARD_ESTOP, LI
                                         STOP_RIGHT_FALL, WHEEL_COLLISION_OFF, WHEEL_FALL_OFF, WHEEL_OBSTACLE_OFF)
 from inspection_robot.msg import (ControlStatus, GeneralAck, GeneralCmd, MoveCmd, ObstacleStatus, RobotStatus,
                                   VoiceCmd)
+from inspection_robot.ros.compat_rospy import caller_id
 from rostest_helpers import Latest, control_proxy, wait_for, wait_subscribed
 
 CYCLE = 0.02  # s, robot_control's control cycle (50 Hz)
 CMD_TIMEOUT = 0.5
+OBSTACLE_TIMEOUT = 3.0   # s, robot_control's ~obstacle_timeout (config/robot_control.yaml)
+REASSERT = 0.5           # s, how often this test, as obstacle_detector, re-asserts the obstacle state
 
 
 class MotionTest(unittest.TestCase):
@@ -50,13 +60,30 @@ class MotionTest(unittest.TestCase):
             sub.wait_connected(10.0)
         cls.fault_srv = control_proxy("sim/inject_fault", 10.0, persistent=True)
         cls.trans_id = 0
+        cls.obstacle_lock = threading.Lock()   # a re-assertion never overtakes a change
+        cls.obstacle_state = False
+        cls.obstacle_reasserting = True
+        cls.reassert_timer = rospy.Timer(rospy.Duration(REASSERT), cls._reassert_obstacle)
+
+    @classmethod
+    def _reassert_obstacle(cls, _event):
+        with cls.obstacle_lock:
+            if cls.obstacle_reasserting:
+                cls.obstacle_pub.publish(ObstacleStatus(sender="obstacle_detector", obstacle=cls.obstacle_state))
+
+    def set_obstacle(self, present):
+        """As obstacle_detector on a change: publish at once, then re-assert."""
+        with self.obstacle_lock:
+            MotionTest.obstacle_state = present
+            MotionTest.obstacle_reasserting = True
+            self.obstacle_pub.publish(ObstacleStatus(sender="obstacle_detector", obstacle=present))
 
     # --- helpers ---------------------------------------------------------------------------------
     def setUp(self):
         self.robot_status_pub.publish(RobotStatus(offline_warn=0))
         for name in ("hard_estop", "bumper", "fall_left", "fall_right", "motor_disconnect", "joystick_link_lost"):
             self.fault(name, 0)
-        self.obstacle_pub.publish(ObstacleStatus(obstacle=False))
+        self.set_obstacle(False)
         for cmd in ("disable_stop", "enable_collision", "enable_fallen", "enable_obstacle", "disable_charge"):
             self.control(cmd)
         mode = self.status.wait(timeout=2.0).mode
@@ -196,15 +223,15 @@ class MotionTest(unittest.TestCase):
 
     # --- safety stops ----------------------------------------------------------------------------
     def test_obstacle_stop_refuse_and_clear(self):
-        self.assert_stops_within_cycle(lambda: self.obstacle_pub.publish(ObstacleStatus(obstacle=True)), "obstacle",
+        self.assert_stops_within_cycle(lambda: self.set_obstacle(True), "obstacle",
                                        lambda m: m.stop_status & STOP_OBSTACLE)
         self.status.wait(lambda m: m.stop_status & STOP_OBSTACLE, 1.0, "obstacle alarm bit")
         self.assert_refused()
-        self.obstacle_pub.publish(ObstacleStatus(obstacle=False))
+        self.set_obstacle(False)
         self.status.wait(lambda m: not m.stop_status & STOP_OBSTACLE, 1.0, "obstacle cleared")
         self.start_moving()
         self.control("disable_obstacle")
-        self.obstacle_pub.publish(ObstacleStatus(obstacle=True))
+        self.set_obstacle(True)
         self.status.wait(lambda m: m.wheel_status & WHEEL_OBSTACLE_OFF, 1.0, "obstacle detection OFF bit")
         self.start_moving()  # obstacle ignored while detection is off
 
@@ -271,6 +298,75 @@ class MotionTest(unittest.TestCase):
         self.robot_status_pub.publish(RobotStatus(offline_warn=1))
         self.wait_driver(lambda m: m.twist.linear.x == 0.0, t0, what="stop when offline")
         self.status.wait(lambda m: m.mode == MODE_TASK, 1.0, "task mode after offline")
+
+    # --- owners of the safety inputs -------------------------------------------------------------
+    def spoof(self, topic, msg_type, fields):
+        """Another node (rostopic pub, 20 Hz) publishes ``fields`` on ``topic`` until the test ends;
+        returns once this node has received 10 of them (robot_control is subscribed alike)."""
+        spy = []
+        sub = rospy.Subscriber(topic, msg_type, lambda m: spy.append(caller_id(m)), queue_size=100)
+        self.addCleanup(sub.unregister)
+        proc = subprocess.Popen(["rostopic", "pub", "-r", "20", topic, msg_type._type, fields],
+                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+
+        def stop():
+            proc.terminate()
+            proc.wait(10.0)
+        self.addCleanup(stop)
+        wait_for(lambda: sum(1 for c in spy if c not in (None, rospy.get_name())) >= 10, 20.0,
+                 "10 spoofed %s from another node" % topic)
+
+    def test_spoofed_obstacle_clear_changes_nothing(self):
+        self.set_obstacle(True)
+        self.status.wait(lambda m: m.stop_status & STOP_OBSTACLE, 1.0, "obstacle reported by its owner")
+        since = time.monotonic()
+        self.spoof("obstacle_status", ObstacleStatus, "{sender: obstacle_detector, obstacle: false}")
+        self.assert_refused()
+        statuses = [m for t, m in list(self.status.messages) if t >= since]
+        self.assertTrue(statuses)
+        self.assertEqual([m.stop_status for m in statuses if not m.stop_status & STOP_OBSTACLE], [],
+                         "a spoofed clear lifted the obstacle stop")
+        self.set_obstacle(False)   # positive control: the owner's clear works
+        self.status.wait(lambda m: not m.stop_status & STOP_OBSTACLE, 1.0, "obstacle cleared by its owner")
+        self.start_moving()
+
+    def test_spoofed_robot_status_online_changes_nothing(self):
+        self.robot_status_pub.publish(RobotStatus(offline_warn=1))
+        self.spoof("robot_status", RobotStatus, "{sender: status_control, offline_warn: 0}")
+        tid = self.mode("server", "acquire", "server")
+        ack = self.mode_ack.wait(lambda m: m.trans_id == tid, 3.0, "mode_ack of acquire server")
+        self.assertEqual(ack.ack, "failed", ack.data)
+        self.assertTrue(ack.data.startswith("offline: "), ack.data)
+        self.robot_status_pub.publish(RobotStatus(offline_warn=0))   # positive control: the owner's status
+        self.acquire("server", "server", MODE_SERVER)
+
+    def test_spoofed_joy_acquire_and_move_base_commands_change_nothing(self):
+        # the previous test's command may still be followed until the watchdog: from the first zero on
+        since = self.wait_driver(lambda m: m.twist.linear.x == 0.0, rospy.get_time(), 2.0,
+                                 "robot stopped").header.stamp.to_sec()
+        self.spoof("mode_cmd", GeneralCmd, "{sender: joy_control, trans_id: 4242, cmd: acquire, data: joy}")
+        ack = self.mode_ack.wait(lambda m: m.trans_id == 4242, 3.0, "mode_ack of the spoofed acquire")
+        self.assertEqual(ack.ack, "failed")
+        self.assertTrue(ack.data.startswith("not_allowed: sender 'joy_control' from /rostopic_"), ack.data)
+        self.assertEqual(self.modes_since(time.monotonic() - 0.5), [MODE_TASK])
+        self.spoof("move_cmd", MoveCmd, "{sender: move_base, velocity_x: 500.0}")
+        moving = [m for _t, m in self.driver.messages[-300:] if m.header.stamp.to_sec() >= since and m.twist.linear.x]
+        self.assertEqual(moving, [], "a spoofed move_base command moved the robot")
+        self.acquire("joy_control", "joy", MODE_JOY)   # positive control: from the owner
+        self.start_moving("joy_control")
+
+    def test_a_silent_detector_is_an_obstacle(self):
+        self.set_obstacle(False)
+        self.start_moving()
+        with self.obstacle_lock:
+            MotionTest.obstacle_reasserting = False
+        t0 = time.monotonic()
+        self.status.wait(lambda m: m.stop_status & STOP_OBSTACLE, OBSTACLE_TIMEOUT + 2.0, "obstacle assumed")
+        self.assertGreaterEqual(time.monotonic() - t0, OBSTACLE_TIMEOUT - REASSERT - 0.1)
+        self.assert_refused()
+        self.set_obstacle(False)   # the detector is back
+        self.status.wait(lambda m: not m.stop_status & STOP_OBSTACLE, 1.0, "obstacle cleared by a fresh report")
+        self.start_moving()
 
     # --- commands --------------------------------------------------------------------------------
     def test_switch_commands_and_bits(self):

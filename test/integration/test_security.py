@@ -900,6 +900,100 @@ class SecurityTest(unittest.TestCase):
                 self.assertEqual((reply["op"], reply["result"], "id" in reply), ("service_response", True, False))
             self.refusals.append(("bridge NaN id", "NaN / Infinity", "not echoed"))
 
+    # ------------------------------------------------------------------ 8: safety inputs (issue #39 item 2)
+    # A client claims to be obstacle_detector, status_control and joy_control. The bridge publishes
+    # every client's messages as <bridge>/tcpros, never an owner (motion/owners.py), so with a box 1 m
+    # ahead a spoofed clear does not lift the stop, a spoofed online status does not make an offline
+    # backend online, a spoofed joystick acquire is refused: nothing moves. The positive control is
+    # the owner's message: the real detector clears the stop once the box is gone. The backend surface
+    # (test_8_backend_surface) already refuses the obstacle and status publishes at the bridge; the
+    # joystick acquire is on a topic the surface allows, so robot_control's owner check refuses it.
+    # (Imports kept here so this block stays one piece of the file.)
+    def test_8e_spoofed_safety_inputs_move_nothing(self):
+        from inspection_robot.interface import STOP_OBSTACLE
+        from inspection_robot.ros.compat_rospy import caller_id
+        from rostest_helpers import control_proxy
+
+        def owned(predicate):   # robot_status as status_control published it (clients' copies left out)
+            return lambda: any(predicate(m) for _t, m in self.status.messages[-20:]
+                               if caller_id(m) == "/status_control")
+        yard = control_proxy("/sim_obstacle_control", 30.0)
+        pose = self.true_pose.wait(timeout=5.0).pose.pose
+        yaw = 2.0 * math.atan2(pose.orientation.z, pose.orientation.w)
+        reply = yard(sender="test", cmd="drop", data="spoof_box,%.3f,%.3f" % (
+            pose.position.x + 1.0 * math.cos(yaw), pose.position.y + 1.0 * math.sin(yaw)))
+        self.assertEqual(reply.ack, "success", reply.data)
+        self.addCleanup(yard, sender="test", cmd="remove", data="spoof_box")
+        wait_for(owned(lambda m: m.stop_status & STOP_OBSTACLE), 10.0, "the box stops the robot")
+        heartbeat = roslibpy.Topic(self.ros, "/server_status", "inspection_robot/GeneralTopic")
+        obstacle = roslibpy.Topic(self.ros, "/obstacle_status", "inspection_robot/ObstacleStatus")
+        status = roslibpy.Topic(self.ros, "/robot_status", "inspection_robot/RobotStatus")
+        move = roslibpy.Topic(self.ros, "/move_cmd", "inspection_robot/MoveCmd")
+        mode = {"cmd": "acquire", "data": "server"}
+        stop = threading.Event()
+
+        def beat():
+            while not stop.wait(0.2):
+                heartbeat.publish(roslibpy.Message({"sender": "server", "data": "alive"}))
+        thread = threading.Thread(target=beat)
+        thread.daemon = True
+        thread.start()
+        self.chassis.clear()
+        try:
+            wait_for(lambda: self.topic_command("/mode_cmd", "inspection_robot/GeneralCmd", "/mode_ack",
+                                                "inspection_robot/GeneralAck", mode)["ack"] == "success",
+                     20.0, "server mode", period=0.5)
+            since = time.monotonic()
+            for _ in range(30):   # 1.5 s: a clear claimed by the detector, and the holder's drive
+                obstacle.publish(roslibpy.Message({"sender": "obstacle_detector", "obstacle": False}))
+                move.publish(roslibpy.Message({"sender": "server", "velocity_x": 300.0}))
+                time.sleep(0.05)  # pacing a command stream, not synchronisation
+            owned_since = [m for t, m in self.status.messages if t >= since and caller_id(m) == "/status_control"]
+            self.assertTrue(owned_since)
+            self.assertEqual([m.stop_status for m in owned_since if not m.stop_status & STOP_OBSTACLE], [],
+                             "a client's obstacle clear lifted the stop")
+            self.refusals.append(("spoofed obstacle_status", "obstacle: false", "stop_status kept 32"))
+        finally:
+            stop.set()
+            thread.join(2.0)
+        wait_for(owned(lambda m: m.offline_warn == 1), 10.0, "offline without the heartbeat")
+        for _ in range(10):
+            status.publish(roslibpy.Message({"sender": "status_control", "offline_warn": 0}))
+        publisher = roslibpy.Topic(self.ros, "/mode_cmd", "inspection_robot/GeneralCmd")
+        acks = queue.Queue()
+        listener = roslibpy.Topic(self.ros, "/mode_ack", "inspection_robot/GeneralAck")
+        listener.subscribe(acks.put)
+        self.addCleanup(listener.unsubscribe)
+
+        def answer(sender, fields):
+            trans_id = next(TRANS_IDS)
+            deadline = time.monotonic() + 20.0
+            while time.monotonic() < deadline:
+                publisher.publish(roslibpy.Message(dict(fields, sender=sender, trans_id=trans_id)))
+                try:
+                    while True:
+                        ack = acks.get(timeout=0.5)
+                        if ack.get("trans_id") == trans_id:
+                            return ack
+                except queue.Empty:
+                    pass
+            raise AssertionError("no mode_ack for %s's %s" % (sender, fields))
+        for sender, fields, expected in (("server", mode, "offline: "),
+                                         ("joy_control", {"cmd": "acquire", "data": "joy"},
+                                          "not_allowed: sender 'joy_control' from /rosbridge_websocket/tcpros")):
+            ack = answer(sender, fields)
+            self.assert_refused("spoofed mode_cmd from " + sender, fields["data"], ack["ack"], ack["data"], (expected,))
+        for sender in ("joy_control", "server", "move_base"):
+            for _ in range(10):
+                move.publish(roslibpy.Message({"sender": sender, "velocity_x": 300.0}))
+        yard(sender="test", cmd="remove", data="spoof_box")   # positive control: the owner's clear
+        wait_for(owned(lambda m: not m.stop_status & STOP_OBSTACLE), 15.0, "the detector clears the stop")
+        moving = [m for _t, m in self.chassis.messages if m.twist.linear.x != 0 or m.twist.angular.z != 0]
+        self.assertEqual(moving, [], "the chassis was commanded to move")
+        pose_after = self.true_pose.wait(timeout=5.0).pose.pose
+        self.assertAlmostEqual(pose_after.position.x, pose.position.x, delta=1e-3)
+        self.assertAlmostEqual(pose_after.position.y, pose.position.y, delta=1e-3)
+
     # ------------------------------------------------------------------ 5: afterwards
     def test_9_nothing_moved_nothing_written_nobody_died(self):
         pose = self.true_pose.wait(timeout=5.0).pose.pose

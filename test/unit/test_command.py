@@ -11,6 +11,12 @@ def test_dispatch_unknown_command_fails_with_its_name():
     assert reply == ("failed", "unknown command 'fly'")
 
 
+def test_an_unknown_name_is_echoed_capped_not_in_full():
+    table = CommandTable({"go": lambda data: "went " + data})
+    assert table.dispatch("x" * 100000, "") == ("failed", "unknown command '%s...'" % ("x" * 40))
+    assert table.dispatch("y" * 40, "") == ("failed", "unknown command '%s'" % ("y" * 40))
+
+
 def test_dispatch_success_and_command_error():
     def bad(_data):
         raise CommandError("angle out of range")

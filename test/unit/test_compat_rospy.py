@@ -19,7 +19,7 @@ def test_the_rospy_internals_are_those_the_repairs_expect():
 @pytest.fixture
 def old_rospy(monkeypatch):
     """As if this rospy had none of the expected internals."""
-    for flag in ("UPDATE_MERGE", "HANDSHAKE_GUARD", "LATCHED_REPLAY"):
+    for flag in ("UPDATE_MERGE", "HANDSHAKE_GUARD", "LATCHED_REPLAY", "CALLER_ID"):
         monkeypatch.setattr(compat_rospy, flag, False)
 
 
@@ -30,6 +30,24 @@ def test_the_fallbacks_do_nothing_and_say_so(old_rospy):
     class Subscriber(object):
         impl = None
     compat_rospy.replay_latched(Subscriber(), lambda msg, args: None)
+    assert compat_rospy.caller_id(received("/obstacle_detector")) is None   # unknown: owners refuse it
+
+
+def received(callerid):
+    """A message as rospy's TCPROSTransport.receive_once hands it to a callback: the connection's
+    header (a dict of the publisher's handshake fields) set on it."""
+    from inspection_robot.msg import ObstacleStatus
+    msg = ObstacleStatus(sender="obstacle_detector", obstacle=False)
+    msg._connection_header = {"callerid": callerid, "topic": "/obstacle_status", "latching": "1",
+                              "type": "inspection_robot/ObstacleStatus"}
+    return msg
+
+
+def test_caller_id_is_the_publishing_node_not_the_sender_field():
+    bridge = "/robot_7/rosbridge_websocket/tcpros"
+    assert compat_rospy.caller_id(received(bridge)) == bridge
+    from inspection_robot.msg import ObstacleStatus
+    assert compat_rospy.caller_id(ObstacleStatus(sender="obstacle_detector")) is None   # not received: no header
 
 
 class RecordingHandler(object):

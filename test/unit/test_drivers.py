@@ -72,8 +72,9 @@ def test_not_fitted_drivers_fail_with_the_reason():
     assert chassis.state() == ChassisState()
     with pytest.raises(ChassisError, match="chassis not fitted"):
         chassis.send_velocity(0.1, 0.0, 0)
+    chassis.set_lamps(True, False, False)   # none to light: robot_control's control cycle sets them
     with pytest.raises(ChassisError, match=r"chassis not fitted \(driver: none\)"):
-        chassis.set_lamps(True, False, False)
+        chassis.set_charge_relay(True)
     head = NoHead()
     head.stop()
     assert head.connected is False and head.last_error == not_fitted_reason("head")

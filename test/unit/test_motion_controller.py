@@ -293,3 +293,64 @@ def test_acquire_while_offline_waits_for_the_next_robot_status(rig):
         assert ctl.on_mode_cmd("server", "acquire", "server", answers.append) is None
     assert not ctl.on_mode_cmd("server", "acquire", "server", answers.append).accepted  # bounded
     assert ctl.on_mode_cmd("joy_control", "acquire", "joy", answers.append).changed  # others decided at once
+
+
+def obstacle_rig(timeout=3.0):
+    clock = FakeClock()
+    chassis = SimChassis(clock, encoder_scale_error=0.0, max_accel_x=10.0, max_accel_yaw=10.0)
+    logs = []
+    ctl = MotionController(chassis, VelocityLimits(), 0.5, clock, log=lambda level, text: logs.append((level, text)),
+                           obstacle_timeout=timeout)
+
+    def run(seconds, period=0.02):
+        for _ in range(int(round(seconds / period))):
+            clock.now += period
+            ctl.tick()
+    return ctl, run, logs
+
+
+def test_a_stale_clear_does_not_hold_an_obstacle_is_assumed():
+    ctl, run, logs = obstacle_rig(3.0)
+    ctl.on_obstacle(False)
+    for _ in range(5):            # re-asserted every second: fresh
+        assert ctl.on_move_cmd("move_base", 300, 0, 0).ack == "success"
+        run(1.0)
+        ctl.on_obstacle(False)
+    assert ctl.status()["stop_status"] == 0
+    ctl.on_move_cmd("move_base", 300, 0, 0)
+    run(3.1)                      # the detector went silent after a clear
+    assert ctl.obstacle_stale and ctl.status()["stop_status"] & STOP_OBSTACLE
+    assert ctl.target is None
+    assert ctl.on_move_cmd("move_base", 300, 0, 0).data == "motion refused: obstacle"
+    assert [t for level, t in logs if "silent" in t] == [
+        "obstacle_status silent for 3.0 s (> obstacle_timeout 3.0 s): obstacle assumed until obstacle_detector "
+        "reports again"]
+    run(5.0)                      # said once, not every cycle
+    assert len([t for _level, t in logs if "silent" in t]) == 1
+    ctl.on_obstacle(False)        # the detector is back
+    assert not ctl.obstacle_stale and ctl.status()["stop_status"] == 0
+    assert ctl.on_move_cmd("move_base", 300, 0, 0).ack == "success"
+
+
+def test_a_stale_obstacle_stays_an_obstacle_and_no_report_yet_is_not_stale():
+    ctl, run, _logs = obstacle_rig(1.0)
+    run(5.0)                      # no detector has reported yet: the rig moves as before
+    assert ctl.on_move_cmd("move_base", 300, 0, 0).ack == "success"
+    ctl.on_obstacle(True)
+    run(2.0)
+    assert ctl.obstacle_stale and ctl.status()["stop_status"] & STOP_OBSTACLE
+    with pytest.raises(ValueError):
+        obstacle_rig(0.0)
+
+
+def test_no_chassis_runs_its_control_cycle_quietly():
+    from inspection_robot.motion.chassis import NoChassis
+    clock = FakeClock()
+    logs = []
+    ctl = MotionController(NoChassis(), VelocityLimits(), 0.5, clock, log=lambda level, text: logs.append(text))
+    for _ in range(100):
+        clock.now += 0.02
+        ctl.tick()            # lamps, zero velocity: nothing raises
+    reply = ctl.on_move_cmd("move_base", 300, 0, 0)
+    assert reply == ("failed", "chassis: chassis not fitted (driver: none); robot stopped")
+    assert ctl.target is None

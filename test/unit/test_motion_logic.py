@@ -261,3 +261,11 @@ def test_every_refusal_starts_with_its_code(mode, sender, cmd, data, code):
     decision = arbiter_in(mode).request(sender, cmd, data)
     assert not decision.accepted and decision.reason.split(": ", 1)[0] == code
     assert code in REFUSALS
+
+
+def test_mode_cmd_refusals_echo_a_long_name_capped():
+    arb = ModeArbiter()
+    reason = arb.request("server", "g" * 100000, "").reason
+    assert reason == "bad_request: unknown mode_cmd '%s...' (acquire|release)" % ("g" * 40)
+    reason = arb.request("server", "acquire", "d" * 500).reason
+    assert reason == "bad_request: acquire data must be joy|server, got '%s...'" % ("d" * 40)

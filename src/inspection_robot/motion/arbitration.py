@@ -18,6 +18,7 @@ mode), ``not_held`` (nothing to release, or the named mode is not the current on
 """
 from collections import namedtuple
 
+from inspection_robot.command import echoed
 from inspection_robot.interface import (BUSY, MODE_BY_ACQUIRE_DATA, MODE_CMD_ACQUIRE, MODE_CMD_RELEASE, MODE_NAMES,
                                         MODE_TASK, MOVE_SENDER_BY_MODE)
 
@@ -53,7 +54,7 @@ class ModeArbiter(object):
             return self._acquire(sender, data)
         if cmd == MODE_CMD_RELEASE:
             return self._release(sender, data)
-        return refused(REFUSAL_BAD_REQUEST, "unknown mode_cmd '%s' (acquire|release)" % (cmd,))
+        return refused(REFUSAL_BAD_REQUEST, "unknown mode_cmd '%s' (acquire|release)" % (echoed(cmd),))
 
     def force_task(self):
         """Return to task mode whatever the holder (backend offline, joystick link lost)."""
@@ -64,10 +65,10 @@ class ModeArbiter(object):
     def _acquire(self, sender, data):
         wanted = MODE_BY_ACQUIRE_DATA.get(data)
         if wanted is None:
-            return refused(REFUSAL_BAD_REQUEST, "acquire data must be joy|server, got '%s'" % (data,))
+            return refused(REFUSAL_BAD_REQUEST, "acquire data must be joy|server, got '%s'" % (echoed(data),))
         if sender != MOVE_SENDER_BY_MODE[wanted]:
             return refused(REFUSAL_NOT_ALLOWED, "sender '%s' may not acquire %s (only %s)"
-                           % (sender, data, MOVE_SENDER_BY_MODE[wanted]))
+                           % (echoed(sender), data, MOVE_SENDER_BY_MODE[wanted]))
         if wanted == self.mode:
             return Decision(True, False, "already in %s mode" % data)
         if wanted < self.mode:  # mode numbers are the priorities
@@ -78,13 +79,14 @@ class ModeArbiter(object):
 
     def _release(self, sender, data):
         if data and data not in MODE_BY_ACQUIRE_DATA:
-            return refused(REFUSAL_BAD_REQUEST, "release data must be empty, joy or server, got '%s'" % (data,))
+            return refused(REFUSAL_BAD_REQUEST, "release data must be empty, joy or server, got '%s'"
+                           % (echoed(data),))
         if self.mode == MODE_TASK:
             return refused(REFUSAL_NOT_HELD, "release refused: already in task mode")
         if data and MODE_BY_ACQUIRE_DATA[data] != self.mode:
             return refused(REFUSAL_NOT_HELD, "release %s refused: mode is %s" % (data, MODE_NAMES[self.mode]))
         if sender != self.holder():
             return refused(REFUSAL_NOT_ALLOWED, "release refused: '%s' does not hold %s mode"
-                           % (sender, MODE_NAMES[self.mode]))
+                           % (echoed(sender), MODE_NAMES[self.mode]))
         self.mode = MODE_TASK
         return Decision(True, True, "%s released; task mode" % sender)

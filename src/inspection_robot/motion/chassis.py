@@ -122,5 +122,7 @@ def _no_chassis_velocity(self, velocity_x, velocity_yaw, wheel_mode):
 
 NoChassis = not_fitted_class(
     ChassisDriver, ChassisError, "chassis", set_safety_listener=lambda self, listener: None,
-    send_velocity=_no_chassis_velocity, stop=lambda self: None, state=lambda self: ChassisState())
-"""``~driver: none``: a control cycle's zero velocity and every stop pass, anything else fails."""
+    send_velocity=_no_chassis_velocity, stop=lambda self: None, state=lambda self: ChassisState(),
+    set_lamps=lambda self, red, green, blue: None)
+"""``~driver: none``: a control cycle's zero velocity, every stop and the lamps (none to light: the
+control cycle sets them) pass, anything else fails."""

@@ -13,6 +13,9 @@ Motion rules:
   once (watchdog); then zero velocity every cycle.
 - Any stop (safety, mode change, timeout, offline) drops the target: motion resumes only with a
   new move_cmd.
+- With ``obstacle_timeout``, an obstacle state not refreshed for that long (the detector re-asserts
+  it every second) is doubtful: an obstacle is assumed until the next report. The clock starts with
+  the first report: a rig without a detector (none ever reported) moves as before.
 """
 import math
 import threading
@@ -35,9 +38,14 @@ class MotionController(object):
     """``driver``: a ChassisDriver; ``limits``: VelocityLimits; ``clock()``: monotonic seconds;
     ``log(level, text)``: level is "info" or "warn"; ``speak(words)``: publishes a VoiceCmd."""
 
-    def __init__(self, driver, limits, cmd_timeout, clock, log=None, speak=None):
+    def __init__(self, driver, limits, cmd_timeout, clock, log=None, speak=None, obstacle_timeout=None):
         if not cmd_timeout > 0:
             raise ValueError("cmd_timeout must be positive, got %r" % (cmd_timeout,))
+        if obstacle_timeout is not None and not obstacle_timeout > 0:
+            raise ValueError("obstacle_timeout must be positive or None, got %r" % (obstacle_timeout,))
+        self.obstacle_timeout = obstacle_timeout
+        self._obstacle_time = None    # clock() of the last obstacle report, None = none yet
+        self.obstacle_stale = False   # True while an obstacle is assumed for want of a fresh report
         self.driver = driver
         self.limits = limits
         self.cmd_timeout = float(cmd_timeout)
@@ -151,14 +159,22 @@ class MotionController(object):
             if self.safety.blocks():
                 self._stop_if_moving("safety")
                 return failed("motion refused: %s" % ",".join(self.safety.reasons()))
+            try:
+                self.driver.send_velocity(velocity.x, velocity.yaw, velocity.wheel_mode)
+            except ChassisError as err:   # no chassis (driver: none), or the board refused
+                self._stop("chassis refused move_cmd")
+                return failed("chassis: %s; robot stopped" % err)
             self.target = velocity
             self.wheel_mode = velocity.wheel_mode
             self._last_cmd_time = self._clock()
-            self.driver.send_velocity(velocity.x, velocity.yaw, velocity.wheel_mode)
             return success("clamped" if velocity.clamped else "")
 
     def on_obstacle(self, present):
         with self._lock:
+            self._obstacle_time = self._clock()
+            if self.obstacle_stale:
+                self._log("info", "obstacle_status reported again (obstacle %s)" % bool(present))
+            self.obstacle_stale = False
             self.safety.set_obstacle(present)
             if self.safety.blocks():
                 self._stop_if_moving("obstacle")
@@ -198,6 +214,7 @@ class MotionController(object):
         """One control cycle: safety inputs, watchdog, target to the driver, odometry, lamps."""
         with self._lock:
             now = self._clock()
+            self._check_obstacle_age(now)
             self._refresh_chassis()
             if self.target is not None and now - self._last_cmd_time > self.cmd_timeout:
                 self._stop("move_cmd timeout (%.2f s)" % self.cmd_timeout)
@@ -234,6 +251,17 @@ class MotionController(object):
             self._log("warn", "joystick link lost in mode 2: stopped, back to task mode")
         if self.safety.blocks():
             self._stop_if_moving(",".join(self.safety.reasons()))
+
+    def _check_obstacle_age(self, now):
+        if self.obstacle_stale or self._obstacle_time is None or self.obstacle_timeout is None:
+            return
+        if now - self._obstacle_time > self.obstacle_timeout:
+            self.obstacle_stale = True
+            self.safety.set_obstacle(True)
+            self._log("warn", "obstacle_status silent for %.1f s (> obstacle_timeout %.1f s): obstacle assumed "
+                      "until obstacle_detector reports again" % (now - self._obstacle_time, self.obstacle_timeout))
+            if self.safety.blocks():
+                self._stop_if_moving("obstacle_status silent")
 
     def _stop_if_moving(self, reason):
         if self.target is not None or abs(self._chassis.velocity_x) > 1e-4 or abs(self._chassis.velocity_yaw) > 1e-4:

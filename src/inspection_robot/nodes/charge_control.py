@@ -4,7 +4,8 @@ The docking sequence, thresholds and retries are charge.machine.ChargeMachine; t
 wires it. Every input (robot_status, task_status, move_action results, task_control replies,
 a timer tick) becomes an event handled in order on one worker thread; commands take the same lock.
 
-Subscribes:  robot_status (RobotStatus): battery_quantity, battery_status b4 (charging),
+Subscribes:  robot_status (RobotStatus, only from status_control's caller id: motion.owners, ~owners):
+             battery_quantity, battery_status b4 (charging),
                  light_status b0 (relay), mode, position/orientation
              task_status (GeneralTopic, JSON {"state": ...}): task_manager's latched status
 Publishes:   charge_status (GeneralTopic, latched): JSON status, on every change
@@ -34,10 +35,12 @@ from inspection_robot.charge.dock import parse_dock
 from inspection_robot.charge.machine import ChargeConfig, ChargeMachine, ChargePorts, battery_from_robot_status
 from inspection_robot.command import failed
 from inspection_robot.interface import ACK_SUCCESS, MOVE_GOAL_TYPE, MOVE_RESULT_SUCCESS, VOICE_LANGUAGES
+from inspection_robot.motion.owners import ROBOT_STATUS
 from inspection_robot.msg import GeneralAction, GeneralCmd, GeneralGoal, GeneralTopic, RobotStatus, VoiceCmd
 from inspection_robot.nav.goal import move_goal_data
 from inspection_robot.ros.actions import server_unavailable
 from inspection_robot.ros.node import init_node, site_param
+from inspection_robot.ros.owner_gate import OwnerGate
 from inspection_robot.ros.twin import CommandTwin
 from inspection_robot.ros.worker import RequestWorker
 from inspection_robot.srv import ControlService
@@ -164,7 +167,7 @@ class RosPorts(ChargePorts):
 
 
 class ChargeControl(object):
-    def __init__(self, config, dock, task_service, task_timeout, speeds, language, rate_hz):
+    def __init__(self, config, dock, task_service, task_timeout, speeds, language, rate_hz, owners):
         self._lock = threading.Lock()
         self._events = RequestWorker(NODE_NAME + ": events", self._handle, self._refuse, EVENT_QUEUE)
         self._ports = RosPorts(self._events, task_service, task_timeout, speeds, language)
@@ -173,8 +176,11 @@ class ChargeControl(object):
         self._twin = CommandTwin(_LockedTable(self.machine.command_table(), self._lock), NODE_NAME,
                                  "charge_cmd", "charge_ack", NODE_NAME, busy_when_joystick=False)
         self._ports.twin = self._twin
-        rospy.Subscriber("robot_status", RobotStatus, lambda msg: self._events.submit(("battery", msg)),
-                         queue_size=5)
+
+        def on_robot_status(msg):
+            if not owners.refusal(ROBOT_STATUS, ROBOT_STATUS, msg):
+                self._events.submit(("battery", msg))
+        rospy.Subscriber("robot_status", RobotStatus, on_robot_status, queue_size=5)
         rospy.Subscriber("task_status", GeneralTopic, lambda msg: self._events.submit(("task_status", msg)),
                          queue_size=5)
         self._timer = rospy.Timer(rospy.Duration(1.0 / rate_hz), lambda _event: self._events.submit(("tick",)))
@@ -244,7 +250,8 @@ def main():
     if rate_hz <= 0:
         raise ValueError("~rate must be positive")
     node = ChargeControl(config, dock, str(rospy.get_param("~task_service", "task_control")),
-                         float(rospy.get_param("~task_service_timeout", 2.0)), speeds, language, rate_hz)
+                         float(rospy.get_param("~task_service_timeout", 2.0)), speeds, language, rate_hz,
+                         OwnerGate.from_param(NODE_NAME))
     rospy.on_shutdown(node.shutdown)
     rospy.loginfo("%s: dock %s, charge below %.0f %% up to %.0f %%"
                   % (NODE_NAME, dock.pose, config.low_level, config.full_level))

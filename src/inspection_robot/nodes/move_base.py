@@ -2,7 +2,7 @@
 
 Subscribes:  <~pose_topic> (geometry_msgs/PoseWithCovarianceStamped) robot pose, frame map (docs/interface.md
              "Localization contract")
-             obstacle_status (ObstacleStatus) from obstacle_detector
+             obstacle_status (ObstacleStatus) from obstacle_detector (its caller id: motion.owners, ~owners)
              control_status (ControlStatus) from robot_control: a goal pauses while mode != 0 (task)
              control_cmd (GeneralCmd): enable_/disable_/switch_obstacle toggle the 3-D obstacle enable bit
              location_cmd (GeneralCmd): set_location init_pose | last_pose | x,y,yaw
@@ -52,6 +52,7 @@ from inspection_robot.interface import (MODE_TASK,
                                         WHEEL_OBSTACLE_OFF, WHEEL_STRAIGHT)
 from inspection_robot.msg import (ControlStatus, GeneralAction, GeneralCmd, GeneralFeedback, GeneralResult,
                                   GeneralTopic, MoveCmd, NavStatus, ObstacleStatus)
+from inspection_robot.motion.owners import OBSTACLE_STATUS
 from inspection_robot.nav.costmap import Costmap
 from inspection_robot.nav.curves import curved_path
 from inspection_robot.nav.follower import DONE, Approach, FollowerParams, PathFollower
@@ -63,6 +64,7 @@ from inspection_robot.nav.planner import Planner, PlanningError
 from inspection_robot.nav.supervisor import FOLLOW, REPLAN, STOP, GoalAborted, GoalSupervisor
 from inspection_robot.nav.virtual_obstacles import VirtualObstacles
 from inspection_robot.ros.node import init_node, site_param
+from inspection_robot.ros.owner_gate import OwnerGate
 from inspection_robot.ros.twin import CommandTwin
 from inspection_robot.ros.data_root import data_root, path_param
 
@@ -92,7 +94,7 @@ STARTUP_WAIT = 60.0   # s a goal waits for the costmap of a node still starting
 
 
 class MoveBase(object):
-    def __init__(self, grid, obstacles, localization, follower_params, cfg):
+    def __init__(self, grid, obstacles, localization, follower_params, cfg, owners):
         self.grid = grid
         # built after the ROS interface is up (attach): a respawned move_base is back on the graph
         # before cv2, scipy and the inflation of the map; goals that come meanwhile wait for them
@@ -124,6 +126,7 @@ class MoveBase(object):
         self._initial_pub = rospy.Publisher("initialpose", PoseWithCovarianceStamped, queue_size=1)
 
         rospy.Subscriber(cfg["pose_topic"], PoseWithCovarianceStamped, self._on_pose, queue_size=10)
+        self._owners = owners   # obstacle_status counts only from obstacle_detector
         rospy.Subscriber("obstacle_status", ObstacleStatus, self._on_obstacle, queue_size=10)
         rospy.Subscriber("control_status", ControlStatus, self._on_control_status, queue_size=10)
         rospy.Subscriber("control_cmd", GeneralCmd, self._on_control, queue_size=10)
@@ -145,7 +148,8 @@ class MoveBase(object):
                         msg.header.frame_id)
 
     def _on_obstacle(self, msg):
-        self.obstacle = bool(msg.obstacle)
+        if not self._owners.refusal(OBSTACLE_STATUS, OBSTACLE_STATUS, msg):
+            self.obstacle = bool(msg.obstacle)
 
     def _on_control_status(self, msg):
         self.control_mode = int(msg.mode)
@@ -429,7 +433,7 @@ def main():
                      aside, err)
     localization = LocalizationMonitor(cfg["max_xy_std"], cfg["max_yaw_std"], cfg["pose_timeout"],
                                        "%s (setting move_base/pose_topic)" % rospy.resolve_name(cfg["pose_topic"]))
-    node = MoveBase(grid, obstacles, localization, follower_params, cfg)
+    node = MoveBase(grid, obstacles, localization, follower_params, cfg, OwnerGate.from_param(SENDER_MOVE_BASE))
     obstacles.on_change = node.on_virtual_change
     costmap = Costmap(grid, cfg["robot_radius"], cfg["safety_margin"], cfg["margin_cost"])
     node.attach(costmap, Planner(costmap, coarse_factor=int(cfg["coarse_factor"])))

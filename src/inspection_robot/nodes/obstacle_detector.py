@@ -1,17 +1,22 @@
-"""obstacle_detector: 3-D points in the robot's travel corridor -> obstacle_status (on change only).
+"""obstacle_detector: 3-D points in the robot's travel corridor -> obstacle_status (on change, and re-asserted).
 
 Subscribes:  ~cloud_topic ("obstacle_cloud", sensor_msgs/PointCloud2, float32 x/y/z, sensor frame) with
                ~driver pointcloud (a ROS driver publishes it) or sim (sim_obstacle_cloud publishes it)
              move_cmd (MoveCmd): the travel direction (sign of velocity_x, spin in steer mode);
              a zero command keeps the last direction, so a stopped robot still sees what stopped it
-Publishes:   obstacle_status (ObstacleStatus, latched): once at start-up (false), then on every change
+Publishes:   obstacle_status (ObstacleStatus, latched): once at start-up (false), then on every change and
+             again every ~republish_period: robot_control takes a state not refreshed within its
+             ~obstacle_timeout for an obstacle, so a silent detector never leaves a stale clear holding
 Parameters:  ~half_width (m, 0.45), ~front_offset (m, 0.45), ~rear_offset (m, 0.45), ~distance (m, 1.2),
              ~ground_height (m, 0.08), ~max_height (m, 1.8), ~spin_radius (m, 0.8), ~min_points (5),
              ~driver (pointcloud | sim | none | "package.module:Class" with ~driver_params, required; none:
              no 3-D sensor fitted, obstacle_status stays false; a plug-in is start(callback)ed with
              N x 3 float arrays), ~clear_count (clouds, 3),
              ~sensor_pose ([x, y, z, yaw] of the sensor in the robot frame, m/rad)
+             ~republish_period (s, 1.0): the state is re-asserted this often
 """
+import threading
+
 import rospy
 from sensor_msgs.msg import PointCloud2, PointField
 
@@ -22,13 +27,16 @@ from inspection_robot.ros.node import init_node
 
 
 class ObstacleDetector(object):
-    def __init__(self, detector):
+    def __init__(self, detector, republish_period):
         self._detector = detector
         self._direction = FORWARD
         self._pub = rospy.Publisher("obstacle_status", ObstacleStatus, queue_size=10, latch=True)
         self._state = False
+        # one lock over state and publish: a re-assertion must never overtake a change (a late clear)
+        self._lock = threading.Lock()
         self._publish(False)
         rospy.Subscriber("move_cmd", MoveCmd, self._on_move, queue_size=10)
+        self._timer = rospy.Timer(rospy.Duration(republish_period), self._on_republish)
 
     def _on_move(self, msg):
         self._direction = direction_from_command(msg.velocity_x, msg.velocity_yaw, msg.wheel_control, self._direction)
@@ -47,15 +55,21 @@ class ObstacleDetector(object):
 
     def on_points(self, points):
         state = self._detector.update(points, self._direction)
-        if state != self._state:
-            self._publish(state)
+        with self._lock:
+            if state != self._state:
+                self._publish(state)
 
-    def _publish(self, state):
+    def _on_republish(self, _event):
+        with self._lock:
+            self._publish(self._state, changed=False)
+
+    def _publish(self, state, changed=True):
         self._state = state
         msg = ObstacleStatus(sender="obstacle_detector", obstacle=state)
         msg.header.stamp = rospy.Time.now()
         self._pub.publish(msg)
-        rospy.loginfo("obstacle_detector: obstacle %s", "detected" if state else "clear")
+        if changed:
+            rospy.loginfo("obstacle_detector: obstacle %s", "detected" if state else "clear")
 
 
 def main():
@@ -65,6 +79,9 @@ def main():
         ("ground_height", 0.08), ("max_height", 1.8), ("spin_radius", 0.8))}
     sensor_pose = [float(v) for v in rospy.get_param("~sensor_pose", [0.0, 0.0, 0.0, 0.0])]
     min_points, clear_count = int(rospy.get_param("~min_points", 5)), int(rospy.get_param("~clear_count", 3))
+    republish_period = float(rospy.get_param("~republish_period", 1.0))
+    if not republish_period > 0:
+        raise ValueError("~republish_period must be positive, got %r" % republish_period)
     if len(sensor_pose) != 4:
         raise ValueError("~sensor_pose must be [x, y, z, yaw]")
     if any(p[name] <= 0 for name in ("half_width", "distance", "spin_radius")) or p["max_height"] <= p["ground_height"]:
@@ -75,7 +92,7 @@ def main():
                                 p["ground_height"], p["max_height"], p["spin_radius"], min_points, clear_count,
                                 sensor_pose)
     cloud_topic = rospy.get_param("~cloud_topic", "obstacle_cloud")
-    node = ObstacleDetector(detector)
+    node = ObstacleDetector(detector, republish_period)
     source = make_driver("sensor3d", rospy.get_param("~driver", ""),
                          {SIM: lambda: cloud_topic, "pointcloud": lambda: cloud_topic},
                          rospy.get_param("~driver_params", {}))

@@ -10,6 +10,10 @@ Subscribes:  mode_cmd (GeneralCmd): acquire joy|server, release
              control_cmd (GeneralCmd): enable_/disable_/switch_collision|fallen|obstacle,
                  enable_/disable_charge, enable_stop, disable_stop, query_status
              obstacle_status (ObstacleStatus), robot_status (RobotStatus: offline_warn)
+             Safety inputs count only from their owners' caller ids (motion.owners, ~owners):
+             obstacle_status from obstacle_detector, robot_status from status_control, mode_cmd and
+             move_cmd with sender joy_control / move_base from that node; others are dropped (counted,
+             throttled warning; a mode_cmd is answered not_allowed)
              imu_cmd (GeneralCmd): calibrate|reset|query
 Publishes:   control_status (ControlStatus) at ~status_rate and at once when a discrete field changes
              control_ack (GeneralAck) the result of each control_cmd (project extension)
@@ -31,6 +35,10 @@ Parameters:  ~driver (sim | ros | none | "package.module:Class", required; see i
                  charge relay SetBool service or Bool topic; odom_timeout 0.5 s, battery_timeout 5 s)
              ~rate (Hz, 50.0) control cycle; ~status_rate (Hz, 10.0)
              ~cmd_timeout (s, 0.5)
+             ~obstacle_timeout (s, 3.0; 0 = never): an obstacle state not refreshed for this long is an
+                 obstacle (obstacle_detector re-asserts every ~republish_period, 1 s)
+             ~owners ({}): {obstacle_status|robot_status|joy_control|move_base: node name} over the
+                 defaults (motion.owners.DEFAULT_OWNERS), relative to the namespace; test rigs only
              ~max_velocity_x (m/s, 1.0), ~max_velocity_yaw (rad/s, 1.0)
              ~refuse_velocity_x (m/s, 5.0), ~refuse_velocity_yaw (rad/s, 5.0)
              ~odom_frame ("odom"), ~base_frame ("base_link"), ~publish_tf (true)
@@ -49,15 +57,18 @@ from nav_msgs.msg import Odometry
 
 from inspection_robot.angles import quaternion_from_yaw
 from inspection_robot.drivers import SIM, make_driver
-from inspection_robot.interface import ACK_SUCCESS, VOICE_LANGUAGES
-from inspection_robot.motion.chassis import NoChassis
+from inspection_robot.interface import ACK_FAILED, ACK_SUCCESS, VOICE_LANGUAGES
+from inspection_robot.motion.arbitration import REFUSAL_NOT_ALLOWED
+from inspection_robot.motion.chassis import ChassisError, NoChassis
 from inspection_robot.motion.controller import MotionController
+from inspection_robot.motion.owners import OBSTACLE_STATUS, ROBOT_STATUS
 from inspection_robot.motion.ros_base import PARAM as ROS_BASE_PARAM
 from inspection_robot.motion.ros_base import parse_settings
 from inspection_robot.motion.velocity import VelocityLimits
 from inspection_robot.msg import ControlStatus, GeneralAck, GeneralCmd, MoveCmd, ObstacleStatus, RobotStatus, VoiceCmd
 from inspection_robot.ros.chassis_base import RosChassis
 from inspection_robot.ros.node import init_node
+from inspection_robot.ros.owner_gate import OwnerGate
 from inspection_robot.ros.twin import CommandTwin, control_response
 from inspection_robot.srv import ControlService
 
@@ -67,6 +78,13 @@ DISCRETE_FIELDS = ("mode", "wheel_status", "light_status", "stop_status", "circu
                    "motor_status", "motor_info")
 ODOM_POSE_COVARIANCE = (0.01, 0.01, 1e6, 1e6, 1e6, 0.02)
 ODOM_TWIST_COVARIANCE = (0.001, 0.001, 1e6, 1e6, 1e6, 0.002)
+# The owner-table key of a message on an input topic: the topic itself, or the sender it claims.
+OWNER_KEY = {
+    OBSTACLE_STATUS: lambda msg: OBSTACLE_STATUS,
+    ROBOT_STATUS: lambda msg: ROBOT_STATUS,
+    "mode_cmd": lambda msg: msg.sender,
+    "move_cmd": lambda msg: msg.sender,
+}
 
 
 def _diagonal(values):
@@ -87,9 +105,10 @@ class _ImuTable(object):
 
 
 class RobotControl(object):
-    def __init__(self, controller, rate_hz, status_rate_hz, odom_frame, base_frame, publish_tf,
+    def __init__(self, controller, owners, rate_hz, status_rate_hz, odom_frame, base_frame, publish_tf,
                  voice_language, sim=None):
         self._ctl = controller
+        self._owners = owners
         self._sim = sim
         self._odom_frame = odom_frame
         self._base_frame = base_frame
@@ -126,10 +145,26 @@ class RobotControl(object):
 
     def _dispatch(self, msg, topic):
         try:
+            if not self._from_owner(msg, topic):
+                return
             self._inputs[topic][2](msg)
         except Exception as err:  # boundary: one bad input must not kill the node; stop to be safe
             rospy.logerr("%s: %s raised: %s\n%s" % (NODE_NAME, topic, err, traceback.format_exc()))
             self._emergency_stop()
+
+    def _from_owner(self, msg, topic):
+        """A safety input from a node that does not own it changes nothing: warned (throttled per
+        input), counted, and a mode_cmd answered not_allowed so its sender is not left waiting."""
+        key_of = OWNER_KEY.get(topic)
+        refusal = key_of and self._owners.refusal(topic, key_of(msg), msg)
+        if not refusal:
+            return True
+        if topic == "mode_cmd":
+            ack = GeneralAck(sender=NODE_NAME, receiver=msg.sender, trans_id=msg.trans_id, ack=ACK_FAILED,
+                             data="%s: %s" % (REFUSAL_NOT_ALLOWED, refusal))
+            ack.header.stamp = rospy.Time.now()
+            self._mode_ack_pub.publish(ack)
+        return False
 
     # --- inputs (handlers of self._inputs) -----------------------------------------------------
     def _on_mode_cmd(self, msg):
@@ -180,6 +215,10 @@ class RobotControl(object):
     def _on_tick(self, _event):
         try:
             self._ctl.tick()
+        except ChassisError as err:  # the board refused: one clear line, no traceback (nothing to debug here)
+            rospy.logerr_throttle(10.0, "%s: control cycle: chassis: %s; robot stopped" % (NODE_NAME, err))
+            self._emergency_stop()
+            return
         except Exception as err:  # boundary: log, stop, keep the loop alive
             rospy.logerr_throttle(1.0, "%s: control cycle failed: %s\n%s" % (NODE_NAME, err, traceback.format_exc()))
             self._emergency_stop()
@@ -273,6 +312,8 @@ def main():
     rate_hz = float(rospy.get_param("~rate", 50.0))
     status_rate_hz = float(rospy.get_param("~status_rate", 10.0))
     cmd_timeout = float(rospy.get_param("~cmd_timeout", 0.5))
+    obstacle_timeout = float(rospy.get_param("~obstacle_timeout", 3.0))
+    owners = OwnerGate.from_param(NODE_NAME)
     limits = VelocityLimits(float(rospy.get_param("~max_velocity_x", 1.0)),
                             float(rospy.get_param("~max_velocity_yaw", 1.0)),
                             float(rospy.get_param("~refuse_velocity_x", 5.0)),
@@ -280,6 +321,8 @@ def main():
     language = str(rospy.get_param("~voice_language", "chinese"))
     if rate_hz <= 0 or status_rate_hz <= 0:
         raise ValueError("~rate and ~status_rate must be positive")
+    if obstacle_timeout < 0:
+        raise ValueError("~obstacle_timeout must be >= 0 (0 = never stale), got %r" % obstacle_timeout)
     if language not in VOICE_LANGUAGES:
         raise ValueError("~voice_language must be one of %s" % (VOICE_LANGUAGES,))
 
@@ -294,10 +337,12 @@ def main():
     driver = make_driver("chassis", driver_spec, {SIM: simulator, "ros": ros_base},
                          rospy.get_param("~driver_params", {}), NoChassis)
     sim = driver if driver_spec == SIM else None
-    controller = MotionController(driver, limits, cmd_timeout, time.monotonic, log=_log)
-    node = RobotControl(controller, rate_hz, status_rate_hz, str(rospy.get_param("~odom_frame", "odom")),
+    controller = MotionController(driver, limits, cmd_timeout, time.monotonic, log=_log,
+                                  obstacle_timeout=obstacle_timeout or None)
+    node = RobotControl(controller, owners, rate_hz, status_rate_hz, str(rospy.get_param("~odom_frame", "odom")),
                         str(rospy.get_param("~base_frame", "base_link")), bool(rospy.get_param("~publish_tf", True)),
                         language, sim=sim)
     rospy.on_shutdown(node.shutdown)
-    rospy.loginfo("%s: driver %s, %.0f Hz, cmd_timeout %.2f s" % (NODE_NAME, driver_spec, rate_hz, cmd_timeout))
+    rospy.loginfo("%s: driver %s, %.0f Hz, cmd_timeout %.2f s, safety inputs from %s" % (
+        NODE_NAME, driver_spec, rate_hz, cmd_timeout, owners.describe()))
     rospy.spin()

@@ -10,6 +10,9 @@ the public API when those names differ (another rospy than Noetic's frozen 1.15)
   rospy's RegManager (the function says how). Fallback: rospy as it is.
 - :func:`replay_latched`: a new callback on an existing Subscriber gets the latched messages
   rospy holds. Fallback: nothing replayed.
+- :func:`caller_id`: the node that published a received message (rospy stores the TCPROS
+  connection header on it as ``_connection_header``), for the safety inputs' owner check
+  (motion/owners.py). Fallback: None, a caller nobody owns, so those inputs are refused (fail closed).
 
 ``MISSING`` lists what was not found; test_compat_rospy fails loudly, naming rospy's version,
 when it is not empty. :func:`describe` is for a node's start-up log.
@@ -40,6 +43,8 @@ def _check():
         "handshake_guard": _missing("TCPROSServer", ["_tcp_server_callback"], set(dir(tcpros_base.TCPROSServer))),
         "replay_latched": _missing("_SubscriberImpl", ["add_callback", "remove_callback"],
                                    set(dir(rospy.topics._SubscriberImpl))),
+        "caller_id": _missing("TCPROSTransport.receive_once", ["_connection_header"],
+                              _assigned(tcpros_base.TCPROSTransport.receive_once)),
     }
 
 
@@ -48,6 +53,7 @@ MISSING = sorted(name for names in _CHECKED.values() for name in names)
 UPDATE_MERGE = not _CHECKED["merge_updates"]
 HANDSHAKE_GUARD = not _CHECKED["handshake_guard"]
 LATCHED_REPLAY = not _CHECKED["replay_latched"]
+CALLER_ID = not _CHECKED["caller_id"]
 
 
 def describe():
@@ -125,3 +131,15 @@ def replay_latched(subscriber, callback):
     impl = subscriber.impl
     impl.add_callback(callback, None)
     impl.remove_callback(callback, None)
+
+
+def caller_id(msg):
+    """The caller id (node name, e.g. ``/robot_7/obstacle_detector``) of the node that published
+    ``msg``, as its TCPROS connection header says; None when it is not known (a message built in this
+    process, or a rospy that does not keep the header on received messages)."""
+    if not CALLER_ID:
+        return None
+    header = getattr(msg, "_connection_header", None)
+    if not isinstance(header, dict):
+        return None
+    return header.get("callerid")

@@ -13,7 +13,7 @@ import traceback
 
 import rospy
 
-from inspection_robot.command import Reply, failed
+from inspection_robot.command import Reply, echoed, failed
 from inspection_robot.files import hide_root
 from inspection_robot.interface import ACK_SUCCESS, BUSY, MODE_JOY, SENDER_JOY
 from inspection_robot.msg import ControlStatus, GeneralAck, GeneralCmd
@@ -85,7 +85,7 @@ class CommandTwin(object):
             reply = Reply(reply.ack, hide_root(reply.data, self._data_root))
             # identical failures (a sender repeating one bad command) are logged once a second
             rospy.logwarn_throttle_identical(1.0, "%s: %s(%r) from %r failed: %s"
-                                             % (self._node_name, cmd, data[:80], sender, reply.data))
+                                             % (self._node_name, echoed(cmd), data[:80], sender, reply.data))
         return reply
 
     def _on_service(self, req):
