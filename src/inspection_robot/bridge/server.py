@@ -725,10 +725,14 @@ class GuardedListener(socket.socket):
     def wrap(cls, sock, on_refused):
         listener = cls(sock.family, sock.type, sock.proto, fileno=sock.detach())
         listener.setblocking(False)
-        listener._on_refused = on_refused
-        listener._spare = None
-        listener._reserve()
+        listener.guard(on_refused)
         return listener
+
+    def guard(self, on_refused):
+        """Keep the spare descriptor and call ``on_refused()`` for every refusal from now on."""
+        self._on_refused = on_refused
+        self._spare = None
+        self._reserve()
 
     def _reserve(self):
         try:
