@@ -1015,13 +1015,15 @@ class SecurityTest(unittest.TestCase):
         rospy.set_param("/rosbridge_auth/insecure", True)
         rospy.set_param("/rosbridge_websocket/surface", "open")
         rospy.set_param("/file_server/roots", ["/etc"])
-        nodes = ("/rosbridge_auth", "/rosbridge_websocket", "/file_server")
+        rospy.set_param("/camera_node/roots", [self.outside])
+        rospy.set_param("/data_root", self.outside)
+        nodes = ("/rosbridge_auth", "/rosbridge_websocket", "/file_server", "/camera_node")
         before = self._node_pids()
         for node in ("rosbridge_auth", "rosbridge_websocket"):
             rospy.delete_param("/%s/actual_port" % node)
         rosnode.kill_nodes(list(nodes))
         wait_for(lambda: all(n in self._node_pids() and self._node_pids()[n] != before[n] for n in nodes), 60.0,
-                 "the three nodes respawned")
+                 "the four nodes respawned")
         auth_port, port = self._bridge_port("rosbridge_auth"), self._bridge_port("rosbridge_websocket")
         intruder = self.raw(port=auth_port)
         intruder.send({"op": "call_service", "service": "/rosapi/get_time", "id": "t"})
@@ -1046,6 +1048,22 @@ class SecurityTest(unittest.TestCase):
         ack, reason = read("/etc/passwd")
         self.assert_refused("file_control read after respawn", "/etc/passwd", ack, reason,
                             ("outside the allowed roots",))
+        # the camera still captures into the launch's captures folder, not the folder written over it
+        outside_shot = os.path.join(self.outside, "shot.jpg")
+
+        def capture(path):
+            mid = "shot-%d" % next(TRANS_IDS)
+            request = {"sender": "server", "trans_id": 1, "cmd": "capture_picture", "data": path}
+            client.send({"op": "call_service", "id": mid, "service": "/camera_control",
+                         "type": "inspection_robot/ControlService", "args": request})
+            reply = client.recv_message(lambda m: m.get("id") == mid and m.get("op") == "service_response", 20.0)
+            return (reply["values"]["ack"], reply["values"]["data"]) if reply["result"] else ("no call", "")
+        wait_for(lambda: capture("secsuite_after_respawn.jpg")[0] == "success", 60.0, "camera_node after its respawn")
+        self.assertTrue(os.path.isfile(os.path.join(self.root, "captures", "secsuite_after_respawn.jpg")))
+        ack, reason = capture(outside_shot)
+        self.assert_refused("camera capture after respawn", outside_shot, ack, reason, ("outside the allowed roots",))
+        self.assertFalse(os.path.exists(outside_shot))
+        rospy.set_param("/data_root", self.root)
 
 
 if __name__ == "__main__":

@@ -1,8 +1,10 @@
-"""fixed_settings: security settings from the defaults file, the site file and the command line only."""
+"""fixed_settings: security settings and data paths from the defaults file, the site file, the command
+line and the launch's environment only."""
 import pytest
 import yaml
 
-from inspection_robot.fixed_settings import FixedSettingsError, fixed_settings, overridden, split_argv
+from inspection_robot.fixed_settings import (DATA_ROOT_ENV, SITE_FILE_ENV, FixedSettingsError, StartupFiles,
+                                             fixed_settings, overridden, split_argv)
 
 
 def write(tmp_path, name, data):
@@ -18,14 +20,24 @@ def test_defaults_then_site_file_then_command_line(tmp_path):
     fixed = fixed_settings("rosbridge_websocket", ["--site-file", site, "_address:=0.0.0.0", "__name:=x",
                                                    "_surface:=robot", "mode_cmd:=other"], defaults)
     assert fixed == {"address": "0.0.0.0", "auth_token": "", "insecure": False, "auth_token_file": "/etc/robot/token",
-                     "surface": "robot", "site_file": site}   # port is not a security setting: not here
+                     "surface": "robot", "site_file": site, "data_root": ""}   # port is not a security setting
+
+
+def test_the_launch_names_the_site_file_and_data_root_in_the_environment(tmp_path):
+    site = write(tmp_path, "site.yaml", {"camera_node": {"roots": ["/srv/captures"]}})
+    env = {SITE_FILE_ENV: site, DATA_ROOT_ENV: "/var/lib/inspection_robot"}
+    files = StartupFiles("camera_node", [], write(tmp_path, "camera_node.yaml", {"roots": ["captures"]}), env)
+    assert files.launched and files.get("roots") == ["/srv/captures"]
+    assert files.data_root() == "/var/lib/inspection_robot"
+    alone = StartupFiles("camera_node", [], None, {})
+    assert not alone.launched and alone.data_root() == "" and alone.get("roots", ["x"]) == ["x"]
 
 
 def test_the_site_files_data_root_wins_as_core_launch_loads_it_last(tmp_path):
     site = write(tmp_path, "site.yaml", {"data_root": "/var/lib/robot", "file_server": {"roots": ["tasks"]}})
-    fixed = fixed_settings("file_server", ["--site-file=" + site, "_data_root:=/tmp/x"], None)
-    assert fixed["data_root"] == "/var/lib/robot" and fixed["roots"] == ["tasks"]
-    assert fixed_settings("file_server", ["_data_root:=/tmp/x"], None)["data_root"] == "/tmp/x"
+    files = StartupFiles("file_server", ["--site-file=" + site, "_data_root:=/tmp/x"], None, {DATA_ROOT_ENV: "/e"})
+    assert files.data_root() == "/var/lib/robot" and files.get("roots") == ["tasks"]
+    assert StartupFiles("file_server", ["_data_root:=/tmp/x"], None, {DATA_ROOT_ENV: "/e"}).data_root() == "/tmp/x"
 
 
 def test_a_parameter_server_write_is_named_not_taken(tmp_path):
@@ -39,10 +51,10 @@ def test_unreadable_files_and_bad_values_fail_loudly(tmp_path):
     bad = tmp_path / "bad.yaml"
     bad.write_text("- a list\n")
     with pytest.raises(FixedSettingsError, match="is not a YAML mapping"):
-        fixed_settings("rosbridge_websocket", ["--site-file", str(bad)], None)
+        fixed_settings("rosbridge_websocket", [], None, {SITE_FILE_ENV: str(bad)})
     with pytest.raises(FixedSettingsError, match="not YAML"):
         fixed_settings("rosbridge_websocket", ["_allowed_origins:=[unclosed"], None)
 
 
 def test_an_empty_site_file_argument_means_none():
-    assert split_argv(["--site-file", "", "_x:=1"]) == ("", {"x": "1"})
+    assert split_argv(["--site-file", "", "_x:=1", "__ns:=/r"]) == ("", {"x": "1"})

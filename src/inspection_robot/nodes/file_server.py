@@ -8,10 +8,8 @@ Services:    file_control (ControlService): list | stat | read (storage.commands
                  (inspection.calibration_commands)
 Subscribes:  file_cmd, calibration_cmd (GeneralCmd): topic twins of the services
 Publishes:   file_ack, calibration_ack (GeneralAck)
-Parameters:  data_root (namespace, the robot's state directory; robot.launch also gives it on the command
-                 line, _data_root:=, which wins: fixed_settings)
-             ~roots and ~preset_roots are read from config/file_server.yaml, the site file (--site-file) and
-                 _roots:= on the command line only, never from the parameter server (fixed_settings)
+Parameters:  data_root (namespace, the robot's state directory; under core.launch, like ~roots and
+                 ~preset_roots, fixed at launch and never re-read from the parameter server: ros/data_root.py)
              ~roots (readable folders, under data_root unless absolute;
                  [presets, pictures, captures, thermal, tasks])
              ~preset_roots (where presets may be calibrated, [presets])
@@ -19,16 +17,11 @@ Parameters:  data_root (namespace, the robot's state directory; robot.launch als
              ~camera_optics (dict, config/camera_optics.yaml): zoom boxes of a calibration
 Neither service is refused while the joystick holds the robot: nothing here moves it.
 """
-import os
-import sys
-
 import rospy
 
 from inspection_robot.camera.optics import ZoomOptics
 from inspection_robot.inspection.calibration_commands import CalibrationCommands
-from inspection_robot.fixed_settings import fixed_settings, overridden
-from inspection_robot.ros.data_root import data_root
-from inspection_robot.ros.package_share import share_file
+from inspection_robot.ros.data_root import data_root, fixed_list
 from inspection_robot.ros.node import init_node
 from inspection_robot.ros.twin import CommandTwin
 from inspection_robot.storage.commands import FileCommands
@@ -38,16 +31,10 @@ NODE_NAME = "file_server"
 
 def main():
     init_node(NODE_NAME)
-    fixed = fixed_settings(NODE_NAME, sys.argv[1:], share_file("config", NODE_NAME + ".yaml"))
-    current = {key: rospy.get_param("~" + key) for key in ("roots", "preset_roots") if rospy.has_param("~" + key)}
-    changed = overridden(fixed, current)
-    if changed:
-        rospy.logwarn("%s: ignoring the parameter server's %s: the folders served come only from "
-                      "config/file_server.yaml, the site file (%s) and the command line"
-                      % (NODE_NAME, ", ".join("~" + k for k in changed), fixed["site_file"] or "not given"))
-    root = os.path.abspath(os.path.expanduser(fixed["data_root"])) if fixed.get("data_root") else data_root()
-    roots = list(fixed.get("roots", ["presets", "pictures", "captures", "thermal", "tasks"]))
-    preset_roots = list(fixed.get("preset_roots", ["presets"]))
+    root = data_root()
+    # the folders it serves are fixed at launch like every data path (ros/data_root.py)
+    roots = list(fixed_list("~roots", ["presets", "pictures", "captures", "thermal", "tasks"]))
+    preset_roots = list(fixed_list("~preset_roots", ["presets"]))
     optics_cfg = rospy.get_param("~camera_optics")
     optics = ZoomOptics(optics_cfg["zoom_hfov_deg"], optics_cfg["width"], optics_cfg["height"])
     files = FileCommands(root, roots, int(rospy.get_param("~max_chunk_bytes", 262144)),

@@ -43,6 +43,7 @@ Parameters:  ~port (int, 9090; 0 = any free port), ~address (str, "127.0.0.1"; "
 import asyncio
 import concurrent.futures
 import gc
+import os
 import ssl
 import sys
 import threading
@@ -86,7 +87,7 @@ def log(level, text):
 def read_fixed():
     """The security settings (fixed_settings.FIXED_KEYS): from the defaults file, the site file and the
     command line only; a parameter-server value that differs is ignored and named in a warning."""
-    fixed = fixed_settings(NODE, sys.argv[1:], share_file("config", NODE + ".yaml"))
+    fixed = fixed_settings(NODE, sys.argv[1:], share_file("config", NODE + ".yaml"), os.environ)
     current = {key: rospy.get_param("~" + key) for key in FIXED_KEYS[NODE] if rospy.has_param("~" + key)}
     changed = overridden(fixed, current)
     if changed:
