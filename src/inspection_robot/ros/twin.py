@@ -15,6 +15,7 @@ import rospy
 
 from inspection_robot.command import Reply, echoed, failed
 from inspection_robot.files import hide_root
+from inspection_robot.ros.data_root import data_root
 from inspection_robot.interface import ACK_SUCCESS, BUSY, MODE_JOY, SENDER_JOY
 from inspection_robot.msg import ControlStatus, GeneralAck, GeneralCmd
 from inspection_robot.ros.worker import RequestWorker
@@ -59,7 +60,7 @@ class CommandTwin(object):
         self._node_name = node_name
         self._modes = ModeWatcher() if busy_when_joystick else None
         self._lock = threading.Lock()  # one command at a time reaches the device
-        self._data_root = rospy.get_param("data_root", "")  # the namespace's; read once, here
+        self._data_root = data_root()  # as the launch fixed it (ros/data_root.py); read once, here
         self._ack_pub = rospy.Publisher(ack_topic, GeneralAck, queue_size=50)
         self._worker = RequestWorker(node_name + ": " + cmd_topic, self._run_topic_command, self._refuse,
                                      queue_size)
