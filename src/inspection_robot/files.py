@@ -468,7 +468,7 @@ def capture_roots(roots, data_root):
     return list(roots)
 
 
-DEFAULT_CAPTURE_QUOTA_BYTES = 2 << 30   # 2 GiB per device's capture roots (camera_node, infrared_imager ~quota_bytes)
+DEFAULT_CAPTURE_QUOTA_MIB = 2048        # 2 GiB per device's capture roots (camera_node, infrared_imager ~quota_mib)
 QUOTA_RESCAN_S = 60.0                    # the usage is counted again at most this old (files deleted meanwhile)
 
 
@@ -479,7 +479,8 @@ class CaptureQuota(object):
     taken again when older than ``rescan_s`` or before a capture is refused (so files deleted
     meanwhile count at once). Thread-safe. ``limit_bytes`` 0: no quota."""
 
-    def __init__(self, roots, limit_bytes=DEFAULT_CAPTURE_QUOTA_BYTES, rescan_s=QUOTA_RESCAN_S, clock=time.monotonic):
+    def __init__(self, roots, limit_bytes=DEFAULT_CAPTURE_QUOTA_MIB << 20, rescan_s=QUOTA_RESCAN_S,
+                 clock=time.monotonic):
         if isinstance(limit_bytes, bool) or not isinstance(limit_bytes, int) or limit_bytes < 0:
             raise ValueError("capture quota must be a whole number of bytes >= 0 (0: none), got %r" % (limit_bytes,))
         self.roots = list(roots)
@@ -489,6 +490,14 @@ class CaptureQuota(object):
         self._lock = threading.Lock()
         self._used = None
         self._counted_at = None
+
+    @classmethod
+    def from_mib(cls, roots, mib):
+        """A quota of ``mib`` MiB (a node's ~quota_mib: ROS parameters are 32-bit integers, 2 GiB in
+        bytes is not one); ValueError unless a whole number >= 0."""
+        if isinstance(mib, bool) or not isinstance(mib, int) or mib < 0:
+            raise ValueError("~quota_mib must be a whole number of MiB >= 0 (0: none), got %r" % (mib,))
+        return cls(roots, mib << 20)
 
     def used(self, fresh=False):
         """Bytes in the roots (counted again when ``fresh`` or when the count is older than rescan_s)."""

@@ -180,6 +180,10 @@ def test_capture_quota_counts_once_then_adds_and_counts_again_before_refusing(tm
     assert files.CaptureQuota([str(root)], 0).check(10 ** 12) is None   # 0: no quota
     with pytest.raises(ValueError, match="whole number of bytes"):
         files.CaptureQuota([str(root)], -1)
+    assert files.CaptureQuota.from_mib([str(root)], 2048).limit == 2 << 30   # the default, in a ROS int
+    for bad in (-1, 1.5, "8", True):
+        with pytest.raises(ValueError, match="~quota_mib must be a whole number of MiB"):
+            files.CaptureQuota.from_mib([str(root)], bad)
 
 
 def test_confine_path_names_the_request_not_the_resolved_path(tmp_path):

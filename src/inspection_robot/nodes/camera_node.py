@@ -14,8 +14,8 @@ Parameters:  ~driver (sim | isapi | none | "package.module:Class" with ~driver_p
              ~camera_optics ({width, height, zoom_hfov_deg}, required),
              ~roots (folders capture paths must lie in, under data_root unless absolute; [captures]; a root
              overlapping presets, pictures, tasks ... is refused at start: files.capture_roots),
-             ~quota_bytes (bytes the capture roots may hold, hidden files included, 2147483648 = 2 GiB;
-             0 = none: files.CaptureQuota),
+             ~quota_mib (MiB the capture roots may hold, hidden files included, 2048 = 2 GiB; 0 = none:
+             files.CaptureQuota),
              ~image_rate (Hz, 1.0; 0 = no image topic), ~image_width (px, 640), ~status_rate (Hz, 2.0),
              ~jpeg_quality (captures, 0..100, 90), ~stream_jpeg_quality (0..100, 80),
              ~frame_id ("camera_optical_frame"),
@@ -36,7 +36,7 @@ from inspection_robot.camera.jpeg import check_quality
 from inspection_robot.camera.driver import CameraError, DeviceHealth, NoCamera
 from inspection_robot.camera.optics import ZoomOptics
 from inspection_robot.drivers import SIM, make_driver
-from inspection_robot.files import DEFAULT_CAPTURE_QUOTA_BYTES, CaptureQuota, capture_roots
+from inspection_robot.files import DEFAULT_CAPTURE_QUOTA_MIB, CaptureQuota, capture_roots
 from inspection_robot.ros.diagnostics import DeviceDiagnostics, probe_device
 from inspection_robot.ros.images import LiveViewPublisher
 from inspection_robot.ros.node import init_node
@@ -147,7 +147,7 @@ def main():
     optics = ZoomOptics(optics_params["zoom_hfov_deg"], optics_params["width"], optics_params["height"])
     root = data_root()
     roots = capture_roots(path_list_param("~roots", ["captures"], root), root)
-    quota = CaptureQuota(roots, rospy.get_param("~quota_bytes", DEFAULT_CAPTURE_QUOTA_BYTES))
+    quota = CaptureQuota.from_mib(roots, rospy.get_param("~quota_mib", DEFAULT_CAPTURE_QUOTA_MIB))
     image_rate = float(rospy.get_param("~image_rate", 1.0))
     image_width = int(rospy.get_param("~image_width", 640))
     status_rate = float(rospy.get_param("~status_rate", 2.0))
