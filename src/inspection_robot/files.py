@@ -159,6 +159,11 @@ def staged_name(extension):
     return "%s/%s%s" % (STAGING_DIR, uuid.uuid4().hex, extension)
 
 
+def is_staged_name(path):
+    """Whether ``path`` (as a capture command got it) is a staged_name."""
+    return bool(_STAGED_NAME.fullmatch(path))
+
+
 def hidden_part(resolved, real_roots):
     """The first name starting with ``.`` in ``resolved`` below the root it lies in (a folder or file
     the robot keeps for itself: in-progress writes ``.name.*.tmp``, ``.tmp_*``, ``.<folder>.update.*``,
@@ -191,7 +196,7 @@ def new_file_path(path, roots, root_names=None):
         raise FileError("path '%s' contains '..' (name the file inside the roots directly)" % shown(path))
     resolved = confine_path(path, roots, root_names=root_names)
     real_roots = [os.path.realpath(os.path.expanduser(r)) for r in roots]
-    if not (_STAGED_NAME.fullmatch(path) and os.path.dirname(resolved) == os.path.join(real_roots[0], STAGING_DIR)):
+    if not (is_staged_name(path) and os.path.dirname(resolved) == os.path.join(real_roots[0], STAGING_DIR)):
         refuse_hidden(path, resolved, real_roots)
     if os.path.isdir(resolved):
         raise FileError("path '%s' is a directory" % shown(path))
@@ -470,6 +475,7 @@ def capture_roots(roots, data_root):
 
 DEFAULT_CAPTURE_QUOTA_MIB = 2048        # 2 GiB per device's capture roots (camera_node, infrared_imager ~quota_mib)
 QUOTA_RESCAN_S = 60.0                    # the usage is counted again at most this old (files deleted meanwhile)
+STAGED_RESERVE_BYTES = 256 << 20         # beyond the quota, for the owners' staged pictures (moved away at once)
 
 
 class CaptureQuota(object):
@@ -477,7 +483,9 @@ class CaptureQuota(object):
     pictures, a client's leftovers). A full walk of the roots is what a capture would otherwise cost
     each time; here the roots are walked once, then each write adds its size, and the count is
     taken again when older than ``rescan_s`` or before a capture is refused (so files deleted
-    meanwhile count at once). Thread-safe. ``limit_bytes`` 0: no quota."""
+    meanwhile count at once). A staged picture (staged_name: preset_scale's and find_scale's, moved
+    out of the roots at once) may use STAGED_RESERVE_BYTES beyond the quota, so captures a backend
+    left behind do not stop recordings and patrols. Thread-safe. ``limit_bytes`` 0: no quota."""
 
     def __init__(self, roots, limit_bytes=DEFAULT_CAPTURE_QUOTA_MIB << 20, rescan_s=QUOTA_RESCAN_S,
                  clock=time.monotonic):
@@ -507,14 +515,16 @@ class CaptureQuota(object):
                 self._counted_at = self._clock()
             return self._used
 
-    def check(self, size, what="the capture"):
-        """FileError, before anything is written, when ``size`` more bytes would exceed the quota."""
-        if not self.limit or self.used() + size <= self.limit:
+    def check(self, size, what="the capture", staged=False):
+        """FileError, before anything is written, when ``size`` more bytes would exceed the quota (a
+        ``staged`` picture: the quota and STAGED_RESERVE_BYTES)."""
+        limit = self.limit + (STAGED_RESERVE_BYTES if staged else 0)
+        if not self.limit or self.used() + size <= limit:
             return
         used = self.used(fresh=True)
-        if used + size > self.limit:
+        if used + size > limit:
             raise FileError("capture quota exceeded: the capture folders hold %d of %d bytes and %s needs %d; "
-                            "delete old captures (nothing written)" % (used, self.limit, what, size))
+                            "delete old captures (nothing written)" % (used, limit, what, size))
 
     def add(self, size):
         """Count ``size`` bytes just written."""

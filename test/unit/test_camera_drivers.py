@@ -14,7 +14,7 @@ from inspection_robot_testing.fake_isapi import FakeIsapiCamera
 from inspection_robot.sim.render import Renderer, ThermalRenderer
 from inspection_robot.sim.thermal import SimulatedImager
 from inspection_robot.sim.world import World
-from inspection_robot.files import CaptureQuota
+from inspection_robot.files import STAGED_RESERVE_BYTES, CaptureQuota, FileError, staged_name
 from inspection_robot.thermal.commands import NO_DATA_COMMANDS as THERMAL_NO_DATA
 from inspection_robot.thermal.commands import ThermalCommands, load_radiometric, save_radiometric
 
@@ -290,6 +290,9 @@ def test_captures_stop_at_the_quota_and_a_refused_one_writes_nothing(world, came
     assert reply == ("failed", "capture quota exceeded: the capture folders hold 2000 of 2500 bytes and this picture "
                                "needs 1000; delete old captures (nothing written)")
     assert sorted(os.listdir(str(root))) == ["a.jpg", "b.jpg"]
+    staged = staged_name(".jpg")                     # the owners' staged pictures have a reserve beyond the quota
+    assert table.dispatch("capture_picture", staged).ack == "success"
+    (root / staged).unlink()                                                    # moved away by its owner
     (root / "a.jpg").unlink()                                                   # deleting old captures frees room
     assert table.dispatch("capture_picture", "c.jpg").ack == "success"
     imager = SimulatedImager(ThermalRenderer(world, noise_sigma=0.0), lambda: (world.start_pose, 0.0, 0.0),
@@ -305,3 +308,16 @@ def test_captures_stop_at_the_quota_and_a_refused_one_writes_nothing(world, came
     reply = thermal.dispatch("save_temperature", "b.png")
     assert reply.ack == "failed" and reply.data.startswith("capture quota exceeded")
     assert sorted(os.listdir(str(thermal_root))) == ["a.npy"]
+    assert thermal.dispatch("save_temperature", staged_name(".png")).ack == "success"   # the reserve
+
+
+def test_the_staged_reserve_is_bounded_too(tmp_path):
+    (tmp_path / ".staging").mkdir()
+    (tmp_path / ".staging" / "left_by_a_client.jpg").write_bytes(b"x" * 100)
+    quota = CaptureQuota([str(tmp_path)], 50)
+    quota.check(STAGED_RESERVE_BYTES - 50, staged=True)          # positive control: 100 + reserve - 50 = 50 + reserve
+    with pytest.raises(FileError, match="hold 100 of %d bytes and this picture needs %d"
+                                        % (50 + STAGED_RESERVE_BYTES, STAGED_RESERVE_BYTES - 49)):
+        quota.check(STAGED_RESERVE_BYTES - 49, "this picture", staged=True)
+    with pytest.raises(FileError, match="hold 100 of 50 bytes"):
+        quota.check(1)

@@ -11,7 +11,7 @@ robot's own, files.new_file_path) and never beyond the roots' quota (files.Captu
 import functools
 import threading
 
-from inspection_robot.files import PUBLIC_FILE_MODE, new_file_path, write_atomic
+from inspection_robot.files import PUBLIC_FILE_MODE, is_staged_name, new_file_path, write_atomic
 from inspection_robot.camera.driver import CameraError
 from inspection_robot.command import (CommandError, CommandTable, no_data, parse_choice,
                                       parse_float, parse_int)
@@ -106,11 +106,12 @@ class CameraCommands(object):
     def capture_picture(self, data):
         """A new JPEG at ``data`` (relative: in the first root); the answer is the absolute path."""
         path = new_file_path(data, self._roots)   # refused before the camera is asked
+        staged = is_staged_name(data)
         if self._quota is not None:
-            self._quota.check(1, "a picture")          # full already: refused before the camera is asked
+            self._quota.check(1, "a picture", staged)  # full already: refused before the camera is asked
         jpeg = self._call(self._driver.capture_jpeg)
         if self._quota is not None:
-            self._quota.check(len(jpeg), "this picture")
+            self._quota.check(len(jpeg), "this picture", staged)
         # a file that appeared meanwhile is not replaced either; 644: a backend fetches captures
         write_atomic(path, jpeg, replace=False, mode=PUBLIC_FILE_MODE)
         if self._quota is not None:

@@ -18,7 +18,7 @@ import numpy as np
 
 from inspection_robot.camera.jpeg import encode_jpeg
 from inspection_robot.lazy import lazy_import
-from inspection_robot.files import PUBLIC_FILE_MODE, new_file_path, write_atomic
+from inspection_robot.files import PUBLIC_FILE_MODE, is_staged_name, new_file_path, write_atomic
 from inspection_robot.command import CommandError, CommandTable, no_data, parse_int, split_fields
 from inspection_robot.command import failed
 from inspection_robot.interface import INFRARED_COMMANDS, UNSUPPORTED
@@ -127,34 +127,36 @@ class ThermalCommands(object):
         return (parse_int(x_text, "x", 0, self.width - 1), parse_int(y_text, "y", 0, self.height - 1))
 
     def _target(self, data):
-        path = new_file_path(data, self._roots)   # refused before the imager is asked
-        self._count(1)                              # full already: refused before the imager is asked too
-        return path
+        """(path, staged) of a new file's ``data``; refused before the imager is asked, also when the
+        quota is full already."""
+        path, staged = new_file_path(data, self._roots), is_staged_name(data)
+        self._count(1, staged)
+        return path, staged
 
-    def _count(self, size):
+    def _count(self, size, staged):
         if self._quota is not None:
-            self._quota.check(size, "this file" if size > 1 else "a file")
+            self._quota.check(size, "this file" if size > 1 else "a file", staged)
 
-    def _write(self, path, data, mode=None):
-        self._count(len(data))
+    def _write(self, path, staged, data, mode=None):
+        self._count(len(data), staged)
         write_atomic(path, data, replace=False, mode=mode)
         if self._quota is not None:
             self._quota.add(len(data))
 
     def save_temperature(self, data):
-        path = self._target(data)
-        self._write(path, radiometric_bytes(path, self._frame()), PUBLIC_FILE_MODE)
+        path, staged = self._target(data)
+        self._write(path, staged, radiometric_bytes(path, self._frame()), PUBLIC_FILE_MODE)
         return path
 
     def capture_picture(self, data):
-        path = self._target(data)
+        path, staged = self._target(data)
         picture = self._call(self._driver.capture_jpeg) or None   # _call answers "" for None
         if picture is None:
             try:
                 picture = encode_jpeg(false_colour(self._frame()), self._jpeg_quality)
             except ValueError as exc:
                 raise CommandError(str(exc))
-        self._write(path, picture)
+        self._write(path, staged, picture)
         return path
 
     def live_view(self):
