@@ -180,6 +180,15 @@ def parse_json(data, name="data"):
     return value
 
 
+def refuse_unknown_keys(obj, what, allowed):
+    """CommandError naming the keys of the dict ``obj`` that are not in ``allowed`` (listed in their
+    order), so a misspelt or invented key (``speed``) is refused instead of silently ignored."""
+    unknown = sorted(set(obj) - set(allowed))
+    if unknown:
+        raise CommandError("%s: unknown key(s) %s (allowed: %s)" % (what, ", ".join(unknown), ", ".join(allowed)))
+    return obj
+
+
 def _check_range(value, name, low, high):
     if (low is not None and value < low) or (high is not None and value > high):
         raise CommandError("%s out of range [%s, %s]: %s" % (name, low, high, value))

@@ -32,6 +32,9 @@ import re
 import shutil
 import stat
 import tempfile
+import threading
+import time
+import uuid
 
 from inspection_robot.command import CommandError
 
@@ -146,13 +149,55 @@ def inside(resolved, real_roots):
     return any(resolved == root or resolved.startswith(root + os.sep) for root in real_roots)
 
 
+STAGING_DIR = ".staging"   # a capture root's folder where preset_scale and find_scale take their pictures
+_STAGED_NAME = re.compile(r"\.staging/[0-9a-f]{32}\.[A-Za-z0-9]{1,8}")
+
+
+def staged_name(extension):
+    """A fresh name in a capture root's STAGING_DIR (``.staging/<32 hex digits><extension>``): the one
+    hidden name a capture command creates (new_file_path), for an owner that moves the file away."""
+    return "%s/%s%s" % (STAGING_DIR, uuid.uuid4().hex, extension)
+
+
+def is_staged_name(path):
+    """Whether ``path`` (as a capture command got it) is a staged_name."""
+    return bool(_STAGED_NAME.fullmatch(path))
+
+
+def hidden_part(resolved, real_roots):
+    """The first name starting with ``.`` in ``resolved`` below the root it lies in (a folder or file
+    the robot keeps for itself: in-progress writes ``.name.*.tmp``, ``.tmp_*``, ``.<folder>.update.*``,
+    ``.staging``), or "" when there is none."""
+    for root in sorted(real_roots, key=len, reverse=True):
+        if inside(resolved, [root]):
+            for part in os.path.relpath(resolved, root).split(os.sep):
+                if part.startswith(".") and part not in (".", ".."):
+                    return part
+            return ""
+    return ""
+
+
+def refuse_hidden(path, resolved, real_roots):
+    """FileError naming ``path`` (as the client gave it) when ``resolved`` lies in a hidden folder or
+    is a hidden file below its root: those are the robot's own, never a client's to write."""
+    part = hidden_part(resolved, real_roots)
+    if part:
+        raise FileError("path '%s' has the hidden name '%s': names starting with '.' are the robot's own "
+                        "(in-progress writes, staging); choose a name without a leading '.'"
+                        % (shown(path), shown(part)))
+
+
 def new_file_path(path, roots, root_names=None):
     """confine_path for a file a command is about to create: no ``..`` component (a new file is
-    named, not navigated to), not a folder, and nothing there yet (files are never replaced)."""
+    named, not navigated to), no hidden name below the root (refuse_hidden; the only exception is a
+    fresh ``staged_name``), not a folder, and nothing there yet (files are never replaced)."""
     check_path_text(path)
     if ".." in path.split("/"):
         raise FileError("path '%s' contains '..' (name the file inside the roots directly)" % shown(path))
     resolved = confine_path(path, roots, root_names=root_names)
+    real_roots = [os.path.realpath(os.path.expanduser(r)) for r in roots]
+    if not (is_staged_name(path) and os.path.dirname(resolved) == os.path.join(real_roots[0], STAGING_DIR)):
+        refuse_hidden(path, resolved, real_roots)
     if os.path.isdir(resolved):
         raise FileError("path '%s' is a directory" % shown(path))
     if os.path.lexists(resolved):
@@ -426,6 +471,84 @@ def capture_roots(roots, data_root):
                                  "thermal or a folder outside the data root's owned folders"
                                  % (root, folder, DATA_SUBDIRS[os.path.basename(folder)]))
     return list(roots)
+
+
+DEFAULT_CAPTURE_QUOTA_MIB = 2048        # 2 GiB per device's capture roots (camera_node, infrared_imager ~quota_mib)
+QUOTA_RESCAN_S = 60.0                    # the usage is counted again at most this old (files deleted meanwhile)
+STAGED_RESERVE_BYTES = 256 << 20         # beyond the quota, for the owners' staged pictures (moved away at once)
+
+
+class CaptureQuota(object):
+    """The bytes a device's capture roots may hold, every file counted (hidden ones too: staged
+    pictures, a client's leftovers). A full walk of the roots is what a capture would otherwise cost
+    each time; here the roots are walked once, then each write adds its size, and the count is
+    taken again when older than ``rescan_s`` or before a capture is refused (so files deleted
+    meanwhile count at once). A staged picture (staged_name: preset_scale's and find_scale's, moved
+    out of the roots at once) may use STAGED_RESERVE_BYTES beyond the quota, so captures a backend
+    left behind do not stop recordings and patrols. Thread-safe. ``limit_bytes`` 0: no quota."""
+
+    def __init__(self, roots, limit_bytes=DEFAULT_CAPTURE_QUOTA_MIB << 20, rescan_s=QUOTA_RESCAN_S,
+                 clock=time.monotonic):
+        if isinstance(limit_bytes, bool) or not isinstance(limit_bytes, int) or limit_bytes < 0:
+            raise ValueError("capture quota must be a whole number of bytes >= 0 (0: none), got %r" % (limit_bytes,))
+        self.roots = list(roots)
+        self.limit = limit_bytes
+        self._rescan_s = float(rescan_s)
+        self._clock = clock
+        self._lock = threading.Lock()
+        self._used = None
+        self._counted_at = None
+
+    @classmethod
+    def from_mib(cls, roots, mib):
+        """A quota of ``mib`` MiB (a node's ~quota_mib: ROS parameters are 32-bit integers, 2 GiB in
+        bytes is not one); ValueError unless a whole number >= 0."""
+        if isinstance(mib, bool) or not isinstance(mib, int) or mib < 0:
+            raise ValueError("~quota_mib must be a whole number of MiB >= 0 (0: none), got %r" % (mib,))
+        return cls(roots, mib << 20)
+
+    def used(self, fresh=False):
+        """Bytes in the roots (counted again when ``fresh`` or when the count is older than rescan_s)."""
+        with self._lock:
+            if fresh or self._used is None or self._clock() - self._counted_at > self._rescan_s:
+                self._used = sum(tree_bytes(root) for root in self.roots)
+                self._counted_at = self._clock()
+            return self._used
+
+    def check(self, size, what="the capture", staged=False):
+        """FileError, before anything is written, when ``size`` more bytes would exceed the quota (a
+        ``staged`` picture: the quota and STAGED_RESERVE_BYTES)."""
+        limit = self.limit + (STAGED_RESERVE_BYTES if staged else 0)
+        if not self.limit or self.used() + size <= limit:
+            return
+        used = self.used(fresh=True)
+        if used + size > limit:
+            raise FileError("capture quota exceeded: the capture folders hold %d of %d bytes and %s needs %d; "
+                            "delete old captures (nothing written)" % (used, limit, what, size))
+
+    def add(self, size):
+        """Count ``size`` bytes just written."""
+        with self._lock:
+            if self._used is not None:
+                self._used += size
+
+
+def tree_bytes(folder):
+    """The size of every file below ``folder`` (links not followed, unreadable folders skipped)."""
+    total = 0
+    try:
+        entries = list(os.scandir(folder))
+    except OSError:
+        return 0
+    for entry in entries:
+        try:
+            if entry.is_dir(follow_symlinks=False):
+                total += tree_bytes(entry.path)
+            elif entry.is_file(follow_symlinks=False):
+                total += entry.stat(follow_symlinks=False).st_size
+        except OSError:   # removed while counting
+            continue
+    return total
 
 
 def under(root, path):

@@ -21,6 +21,7 @@ import rostest
 from actionlib_msgs.msg import GoalStatus
 from sensor_msgs.msg import JointState
 
+from inspection_robot import files
 from inspection_robot.inspection.lamp import LAMP_CODES
 from inspection_robot.inspection.preset import load_preset
 from inspection_robot.inspection.reading import request_filenames
@@ -263,7 +264,7 @@ class TestInspectionAcceptance(unittest.TestCase):
             self.read(directory, dict(found, second_filename=""))
             one_look_s = time.monotonic() - started
             started = time.monotonic()
-            os.unlink(self.call(self.camera, "capture_picture", ".staging/two_looks_timing.jpg"))
+            os.unlink(self.call(self.camera, "capture_picture", files.staged_name(".jpg")))
             capture_s = time.monotonic() - started
             print("two looks, %s: %d pointer(s), second picture %.2f s, read %.2f s instead of %.2f s: +%.2f s"
                   % (preset_id, sum(1 for t in load_preset(directory).targets if t.kind == "pointer"), capture_s,

@@ -994,6 +994,96 @@ class SecurityTest(unittest.TestCase):
         self.assertAlmostEqual(pose_after.position.x, pose.position.x, delta=1e-3)
         self.assertAlmostEqual(pose_after.position.y, pose.position.y, delta=1e-3)
 
+    # ------------------------------------------------------------------ 8: files, calibration and captures
+    # Issue #39 items 5, 6 and 8 (branch files): the calibration caps (targets, request bytes), the
+    # capture quota (security.test gives camera_node 8 MiB), hidden names (.staging) and reference
+    # pictures that do not decode, each refusal beside a positive control that works. Everything this
+    # block writes lies in presets/sec_limits and captures/sec_limits_* and is removed at its end, so
+    # test_9 still finds the data root as the suite laid it out.
+    LIMITS_PRESET = "presets/sec_limits/20260101_120000"
+
+    def test_8f_files_limits_quota_hidden_names_and_references(self):
+        self.assert_tree_unchanged("the tests before the limits block")
+        preset = os.path.join(self.root, self.LIMITS_PRESET)
+        write_atomic(os.path.join(preset, "preset.ini"), PresetInfo(
+            "sec_limits", "meter", False, "20260101_120000", 0.0, 0.0, 1.0, 0x4000, (0.0, 0.0, 0.0), [1.0], 1920,
+            1080).to_ini())
+        shutil.copy(os.path.join(self.root, PRESET, "zoom0.jpg"), os.path.join(preset, "zoom0.jpg"))
+        try:
+            self._limits_of_calibration(preset)
+            self._hidden_names_and_the_quota()
+        finally:
+            shutil.rmtree(os.path.dirname(preset), ignore_errors=True)
+            for name in os.listdir(os.path.join(self.root, "captures")):
+                if name.startswith("sec_limits_"):
+                    os.unlink(os.path.join(self.root, "captures", name))
+        self.assert_tree_unchanged("the limits block")
+
+    def _upload(self, targets, preset=None, raw=None):
+        return self._call("/calibration_control", "upload",
+                          raw or json.dumps({"preset": preset or self.LIMITS_PRESET, "targets": targets}))
+
+    def _limits_of_calibration(self, preset):
+        lamp = {"kind": "lamp", "box": BOX, "colour": "red"}
+        ack, reason = self._upload([lamp] * 65)
+        self.assert_refused("calibration_control upload 65 targets", 65, ack, reason,
+                            ("65 targets given, at most 64 per preset",))
+        ack, out = self._upload([lamp] * 64)                                    # positive control
+        self.assertEqual((ack, json.loads(out)["targets"] if ack == "success" else out), ("success", 64))
+        pointer = {"kind": "pointer", "box": BOX, "start_angle": -135, "end_angle": 135, "start_value": 0,
+                   "end_value": 1.6}
+        huge = json.dumps({"preset": self.LIMITS_PRESET, "targets": [pointer] * 40000})   # the probe's 5.8 MB
+        started = time.monotonic()
+        ack, reason = self._upload(None, raw=huge)
+        took_s = time.monotonic() - started
+        self.assert_refused("calibration_control upload 40,000 targets", "%d bytes" % len(huge), ack, reason,
+                            ("request of %d bytes refused, at most 1048576" % len(huge),))
+        print("a 40,000-target upload (%d bytes) refused in %.2f s" % (len(huge), took_s))
+        ack, out = self._call("/calibration_control", "get", json.dumps({"preset": self.LIMITS_PRESET}))
+        self.assertEqual((ack, len(json.loads(out)["targets"]) if ack == "success" else out), ("success", 64))
+        write_atomic(os.path.join(preset, "notes.png"), b"a text file named like a picture\n")
+        shutil.copy(os.path.join(self.root, "captures", "existing.jpg"), os.path.join(preset, "closed.jpg"))
+        switch = {"kind": "switch", "box": BOX, "open_reference": "notes.png", "closed_reference": "closed.jpg"}
+        ack, reason = self._upload([switch])
+        self.assert_refused("calibration_control upload open_reference", "notes.png", ack, reason,
+                            ("open_reference notes.png is not a picture the reader can decode",))
+        ack, _out = self._upload([dict(switch, open_reference="zoom0.jpg")])   # positive control
+        self.assertEqual(ack, "success", _out)
+        ack, reason = self._upload([lamp], preset="presets/sec_limits/.20260101_120000.update.x")
+        self.assert_refused("calibration_control upload hidden preset", ".update", ack, reason,
+                            ("has the hidden name", "not found"))
+
+    def _hidden_names_and_the_quota(self):
+        captures = os.path.join(self.root, "captures")
+        for service, cmd, name, root in (("/camera_control", "capture_picture", "x.jpg", captures),
+                                         ("/infrared_control", "capture_picture", "x.jpg", "thermal"),
+                                         ("/infrared_control", "save_temperature", "x.png", "thermal")):
+            root = os.path.join(self.root, root)
+            for value in (".staging/" + name, os.path.join(root, ".staging", name), "sub/." + name,
+                          ".staging/" + "0" * 32):
+                ack, reason = self._call(service, cmd, value)
+                self.assert_refused("%s %s hidden" % (service[1:], cmd), value, ack, reason, ("has the hidden name",))
+        self.assertFalse(os.path.exists(os.path.join(captures, ".staging", "x.jpg")))
+        ack, path = self._call("/camera_control", "capture_picture", "sec_limits_0.jpg")   # positive control
+        self.assertEqual(ack, "success", path)
+        for n in range(1, 200):     # captures until the quota (8 MiB in security.test) refuses one
+            ack, reason = self._call("/camera_control", "capture_picture", "sec_limits_%d.jpg" % n)
+            if ack != "success":
+                break
+        self.assert_refused("camera_control capture_picture over quota", n, ack, reason,
+                            ("capture quota exceeded: the capture folders hold",))
+        self.assertFalse(os.path.exists(os.path.join(captures, "sec_limits_%d.jpg" % n)), "a refused capture wrote")
+        used = sum(os.lstat(os.path.join(folder, f)).st_size for folder, _d, files in os.walk(captures) for f in files)
+        self.assertLessEqual(used, 8 << 20)
+        os.unlink(os.path.join(captures, "sec_limits_1.jpg"))            # deleting old captures frees room at once
+        ack, path = self._call("/camera_control", "capture_picture", "sec_limits_again.jpg")
+        self.assertEqual(ack, "success", path)
+        goal = {"goal_pose": {"position": {"x": 0.0, "y": 0.0, "z": 0}}, "speed": 99}
+        result = self.action_result("/move_action", "move", json.dumps(goal))
+        self.assert_refused("move_action goal unknown key", "speed", "failed" if result["ret_code"] != "0" else
+                            "success", json.loads(result["data"]).get("reason", ""),
+                            ("goal data: unknown key(s) speed (allowed: ",))
+
     # ------------------------------------------------------------------ 5: afterwards
     def test_9_nothing_moved_nothing_written_nobody_died(self):
         pose = self.true_pose.wait(timeout=5.0).pose.pose

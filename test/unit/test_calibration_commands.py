@@ -2,6 +2,7 @@
 import configparser
 import json
 import os
+import threading
 
 import cv2
 import numpy as np
@@ -9,6 +10,8 @@ import pytest
 
 from inspection_robot.camera.optics import ZoomOptics
 from inspection_robot.files import write_atomic
+from inspection_robot.inspection import calibration_commands
+from inspection_robot.inspection import calibration_schema as schema
 from inspection_robot.inspection.calibration_commands import CalibrationCommands
 from inspection_robot.inspection.preset import CALIB_INI, PresetError, PresetInfo, load_preset
 
@@ -445,3 +448,113 @@ def test_without_an_atomic_exchange_two_renames_replace_the_folder(robot, monkey
     assert load_preset(str(root / PRESET)).targets[0].params["end_value"] == 4.0
     assert os.stat(str(root / PRESET)).st_mode & 0o777 == 0o750
     assert sorted(os.listdir(os.path.dirname(str(root / PRESET)))) == ["20260101_120000"]
+
+
+# --- limits: refused with the reason before any expensive work, a positive control beside each --
+LAMP = {"kind": "lamp", "box": BOX, "colour": "red"}
+
+
+def test_at_most_max_targets_per_preset_refused_before_any_target_is_looked_at(robot, monkeypatch):
+    commands, root = robot
+    assert schema.MAX_TARGETS == 64
+    looked = []
+    real_check_spec = schema.check_spec
+    monkeypatch.setattr(schema, "check_spec", lambda *args: looked.append(1) or real_check_spec(*args))
+    before = listing(root)
+    ack, out = call(commands, "upload", targets=[LAMP] * 65)
+    assert (ack, out) == ("failed", "calibration refused, nothing written: 65 targets given, at most 64 per preset")
+    assert looked == [] and listing(root) == before
+    ack, out = call(commands, "upload", targets=[LAMP] * 64)                 # positive control
+    assert ack == "success" and out["targets"] == 64 and len(looked) == 64
+    for i in range(64):                                                      # the draft is capped too
+        assert call(commands, "mark_box", target=i, box=BOX)[0] == "success"
+    assert call(commands, "mark_box", target=64, box=BOX) == (
+        "failed", "the draft has 64 targets, at most 64 per preset")
+
+
+def test_a_request_larger_than_max_request_bytes_is_refused_before_it_is_parsed(robot, monkeypatch):
+    commands, root = robot
+    parsed = []
+    monkeypatch.setattr(calibration_commands, "parse_json", lambda data: parsed.append(1) or json.loads(data))
+    name = "n" * 150
+    big = json.dumps({"preset": PRESET, "targets": [dict(LAMP, name=name)] * 7000})
+    reply = commands.table.dispatch("upload", big)
+    assert reply == ("failed", "request of %d bytes refused, at most 1048576 (a preset has at most 64 targets)"
+                     % len(big))
+    assert parsed == [] and CALIB_INI not in listing(root)
+    ack, _out = call(commands, "upload", targets=[dict(LAMP, name=name)] * 64)   # positive control
+    assert ack == "success" and parsed == [1]
+
+
+def test_a_reference_named_in_the_preset_must_decode_as_the_reader_decodes_it(robot):
+    commands, root = robot
+    preset = root / PRESET
+    (preset / "notes.png").write_text("not a picture: the switch would fail only on patrol")
+    patch = np.random.RandomState(1).randint(0, 255, (64, 64)).astype(np.uint8)
+    cv2.imwrite(str(preset / "open.png"), patch)
+    cv2.imwrite(str(preset / "closed.png"), 255 - patch)
+    switch = {"kind": "switch", "box": BOX, "open_reference": "notes.png", "closed_reference": "closed.png"}
+    before = listing(root)
+    ack, out = call(commands, "upload", targets=[switch])
+    assert ack == "failed" and out == ("calibration refused, nothing written: target 0: open_reference notes.png "
+                                       "is not a picture the reader can decode (PNG, JPEG, ...)")
+    assert listing(root) == before
+    lamp = dict(LAMP, on_reference="preset.ini", off_reference="closed.png")
+    refused = call(commands, "upload", targets=[lamp])[1]
+    assert "on_reference preset.ini is not a picture the reader can decode" in refused
+    ack, _out = call(commands, "upload", targets=[dict(switch, open_reference="open.png")])   # positive control
+    assert ack == "success"
+    loaded = load_preset(str(preset))
+    assert loaded.reference("open.png") == (preset / "open.png").read_bytes()
+
+
+@pytest.mark.parametrize("given", ["presets/p1/.20260101_120000.update.x1", "presets/p1/.tmp_20260101_130000_ab"])
+def test_a_hidden_preset_folder_is_never_calibrated(robot, given):
+    commands, root = robot
+    hidden = root / given
+    hidden.mkdir()
+    (hidden / "preset.ini").write_bytes((root / PRESET / "preset.ini").read_bytes())
+    ack, out = call(commands, "upload", preset=given, targets=[LAMP])
+    assert ack == "failed" and "has the hidden name '%s'" % given.split("/")[-1] in out
+    assert sorted(os.listdir(str(hidden))) == ["preset.ini"]
+    assert call(commands, "upload", targets=[LAMP])[0] == "success"          # positive control
+
+
+# --- one calibration, read as one ---------------------------------------------------------------
+def test_a_reader_sees_the_old_or_the_new_calibration_never_a_mix(robot):
+    """Uploads alternating 1 and 3 targets (different boxes and names) swap the preset directory
+    while a reader loads it in a loop: every load is one of the two, whole."""
+    commands, root = robot
+    one = [dict(LAMP, name="one_0")]
+    three = [dict(LAMP, name="three_%d" % i, box=[100 + 10 * i, 100, 200 + 10 * i, 100, 200 + 10 * i, 200,
+                                                  100 + 10 * i, 200]) for i in range(3)]
+    expected = {("one_0",): [100.0], ("three_0", "three_1", "three_2"): [100.0, 110.0, 120.0]}
+    assert call(commands, "upload", targets=one)[0] == "success"
+    stop = threading.Event()
+    uploads = []
+
+    def upload_loop():
+        while not stop.is_set():
+            uploads.append(call(commands, "upload", targets=three if len(uploads) % 2 else one)[0])
+
+    writer = threading.Thread(target=upload_loop)
+    writer.start()
+    mixes, failures, loads = [], [], 0
+    try:
+        while loads < 2000 or len(uploads) < 200:
+            try:
+                preset = load_preset(str(root / PRESET))
+            except PresetError as err:
+                failures.append(str(err))
+                continue
+            finally:
+                loads += 1
+            names = tuple(t.name for t in preset.targets)
+            lefts = [float(t.boxes[0][0][0]) for t in preset.targets]
+            if expected.get(names) != lefts:
+                mixes.append((names, lefts))
+    finally:
+        stop.set()
+        writer.join(30.0)
+    assert set(uploads) == {"success"} and len(uploads) >= 200
+    assert (mixes, failures) == ([], []), "%d mixes, %d failures in %d loads" % (len(mixes), len(failures), loads)

@@ -14,6 +14,7 @@ from inspection_robot_testing.fake_isapi import FakeIsapiCamera
 from inspection_robot.sim.render import Renderer, ThermalRenderer
 from inspection_robot.sim.thermal import SimulatedImager
 from inspection_robot.sim.world import World
+from inspection_robot.files import STAGED_RESERVE_BYTES, CaptureQuota, FileError, staged_name
 from inspection_robot.thermal.commands import NO_DATA_COMMANDS as THERMAL_NO_DATA
 from inspection_robot.thermal.commands import ThermalCommands, load_radiometric, save_radiometric
 
@@ -102,7 +103,9 @@ CAPTURE_FUZZ = [("../presets/p/20260101_120000/preset.ini", "contains '..'"),
                 ("link_out/preset.ini", "outside the allowed roots"), ("a\x00.jpg", "NUL byte"),
                 ("shot.jpg\n", "control or unprintable character"), ("d/" * 2100 + "x.jpg", "too long"),
                 ("n" * 300 + ".jpg", "has a name of 304 bytes"), ("kept.jpg", "already exists"),
-                ("{root}/kept.jpg", "already exists"), ("", "empty path"), ("sub", "is a directory")]
+                ("{root}/kept.jpg", "already exists"), ("", "empty path"), ("sub", "is a directory"),
+                (".staging/mine.jpg", "hidden name '.staging'"), ("{root}/.staging/mine.jpg", "hidden name '.staging'"),
+                ("sub/.x", "hidden name '.x'")]
 
 
 def _capture_tree(tmp_path):
@@ -273,3 +276,48 @@ def test_snapshot_fallback_does_not_depend_on_the_port_number():
         assert any("/onvif-http/snapshot" in path for _, path, _ in fake.requests)
     finally:
         fake.stop()
+
+
+def test_captures_stop_at_the_quota_and_a_refused_one_writes_nothing(world, camera):
+    table, driver, _, _, root = camera
+    jpeg = b"\xff\xd8" + b"x" * 998
+    driver.capture_jpeg = lambda: jpeg
+    quota = CaptureQuota([str(root)], 2500)
+    table = CameraCommands(driver, ZoomOptics(TABLE, 1920, 1080), [str(root)], DeviceHealth(), quota=quota).table
+    assert table.dispatch("capture_picture", "a.jpg").ack == "success"       # positive control: 1000 of 2500
+    assert table.dispatch("capture_picture", "b.jpg").ack == "success"       # 2000
+    reply = table.dispatch("capture_picture", "c.jpg")
+    assert reply == ("failed", "capture quota exceeded: the capture folders hold 2000 of 2500 bytes and this picture "
+                               "needs 1000; delete old captures (nothing written)")
+    assert sorted(os.listdir(str(root))) == ["a.jpg", "b.jpg"]
+    staged = staged_name(".jpg")                     # the owners' staged pictures have a reserve beyond the quota
+    assert table.dispatch("capture_picture", staged).ack == "success"
+    (root / staged).unlink()                                                    # moved away by its owner
+    (root / "a.jpg").unlink()                                                   # deleting old captures frees room
+    assert table.dispatch("capture_picture", "c.jpg").ack == "success"
+    imager = SimulatedImager(ThermalRenderer(world, noise_sigma=0.0), lambda: (world.start_pose, 0.0, 0.0),
+                             world.sensor_height)
+    thermal_root = root / "thermal"
+    frame_bytes = 128 + 384 * 288 * 4                                         # .npy: header + float32 frame
+    thermal = ThermalCommands(imager, [str(thermal_root)], DeviceHealth(), 384, 288,
+                              quota=CaptureQuota([str(thermal_root)], frame_bytes)).table
+    assert thermal.dispatch("save_temperature", "a.npy").ack == "success"   # fills the quota exactly
+    reply = thermal.dispatch("capture_picture", "a.jpg")                   # full: refused before the imager is asked
+    assert reply == ("failed", "capture quota exceeded: the capture folders hold %d of %d bytes and a file needs 1; "
+                               "delete old captures (nothing written)" % (frame_bytes, frame_bytes))
+    reply = thermal.dispatch("save_temperature", "b.png")
+    assert reply.ack == "failed" and reply.data.startswith("capture quota exceeded")
+    assert sorted(os.listdir(str(thermal_root))) == ["a.npy"]
+    assert thermal.dispatch("save_temperature", staged_name(".png")).ack == "success"   # the reserve
+
+
+def test_the_staged_reserve_is_bounded_too(tmp_path):
+    (tmp_path / ".staging").mkdir()
+    (tmp_path / ".staging" / "left_by_a_client.jpg").write_bytes(b"x" * 100)
+    quota = CaptureQuota([str(tmp_path)], 50)
+    quota.check(STAGED_RESERVE_BYTES - 50, staged=True)          # positive control: 100 + reserve - 50 = 50 + reserve
+    with pytest.raises(FileError, match="hold 100 of %d bytes and this picture needs %d"
+                                        % (50 + STAGED_RESERVE_BYTES, STAGED_RESERVE_BYTES - 49)):
+        quota.check(STAGED_RESERVE_BYTES - 49, "this picture", staged=True)
+    with pytest.raises(FileError, match="hold 100 of 50 bytes"):
+        quota.check(1)

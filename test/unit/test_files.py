@@ -116,6 +116,11 @@ def roots(tmp_path):
     ("dangling.jpg", "outside the allowed roots"),               # a link to a file not yet there
     ("kept.jpg", "'kept.jpg' already exists (files are never replaced: choose a new name)"),
     (".", "is a directory"),
+    (".staging/x.jpg", "has the hidden name '.staging': names starting with '.' are the robot's own"),
+    (".staging/" + "0" * 32, "hidden name '.staging'"),              # a staged name has an extension or ...
+    ("sub/.staging/" + "a" * 32 + ".jpg", "hidden name '.staging'"),  # ... lies in the first root's .staging
+    (".preset.ini.x1y2.tmp", "hidden name '.preset.ini.x1y2.tmp'"),  # write_atomic's in-progress file
+    ("a/.tmp_20260101_x/zoom0.jpg", "hidden name '.tmp_20260101_x'"),
 ])
 def test_new_file_path_refuses_and_nothing_is_written(roots, path, reason):
     tmp_path, allowed = roots
@@ -131,6 +136,54 @@ def test_new_file_path_accepts_a_fresh_name_relative_or_absolute(roots):
     tmp_path, allowed = roots
     assert files.new_file_path("a/b.jpg", allowed) == str(tmp_path / "captures" / "a" / "b.jpg")
     assert files.new_file_path(str(tmp_path / "captures" / "c.jpg"), allowed) == str(tmp_path / "captures" / "c.jpg")
+
+
+def test_only_a_fresh_staged_name_may_be_hidden_and_a_link_does_not_lead_into_a_hidden_folder(tmp_path):
+    root = tmp_path / ".ros" / "data" / "captures"   # a data root below a hidden folder (standalone_data_root)
+    (root / ".staging").mkdir(parents=True)
+    os.symlink(str(root / ".staging"), str(root / "staging"))
+    with pytest.raises(FileError, match="hidden name '.staging'"):
+        files.new_file_path("staging/a.jpg", [str(root)])
+    staged = files.staged_name(".png")
+    assert files.new_file_path(staged, [str(root)]) == str(root / staged)
+    assert files.new_file_path(str(root / "a.jpg"), [str(root)]) == str(root / "a.jpg")   # the root's own path
+    assert files.staged_name(".png") != staged
+
+
+def test_capture_quota_counts_once_then_adds_and_counts_again_before_refusing(tmp_path, monkeypatch):
+    root = tmp_path / "captures"
+    (root / ".staging").mkdir(parents=True)
+    (root / "a.jpg").write_bytes(b"x" * 600)
+    (root / ".staging" / "b.jpg").write_bytes(b"x" * 300)      # hidden files count too
+    os.symlink("/etc/passwd", str(root / "link.jpg"))           # a link is not followed
+    walks = []
+    real_tree_bytes = files.tree_bytes
+    monkeypatch.setattr(files, "tree_bytes", lambda folder: (walks.append(folder) if folder == str(root) else None)
+                        or real_tree_bytes(folder))
+    now = [0.0]
+    quota = files.CaptureQuota([str(root)], 1000, rescan_s=60.0, clock=lambda: now[0])
+    quota.check(100)                                           # positive control: 900 + 100 fits
+    assert quota.used() >= 900 and len(walks) == 1
+    quota.add(100)
+    with pytest.raises(FileError, match=r"capture quota exceeded: the capture folders hold 900 of 1000 bytes and "
+                                        r"this picture needs 101; delete old captures \(nothing written\)"):
+        quota.check(101, "this picture")                      # the added 100 were never written: counted again
+    assert len(walks) == 2
+    (root / "a.jpg").unlink()                                  # an operator deletes old captures
+    quota.check(500)                                           # counted again before refusing: 300 + 500 fits
+    assert len(walks) == 3
+    quota.add(500)
+    quota.check(200)                                           # cached 800 + 200 fits: no walk
+    assert len(walks) == 3
+    now[0] = 61.0
+    assert quota.used() == 300 and len(walks) == 4              # older than rescan_s: counted again
+    assert files.CaptureQuota([str(root)], 0).check(10 ** 12) is None   # 0: no quota
+    with pytest.raises(ValueError, match="whole number of bytes"):
+        files.CaptureQuota([str(root)], -1)
+    assert files.CaptureQuota.from_mib([str(root)], 2048).limit == 2 << 30   # the default, in a ROS int
+    for bad in (-1, 1.5, "8", True):
+        with pytest.raises(ValueError, match="~quota_mib must be a whole number of MiB"):
+            files.CaptureQuota.from_mib([str(root)], bad)
 
 
 def test_confine_path_names_the_request_not_the_resolved_path(tmp_path):

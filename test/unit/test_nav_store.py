@@ -11,6 +11,7 @@ from inspection_robot.command import CommandError
 from inspection_robot import files
 from inspection_robot.nav.gridmap import GridMap, MapError, load_map, save_map
 from inspection_robot.angles import quaternion_from_yaw
+from inspection_robot.inspection.find_goal import parse_find_goal
 from inspection_robot.nav.goal import move_goal_data, parse_move_goal
 from inspection_robot.nav.localization import LocalizationMonitor
 from inspection_robot.nav.virtual_obstacles import NOT_REPLAYED, REPLAY_REFUSAL, VirtualObstacles, replay_table
@@ -161,6 +162,30 @@ def test_goal_parsing():
 def test_bad_goals(data, goal_type, reason):
     with pytest.raises(CommandError, match=reason):
         parse(data, goal_type)
+
+
+@pytest.mark.parametrize("data, reason", [
+    (goal_json(speed=99), "goal data: unknown key(s) speed (allowed: goal_pose, with_direction, precision, "
+                          "move_style, velocity_x, velocity_yaw)"),
+    ('{"goal_pose":{"position":{"x":1,"y":2},"heading":1}}',
+     "goal_pose: unknown key(s) heading (allowed: position, orientation)"),
+    ('{"goal_pose":{"position":{"x":1,"y":2,"yaw":1}}}', "goal_pose.position: unknown key(s) yaw (allowed: x, y, z)"),
+    ('{"goal_pose":{"position":{"x":1,"y":2},"orientation":{"w":1,"yaw":3}}}',
+     "goal_pose.orientation: unknown key(s) yaw (allowed: x, y, z, w)"),
+])
+def test_a_goal_key_nobody_reads_is_refused_by_name_not_ignored(data, reason):
+    with pytest.raises(CommandError) as err:
+        parse(data)
+    assert str(err.value) == reason
+    assert parse(goal_json()).velocity_x == 0.8   # positive control: every documented key
+
+
+def test_a_find_goal_takes_only_preset_path(tmp_path):
+    assert parse_find_goal("find_scale", json.dumps({"preset_path": str(tmp_path)}), [str(tmp_path)])[1] \
+        == str(tmp_path)
+    with pytest.raises(CommandError) as err:
+        parse_find_goal("find_scale", json.dumps({"preset_path": str(tmp_path), "zoom": 2}), [str(tmp_path)])
+    assert str(err.value) == "goal data: unknown key(s) zoom (allowed: preset_path)"
 
 
 def test_localization_monitor():

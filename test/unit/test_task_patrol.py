@@ -2,6 +2,7 @@
 home, restart recovery; with the real SQLite store in a temporary folder."""
 import json
 import os
+import stat
 
 import pytest
 
@@ -400,3 +401,20 @@ def test_reports_have_every_reading_and_highlight_alarms(env, tmp_path):
     assert [(r["preset"], r["picture"]) for r in data["readings"]][0] == ("presets/p_gauge", "pic/0_0_0.jpg")
     for name in REPORT_FILES:   # fetched by a backend: readable by others
         assert os.stat(paths[name]).st_mode & 0o777 == 0o644
+
+
+def test_the_results_store_and_its_journal_files_are_the_robot_users_only(tmp_path):
+    old_umask = os.umask(0o022)   # the usual umask: SQLite alone would create 644 files
+    try:
+        store = ResultStore(str(tmp_path / "results.sqlite"))
+        store.save_routine("r", {"stops": []}, 0.0)  # a write: the -wal and -shm are there
+        modes = {name: stat.S_IMODE(os.stat(str(tmp_path / name)).st_mode) for name in os.listdir(str(tmp_path))}
+        assert modes == {"results.sqlite": 0o600, "results.sqlite-wal": 0o600, "results.sqlite-shm": 0o600}
+        store.close()
+        os.chmod(str(tmp_path / "results.sqlite"), 0o644)   # a store made before: put right when opened
+        ResultStore(str(tmp_path / "results.sqlite")).close()
+        assert stat.S_IMODE(os.stat(str(tmp_path / "results.sqlite")).st_mode) == 0o600
+        (tmp_path / "plain.txt").write_text("x")               # positive control: the umask was 022
+        assert stat.S_IMODE(os.stat(str(tmp_path / "plain.txt")).st_mode) == 0o644
+    finally:
+        os.umask(old_umask)

@@ -5,12 +5,13 @@ Values are checked against the spec's sets before the driver sees them; a driver
 Continuous zoom/focus commands take a duration in ms (0 = until camera_stop): the move starts,
 the command answers at once, and a timer stops it; a newer move or camera_stop supersedes it.
 capture_picture creates a new file inside the capture roots and never replaces one (the spec's
-data is a bare path: there is no field to ask for a replacement).
+data is a bare path: there is no field to ask for a replacement), never under a hidden name (the
+robot's own, files.new_file_path) and never beyond the roots' quota (files.CaptureQuota).
 """
 import functools
 import threading
 
-from inspection_robot.files import PUBLIC_FILE_MODE, new_file_path, write_atomic
+from inspection_robot.files import PUBLIC_FILE_MODE, is_staged_name, new_file_path, write_atomic
 from inspection_robot.camera.driver import CameraError
 from inspection_robot.command import (CommandError, CommandTable, no_data, parse_choice,
                                       parse_float, parse_int)
@@ -42,12 +43,14 @@ def parse_focus_position(text):
 
 class CameraCommands(object):
     """Builds the camera's CommandTable over ``driver``; ``roots`` (the capture roots, see
-    files.capture_roots) confine capture paths."""
+    files.capture_roots) confine capture paths; ``quota`` (files.CaptureQuota, None: none) bounds
+    the bytes they hold."""
 
-    def __init__(self, driver, optics, roots, health, timer_factory=threading.Timer):
+    def __init__(self, driver, optics, roots, health, timer_factory=threading.Timer, quota=None):
         self._driver = driver
         self._optics = optics
         self._roots = list(roots)
+        self._quota = quota
         self._call = functools.partial(health.command, error=CameraError)
         self._timer_factory = timer_factory
         self._moves = {"zoom": (0, None), "focus": (0, None)}   # generation, timer
@@ -103,9 +106,16 @@ class CameraCommands(object):
     def capture_picture(self, data):
         """A new JPEG at ``data`` (relative: in the first root); the answer is the absolute path."""
         path = new_file_path(data, self._roots)   # refused before the camera is asked
+        staged = is_staged_name(data)
+        if self._quota is not None:
+            self._quota.check(1, "a picture", staged)  # full already: refused before the camera is asked
         jpeg = self._call(self._driver.capture_jpeg)
+        if self._quota is not None:
+            self._quota.check(len(jpeg), "this picture", staged)
         # a file that appeared meanwhile is not replaced either; 644: a backend fetches captures
         write_atomic(path, jpeg, replace=False, mode=PUBLIC_FILE_MODE)
+        if self._quota is not None:
+            self._quota.add(len(jpeg))
         return path
 
     def _start_move(self, kind, direction, data):

@@ -22,9 +22,11 @@ from inspection_robot.inspection.lamp import lamp_patch
 from inspection_robot.inspection.pointer import PointerReader
 from inspection_robot.inspection.readers import ReadFailed
 from inspection_robot.inspection.switch import switch_patch
-from inspection_robot.inspection.reading import read_pointer
+from inspection_robot.inspection.reading import decode_reference, read_pointer
 
 cv2 = lazy_import("cv2")   # on first use: a node registers before its ~360 libraries load
+
+MAX_REFERENCE_BYTES = 16 << 20   # a reference file named in the preset directory (patches are ~10 KB)
 
 
 def derive_zoom_boxes(box0, zoom_levels, optics, width, height):
@@ -64,6 +66,8 @@ def build_targets(preset_dir, specs, optics):
         raise PresetError("targets must be a list of target objects")
     if not specs:
         raise PresetError("no targets given")
+    if len(specs) > schema.MAX_TARGETS:
+        raise PresetError("%d targets given, at most %d per preset" % (len(specs), schema.MAX_TARGETS))
     thermal = any(isinstance(s, dict) and s.get("kind") == "thermal" for s in specs)
     thermal_size = _thermal_size(preset_dir, info) if thermal else None
     targets, patches = [], {}
@@ -81,11 +85,27 @@ def build_targets(preset_dir, specs, optics):
                 else lamp_patch(image, box)
         for state in ("on", "off", "open", "closed"):
             reference = params.get(state + "_reference")
-            if state not in pictures and reference and not os.path.isfile(os.path.join(preset_dir, reference)):
-                raise PresetError("target %d: %s_reference %s is not in the preset directory" % (i, state, reference))
+            if state not in pictures and reference:
+                _check_reference(preset_dir, i, kind, state, reference)
         targets.append(Target(kind, derive_zoom_boxes(box, info.zoom_levels, optics, width, height),
                               name=name, thermal_size=thermal_size, **params))
     return info, targets, patches
+
+
+def _check_reference(preset_dir, index, kind, state, name):
+    """A reference patch named in the preset directory must be there and decode as the reader
+    decodes it (reading.decode_reference): a text file refused now, not at patrol time."""
+    try:
+        with open(os.path.join(preset_dir, name), "rb") as f:
+            data = f.read(MAX_REFERENCE_BYTES + 1)
+    except OSError:
+        raise PresetError("target %d: %s_reference %s is not in the preset directory" % (index, state, name))
+    if len(data) > MAX_REFERENCE_BYTES:
+        raise PresetError("target %d: %s_reference %s is larger than %d bytes: not a reference patch"
+                          % (index, state, name, MAX_REFERENCE_BYTES))
+    if decode_reference(data, kind) is None:
+        raise PresetError("target %d: %s_reference %s is not a picture the reader can decode (PNG, JPEG, ...)"
+                          % (index, state, name))
 
 
 def calibrate(preset_dir, specs, optics, draft=None, check=None):
@@ -212,6 +232,8 @@ def _target(draft, index, may_append=False):
         raise PresetError("target %d does not exist (the draft has %d target(s)%s)"
                           % (index, len(draft), "; mark_box %d adds one" % len(draft) if not may_append else ""))
     if index == len(draft):
+        if len(draft) >= schema.MAX_TARGETS:
+            raise PresetError("the draft has %d targets, at most %d per preset" % (len(draft), schema.MAX_TARGETS))
         draft.append({"kind": "pointer"})
     return draft[index]
 

@@ -11,7 +11,10 @@ calibration schema (inspection.calibration_schema) and writes ``preset_calib_inf
 request (and makes it the draft). A bad draft or upload fails with the reason and writes nothing;
 the files of a good one replace the old calibration in one rename (files.DirUpdate), so an I/O
 failure leaves the old one whole. Pictures a target names (switch/lamp references) must lie inside
-the readable roots.
+the readable roots; a reference file named in the preset directory must decode as the reader
+decodes it. A request larger than calibration_schema.MAX_REQUEST_BYTES, or more than MAX_TARGETS
+targets, is refused before anything else is looked at, and a hidden preset folder (one being
+recorded or calibrated) is refused.
 """
 import json
 import os
@@ -20,9 +23,10 @@ import threading
 import numpy as np
 
 from inspection_robot.command import CommandError, CommandTable, parse_json
-from inspection_robot.files import FileError, confine_data_path, confine_path, read_json, root_relative, under, \
-    write_json_atomic
+from inspection_robot.files import FileError, confine_data_path, confine_path, read_json, refuse_hidden, \
+    root_relative, under, write_json_atomic
 from inspection_robot.inspection import calibration
+from inspection_robot.inspection import calibration_schema as schema
 from inspection_robot.inspection.preset import PresetError, load_info, load_preset
 
 
@@ -82,6 +86,10 @@ class CalibrationCommands(object):
 
     # --- helpers ---------------------------------------------------------------------------------
     def _fields(self, data, allowed, optional=()):
+        size = len(data.encode("utf-8", "surrogatepass")) if isinstance(data, str) else 0
+        if size > schema.MAX_REQUEST_BYTES:   # before any parsing: the size alone refuses it
+            raise CommandError("request of %d bytes refused, at most %d (a preset has at most %d targets)"
+                               % (size, schema.MAX_REQUEST_BYTES, schema.MAX_TARGETS))
         fields = parse_json(data)
         if not isinstance(fields, dict):
             raise CommandError('data must be a JSON object, e.g. {"preset": "presets/p1/20260101_120000"}')
@@ -96,6 +104,8 @@ class CalibrationCommands(object):
         if not isinstance(preset, str) or not preset:
             raise CommandError("preset must be the preset directory, e.g. presets/p1/20260101_120000")
         path = confine_data_path(preset, self.preset_roots, self.data_root, root_names=self.preset_root_names)
+        # a hidden folder is an in-progress one (a recording's .tmp_*, a calibration's .<stamp>.update.*)
+        refuse_hidden(preset, path, [os.path.realpath(r) for r in self.preset_roots])
         try:
             load_info(path)
         except PresetError as err:
@@ -137,6 +147,9 @@ class CalibrationCommands(object):
     def _confined_specs(self, specs):
         if not isinstance(specs, list):
             raise CommandError("targets must be a list of target objects")
+        if len(specs) > schema.MAX_TARGETS:   # before any target is looked at
+            raise CommandError("calibration refused, nothing written: %d targets given, at most %d per preset"
+                               % (len(specs), schema.MAX_TARGETS))
         out = []
         for i, spec in enumerate(specs):
             if not isinstance(spec, dict):

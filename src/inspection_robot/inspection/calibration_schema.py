@@ -14,7 +14,10 @@ edit and a file are refused for the same reasons in the same words, each naming 
 - text has no control characters (they would break the INI file) and at most MAX_TEXT characters;
   reference patch names are plain file names in the preset directory;
 - a key no kind knows (``radus``) is refused as unknown, a key another kind owns as not applying:
-  nothing is dropped silently, because preset_calib_info.ini would not keep it.
+  nothing is dropped silently, because preset_calib_info.ini would not keep it;
+- a preset has at most MAX_TARGETS targets, and a calibration_control request (an upload's whole
+  target list) is at most MAX_REQUEST_BYTES: both refused before any target is looked at (an
+  upload's self-check reads every pointer, ~20 ms each; 40,000 targets took 11 minutes).
 
 Pure (no file access, no rospy): callers read the pictures and files. Raises SchemaError.
 """
@@ -35,6 +38,8 @@ MAX_ANGLE_DEG = 360.0
 MAX_PICTURE_PX = 100000.0    # a thermal box's coordinates when the thermal picture's size is unknown
 MAX_TEXT = 200
 MAX_DIGITS = 6               # decimal places a reading may be shown with (``digits``)
+MAX_TARGETS = 64             # targets per preset: a meter cabinet in one picture has a dozen or two
+MAX_REQUEST_BYTES = 1 << 20  # bytes of a calibration_control request: 64 richly described targets take ~150 KB
 POINTER_DEFAULTS = {"centre": [0.5, 0.5], "radius": 0.45, "aspect": 1.0, "unit": "", "scale_table": [],
                     "marks": [], "pointer_colour": "", "ignore_colour": ""}
 _CONTROL = re.compile(r"[\x00-\x1f\x7f]")

@@ -5,7 +5,7 @@ goals and parses results here, so a key renamed on one side cannot silently miss
 """
 import json
 
-from inspection_robot.command import CommandError, parse_json
+from inspection_robot.command import CommandError, parse_json, refuse_unknown_keys
 from inspection_robot.files import confine_path
 from inspection_robot.interface import FIND_GOAL_TYPES
 
@@ -26,6 +26,7 @@ def parse_find_goal(goal_type, data, preset_roots):
     fields = parse_json(data, "goal data")
     if not isinstance(fields, dict) or not isinstance(fields.get("preset_path"), str):
         raise CommandError('goal data must be {"preset_path": "<dir>"}')
+    refuse_unknown_keys(fields, "goal data", ("preset_path",))
     return goal_type, confine_path(fields["preset_path"], preset_roots)
 
 

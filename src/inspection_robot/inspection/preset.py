@@ -263,13 +263,20 @@ def write_calibration(preset_dir, targets, info):
     write_atomic(os.path.join(preset_dir, CALIB_INI), _ini_text(c))
 
 
-class Preset(object):
-    """A loaded preset directory: its info, its calibrated targets and file paths."""
+REFERENCE_KEYS = ("on_reference", "off_reference", "open_reference", "closed_reference")   # patch file names
+SNAPSHOT_TRIES = 5   # loads of a preset an upload may overtake in a row before load_preset gives up
 
-    def __init__(self, path, info, targets):
+
+class Preset(object):
+    """A loaded preset directory: its info, its calibrated targets and file paths. ``references``:
+    {file name: bytes} of the reference patches the targets name, read with the calibration (one
+    snapshot, see load_preset); ``reference(name)`` answers them."""
+
+    def __init__(self, path, info, targets, references=None):
         self.path = path
         self.info = info
         self.targets = targets
+        self.references = dict(references or {})
 
     @property
     def preset_id(self):
@@ -280,6 +287,10 @@ class Preset(object):
 
     def file(self, name):
         return os.path.join(self.path, name)
+
+    def reference(self, name):
+        """The bytes of reference patch ``name`` as loaded with the calibration, None when missing."""
+        return self.references.get(name)
 
 
 def load_info(path):
@@ -293,24 +304,84 @@ def load_info(path):
 
 
 def load_preset(path, need_calibration=True):
-    """Load a preset directory; raises PresetError with a reason when anything is missing or corrupt."""
-    info = load_info(path)
+    """Load a preset directory; raises PresetError with a reason when anything is missing or corrupt.
+
+    One snapshot: the directory is opened once and every file (preset.ini, preset_calib_info.ini,
+    zoom<k>.xml, the reference patches) read relative to that descriptor, so a calibration swapped
+    in meanwhile (files.DirUpdate replaces the whole directory) is never mixed with the old one.
+    When the path no longer names the directory read once the reading is done (an upload
+    overtook it: the old content may be removed while it is read), the load starts again, up to
+    SNAPSHOT_TRIES times.
+    """
+    for _attempt in range(SNAPSHOT_TRIES):
+        try:
+            dir_fd = os.open(path, os.O_RDONLY | os.O_DIRECTORY)
+        except OSError:
+            raise PresetError("preset directory not found: %s" % path)
+        try:
+            try:
+                return_value, failure = _load_at(dir_fd, path, need_calibration), None
+            except PresetError as err:
+                return_value, failure = None, err
+            if _names(path, dir_fd):
+                if failure is not None:
+                    raise failure
+                return return_value
+        finally:
+            os.close(dir_fd)
+    raise PresetError("preset %s was replaced %d times while it was read (calibrations uploaded meanwhile); "
+                      "try again" % (path, SNAPSHOT_TRIES))
+
+
+def _names(path, dir_fd):
+    """Whether ``path`` still names the directory open as ``dir_fd``."""
+    try:
+        now, opened = os.stat(path), os.fstat(dir_fd)
+    except OSError:
+        return False
+    return (now.st_dev, now.st_ino) == (opened.st_dev, opened.st_ino)
+
+
+def _read_at(dir_fd, name, binary=False):
+    """The content of ``name`` in the directory open as ``dir_fd``, None when it is missing."""
+    try:
+        fd = os.open(name, os.O_RDONLY, dir_fd=dir_fd)
+    except FileNotFoundError:
+        return None
+    except OSError as err:
+        raise PresetError("cannot read %s: %s" % (name, err.strerror or err))
+    with os.fdopen(fd, "rb") as f:
+        data = f.read()
+    if binary:
+        return data
+    try:
+        return data.decode("utf-8")
+    except UnicodeDecodeError as err:
+        raise PresetError("%s is not UTF-8 text: %s" % (name, err))
+
+
+def _load_at(dir_fd, path, need_calibration):
+    text = _read_at(dir_fd, PRESET_INI)
+    if text is None:
+        raise PresetError("%s missing in %s" % (PRESET_INI, path))
+    info = PresetInfo.from_ini(text)
     targets = []
-    calib = os.path.join(path, CALIB_INI)
-    if not os.path.isfile(calib):
+    calib = _read_at(dir_fd, CALIB_INI)
+    if calib is None:
         if need_calibration:
             raise PresetError("preset not calibrated: %s missing in %s" % (CALIB_INI, path))
         return Preset(path, info, targets)
     c = configparser.ConfigParser(interpolation=None)
     try:
-        c.read(calib)
+        c.read_string(calib)
         count = c.getint("calibration", "target_count")
+        if not 0 <= count <= schema.MAX_TARGETS:
+            raise ValueError("target_count %d (at most %d)" % (count, schema.MAX_TARGETS))
         boxes = {}
         for k in range(len(info.zoom_levels)):
-            xml = os.path.join(path, zoom_xml_name(k))
-            if os.path.isfile(xml):
-                with open(xml) as f:
-                    boxes[k] = boxes_from_xml(f.read())
+            xml = _read_at(dir_fd, zoom_xml_name(k))
+            if xml is not None:
+                boxes[k] = boxes_from_xml(xml)
         if 0 not in boxes:
             raise ValueError("%s missing" % zoom_xml_name(0))
         for i in range(count):
@@ -327,4 +398,12 @@ def load_preset(path, need_calibration=True):
         raise PresetError("corrupt calibration in %s: %s" % (path, err))
     if not targets:
         raise PresetError("calibration of %s has no target" % path)
-    return Preset(path, info, targets)
+    references = {}
+    for target in targets:
+        for key in REFERENCE_KEYS:
+            name = target.params.get(key)
+            if name and name not in references:
+                data = _read_at(dir_fd, name, binary=True)
+                if data is not None:
+                    references[name] = data
+    return Preset(path, info, targets, references)

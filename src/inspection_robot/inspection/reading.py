@@ -94,6 +94,16 @@ def load_frame(path):
     raise ReadError("unsupported thermal frame format: %s" % path)
 
 
+def decode_reference(data, kind):
+    """The image of a reference patch's file content (``data``: bytes, None when missing) as the
+    reader uses it: colour for a lamp, grey for a switch; None when it does not decode. The one
+    decoder of references: the reader's, and calibration's check at upload."""
+    if not data:
+        return None
+    flags = cv2.IMREAD_COLOR if kind == "lamp" else cv2.IMREAD_GRAYSCALE
+    return cv2.imdecode(np.frombuffer(data, np.uint8), flags)
+
+
 def _zoom_index_from_name(path, count):
     match = re.match(r"zoom(\d+)", os.path.basename(path))
     if match and int(match.group(1)) < count:
@@ -222,10 +232,10 @@ class ScaleReader(object):
         if target.kind == "lamp":
             refs = None
             if p.get("on_reference"):
-                refs = [self._reference_patch(preset, p[key], cv2.IMREAD_COLOR, "lamp")
+                refs = [self._reference_patch(preset, p[key], "lamp")
                         for key in ("on_reference", "off_reference")]
             return read_lamp(image, quad, p["colour"], references=refs)
-        refs = [self._reference_patch(preset, p[key], cv2.IMREAD_GRAYSCALE, "switch")
+        refs = [self._reference_patch(preset, p[key], "switch")
                 for key in ("open_reference", "closed_reference")]
         return read_switch(image, quad, refs[0], refs[1])
 
@@ -243,8 +253,8 @@ class ScaleReader(object):
                              "picture, %.2f needed)" % (similarity, MIN_FACE_SIMILARITY))
 
     @staticmethod
-    def _reference_patch(preset, name, flags, kind):
-        ref = cv2.imread(preset.file(name), flags)
+    def _reference_patch(preset, name, kind):
+        ref = decode_reference(preset.reference(name), kind)
         if ref is None:
             raise ReadError("%s reference missing or unreadable: %s" % (kind, preset.file(name)))
         return ref

@@ -4,17 +4,22 @@
 "goal_pose":{"position":{"x":..,"y":..,"z":0},"orientation":{"x":0,"y":0,"z":..,"w":..}}}``
 
 Flags and speeds may be omitted (flags default to 0, speeds to the node's defaults); a speed
-above the node's maximum is clamped to it. Anything malformed raises CommandError with a reason.
+above the node's maximum is clamped to it. Anything malformed raises CommandError with a reason,
+a key not listed above too (``speed``: the goal would otherwise run at the default speed).
 """
 import json
 import math
 from collections import namedtuple
 
 from inspection_robot.angles import quaternion_from_yaw, yaw_from_quaternion
-from inspection_robot.command import CommandError, parse_json
+from inspection_robot.command import CommandError, parse_json, refuse_unknown_keys
 from inspection_robot.interface import MOVE_GOAL_TYPE
 
 MoveGoal = namedtuple("MoveGoal", "x y yaw with_direction precision backward velocity_x velocity_yaw")
+GOAL_KEYS = ("goal_pose", "with_direction", "precision", "move_style", "velocity_x", "velocity_yaw")
+POSE_KEYS = ("position", "orientation")
+XYZ = ("x", "y", "z")
+XYZW = ("x", "y", "z", "w")
 
 
 def _number(obj, key, where, default=None):
@@ -41,14 +46,18 @@ def parse_move_goal(goal_type, data, default_velocity_x, default_velocity_yaw, m
     obj = parse_json(data, "goal data")
     if not isinstance(obj, dict):
         raise CommandError("goal data must be a JSON object")
+    refuse_unknown_keys(obj, "goal data", GOAL_KEYS)
     pose = obj.get("goal_pose")
     if not isinstance(pose, dict) or not isinstance(pose.get("position"), dict):
         raise CommandError("goal_pose.position is missing")
+    refuse_unknown_keys(pose, "goal_pose", POSE_KEYS)
+    refuse_unknown_keys(pose["position"], "goal_pose.position", XYZ)
     x = _number(pose["position"], "x", "goal_pose.position")
     y = _number(pose["position"], "y", "goal_pose.position")
     orientation = pose.get("orientation", {"x": 0, "y": 0, "z": 0, "w": 1})
     if not isinstance(orientation, dict):
         raise CommandError("goal_pose.orientation must be an object")
+    refuse_unknown_keys(orientation, "goal_pose.orientation", XYZW)
     quat = [_number(orientation, k, "goal_pose.orientation", 0.0 if k != "w" else None) for k in "xyzw"]
     norm = math.sqrt(sum(q * q for q in quat))
     if norm < 1e-6:

@@ -14,6 +14,8 @@ Parameters:  ~driver (sim | isapi | none | "package.module:Class" with ~driver_p
              ~camera_optics ({width, height, zoom_hfov_deg}, required),
              ~roots (folders capture paths must lie in, under data_root unless absolute; [captures]; a root
              overlapping presets, pictures, tasks ... is refused at start: files.capture_roots),
+             ~quota_mib (MiB the capture roots may hold, hidden files included, 2048 = 2 GiB; 0 = none:
+             files.CaptureQuota),
              ~image_rate (Hz, 1.0; 0 = no image topic), ~image_width (px, 640), ~status_rate (Hz, 2.0),
              ~jpeg_quality (captures, 0..100, 90), ~stream_jpeg_quality (0..100, 80),
              ~frame_id ("camera_optical_frame"),
@@ -34,7 +36,7 @@ from inspection_robot.camera.jpeg import check_quality
 from inspection_robot.camera.driver import CameraError, DeviceHealth, NoCamera
 from inspection_robot.camera.optics import ZoomOptics
 from inspection_robot.drivers import SIM, make_driver
-from inspection_robot.files import capture_roots
+from inspection_robot.files import DEFAULT_CAPTURE_QUOTA_MIB, CaptureQuota, capture_roots
 from inspection_robot.ros.diagnostics import DeviceDiagnostics, probe_device
 from inspection_robot.ros.images import LiveViewPublisher
 from inspection_robot.ros.node import init_node
@@ -55,13 +57,14 @@ def camera_info_msg(width, height, focal, stamp, frame_id):
 
 
 class CameraNode(object):
-    def __init__(self, driver, optics, roots, image_rate, image_width, status_rate, frame_id, stream_quality=80):
+    def __init__(self, driver, optics, roots, image_rate, image_width, status_rate, frame_id, stream_quality=80,
+                 quota=None):
         self._driver = driver
         self._optics = optics
         self._image_width = int(image_width)
         self._frame_id = frame_id
         self._health = DeviceHealth()
-        self.commands = CameraCommands(driver, optics, roots, self._health)
+        self.commands = CameraCommands(driver, optics, roots, self._health, quota=quota)
         self._last_zoom = None
         self._zoom_lock = threading.Lock()
         self._zoom_pub = rospy.Publisher("camera_zoom", Float64, queue_size=1, latch=True)
@@ -144,6 +147,7 @@ def main():
     optics = ZoomOptics(optics_params["zoom_hfov_deg"], optics_params["width"], optics_params["height"])
     root = data_root()
     roots = capture_roots(path_list_param("~roots", ["captures"], root), root)
+    quota = CaptureQuota.from_mib(roots, rospy.get_param("~quota_mib", DEFAULT_CAPTURE_QUOTA_MIB))
     image_rate = float(rospy.get_param("~image_rate", 1.0))
     image_width = int(rospy.get_param("~image_width", 640))
     status_rate = float(rospy.get_param("~status_rate", 2.0))
@@ -152,6 +156,6 @@ def main():
     driver = make_camera(rospy.get_param("~driver", ""), optics)
     node = CameraNode(driver, optics, roots, image_rate, image_width, status_rate,
                       rospy.get_param("~frame_id", "camera_optical_frame"),
-                      check_quality(rospy.get_param("~stream_jpeg_quality", 80)))
+                      check_quality(rospy.get_param("~stream_jpeg_quality", 80)), quota)
     rospy.on_shutdown(node.shutdown)
     rospy.spin()

@@ -5,7 +5,8 @@ Services:    file_control (ControlService): list | stat | read (storage.commands
                  read in base64 chunks of at most ~max_chunk_bytes
              calibration_control (ControlService): get | mark_box | set_meter_type | set_zero |
                  set_full_scale | set_values | remove_target | clear_draft | apply | upload
-                 (inspection.calibration_commands)
+                 (inspection.calibration_commands); at most 64 targets a preset and 1 MiB a request
+                 (calibration_schema.MAX_TARGETS, MAX_REQUEST_BYTES: constants, not parameters)
 Subscribes:  file_cmd, calibration_cmd (GeneralCmd): topic twins of the services
 Publishes:   file_ack, calibration_ack (GeneralAck)
 Parameters:  data_root (namespace, the robot's state directory; under core.launch, like ~roots and

@@ -14,6 +14,8 @@ Parameters:  ~driver (sim | isapi | none | vendor plug-in "package.module:Class"
              ~driver_params (dict of keyword arguments for a plug-in, {}),
              ~width, ~height (px, 384, 288), ~roots (under data_root unless absolute, [thermal];
              a root overlapping presets, pictures, tasks ... is refused at start: files.capture_roots),
+             ~quota_mib (MiB the roots may hold, hidden files included, 2048 = 2 GiB; 0 = none:
+             files.CaptureQuota),
              ~measure_box_px (px, 16), ~status_rate (Hz, 1.0), ~image_rate (Hz, 1.0), ~jpeg_quality (captures, 90),
              ~stream_jpeg_quality (0..100, 80),
              ~isapi/{host (required for isapi), port (80), user ("admin"), password_file (required for
@@ -37,7 +39,7 @@ from inspection_robot.ros.node import init_node
 from inspection_robot.ros.twin import CommandTwin
 from inspection_robot.thermal.commands import ThermalCommands
 from inspection_robot.thermal.driver import NoImager, ThermalError
-from inspection_robot.files import capture_roots
+from inspection_robot.files import DEFAULT_CAPTURE_QUOTA_MIB, CaptureQuota, capture_roots
 from inspection_robot.ros.data_root import data_root, path_list_param
 
 NODE = "infrared_imager"
@@ -110,7 +112,8 @@ def main():
     root = data_root()
     roots = capture_roots(path_list_param("~roots", ["thermal"], root), root)
     commands = ThermalCommands(driver, roots, health, width, height,
-                               int(rospy.get_param("~measure_box_px", 16)), int(rospy.get_param("~jpeg_quality", 90)))
+                               int(rospy.get_param("~measure_box_px", 16)), int(rospy.get_param("~jpeg_quality", 90)),
+                               CaptureQuota.from_mib(roots, rospy.get_param("~quota_mib", DEFAULT_CAPTURE_QUOTA_MIB)))
     InfraredNode(driver, commands, health, status_rate, image_rate,
                  check_quality(rospy.get_param("~stream_jpeg_quality", 80)))
     rospy.spin()

@@ -2,19 +2,19 @@
 and the robot's heading from nav_status. Shared by preset_scale and find_scale (not a node).
 
 The camera and the imager write only new files inside their own capture roots; a picture for a
-preset or a find result is taken there under a fresh hidden name (``.staging/``, not listed by
-file_control) and moved by its owner, this process, to where it belongs (files.move_file).
+preset or a find result is taken there under a fresh hidden name (files.staged_name, in
+``.staging/``, not listed by file_control; the only hidden name a capture command creates) and
+moved by its owner, this process, to where it belongs (files.move_file).
 """
 import itertools
 import math
 import os
 import threading
 import time
-import uuid
 
 import rospy
 
-from inspection_robot.files import FileError, move_file
+from inspection_robot.files import FileError, move_file, staged_name
 from inspection_robot.lazy import lazy_import
 from inspection_robot.inspection.finder import FindError
 from inspection_robot.interface import ACK_SUCCESS, ANGLE_CENTI_DEG
@@ -135,7 +135,7 @@ class RosHead(object):
 def _take(device, cmd, path):
     """``device`` writes a new file in its first root (the name keeps ``path``'s extension, which
     chooses save_temperature's format); it is then moved to ``path``."""
-    staged = device.call(cmd, ".staging/%s%s" % (uuid.uuid4().hex, os.path.splitext(path)[1]))
+    staged = device.call(cmd, staged_name(os.path.splitext(path)[1]))
     try:
         move_file(staged, path)
     except FileError as err:

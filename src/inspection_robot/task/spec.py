@@ -10,7 +10,7 @@ import math
 import re
 from collections import namedtuple
 
-from inspection_robot.command import CommandError, parse_json
+from inspection_robot.command import CommandError, parse_json, refuse_unknown_keys
 
 PRIORITY_ROUTINE = "routine"
 PRIORITY_SPECIAL = "special"
@@ -69,10 +69,7 @@ class Task(object):
 def json_object(value, what, keys):
     if not isinstance(value, dict):
         raise CommandError("%s must be a JSON object, got %s" % (what, json_type(value)))
-    unknown = sorted(set(value) - set(keys))
-    if unknown:
-        raise CommandError("%s: unknown key(s) %s (allowed: %s)" % (what, ", ".join(unknown), ", ".join(keys)))
-    return value
+    return refuse_unknown_keys(value, what, keys)
 
 
 def json_type(value):

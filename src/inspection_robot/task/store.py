@@ -1,5 +1,7 @@
 """The results store: one SQLite file (stdlib sqlite3) holding tasks, readings and step timings.
 
+The file, its -wal and -shm are mode 600 (private_database), whatever the umask.
+
 Crash safety: WAL journal with ``synchronous=FULL``, so a committed transaction survives a killed
 process and a power cut; a reading is committed before anyone is told about it. Readings carry a
 UNIQUE (task_id, stop, preset_index, target) key: the patrol state machine derives what is left to
@@ -81,10 +83,29 @@ class StoreError(Exception):
     """The store cannot be opened or written (disk full, permissions, corrupt file)."""
 
 
+PRIVATE_FILE_MODE = 0o600   # the store and its -wal, -shm: the robot user's (docs/interface.md, "File modes")
+SQLITE_SIDE_FILES = ("-wal", "-shm", "-journal")
+
+
+def private_database(path):
+    """Create ``path`` (empty) mode 600 when missing, and take group and other access away from it and
+    its journal files when present: SQLite creates a database with the process umask (644 by
+    default) and its -wal and -shm with the database's mode, so the database's mode decides all."""
+    try:
+        fd = os.open(path, os.O_RDWR | os.O_CREAT, PRIVATE_FILE_MODE)
+        os.close(fd)
+        for name in (path,) + tuple(path + suffix for suffix in SQLITE_SIDE_FILES):
+            if os.path.exists(name) and os.stat(name).st_mode & 0o077:
+                os.chmod(name, PRIVATE_FILE_MODE)
+    except OSError as err:
+        raise StoreError("cannot open the results store %s: %s" % (path, err.strerror or err))
+
+
 class ResultStore(object):
     def __init__(self, path):
         self.path = path
         self._lock = threading.Lock()
+        private_database(path)
         try:
             self._db = sqlite3.connect(path, check_same_thread=False, isolation_level=None, timeout=10.0)
             self._db.execute("PRAGMA journal_mode=WAL")

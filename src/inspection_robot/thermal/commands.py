@@ -5,9 +5,10 @@ Pixel coordinates ("x,y") are thermal-frame pixels, x right and y down from the 
 centred on the spot set by set_measure_spot (default: the frame centre), clipped to the frame.
 Temperatures are degC with two decimals. Radiometric files: see ``save_radiometric``.
 save_temperature and capture_picture create a new file inside the imager's roots and never
-replace one, as the camera's capture_picture. capture_picture writes the imager's own JPEG where
-the driver has one (``capture_jpeg``), else a false-colour picture of the frame. A request the
-imager reports it cannot do (ThermalUnsupported) answers ``failed``/``unsupported``.
+replace one, never under a hidden name and never beyond the roots' quota, as the camera's
+capture_picture. capture_picture writes the imager's own JPEG where the driver has one
+(``capture_jpeg``), else a false-colour picture of the frame. A request the imager reports it
+cannot do (ThermalUnsupported) answers ``failed``/``unsupported``.
 """
 import functools
 import io
@@ -17,7 +18,7 @@ import numpy as np
 
 from inspection_robot.camera.jpeg import encode_jpeg
 from inspection_robot.lazy import lazy_import
-from inspection_robot.files import PUBLIC_FILE_MODE, new_file_path, write_atomic
+from inspection_robot.files import PUBLIC_FILE_MODE, is_staged_name, new_file_path, write_atomic
 from inspection_robot.command import CommandError, CommandTable, no_data, parse_int, split_fields
 from inspection_robot.command import failed
 from inspection_robot.interface import INFRARED_COMMANDS, UNSUPPORTED
@@ -49,15 +50,20 @@ def hottest_point(frame):
 
 
 def save_radiometric(path, frame):
-    """Write a radiometric frame. ``.png``: 16-bit single-channel PNG, pixel = temperature in
-    centikelvin (degC = p / 100 - 273.15; 0..655.35 K). ``.npy``: float32 array in degC.
-    An existing file at ``path`` is never replaced (FileError)."""
+    """Write a radiometric frame (radiometric_bytes). An existing file at ``path`` is never replaced
+    (FileError)."""
+    write_atomic(path, radiometric_bytes(path, frame), replace=False, mode=PUBLIC_FILE_MODE)
+
+
+def radiometric_bytes(path, frame):
+    """The file of a radiometric frame, its format chosen by ``path``'s extension. ``.png``: 16-bit
+    single-channel PNG, pixel = temperature in centikelvin (degC = p / 100 - 273.15; 0..655.35 K).
+    ``.npy``: float32 array in degC."""
     extension = os.path.splitext(path)[1].lower()
     if extension == ".npy":
         stream = io.BytesIO()
         np.save(stream, frame.astype(np.float32))
-        write_atomic(path, stream.getvalue(), replace=False, mode=PUBLIC_FILE_MODE)
-        return
+        return stream.getvalue()
     if extension != ".png":
         raise CommandError("radiometric file must end in .png (16-bit centikelvin) or .npy (float32 degC): '%s'"
                            % path)
@@ -65,7 +71,7 @@ def save_radiometric(path, frame):
     ok, buf = cv2.imencode(".png", counts.astype(np.uint16))
     if not ok:
         raise CommandError("PNG encoding failed")
-    write_atomic(path, buf.tobytes(), replace=False, mode=PUBLIC_FILE_MODE)
+    return buf.tobytes()
 
 
 def load_radiometric(path):
@@ -79,9 +85,13 @@ def load_radiometric(path):
 
 
 class ThermalCommands(object):
-    def __init__(self, driver, roots, health, width, height, measure_box_px=16, jpeg_quality=90):
+    """The imager's CommandTable; ``roots`` confine the paths of new files, ``quota``
+    (files.CaptureQuota, None: none) bounds the bytes they hold."""
+
+    def __init__(self, driver, roots, health, width, height, measure_box_px=16, jpeg_quality=90, quota=None):
         self._driver = driver
         self._roots = list(roots)
+        self._quota = quota
         self._call = functools.partial(health.command, error=ThermalError, unsupported=ThermalUnsupported)
         self.width, self.height = int(width), int(height)
         self._box = int(measure_box_px)
@@ -117,23 +127,36 @@ class ThermalCommands(object):
         return (parse_int(x_text, "x", 0, self.width - 1), parse_int(y_text, "y", 0, self.height - 1))
 
     def _target(self, data):
-        return new_file_path(data, self._roots)   # refused before the imager is asked
+        """(path, staged) of a new file's ``data``; refused before the imager is asked, also when the
+        quota is full already."""
+        path, staged = new_file_path(data, self._roots), is_staged_name(data)
+        self._count(1, staged)
+        return path, staged
+
+    def _count(self, size, staged):
+        if self._quota is not None:
+            self._quota.check(size, "this file" if size > 1 else "a file", staged)
+
+    def _write(self, path, staged, data, mode=None):
+        self._count(len(data), staged)
+        write_atomic(path, data, replace=False, mode=mode)
+        if self._quota is not None:
+            self._quota.add(len(data))
 
     def save_temperature(self, data):
-        path = self._target(data)
-        frame = self._frame()
-        save_radiometric(path, frame)
+        path, staged = self._target(data)
+        self._write(path, staged, radiometric_bytes(path, self._frame()), PUBLIC_FILE_MODE)
         return path
 
     def capture_picture(self, data):
-        path = self._target(data)
+        path, staged = self._target(data)
         picture = self._call(self._driver.capture_jpeg) or None   # _call answers "" for None
         if picture is None:
             try:
                 picture = encode_jpeg(false_colour(self._frame()), self._jpeg_quality)
             except ValueError as exc:
                 raise CommandError(str(exc))
-        write_atomic(path, picture, replace=False)
+        self._write(path, staged, picture)
         return path
 
     def live_view(self):
