@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
 """rostest: mode_ack, file_control and calibration_control seen from the backend (roslibpy over
-the websocket). rospy is used only to read the bridge's port and the data root, and to lay out a
-recorded preset and a capture the way preset_scale and camera_node would."""
+the websocket). rospy is used only to read the bridge's port and the data root, to lay out a
+recorded preset and a capture the way preset_scale and camera_node would, and to press the pad's
+buttons on /joy as joystick_reader would."""
 import base64
 import hashlib
 import itertools
@@ -15,6 +16,7 @@ import numpy as np
 import roslibpy
 import rospy
 import rostest
+from sensor_msgs.msg import Joy
 
 from inspection_robot.files import write_atomic
 from inspection_robot.inspection.preset import CALIB_INI, PresetInfo, load_preset
@@ -51,7 +53,8 @@ class FilesLinkTest(unittest.TestCase):
         roslibpy.Topic(cls.ros, "/mode_ack", "inspection_robot/GeneralAck").subscribe(cls._on_mode_ack)
         cls.mode_cmd = roslibpy.Topic(cls.ros, "/mode_cmd", "inspection_robot/GeneralCmd")
         cls.server_status = roslibpy.Topic(cls.ros, "/server_status", "inspection_robot/GeneralTopic")
-        cls.joy = roslibpy.Topic(cls.ros, "/joy", "sensor_msgs/Joy")   # joystick_reader's part: joy_control acts
+        # joystick_reader's part, on the robot's side (a backend may not publish /joy: the backend surface)
+        cls.joy = rospy.Publisher("/joy", Joy, queue_size=10)
         for name in ("/file_control", "/calibration_control"):
             wait_for(lambda: name in cls.ros.get_services(), 30.0, name)
 
@@ -97,7 +100,7 @@ class FilesLinkTest(unittest.TestCase):
             for pressed in (0, 1):
                 buttons = [0] * 11
                 buttons[button] = pressed
-                self.joy.publish(roslibpy.Message({"axes": [0.0] * 8, "buttons": buttons}))
+                self.joy.publish(Joy(axes=[0.0] * 8, buttons=buttons))
             with self.lock:
                 # joy_control's own, not the late answers to the link's repeated claim to be it
                 found = [a for a in self.mode_acks[seen:] if a["receiver"] == "joy_control"
