@@ -198,6 +198,25 @@ INFRARED_COMMANDS = (
 # --- voice -----------------------------------------------------------------------------------
 VOICE_LANGUAGES = ("chinese", "english")
 
+# --- commands that only read (the bridge may call them again) ----------------------------------
+# Per ControlService service (by its base name), the commands that change nothing: the bridge calls
+# one again on a fresh connection when its persistent connection broke after the request was
+# written (the node may have received it), which a command that changes something must not risk
+# (docs/interface.md, Backend link, "Service calls across a node's restart"). Any other command is
+# called again only when its request cannot have reached the node. One list; the bridge imports it.
+READ_ONLY_COMMANDS = {
+    "file_control": ("list", "stat", "read"),
+    "calibration_control": ("get",),
+    "task_control": ("query_status", "query_tasks", "query_results", "review_queue", "plan", "routine_list",
+                     "schedule_list"),
+    "terrace_control": ("get_pan_angle", "get_tilt_angle", "get_angle"),
+    "arm_control": ("get_orientation", "get_position"),
+    "camera_control": ("get_zoom_level", "get_focus_mode", "get_focus_position", "get_min_focus_distance",
+                       "get_wdr_level", "get_wdr_mode", "get_exposure_mode", "get_iris"),
+    "infrared_control": ("get_max_temperature", "get_spot_temperature", "get_high_temperature",
+                         "get_low_temperature"),
+}
+
 # --- interface topics (docs/interface.md, relative names) -------------------------------------
 # Every topic of the interface, named in full: bag_recorder subscribes to each by name when it
 # starts (not by pattern), so a topic a backend advertises later is recorded from its first message.

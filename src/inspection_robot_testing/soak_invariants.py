@@ -226,6 +226,31 @@ class FaultReasons(Checker):
             self._violate("%s failed without naming the fault (%s): %r" % (what, " | ".join(fragments), reason))
 
 
+class CallsAcrossRestart(Checker):
+    """A service node killed while a backend calls it without pause: no call fails but one made while
+    the node is away (from the kill to its new registration at the master), and those name it."""
+
+    name = "service calls fail only while their node is away, saying so"
+    REASON = "is not available: its node is restarting or down"
+
+    def calls(self, service, killed, back, calls):
+        """``calls``: (start, end, answered, reason) of every call around one kill at ``killed``, the
+        node seen registered again at ``back`` (one clock). At least one call must follow ``back``."""
+        after = [call for call in calls if call[0] > back]
+        self.checks += 1
+        if not after:
+            self._violate("no call of %s after its node came back" % service)
+        for start, end, answered, reason in calls:
+            self.checks += 1
+            if answered:
+                continue
+            if not (start <= back and end >= killed):
+                self._violate("a call of %s failed while its node was there (%.2f s after it came back): %s"
+                              % (service, start - back, reason))
+            elif self.REASON not in reason:
+                self._violate("a call of %s failed during the restart without saying so: %r" % (service, reason))
+
+
 def _median(values):
     ordered = sorted(values)
     return ordered[len(ordered) // 2]

@@ -440,6 +440,40 @@ class BridgeLinkTest(unittest.TestCase):
         wait_for(lambda: NS + "leaving_srv" not in [n for n, _ in rospy.get_master().getSystemState()[2][2]],
                  5.0, "service removed")
 
+    def test_a_reconnecting_client_loses_nothing_and_leaves_one_publisher(self):
+        """A backend that drops its link and comes straight back (no wait for the bridge to see it
+        leave), advertising and publishing at once: every message of every connection reaches the ROS
+        subscriber, the master lists one bridge publisher, and its subscription serves it again."""
+        up, down = NS + "relink_up", NS + "relink_down"
+        heard = Latest(up, String)
+        wait_for(lambda: "/test_bridge_link" in topic_nodes(up, "sub"), 5.0, "the ROS subscriber listed")
+        to_client = rospy.Publisher(down, String, queue_size=10)
+        client = None
+        for k in range(4):
+            if client is not None:
+                client.close()
+            client = self.raw()
+            client.send_many([{"op": "advertise", "topic": up, "type": "std_msgs/String"}]
+                             + [{"op": "publish", "topic": up, "msg": {"data": "%d.%d" % (k, i)}} for i in range(10)]
+                             + [{"op": "subscribe", "topic": down, "type": "std_msgs/String"}])
+            sent = ["%d.%d" % (k, i) for i in range(10)]
+            heard.wait(lambda m: m.data == sent[-1], 10.0, "connection %d's last message" % k)
+            self.assertEqual([m.data for _t, m in heard.messages if m.data.startswith("%d." % k)], sent)
+            self.assertEqual(topic_nodes(up, "pub"), ["/rosbridge_websocket/tcpros"])
+            wait_for(lambda: "/rosbridge_websocket" in topic_nodes(down, "sub"), 5.0, "the bridge subscribed")
+
+            def delivered():
+                to_client.publish(String(data="down %d" % k))
+                try:
+                    return client.recv_message(lambda m: m.get("topic") == down, timeout=0.3)["msg"]["data"]
+                except queue.Empty:
+                    return None
+            self.assertEqual(wait_for(delivered, 10.0, "a message on the subscription after reconnecting"),
+                             "down %d" % k)
+            self.assertEqual(topic_nodes(down, "sub").count("/rosbridge_websocket"), 1)
+        client.close()
+        wait_for(lambda: not topic_nodes(up, "pub"), 5.0, "the publisher gone with the last client")
+
     def test_many_clients_share_one_subscriber(self):
         pub = rospy.Publisher(NS + "shared", Int32, queue_size=10)
         clients = [self.raw() for _ in range(5)]

@@ -1,5 +1,7 @@
 """RosBackend.publish's batching: the first message of a loop pass goes at once, the rest in one batch.
 (The TCPROS publisher it writes to: test_tcpros_publisher.py.)"""
+import pytest
+
 from inspection_robot.ros import bridge_backend
 
 
@@ -99,3 +101,117 @@ def test_clients_share_the_tcpros_publication_and_the_last_to_leave_unadvertises
     backend.unadvertise("b", "/t")
     assert handle.writes == [["x"], ["pending"]]  # what the client published before leaving still goes out
     assert tcpros.unadvertised == [handle]
+
+
+# ---------------------------------------------------------------- service calls across a node's restart
+class Proxy(object):
+    """A persistent rospy.ServiceProxy: answers, or raises the next of ``failures``."""
+    made = []
+
+    def __init__(self, service, srv, persistent=False):
+        self.service, self.calls, self.closed, self.dead = service, [], False, False
+        self.failures = list(Proxy.next_failures)
+        self.uri = Proxy.uri
+        Proxy.made.append(self)
+
+    def call(self, request):
+        self.calls.append(request.cmd)
+        if self.failures:
+            raise self.failures.pop(0)
+        return "answer to %s" % request.cmd
+
+    def close(self):
+        self.closed = True
+
+
+class ServiceTypes(object):
+    def service_class(self, type_name):
+        from inspection_robot.srv import ControlService
+        return ControlService
+
+
+class JsonCodec(object):
+    def from_json(self, cls, values):
+        return cls(**values)
+
+    def to_json(self, response):
+        return response
+
+
+@pytest.fixture
+def backend(monkeypatch):
+    import rospy
+    monkeypatch.setattr(rospy, "ServiceProxy", Proxy)
+    monkeypatch.setattr(bridge_backend, "idle_service_connection_closed", lambda proxy: proxy.dead)
+    monkeypatch.setattr(bridge_backend, "service_proxy_uri", lambda proxy: proxy.uri)
+    Proxy.made, Proxy.next_failures, Proxy.uri = [], [], "rosrpc://host:1"
+    made = bridge_backend.RosBackend(ServiceTypes(), JsonCodec(), None, None)
+    made._service_uri = lambda service: Proxy.uri   # the master's word, without a master
+    return made
+
+
+def call(backend, service, cmd):
+    return backend._call(service, {"cmd": cmd, "data": ""}, "inspection_robot/ControlService")
+
+
+def transport_error():
+    import rospy
+    return rospy.ServiceException("transport error completing service call: unable to receive data from sender, "
+                                  "check sender's logs for details")
+
+
+def test_an_idle_connection_its_node_closed_gets_no_request(backend):
+    assert call(backend, "/file_control", "stat") == "answer to stat"
+    Proxy.made[0].dead = True                 # file_server restarted: its end of the connection closed
+    assert call(backend, "/calibration_control", "get") == "answer to get"
+    assert call(backend, "/file_control", "stat") == "answer to stat"
+    assert Proxy.made[0].calls == ["stat"] and Proxy.made[0].closed
+    assert Proxy.made[2].calls == ["stat"]
+
+
+def test_a_read_only_call_whose_answer_never_came_is_made_again_once_on_a_fresh_connection(backend):
+    call(backend, "/file_control", "stat")
+    Proxy.made[0].failures = [transport_error()]
+    assert call(backend, "/file_control", "read") == "answer to read"
+    assert [p.calls for p in Proxy.made] == [["stat", "read"], ["read"]]
+
+
+def test_a_call_that_may_have_changed_something_is_not_made_again(backend):
+    call(backend, "/calibration_control", "get")
+    Proxy.made[0].failures = [transport_error()]
+    with pytest.raises(bridge_backend.BridgeError) as failed:
+        call(backend, "/calibration_control", "mark_box")
+    assert "its node closed the connection before answering, the request may have run" in str(failed.value)
+    assert len(Proxy.made) == 1
+
+
+def test_a_request_whose_write_failed_is_made_again_whatever_the_command(backend):
+    from rospy.exceptions import TransportTerminated
+    call(backend, "/calibration_control", "get")
+    Proxy.made[0].failures = [TransportTerminated("32Broken pipe")]
+    assert call(backend, "/calibration_control", "apply") == "answer to apply"
+    assert [p.calls for p in Proxy.made] == [["get", "apply"], ["apply"]]
+
+
+def test_while_the_node_is_away_the_call_fails_once_with_the_clear_reason(backend):
+    import rospy
+    call(backend, "/file_control", "stat")
+    Proxy.made[0].failures = [transport_error()]
+    Proxy.next_failures = [rospy.ServiceException("unable to connect to service: [Errno 111] Connection refused")]
+    with pytest.raises(bridge_backend.BridgeError) as failed:
+        call(backend, "/file_control", "stat")
+    assert str(failed.value).startswith("service /file_control is not available: its node is restarting or down (")
+    assert len(Proxy.made) == 2                 # one fresh connection, not a loop
+    Proxy.next_failures = [rospy.ServiceException("service [/file_control] unavailable")]
+    with pytest.raises(bridge_backend.BridgeError) as failed:
+        call(backend, "/file_control", "stat")  # a fresh connection fails: not called again
+    assert "is not available: its node is restarting or down" in str(failed.value)
+    assert len(Proxy.made) == 3
+
+
+def test_an_idle_connection_to_where_the_service_was_is_dropped(backend):
+    call(backend, "/file_control", "stat")
+    Proxy.uri = "rosrpc://host:2"               # another node serves it now (the old one still up)
+    call(backend, "/file_control", "stat")
+    assert Proxy.made[0].calls == ["stat"] and Proxy.made[0].closed
+    assert Proxy.made[1].calls == ["stat"]

@@ -19,7 +19,7 @@ def test_the_rospy_internals_are_those_the_repairs_expect():
 @pytest.fixture
 def old_rospy(monkeypatch):
     """As if this rospy had none of the expected internals."""
-    for flag in ("UPDATE_MERGE", "HANDSHAKE_GUARD", "LATCHED_REPLAY", "CALLER_ID"):
+    for flag in ("UPDATE_MERGE", "HANDSHAKE_GUARD", "LATCHED_REPLAY", "CALLER_ID", "IDLE_CONNECTION"):
         monkeypatch.setattr(compat_rospy, flag, False)
 
 
@@ -31,6 +31,9 @@ def test_the_fallbacks_do_nothing_and_say_so(old_rospy):
         impl = None
     compat_rospy.replay_latched(Subscriber(), lambda msg, args: None)
     assert compat_rospy.caller_id(received("/obstacle_detector")) is None   # unknown: owners refuse it
+    proxy, _ends = connected_proxy()
+    assert compat_rospy.idle_service_connection_closed(proxy) is False     # not known: the call finds out
+    assert compat_rospy.service_proxy_uri(proxy) is None
 
 
 def received(callerid):
@@ -109,3 +112,32 @@ def test_merged_updates_keep_one_entry_per_topic_newest_list_first(restore_publi
     manager.publisher_update("/a", ["http://three:3/", "http://two:2/"])
     assert manager.updates == [("/b", ["http://one:1/"]),
                                ("/a", ["http://three:3/", "http://two:2/", "http://one:1/"])]
+
+
+def connected_proxy():
+    """A persistent ServiceProxy holding a connection as after its first call: (proxy, (its end, the node's end))."""
+    import socket
+
+    import rospy
+    from rospy.impl.tcpros_base import TCPROSTransport
+
+    from inspection_robot.srv import ControlService
+    proxy = rospy.ServiceProxy("/file_control", ControlService, persistent=True)
+    ours, nodes = socket.socketpair()
+    proxy.transport = TCPROSTransport(proxy.protocol, proxy.resolved_name)
+    proxy.transport.socket = ours
+    proxy.uri = "rosrpc://127.0.0.1:40000"
+    return proxy, (ours, nodes)
+
+
+def test_an_idle_service_connection_is_seen_closed_when_its_node_closes_it():
+    proxy, (ours, nodes) = connected_proxy()
+    assert compat_rospy.idle_service_connection_closed(proxy) is False
+    assert compat_rospy.service_proxy_uri(proxy) == "rosrpc://127.0.0.1:40000"
+    nodes.close()                              # the node died or restarted
+    assert compat_rospy.idle_service_connection_closed(proxy) is True
+    ours.close()
+    proxy.transport.close()
+    assert compat_rospy.idle_service_connection_closed(proxy) is True     # closed here: done
+    proxy.transport = None
+    assert compat_rospy.idle_service_connection_closed(proxy) is False    # none held: the next call connects

@@ -43,6 +43,8 @@ COINCIDENCES = {
     ("task/report.py", "read"): "a summary tile's label (the count of read values)",
     ("bridge/trace.py", "read"): "the echo trace's first stage (a frame read), not a reading's status",
     ("bridge/server.py", "read"): "the echo trace's stage name (bridge/trace.py)",
+    ("interface.py", "read"): "file_control's read command (READ_ONLY_COMMANDS)",
+    ("ros/compat_rospy.py", "done"): "rospy's Transport attribute named done",
     ("task/report.py", "failed"): "a summary tile's label",
     ("task/report.py", "uncertain"): "a summary line's label",
 }

@@ -111,3 +111,18 @@ def test_table_names_faults_and_results():
     assert not held([a, b]) and held([a])
     b.recovered("camera", None)
     assert "VIOLATED" in table({}, [b])
+
+
+def test_calls_across_a_restart_fail_only_during_the_absence_and_say_so():
+    from inspection_robot_testing.soak_invariants import CallsAcrossRestart
+    away = "service /file_control is not available: its node is restarting or down (x)"
+    checker = CallsAcrossRestart()
+    checker.calls("/file_control", 10.0, 12.0, [(9.0, 9.1, True, ""), (9.9, 10.2, False, away),
+                                                (11.0, 11.1, False, away), (12.1, 12.2, True, "")])
+    assert checker.checks == 5 and checker.violations == []
+    checker.calls("/file_control", 10.0, 12.0, [(11.0, 11.1, False, "transport error completing service call"),
+                                                (12.1, 12.2, False, away)])
+    assert len(checker.violations) == 2
+    assert "without saying so" in checker.violations[0] and "while its node was there" in checker.violations[1]
+    checker.calls("/file_control", 10.0, 12.0, [(11.0, 11.1, False, away)])
+    assert checker.violations[-1] == "no call of /file_control after its node came back"

@@ -28,12 +28,13 @@ def wait_for(condition, timeout=5.0, what="condition"):
 
 
 class RecordingMaster(object):
-    def __init__(self):
+    def __init__(self, subscribers=()):
         self.calls = []
+        self.subscribers = list(subscribers)   # the slave URIs registerPublisher answers
 
     def registerPublisher(self, topic, type_name, uri):
         self.calls.append(("register", topic, type_name, uri))
-        return []
+        return list(self.subscribers)
 
     def unregisterPublisher(self, topic, uri):
         self.calls.append(("unregister", topic, uri))
@@ -166,6 +167,32 @@ def test_latched_and_early_messages_reach_a_late_subscriber(publisher, monkeypat
     sock.settimeout(0.2)
     with pytest.raises(socket.timeout):
         sock.recv(1)  # nothing else
+
+
+def test_early_messages_wait_for_the_subscribers_the_master_listed(monkeypatch):
+    monkeypatch.setattr(tcpros_publisher, "EARLY_WINDOW_S", 0.0)   # a loaded machine: they connect after it
+    pub = TcprosPublisher("/bridge/tcpros", RecordingMaster(["http://a:1/", "http://b:2/"]), host="127.0.0.1",
+                          bind_address="127.0.0.1", handshake_timeout=0.5)
+    try:
+        topic = pub.advertise("/chatter", String)
+        topic.publish([String("e1")])
+        first, _ = connect(pub, subscriber_header(callerid="/a"))
+        assert read_frames(first, 1) == ["e1"]
+        topic.publish([String("e2")])
+        assert read_frames(first, 1) == ["e2"]
+        second, _ = connect(pub, subscriber_header(callerid="/b"))
+        assert read_frames(second, 2) == ["e1", "e2"]   # the second one listed gets them too
+        late, _ = connect(pub, subscriber_header(callerid="/c"))
+        late.settimeout(0.2)
+        with pytest.raises(socket.timeout):
+            late.recv(1)   # every subscriber listed has connected: no more early messages
+        assert topic.early == [] or not topic.early_open()
+        monkeypatch.setattr(tcpros_publisher, "EARLY_WAIT_MAX_S", 0.0)   # the wait is bounded
+        other = pub.advertise("/other", String)
+        other.publish([String("x")])
+        assert not other.early_open() and other.awaited == 2
+    finally:
+        pub.close()
 
 
 def test_a_subscriber_that_never_reads_blocks_neither_the_caller_nor_the_others(publisher):

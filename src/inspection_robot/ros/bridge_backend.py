@@ -7,24 +7,33 @@ reach ROS at once, in a burst once per event-loop pass in one batch, through the
 TCPROS publisher (tcpros_publisher.py: written from the event loop itself, never blocking; public
 APIs only).
 Service calls and rosapi requests run on a thread pool; their results come back through ``post``.
+A service call reuses an idle persistent connection unless its node closed it or the service moved
+(another URI at the master, asked at most every URI_CHECK_S); one that fails is made once more on a
+fresh connection when bridge/service_calls.py says it may (the request cannot have reached the node,
+or the command only reads).
 Services a client advertises are rospy.Services whose handler forwards the request to that client
 and waits (bounded) for its service_response.
 With message_types.py, the bridge's ROS side; both live in the ROS wing.
 """
 import concurrent.futures
 import threading
+import time
 
 import rosgraph
 import rospy
 import rosservice
 
-from inspection_robot.bridge import trace
+from inspection_robot.bridge import service_calls, trace
 from inspection_robot.bridge.protocol import BridgeError, Outgoing
-from inspection_robot.ros.compat_rospy import replay_latched
+from inspection_robot.ros.compat_rospy import idle_service_connection_closed, replay_latched, service_proxy_uri
 from inspection_robot.ros.tcpros_publisher import TcprosPublisher
 
 
 MAX_BATCH = 256  # messages converted for one topic before the client's socket waits for a flush
+MAX_IDLE_PROXIES = 4  # idle persistent connections kept per (service, type)
+# s the master's word on where a service is may be old before an idle connection to it is reused: a
+# lookupService costs ~1 ms (bench_service_restart), so at most one a second per service, not one a call
+URI_CHECK_S = 1.0
 _ROBOT = "robot"  # the owner of the topics the bridge advertises itself (advertise_for_the_robot): never leaves
 
 
@@ -82,8 +91,11 @@ class RosBackend(object):
         self._kept = set()      # topics subscribed for the robot: kept when their last client leaves
         self._services = {}     # service -> (rospy.Service, session, type)
         self._service_types = {}  # cache: service -> type of ROS services called
-        self._proxies = {}      # (service, type) -> idle persistent ServiceProxy list
+        self._proxies = {}      # (service, type) -> idle [(persistent ServiceProxy, the URI it connected to)]
         self._proxy_lock = threading.Lock()
+        self._uris = {}         # service -> (its URI as the master last said, None: not registered; monotonic s)
+        self._uri_master = rosgraph.Master(rospy.get_name())   # used under _uri_lock (xmlrpc is not thread-safe)
+        self._uri_lock = threading.Lock()
         self._master = rosgraph.Master(rospy.get_name())
 
     # ---------------------------------------------------------------- graph queries
@@ -310,24 +322,72 @@ class RosBackend(object):
             args = dict(zip(slots, args))
         request = self._codec.from_json(srv._request_class, args)
         key = (service, type_name)
+        read_only = service_calls.is_read_only(rospy.resolve_name(service), type_name, getattr(request, "cmd", None))
+        proxy = self._take_idle(key)
+        reused = proxy is not None
+        while True:
+            if proxy is None:
+                proxy = rospy.ServiceProxy(service, srv, persistent=True)
+            try:
+                response = proxy.call(request)
+                break
+            # a failed write of the request raises rospy's TransportTerminated / TransportInitError
+            # unwrapped: ROSInternalException, not ROSException
+            except (rospy.ServiceException, rospy.ROSException, rospy.exceptions.ROSInternalException, OSError) as exc:
+                proxy.close()
+                reason = str(exc) or type(exc).__name__
+                stage = service_calls.failure_stage(type(exc).__name__, reason, isinstance(exc, OSError))
+                if reused and service_calls.may_call_again(stage, read_only):
+                    rospy.logdebug("bridge: %s failed on a kept connection (%s), calling it again" % (service, reason))
+                    proxy, reused = None, False
+                    continue
+                if stage != service_calls.NOT_SENT:
+                    self._service_types.pop(service, None)   # kept while the node restarts: the reason stays clear
+                raise BridgeError(service_calls.failure_text(service, stage, reason))
+        self._service_types[service] = type_name
+        uri = service_proxy_uri(proxy)
+        if not reused and uri is not None:
+            self._uris[service] = (uri, time.monotonic())   # rospy looked it up to connect
         with self._proxy_lock:
             idle = self._proxies.setdefault(key, [])
-            proxy = idle.pop() if idle else None
-        if proxy is None:
-            proxy = rospy.ServiceProxy(service, srv, persistent=True)
-        try:
-            response = proxy.call(request)
-        except (rospy.ServiceException, rospy.ROSException, OSError) as exc:
-            proxy.close()
-            self._service_types.pop(service, None)
-            raise BridgeError("service %s failed: %s" % (service, exc))
-        self._service_types[service] = type_name
-        with self._proxy_lock:
-            if len(self._proxies[key]) < 4:
-                self._proxies[key].append(proxy)
+            if len(idle) < MAX_IDLE_PROXIES:
+                idle.append((proxy, uri))
             else:
                 proxy.close()
         return self._codec.to_json(response)
+
+    def _take_idle(self, key):
+        """An idle connection of ``key`` (service, type) still open and going where the master says the
+        service is; None when there is none. The others are closed: their node closed them (it
+        restarted or left) or the service moved to another node."""
+        while True:
+            with self._proxy_lock:
+                idle = self._proxies.get(key)
+                if not idle:
+                    return None
+                proxy, uri = idle.pop()
+            if idle_service_connection_closed(proxy):
+                proxy.close()
+                continue
+            current = self._service_uri(key[0])
+            if uri is not None and current is not None and uri != current:
+                proxy.close()
+                continue
+            return proxy
+
+    def _service_uri(self, service):
+        """The service's URI as the master says, asked at most every URI_CHECK_S; None if not registered."""
+        now = time.monotonic()
+        known = self._uris.get(service)
+        if known is not None and now - known[1] < URI_CHECK_S:
+            return known[0]
+        with self._uri_lock:
+            try:
+                uri = self._uri_master.lookupService(rospy.resolve_name(service))
+            except (rosgraph.MasterException, OSError):   # not registered (MasterError), or no master
+                uri = None
+        self._uris[service] = (uri, now)
+        return uri
 
     # ---------------------------------------------------------------- serving services
     def advertise_service(self, session, service, type_name):

@@ -13,6 +13,11 @@ the public API when those names differ (another rospy than Noetic's frozen 1.15)
 - :func:`caller_id`: the node that published a received message (rospy stores the TCPROS
   connection header on it as ``_connection_header``), for the safety inputs' owner check
   (motion/owners.py). Fallback: None, a caller nobody owns, so those inputs are refused (fail closed).
+- :func:`idle_service_connection_closed` and :func:`service_proxy_uri`: whether a persistent
+  ServiceProxy's idle connection was closed by its node (its ``transport``'s socket is readable: an
+  idle service connection never is, but at end of file), and the service URI it connected to
+  (``uri``), for the bridge's service calls across a node's restart (bridge/service_calls.py).
+  Fallback: not known to be closed (the call finds out, as before), no URI (no URI check).
 
 ``MISSING`` lists what was not found; test_compat_rospy fails loudly, naming rospy's version,
 when it is not empty. :func:`describe` is for a node's start-up log.
@@ -20,8 +25,10 @@ when it is not empty. :func:`describe` is for a node's start-up log.
 The bridge's publishing no longer reads rospy's publisher internals: it has a TCPROS publisher of
 its own on public APIs (ros/tcpros_publisher.py).
 """
+import select
+
 import rospy.topics
-from rospy.impl import registration, tcpros_base
+from rospy.impl import registration, tcpros_base, tcpros_service, transport
 
 
 def _assigned(function):
@@ -45,6 +52,10 @@ def _check():
                                    set(dir(rospy.topics._SubscriberImpl))),
         "caller_id": _missing("TCPROSTransport.receive_once", ["_connection_header"],
                               _assigned(tcpros_base.TCPROSTransport.receive_once)),
+        "idle_connection": (_missing("ServiceProxy", ["transport", "uri"],
+                                     _assigned(tcpros_service.ServiceProxy.__init__))
+                            + _missing("TCPROSTransport", ["socket"], _assigned(tcpros_base.TCPROSTransport.__init__))
+                            + _missing("Transport", ["done"], _assigned(transport.Transport.__init__))),
     }
 
 
@@ -54,6 +65,7 @@ UPDATE_MERGE = not _CHECKED["merge_updates"]
 HANDSHAKE_GUARD = not _CHECKED["handshake_guard"]
 LATCHED_REPLAY = not _CHECKED["replay_latched"]
 CALLER_ID = not _CHECKED["caller_id"]
+IDLE_CONNECTION = not _CHECKED["idle_connection"]
 
 
 def describe():
@@ -143,3 +155,30 @@ def caller_id(msg):
     if not isinstance(header, dict):
         return None
     return header.get("callerid")
+
+
+def idle_service_connection_closed(proxy):
+    """True when a persistent rospy.ServiceProxy holds a connection its node has closed (or reset):
+    a request written to it would be lost. A service never writes on an idle connection, so anything
+    to read on it is its end. False when it holds none (the next call connects), when it looks open,
+    or when this rospy does not show it (the call then finds out, as rospy does)."""
+    if not IDLE_CONNECTION:
+        return False
+    link = proxy.transport
+    if link is None:
+        return False
+    sock = link.socket
+    if link.done or sock is None:
+        return True
+    poller = select.poll()
+    try:
+        poller.register(sock, select.POLLIN | select.POLLPRI)
+        return bool(poller.poll(0))
+    except (OSError, ValueError):   # a socket closed under it: no file descriptor any more
+        return True
+
+
+def service_proxy_uri(proxy):
+    """The ``rosrpc://`` URI a rospy.ServiceProxy last looked up (where its connection goes); None
+    when it has not connected or this rospy does not show it."""
+    return proxy.uri if IDLE_CONNECTION else None

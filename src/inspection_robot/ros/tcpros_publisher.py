@@ -17,7 +17,10 @@ publisher serves the bridge's topics itself, as the ROS wiki specifies TCPROS
   never holds up others; a peer that closes is seen at once (the I/O thread watches every socket);
 - latched topics send their last message after the handshake; messages published in a topic's
   first EARLY_WINDOW_S go to subscribers that connect within that window (clients advertise and
-  publish at once, before any subscriber has connected; rosbridge_library does the same).
+  publish at once, before any subscriber has connected; rosbridge_library does the same), and the
+  window stays open, at most EARLY_WAIT_MAX_S, until as many subscribers have connected as the
+  master listed when the topic was registered (on a loaded machine a subscriber may take longer
+  than EARLY_WINDOW_S to connect: bench/bench_early_messages.py).
 
 No rospy API here (ros/node.py only lends its handshake bound): the node passes caller_id, the
 master and the addresses, so the unit tests run it on 127.0.0.1 without a roscore.
@@ -42,6 +45,7 @@ from inspection_robot.ros.node import HANDSHAKE_TIMEOUT_S
 ANYTYPE = "*"                # md5sum (or type) a subscriber sends when it takes any type (rostopic echo, rosbag)
 MAX_HEADER_BYTES = 1 << 20   # a subscriber's header carries its message_definition: a few kB, rarely more
 EARLY_WINDOW_S = 1.0         # a new topic's messages replayed to subscribers that connect this soon
+EARLY_WAIT_MAX_S = 10.0      # ... kept open this long at most for the subscribers the master listed at advertise
 EARLY_MAX_MESSAGES = 100
 DROP_LOG_PERIOD_S = 5.0
 SEND_BYTES = 1 << 18         # the I/O thread's largest single send of queued frames
@@ -149,6 +153,8 @@ class Publication(object):
         self.latched = None    # the last frame, for a latched topic
         self._created = time.monotonic()
         self.early = []        # frames of the first EARLY_WINDOW_S, for subscribers that connect in it
+        self.awaited = 0       # subscribers the master listed when the topic was registered
+        self.joined = set()    # caller ids of the subscribers that have connected since
         self.bytes_sent = 0
 
     def publish(self, messages):
@@ -165,7 +171,15 @@ class Publication(object):
             return len(self.connections)
 
     def early_open(self):
-        return time.monotonic() - self._created < EARLY_WINDOW_S
+        """Early messages are still kept: within EARLY_WINDOW_S of the advertise, or (at most
+        EARLY_WAIT_MAX_S) while fewer subscribers have connected than the master listed then."""
+        age = time.monotonic() - self._created
+        return age < EARLY_WINDOW_S or (age < EARLY_WAIT_MAX_S and len(self.joined) < self.awaited)
+
+    def await_subscribers(self, uris):
+        """The master's answer to registerPublisher: the subscribers (slave URIs) it knows of now."""
+        with self.lock:
+            self.awaited = len(set(uris or ()))
 
     def serialize(self, messages):
         """(bytes, frame ends): each message framed with its length, header.seq set as rospy does."""
@@ -287,11 +301,12 @@ class TcprosPublisher(object):
             publication = Publication(self, topic, data_class, latch, queue_size)
             self._topics[topic] = publication
         try:
-            self._master.registerPublisher(topic, data_class._type, self.uri)
+            subscribers = self._master.registerPublisher(topic, data_class._type, self.uri)
         except Exception:   # the master refused or is gone: the topic is not published
             with self._topics_lock:
                 self._topics.pop(topic, None)
             raise
+        publication.await_subscribers(subscribers if isinstance(subscribers, list) else ())
         return publication
 
     def unadvertise(self, publication):
@@ -536,6 +551,7 @@ class TcprosPublisher(object):
             self._request("add", publication, connection)
             publication.connections.append(connection)
             initial = list(publication.early) if publication.early_open() else []
+            publication.joined.add(header["callerid"])
             if publication.latched is not None and (not initial or initial[-1] is not publication.latched):
                 initial.append(publication.latched)
             if initial:

@@ -6,7 +6,8 @@ injected: the serial head unplugged and back, the camera answering 401 / timing 
 the real ISAPI driver against a fake ISAPI camera served here, --isapi-port), a node killed (SIGKILL;
 roslaunch respawns it; respawned = a new process registered with the master with every topic and
 service the node had before), the backend link dropped and back, the heartbeat stopped during backend
-control, a hard e-stop during motion, 100 websocket clients plus one client that never reads.
+control, a hard e-stop during motion, 100 websocket clients plus one client that never reads,
+file_server killed while a second backend connection calls file_control without pause.
 Invariants (inspection_robot_testing.soak_invariants) are checked all along from ROS-side
 observations: every command reaching the chassis driver (sim/chassis_cmd), robot_status, node pids
 and resident memory (/proc), what the camera answers during its faults. Prints the table of faults
@@ -37,8 +38,8 @@ from inspection_robot.msg import ControlStatus, RobotStatus
 from inspection_robot.srv import ControlService
 from inspection_robot_testing.bridge_client import RawClient
 from inspection_robot_testing.fake_isapi import FakeIsapiCamera
-from inspection_robot_testing.soak_invariants import (Availability, FaultReasons, Ledger, MemoryGrowth, MotionAuthority,
-                                                      NodeLiveness, held, table)
+from inspection_robot_testing.soak_invariants import (Availability, CallsAcrossRestart, FaultReasons, Ledger,
+                                                      MemoryGrowth, MotionAuthority, NodeLiveness, held, table)
 
 NODE_NAME = "soak"
 CYCLE = 0.02            # s, robot_control's control cycle (config/robot_control.yaml rate 50 Hz)
@@ -237,6 +238,7 @@ class Soak(object):
         self.availability = checkers["availability"]
         self.liveness = checkers["liveness"]
         self.reasons = checkers["reasons"]
+        self.restart_calls = checkers["restart_calls"]
         self.rng = rng
         self.port = port
         self.camera = camera
@@ -244,7 +246,7 @@ class Soak(object):
             "head unplugged and back", "camera answering 401", "camera timing out",
             "node killed (SIGKILL), respawned", "backend link dropped and back",
             "heartbeat stopped during backend control", "hard e-stop during motion",
-            "100 websocket clients + 1 that never reads")
+            "100 websocket clients + 1 that never reads", "service node killed during a stream of calls")
             if (camera is not None or not name.startswith("camera"))
             and (not only or any(word in name for word in only)))
         self.respawn_times = []   # (node, {"process": s, "registered": s, "ready": s} after the kill)
@@ -347,7 +349,8 @@ class Soak(object):
          "backend link dropped and back": self.drop_link,
          "heartbeat stopped during backend control": self.stop_heartbeat,
          "hard e-stop during motion": self.estop,
-         "100 websocket clients + 1 that never reads": self.many_clients}[name]()
+         "100 websocket clients + 1 that never reads": self.many_clients,
+         "service node killed during a stream of calls": self.kill_called_node}[name]()
 
     def head_unplug(self):
         self.head(cmd="unplug", data="")
@@ -400,6 +403,53 @@ class Soak(object):
         self.time_until(back, 30.0, period=0.05)
         self.respawn_times.append((node, marks))
         self.liveness.respawned(node, marks.get("ready"))
+
+    def kill_called_node(self):
+        """file_server SIGKILLed while a second backend connection calls file_control stat without
+        pause: only calls made while it is away (until its respawn registered file_control) may fail,
+        and they must say so (CallsAcrossRestart)."""
+        node, service = "/file_server", "/file_control"
+        pid = self.o.pid(node)
+        if not pid:
+            return
+        master = rosgraph.Master("/" + NODE_NAME)
+        before = master.lookupService(service)
+        caller = RawClient("ws://127.0.0.1:%d" % self.port, timeout=20.0)
+        calls, stop = [], threading.Event()
+
+        def call_continuously():
+            for n in range(1000000):
+                if stop.is_set():
+                    return
+                start = time.monotonic()
+                caller.send({"op": "call_service", "id": "restart%d" % n, "service": service,
+                             "args": {"sender": SENDER_SERVER, "cmd": "stat", "data": json.dumps({"path": "tasks"})}})
+                reply = caller.recv_message(lambda m, i="restart%d" % n: m.get("op") == "service_response"
+                                            and m.get("id") == i, 30.0)
+                calls.append((start, time.monotonic(), bool(reply.get("result")), str(reply.get("values"))))
+        streaming = threading.Thread(target=call_continuously, name="soak_restart_calls")
+        streaming.daemon = True
+        streaming.start()
+        try:
+            self.wait(lambda: len(calls) >= 5, 30.0, "calls before the kill")
+            killed = time.monotonic()
+            os.kill(pid, signal.SIGKILL)
+
+            def registered():
+                try:
+                    return master.lookupService(service) != before
+                except rosgraph.MasterException:
+                    return False
+            self.wait(registered, 60.0, "%s registered again" % service)
+            back = time.monotonic()
+            count = len(calls)
+            self.wait(lambda: len(calls) >= count + 10, 30.0, "calls after the respawn")
+        finally:
+            stop.set()
+            streaming.join(30.0)
+            caller.close()
+        self.restart_calls.calls(service, killed, back, calls)
+        self.liveness.respawned(node, back - killed)
 
     def drop_link(self):
         self.b.close()
@@ -501,7 +551,7 @@ def run(args):
     duration = args.minutes * 60.0
     motion, liveness = MotionAuthority(), NodeLiveness(5.0)
     memory = MemoryGrowth(args.warmup if args.warmup is not None else min(max(0.2 * duration, 30.0), 0.5 * duration))
-    ledger, availability, reasons = Ledger(), Availability(15.0), FaultReasons()
+    ledger, availability, reasons, restart_calls = Ledger(), Availability(15.0), FaultReasons(), CallsAcrossRestart()
     observer = Observer(motion, liveness, memory)
     rospy.Subscriber("control_status", ControlStatus, lambda m: setattr(observer, "mode", m.mode), queue_size=10)
     port = int(_wait(lambda: rospy.get_param("/rosbridge_websocket/actual_port", None), 120.0, "bridge port"))
@@ -510,7 +560,7 @@ def run(args):
     backend = Backend(port)
     backend.call_topic_vo = _call_topic_vo(backend)
     soak = Soak(backend, observer, {"ledger": ledger, "availability": availability, "liveness": liveness,
-                                    "reasons": reasons},
+                                    "reasons": reasons, "restart_calls": restart_calls},
                 random.Random(args.seed), port, camera, [w for w in args.faults.split(",") if w])
 
     soak.warm_up()
@@ -540,6 +590,8 @@ def run(args):
             camera.stop()
     memory.finish()
     checkers = [motion, liveness, memory, ledger, availability] + ([reasons] if camera is not None else [])
+    if "service node killed during a stream of calls" in soak.faults:
+        checkers.append(restart_calls)
     print("soak: %.1f min, %d patrol loops, %d respawns, stop latency max %.3f s (n=%d), load average %.1f"
           % (args.minutes, soak.loops, liveness.respawns, max(motion.stop_latencies or [0.0]),
              len(motion.stop_latencies), os.getloadavg()[1]))
