@@ -1,6 +1,6 @@
 """soak_invariants: the chaos soak's invariant checkers, fed with hand-made observation sequences."""
-from inspection_robot_testing.soak_invariants import (Availability, FaultReasons, Ledger, MemoryGrowth, MotionAuthority,
-                                                      NodeLiveness, held, table)
+from inspection_robot_testing.soak_invariants import (Availability, ControlKept, FaultReasons, Ledger, MemoryGrowth,
+                                                      MotionAuthority, NodeLiveness, held, table)
 
 CYCLE = 0.02
 
@@ -111,3 +111,13 @@ def test_table_names_faults_and_results():
     assert not held([a, b]) and held([a])
     b.recovered("camera", None)
     assert "VIOLATED" in table({}, [b])
+
+
+def test_control_kept_counts_each_reconnect_and_names_a_loss():
+    kept = ControlKept()
+    assert not held([kept])                       # not exercised: not held
+    kept.observed("reconnect", True)
+    assert held([kept])
+    kept.observed("reconnect", False, "mode 0, offline True")
+    assert not held([kept]) and kept.checks == 2
+    assert kept.violations == ["reconnect: control lost after the grant (mode 0, offline True)"]
