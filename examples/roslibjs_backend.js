@@ -2,9 +2,12 @@
 /*
  * A backend's first session with the robot over its websocket, with roslibjs (npm `roslib` 1.x) in
  * Node. The same steps as roslibpy_backend.py (docs/interface.md, "Clients"):
- *   1. connect and send the heartbeat (server_status, every 0.5 s) until the end;
- *   2. wait for robot_status to say the link is up (offline_warn 0);
- *   3. take the robot (mode_cmd acquire server, answered on mode_ack) and drive it a little with
+ *   1. connect, draw a session number and send the heartbeat under it (server_status, trans_id =
+ *      the session, every 0.5 s) until the end;
+ *   2. wait for robot_status to answer *its own* heartbeat (offline_warn 0 and trans_id = the
+ *      session): a backend that reconnects would otherwise see the previous one's heartbeat;
+ *   3. take the robot (mode_cmd acquire server with trans_id = the session, answered on mode_ack:
+ *      granted on this session's heartbeat only) and drive it a little with
  *      move_cmd (0.3 m/s for 1.5 s at 10 Hz: the robot stops 0.5 s after the last one);
  *   4. give it back to task mode (mode_cmd release): move_base drives only in task mode;
  *   5. drive to a goal as an action goal (move_action, ROSLIB.ActionClient = ROS 1 actionlib);
@@ -18,6 +21,7 @@
  * In this repository: NODE_PATH=web/node_modules node examples/roslibjs_backend.js --port 9090
  */
 'use strict';
+const crypto = require('crypto');
 const ROSLIB = require('roslib');
 
 function option(name, fallback) {
@@ -66,10 +70,13 @@ async function main() {
   const modeCmd = new ROSLIB.Topic({ ros, name: 'mode_cmd', messageType: 'inspection_robot/GeneralCmd' });
   const moveCmd = new ROSLIB.Topic({ ros, name: 'move_cmd', messageType: 'inspection_robot/MoveCmd' });
   const heartbeat = new ROSLIB.Topic({ ros, name: 'server_status', messageType: 'inspection_robot/GeneralTopic' });
-  const beat = setInterval(() => heartbeat.publish(new ROSLIB.Message({ sender: 'server', data: 'alive' })), 500);
+  const session = crypto.randomBytes(4).readUInt32BE(0) || 1;   // names this connection's heartbeat
+  const beat = setInterval(() => heartbeat.publish(new ROSLIB.Message({ sender: 'server', trans_id: session, data: '' })),
+    500);
+  const online = () => state.robot && state.robot.offline_warn === 0 && state.robot.trans_id === session;
 
-  const mode = async (cmd, data) => {
-    const transId = ++state.transId;
+  const mode = async (cmd, data, sessionId) => {
+    const transId = sessionId === undefined ? ++state.transId : sessionId;
     modeCmd.publish(new ROSLIB.Message({ sender: 'server', trans_id: transId, cmd, data }));
     const ack = await waitFor(state, () => state.acks.get(transId), 10, 'mode_ack of ' + cmd);
     return [ack.ack, ack.data];
@@ -107,9 +114,10 @@ async function main() {
   });
 
   try {
-    await waitFor(state, () => state.robot && state.robot.offline_warn === 0, 20, 'robot_status online (offline_warn 0)');
-    console.log('online: robot_status offline_warn 0, mode ' + state.robot.mode);
-    let [ack, data] = await mode('acquire', 'server');
+    await waitFor(state, online, 20, 'robot_status online on our heartbeat (offline_warn 0, trans_id ' + session + ')');
+    console.log('online: robot_status offline_warn 0, mode ' + state.robot.mode + ', our heartbeat (session ' +
+      session + ')');
+    let [ack, data] = await mode('acquire', 'server', session);
     console.log('acquire server: ' + ack + ' ' + data);
     if (ack !== 'success') return 1;
     const before = pose();

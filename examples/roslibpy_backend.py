@@ -2,9 +2,12 @@
 """A backend's first session with the robot over its websocket, with roslibpy 1.x or 2.x.
 
 Copy it and build on it. It does what every backend does (docs/interface.md):
-  1. connects and sends the heartbeat (server_status, every 0.5 s) until it ends;
-  2. waits for robot_status to say the link is up (offline_warn 0);
-  3. takes the robot (mode_cmd acquire server, answered on mode_ack) and drives it a little with
+  1. connects, draws a session number and sends the heartbeat under it (server_status, trans_id =
+     the session, every 0.5 s) until it ends;
+  2. waits for robot_status to answer *its own* heartbeat (offline_warn 0 and trans_id = its
+     session): a backend that reconnects would otherwise see the previous one's heartbeat;
+  3. takes the robot (mode_cmd acquire server with trans_id = its session, answered on mode_ack:
+     the robot grants it on this session's heartbeat only) and drives it a little with
      move_cmd (0.3 m/s for 1.5 s, sent at 10 Hz: the robot stops 0.5 s after the last one);
   4. gives it back to task mode (mode_cmd release): move_base drives only in task mode;
   5. drives to a goal as an action goal (move_action), printing its feedback and result;
@@ -22,6 +25,7 @@ send_action_goal``). roslibpy 1.x has it as ``roslibpy.actionlib``. The import b
 import argparse
 import json
 import math
+import random
 import sys
 import threading
 import time
@@ -39,6 +43,7 @@ class Backend(object):
         self.ros = ros
         self.sender = sender
         self.trans_id = 0
+        self.session = random.SystemRandom().randint(1, 2 ** 32 - 1)   # names this connection's heartbeat
         self.robot_status = None
         self.task_status = None
         self.acks = {}                      # (topic, trans_id) -> ack message
@@ -66,7 +71,12 @@ class Backend(object):
 
     def _beat(self):
         while not self.stopping.wait(0.5):   # the robot goes offline after 3 s without one
-            self.heartbeat.publish(roslibpy.Message({"sender": self.sender, "data": "alive"}))
+            self.heartbeat.publish(roslibpy.Message({"sender": self.sender, "trans_id": self.session, "data": ""}))
+
+    def online(self):
+        """robot_status answers this backend's own heartbeat: online, and its trans_id is our session."""
+        status = self.robot_status
+        return status is not None and status["offline_warn"] == 0 and status["trans_id"] == self.session
 
     def wait(self, predicate, timeout, what):
         """predicate()'s first true value, or RuntimeError naming ``what`` after ``timeout`` s."""
@@ -85,9 +95,9 @@ class Backend(object):
         self.trans_id += 1
         return self.trans_id
 
-    def mode(self, cmd, data, timeout=10.0):
-        """A mode_cmd and its mode_ack: (ack, data)."""
-        trans_id = self.next_id()
+    def mode(self, cmd, data, timeout=10.0, trans_id=None):
+        """A mode_cmd and its mode_ack: (ack, data). An acquire server goes with ``trans_id`` = the session."""
+        trans_id = self.next_id() if trans_id is None else trans_id
         self.mode_cmd.publish(roslibpy.Message({"sender": self.sender, "trans_id": trans_id, "cmd": cmd, "data": data}))
         ack = self.wait(lambda: self.acks.get(("mode", trans_id)), timeout, "mode_ack of %s" % cmd)
         return ack["ack"], ack["data"]
@@ -140,10 +150,11 @@ def main():
     print("roslibpy %s: connected to %s:%d" % (getattr(roslibpy, "__version__", "?"), args.host, args.port))
     backend = Backend(ros)
     try:
-        backend.wait(lambda: backend.robot_status and backend.robot_status["offline_warn"] == 0, 20.0,
-                     "robot_status online (offline_warn 0)")
-        print("online: robot_status offline_warn 0, mode %d" % backend.robot_status["mode"])
-        ack, data = backend.mode("acquire", "server")
+        backend.wait(backend.online, 20.0, "robot_status online on our heartbeat (offline_warn 0, trans_id %d)"
+                     % backend.session)
+        print("online: robot_status offline_warn 0, mode %d, our heartbeat (session %d)"
+              % (backend.robot_status["mode"], backend.session))
+        ack, data = backend.mode("acquire", "server", trans_id=backend.session)
         print("acquire server: %s %s" % (ack, data))
         if ack != "success":
             return 1

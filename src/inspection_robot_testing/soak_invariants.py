@@ -251,6 +251,19 @@ class CallsAcrossRestart(Checker):
                 self._violate("a call of %s failed during the restart without saying so: %r" % (service, reason))
 
 
+class ControlKept(Checker):
+    """A backend that reconnects and acquires at once keeps control: the old connection's heartbeat
+    expiring after the grant does not take the robot back to task mode."""
+
+    name = "control kept by a backend that reconnects and acquires at once"
+
+    def observed(self, what, kept, state=""):
+        """``kept``: mode 1 and online held from the grant until the old heartbeat had expired."""
+        self.checks += 1
+        if not kept:
+            self._violate("%s: control lost after the grant (%s)" % (what, state))
+
+
 def _median(values):
     ordered = sorted(values)
     return ordered[len(ordered) // 2]

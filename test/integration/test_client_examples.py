@@ -7,9 +7,13 @@ task_status and exports the results.
 Asserted per run: exit code 0, the lines it printed (acquire success, move ret_code 0, release to
 task mode, an export under tasks/exports/ stat'ed over file_control), and what the robot did: it
 stands at that run's goal and is back in task mode (robot_status over ROS, not the example's word).
+Then a backend that reconnects (issue #44 item 2): 20 times backend A holds server mode and leaves,
+backend B connects 0 .. 3.2 s later and acquires at once following the documented sequence; B keeps
+control past A's last heartbeat's expiry every time.
 """
 import math
 import os
+import random
 import subprocess
 import sys
 import unittest
@@ -18,6 +22,7 @@ import rospy
 import rostest
 
 from inspection_robot.msg import RobotStatus
+from inspection_robot_testing.backend_reconnect import reconnect_trial
 from rostest_helpers import Latest, wait_for
 
 ROOT = os.path.abspath(os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", ".."))
@@ -71,6 +76,17 @@ class ClientExamplesTest(unittest.TestCase):
     def test_3_roslibjs(self):
         self.run_example("roslibjs", ["node", os.path.join(EXAMPLES, "roslibjs_backend.js")],
                          {"NODE_PATH": os.path.join(ROOT, "web", "node_modules")})
+
+    def test_4_a_backend_that_reconnects_keeps_the_control_it_acquires(self):
+        rng = random.Random(44)
+        url = "ws://127.0.0.1:%d" % self.port
+        losses = []
+        for attempt in range(20):
+            result = reconnect_trial(url, 3.5, rng.uniform(0.0, 3.2), numbered=True, rng=rng)
+            if not result["kept"]:
+                losses.append("try %d: %s" % (attempt, result["why"]))
+        self.assertEqual(losses, [])
+        self.robot.wait(lambda m: m.mode == 0, 10.0, "task mode after the last release")
 
 
 if __name__ == "__main__":

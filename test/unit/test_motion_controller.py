@@ -295,6 +295,38 @@ def test_acquire_while_offline_waits_for_the_next_robot_status(rig):
     assert ctl.on_mode_cmd("joy_control", "acquire", "joy", answers.append).changed  # others decided at once
 
 
+def test_acquire_is_granted_on_the_backends_own_heartbeat_only(rig):
+    """Backend A (session 1111) holds mode 1 and leaves; backend B (session 2222) acquires while the
+    robot is still online on A's last heartbeat. B is not granted on A's heartbeat (its expiry would
+    take the robot back 3 s later): it waits for a robot_status naming its session, and is refused
+    when none comes. Once granted, only offline_warn takes the mode back."""
+    ctl, _chassis, _clock, _rec, run, logs, _ = rig
+    answers = []
+    ctl.on_offline(False, 1111)
+    assert ctl.on_mode_cmd("server", "acquire", "server", answers.append, trans_id=1111).changed
+    assert ctl.on_mode_cmd("server", "release", "").changed
+    ctl.on_mode_cmd("server", "acquire", "server", answers.append, trans_id=2222)
+    ctl.on_offline(False, 1111)                          # A's heartbeat still: B waits
+    assert answers == [] and ctl.mode == MODE_TASK
+    ctl.on_offline(False, 2222)                          # B's own heartbeat arrived
+    assert [a.accepted for a in answers] == [True] and ctl.mode == MODE_SERVER
+    ctl.on_offline(False, 1111)                          # someone beating under A's number: no change
+    run(1.0)
+    assert ctl.mode == MODE_SERVER
+    ctl.on_mode_cmd("server", "release", "")
+    ctl.on_mode_cmd("server", "acquire", "server", answers.append, trans_id=3333)   # C, never beats
+    ctl.on_offline(False, 2222)
+    run(OFFLINE_RECHECK + 0.1)
+    assert not answers[-1].accepted and ctl.mode == MODE_TASK
+    assert answers[-1].reason == ("offline: acquire server refused: no heartbeat of session 3333 yet "
+                                  "(robot_status names session 2222)")
+    assert not ctl.on_mode_cmd("server", "acquire", "server", trans_id=3333).accepted   # no answer later: at once
+    ctl.on_offline(False, 0)                             # an unnumbered heartbeat: any acquire, as before
+    assert ctl.on_mode_cmd("server", "acquire", "server", trans_id=5).changed
+    ctl.on_offline(True, 0)
+    assert ctl.mode == MODE_TASK and "backend offline in mode 1" in logs[-1][1]
+
+
 def obstacle_rig(timeout=3.0):
     clock = FakeClock()
     chassis = SimChassis(clock, encoder_scale_error=0.0, max_accel_x=10.0, max_accel_yaw=10.0)

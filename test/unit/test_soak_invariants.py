@@ -1,6 +1,6 @@
 """soak_invariants: the chaos soak's invariant checkers, fed with hand-made observation sequences."""
-from inspection_robot_testing.soak_invariants import (Availability, FaultReasons, Ledger, MemoryGrowth, MotionAuthority,
-                                                      NodeLiveness, held, table)
+from inspection_robot_testing.soak_invariants import (Availability, ControlKept, FaultReasons, Ledger, MemoryGrowth,
+                                                      MotionAuthority, NodeLiveness, held, table)
 
 CYCLE = 0.02
 
@@ -126,3 +126,13 @@ def test_calls_across_a_restart_fail_only_during_the_absence_and_say_so():
     assert "without saying so" in checker.violations[0] and "while its node was there" in checker.violations[1]
     checker.calls("/file_control", 10.0, 12.0, [(11.0, 11.1, False, away)])
     assert checker.violations[-1] == "no call of /file_control after its node came back"
+
+
+def test_control_kept_counts_each_reconnect_and_names_a_loss():
+    kept = ControlKept()
+    assert not held([kept])                       # not exercised: not held
+    kept.observed("reconnect", True)
+    assert held([kept])
+    kept.observed("reconnect", False, "mode 0, offline True")
+    assert not held([kept]) and kept.checks == 2
+    assert kept.violations == ["reconnect: control lost after the grant (mode 0, offline True)"]

@@ -152,6 +152,7 @@ class SendQueue(object):
         self.in_flight = 0
         self.dropped = collections.Counter()  # key -> topic messages refused over budget
         self.limit_dropped = 0                # topic messages replaced under their queue_length
+        self.discarded = 0                    # topic messages still queued when the client was closed
         self.over_since = None
 
     def __len__(self):
@@ -243,6 +244,17 @@ class SendQueue(object):
             frames.extend(reply)
             self.queued_bytes -= size
         return frames
+
+    def discard_topics(self):
+        """Drop every topic message still queued (the client is being closed); returns how many.
+        ``discarded`` counts them; the close reason tells them with the refused ones."""
+        count = self._alive
+        for entry in self._topics:
+            self._kill(entry)
+        self._topics.clear()
+        self._by_key.clear()
+        self.discarded += count
+        return count
 
     def written(self, size):
         """``size`` bytes handed out by pop() have been written to the socket."""
@@ -593,7 +605,9 @@ class BridgeServer(object):
         if handler.close_reason_sent is not None:
             return
         self.closed_over_budget += 1
-        dropped = sum(handler.queue.dropped.values())
+        # what is still queued will never be written: told in the same count as the refused ones.
+        # Messages in flight (handed to the socket) go out ahead of the close frame.
+        dropped = handler.queue.discard_topics() + sum(handler.queue.dropped.values())
         handler.close_with(CLOSE_POLICY, "send queue over budget (%d bytes) for %g s: client reads too slowly; "
                            "%d messages dropped" % (self.budget, self.budget_grace, dropped))
 

@@ -30,7 +30,7 @@ from inspection_robot.motion.safety import SWITCHES, SafetyLatch
 from inspection_robot.motion.status import control_status_fields
 from inspection_robot.motion.voice import status_sentence
 
-OFFLINE_RECHECK = 1.0  # s an acquire of backend mode waits for a robot_status while the backend seems offline
+OFFLINE_RECHECK = 1.0  # s an acquire of backend mode waits for a robot_status on its own heartbeat
 MAX_PENDING = 8        # such acquires waiting at once; more are refused at once
 
 
@@ -62,7 +62,8 @@ class MotionController(object):
         self._last_tick = None
         self._lamps = None
         self._offline = False
-        self._pending = []  # acquires waiting for the next robot_status: (sender, cmd, data, answer, deadline)
+        self._session = 0   # heartbeat session named by the latest robot_status (its trans_id)
+        self._pending = []  # acquires waiting for a robot_status: (sender, cmd, data, trans_id, answer, deadline)
         self._chassis = driver.state()
         self.stop_count = 0
         driver.set_safety_listener(self.on_chassis_event)
@@ -82,22 +83,31 @@ class MotionController(object):
         return self.arbiter.mode
 
     # --- inputs ------------------------------------------------------------------------------
-    def on_mode_cmd(self, sender, cmd, data, answer=None):
+    def on_mode_cmd(self, sender, cmd, data, answer=None, trans_id=0):
         """Decide a mode_cmd: returns the Decision, or None when ``answer(decision)`` will get it later.
 
-        An acquire of backend mode while the backend seems offline waits for the next robot_status
-        (at most OFFLINE_RECHECK s) when the caller can be answered later: a client that saw the
-        robot online sent its acquire after that status, but the status travels on another topic
-        and may reach this node after the acquire. Deciding on a newer status than the client's
-        gives it what the status it saw promised.
+        An ``acquire server`` is granted only on a robot_status that is online and names the
+        acquire's ``trans_id`` as its heartbeat session (or names none: session 0, a backend that
+        does not number its heartbeats). Otherwise it waits for the next robot_status (at most
+        OFFLINE_RECHECK s) when the caller can be answered later: a client that saw its own
+        heartbeat answered sent its acquire after that status, but the status travels on another
+        topic and may reach this node after the acquire. Deciding on a newer status than the
+        client's gives it what the status it saw promised. A backend whose own heartbeat has not
+        arrived yet is refused: granting it on another (older) backend's heartbeat would let that
+        heartbeat's expiry take the robot back a moment later.
         """
         with self._lock:
-            if self._offline and cmd == MODE_CMD_ACQUIRE and data == MODE_NAMES[MODE_SERVER]:
+            if cmd == MODE_CMD_ACQUIRE and data == MODE_NAMES[MODE_SERVER] and not self._heartbeat_of(trans_id):
                 if answer is not None and len(self._pending) < MAX_PENDING:
-                    self._pending.append((sender, cmd, data, answer, self._clock() + OFFLINE_RECHECK))
+                    self._pending.append((sender, cmd, data, trans_id, answer, self._clock() + OFFLINE_RECHECK))
                     return None
-                return self._offline_refusal(sender, cmd, data)
+                return self._offline_refusal(sender, cmd, data, trans_id)
             return self._decide(sender, cmd, data)
+
+    def _heartbeat_of(self, trans_id):
+        """True when the latest robot_status is online on the heartbeat of session ``trans_id``
+        (or on an unnumbered heartbeat, session 0)."""
+        return not self._offline and self._session in (0, trans_id)
 
     def _decide(self, sender, cmd, data):
         decision = self.arbiter.request(sender, cmd, data)
@@ -106,8 +116,12 @@ class MotionController(object):
             self._stop("mode change")
         return decision
 
-    def _offline_refusal(self, sender, cmd, data):
-        decision = refused(REFUSAL_OFFLINE, "acquire server refused: backend offline (robot_status.offline_warn)")
+    def _offline_refusal(self, sender, cmd, data, trans_id):
+        if self._offline:
+            decision = refused(REFUSAL_OFFLINE, "acquire server refused: backend offline (robot_status.offline_warn)")
+        else:
+            decision = refused(REFUSAL_OFFLINE, "acquire server refused: no heartbeat of session %d yet "
+                               "(robot_status names session %d)" % (trans_id, self._session))
         self._log_decision(sender, cmd, data, decision)
         return decision
 
@@ -120,13 +134,13 @@ class MotionController(object):
         Returns [(answer, decision)] for the caller to deliver outside the lock."""
         now = self._clock()
         settled, waiting = [], []
-        for sender, cmd, data, answer, deadline in self._pending:
-            if not self._offline:
+        for sender, cmd, data, trans_id, answer, deadline in self._pending:
+            if self._heartbeat_of(trans_id):
                 settled.append((answer, self._decide(sender, cmd, data)))
-            elif fresh_status or now >= deadline:
-                settled.append((answer, self._offline_refusal(sender, cmd, data)))
-            else:
-                waiting.append((sender, cmd, data, answer, deadline))
+            elif (fresh_status and self._offline) or now >= deadline:
+                settled.append((answer, self._offline_refusal(sender, cmd, data, trans_id)))
+            else:   # online on another session's heartbeat: its own may come with a later status
+                waiting.append((sender, cmd, data, trans_id, answer, deadline))
         self._pending = waiting
         return settled
 
@@ -179,12 +193,15 @@ class MotionController(object):
             if self.safety.blocks():
                 self._stop_if_moving("obstacle")
 
-    def on_offline(self, offline):
-        """robot_status.offline_warn: going offline in mode 1 stops and returns to task mode; acquires
-        waiting for this status are decided."""
+    def on_offline(self, offline, session=0):
+        """robot_status: offline_warn and the heartbeat session it names (its trans_id). Going
+        offline in mode 1 stops and returns to task mode; acquires waiting for this status are
+        decided. Another session's heartbeat changes nothing of the mode: any heartbeat keeps the
+        robot online."""
         with self._lock:
             went_offline = offline and not self._offline
             self._offline = bool(offline)
+            self._session = session
             if went_offline and self.mode == MODE_SERVER:
                 self.arbiter.force_task()
                 self._stop("backend offline")

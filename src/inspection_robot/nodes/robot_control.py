@@ -9,7 +9,8 @@ Subscribes:  mode_cmd (GeneralCmd): acquire joy|server, release
              move_cmd (MoveCmd): velocity_x 0.001 m/s, velocity_yaw 0.001 rad/s, wheel_control 0|1
              control_cmd (GeneralCmd): enable_/disable_/switch_collision|fallen|obstacle,
                  enable_/disable_charge, enable_stop, disable_stop, query_status
-             obstacle_status (ObstacleStatus), robot_status (RobotStatus: offline_warn)
+             obstacle_status (ObstacleStatus), robot_status (RobotStatus: offline_warn, and trans_id: the
+                 heartbeat session; acquire server is granted on that session's heartbeat only)
              Safety inputs count only from their owners' caller ids (motion.owners, ~owners):
              obstacle_status from obstacle_detector, robot_status from status_control, mode_cmd and
              move_cmd with sender joy_control / move_base from that node; others are dropped (counted,
@@ -175,7 +176,7 @@ class RobotControl(object):
             ack.header.stamp = rospy.Time.now()
             self._mode_ack_pub.publish(ack)
             self._publish_status_if_changed()
-        decision = self._ctl.on_mode_cmd(msg.sender, msg.cmd, msg.data, answer)
+        decision = self._ctl.on_mode_cmd(msg.sender, msg.cmd, msg.data, answer, trans_id=msg.trans_id)
         if decision is not None:
             answer(decision)
 
@@ -196,7 +197,7 @@ class RobotControl(object):
         self._publish_status_if_changed()
 
     def _on_robot_status(self, msg):
-        self._ctl.on_offline(msg.offline_warn != 0)
+        self._ctl.on_offline(msg.offline_warn != 0, msg.trans_id)
 
     def _on_inject_fault(self, req):
         with self._ctl.locked():

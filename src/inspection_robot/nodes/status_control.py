@@ -3,7 +3,10 @@
 Subscribes:  server_status (GeneralTopic) heartbeat from the backend
              control_status (ControlStatus), nav_status (NavStatus), robot_odom (nav_msgs/Odometry)
              diagnostics (diagnostic_msgs/DiagnosticArray): sensor alarms by hardware_id
-Publishes:   robot_status (RobotStatus) at ~rate and at once on any change
+Publishes:   robot_status (RobotStatus) at ~rate and at once on any change; its header names the
+                 heartbeat session keeping the robot online: trans_id and receiver = the latest
+                 server_status's trans_id and sender (0 and "" while offline; a session change alone
+                 at once at most once per 1/~rate s: status.merge.PublishGate)
              diagnostics (diagnostic_updater, 1 Hz): hardware_id "robot", status "status_control: software"
                  with the version (git describe of the build, inspection_robot.version) and the site check
 Parameters:  ~heartbeat_timeout (s, 3.0), ~rate (Hz, 10.0),
@@ -20,7 +23,7 @@ from nav_msgs.msg import Odometry
 from inspection_robot.msg import ControlStatus, GeneralTopic, NavStatus, RobotStatus
 from inspection_robot.ros.node import init_node
 from inspection_robot.version import version
-from inspection_robot.status.merge import (CONTROL_FIELDS, Heartbeat, StatusMerger,
+from inspection_robot.status.merge import (CONTROL_FIELDS, Heartbeat, PublishGate, StatusMerger,
                                            heartbeat_text_problem)
 
 
@@ -43,7 +46,7 @@ class StatusControl(object):
     def __init__(self, merger, rate_hz, sensor_hardware_bits):
         self._merger = merger
         self._sensor_bits = dict(sensor_hardware_bits)
-        self._last_published = None
+        self._gate = PublishGate(1.0 / rate_hz)
         # rospy runs each subscription's callbacks (and the timer) on its own thread: a status built
         # before another input's but published after it would put an old value on the wire
         # (offline_warn back on after the first heartbeat), so one input is merged and published at a time
@@ -76,7 +79,7 @@ class StatusControl(object):
         if problem:
             rospy.logwarn_throttle(5.0, "server_status from %r malformed (%s); counted as heartbeat"
                                    % (msg.sender[:40], problem))
-        self._merge(self._merger.heartbeat.beat)
+        self._merge(lambda now: self._merger.heartbeat.beat(now, msg.sender, msg.trans_id))
 
     def _on_control_status(self, msg):
         fields = {name: getattr(msg, name) for name in ("mode",) + CONTROL_FIELDS}
@@ -108,7 +111,7 @@ class StatusControl(object):
         with self._lock:
             now = self._now()
             if now is not None:
-                self._publish(self._merger.robot_status(now))
+                self._publish(now, self._merger.robot_status(now), self._merger.heartbeat.session(now))
 
     def _merge(self, update):
         """``update(now)`` applied to the merger, then robot_status published if it changed."""
@@ -121,12 +124,13 @@ class StatusControl(object):
 
     def _publish_if_changed(self, now):
         status = self._merger.robot_status(now)
-        if status != self._last_published:
-            self._publish(status)
+        session = self._merger.heartbeat.session(now)
+        if self._gate.due(now, status, session):
+            self._publish(now, status, session)
 
-    def _publish(self, status):
-        self._last_published = status
-        msg = RobotStatus(sender="status_control", **status)
+    def _publish(self, now, status, session):
+        self._gate.sent(now, status, session)
+        msg = RobotStatus(sender="status_control", receiver=session[0], trans_id=session[1], **status)
         msg.header.stamp = rospy.Time.now()
         self._pub.publish(msg)
 

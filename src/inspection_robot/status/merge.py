@@ -3,6 +3,11 @@
 robot_status is the backend's single view of the robot. It is built from the latest input of
 each source; a source silent for longer than its timeout is *flagged* in ``other_status[0]``
 (STALE_* bits) rather than silently repeated as if fresh (docs/interface.md, "Staleness").
+
+Heartbeat sessions (docs/interface.md, "Heartbeat and status", **Sessions**): a backend names its
+connection by a session number, the ``trans_id`` of its server_status. robot_status's header
+answers the heartbeat that keeps the robot online: ``trans_id`` its session, ``receiver`` its
+sender (0 and "" while offline), so a backend can tell its own heartbeat from an older one's.
 """
 import math
 
@@ -24,22 +29,71 @@ CONTROL_FIELDS = ("wheel_status", "light_status", "stop_status", "circuit_status
 FIXED_LENGTHS = {"motor_status": (MOTOR_COUNT, 0), "motor_info": (MOTOR_COUNT, 0),
                  "temperature": (TEMPERATURE_COUNT, TEMPERATURE_NOT_SAMPLED)}
 MAX_HEARTBEAT_TEXT = 256
+MAX_TRANS_ID = 2 ** 32 - 1
+NO_SESSION = ("", 0)   # robot_status (receiver, trans_id) while offline
 
 
 class Heartbeat(object):
-    """Offline after ``timeout`` seconds without a server_status; online at the next one."""
+    """Offline after ``timeout`` seconds without a server_status; online at the next one.
+
+    ``session(now)`` is (sender, trans_id) of the latest server_status while online, NO_SESSION
+    while offline. Any server_status keeps the robot online, whoever sends it (the spec's rule); the
+    session only says whose heartbeat arrived last. A sender that fails heartbeat_text_problem is
+    answered as "" (never echoed), a trans_id outside uint32 as 0.
+    """
 
     def __init__(self, timeout):
         if timeout <= 0:
             raise ValueError("heartbeat timeout must be positive, got %r" % (timeout,))
         self.timeout = timeout
         self._last = None
+        self._session = NO_SESSION
 
-    def beat(self, now):
+    def beat(self, now, sender="", trans_id=0):
         self._last = now
+        if heartbeat_text_problem(sender):
+            sender = ""
+        if not isinstance(trans_id, int) or not 0 <= trans_id <= MAX_TRANS_ID:
+            trans_id = 0
+        self._session = (sender, trans_id)
 
     def offline(self, now):
         return self._last is None or now - self._last > self.timeout
+
+    def session(self, now):
+        return NO_SESSION if self.offline(now) else self._session
+
+
+class PublishGate(object):
+    """When status_control publishes robot_status at once, besides its ~rate.
+
+    A change of any field goes out at once (the spec's rule). A change of the heartbeat session
+    alone goes out at once at most once per ``period`` s, else with the next periodic status:
+    backends beating in turn (or one flooding heartbeats under changing session numbers) add at
+    most 1/period messages a second to robot_status.
+    """
+
+    def __init__(self, period):
+        if not period > 0:
+            raise ValueError("period must be positive, got %r" % (period,))
+        self.period = float(period)
+        self._status = None
+        self._session = None
+        self._session_sent = None
+
+    def due(self, now, status, session):
+        """True when (status, session) should be published now, outside the periodic tick."""
+        if status != self._status:
+            return True
+        return session != self._session and (self._session_sent is None
+                                             or now - self._session_sent >= self.period)
+
+    def sent(self, now, status, session):
+        """(status, session) went out at ``now``."""
+        if session != self._session:
+            self._session_sent = now
+        self._status = status
+        self._session = session
 
 
 def heartbeat_text_problem(*texts):

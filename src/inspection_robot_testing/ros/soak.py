@@ -6,8 +6,10 @@ injected: the serial head unplugged and back, the camera answering 401 / timing 
 the real ISAPI driver against a fake ISAPI camera served here, --isapi-port), a node killed (SIGKILL;
 roslaunch respawns it; respawned = a new process registered with the master with every topic and
 service the node had before), the backend link dropped and back, the heartbeat stopped during backend
-control, a hard e-stop during motion, 100 websocket clients plus one client that never reads,
-file_server killed while a second backend connection calls file_control without pause.
+control, a backend that disconnects while holding control and a new one that acquires at once (it
+must keep control past the old heartbeat's expiry), a hard e-stop during motion, 100 websocket
+clients plus one client that never reads, file_server killed while a second backend connection
+calls file_control without pause.
 Invariants (inspection_robot_testing.soak_invariants) are checked all along from ROS-side
 observations: every command reaching the chassis driver (sim/chassis_cmd), robot_status, node pids
 and resident memory (/proc), what the camera answers during its faults. Prints the table of faults
@@ -38,8 +40,8 @@ from inspection_robot.msg import ControlStatus, RobotStatus
 from inspection_robot.srv import ControlService
 from inspection_robot_testing.bridge_client import RawClient
 from inspection_robot_testing.fake_isapi import FakeIsapiCamera
-from inspection_robot_testing.soak_invariants import (Availability, CallsAcrossRestart, FaultReasons, Ledger,
-                                                      MemoryGrowth, MotionAuthority, NodeLiveness, held, table)
+from inspection_robot_testing.soak_invariants import (Availability, CallsAcrossRestart, ControlKept, FaultReasons,
+                                                      Ledger, MemoryGrowth, MotionAuthority, NodeLiveness, held, table)
 
 NODE_NAME = "soak"
 CYCLE = 0.02            # s, robot_control's control cycle (config/robot_control.yaml rate 50 Hz)
@@ -48,13 +50,18 @@ KILLABLE = ("/cloud_terrace", "/camera_node", "/infrared_imager", "/status_contr
             "/obstacle_detector", "/robot_voice", "/preset_scale", "/find_scale", "/read_scale", "/robot_arm")
 VO = "virtual obstacle"
 ISAPI_USER, ISAPI_PASSWORD = "admin", "soak"   # launch/include/camera.launch, camera_isapi_url
+HEARTBEAT_TIMEOUT = 3.0  # s, status_control's (config/status_control.yaml)
+RECONNECT = "backend reconnecting, the new one acquiring at once"
 CAMERA_FAULT_REASONS = {"401": ["refused the credentials (HTTP 401"], "timeout": ["unreachable", "timed out"]}
 
 
 class Backend(object):
-    """The backend's websocket session: publish, call services, a heartbeat thread."""
+    """The backend's websocket session: publish, call services, a heartbeat thread. Each connection
+    beats under a session number of its own (docs/interface.md, "Heartbeat and status", **Sessions**)."""
 
-    def __init__(self, port):
+    def __init__(self, port, rng):
+        self._rng = rng
+        self.session = 0
         self._url = "ws://127.0.0.1:%d" % port
         self._lock = threading.Lock()
         self._ids = 0
@@ -64,6 +71,7 @@ class Backend(object):
 
     def connect(self):
         self.client = RawClient(self._url, timeout=20.0)
+        self.session = self._rng.randint(1, 2 ** 32 - 1)
         for topic, msg_type in (("/server_status", "inspection_robot/GeneralTopic"),
                                 ("/mode_cmd", "inspection_robot/GeneralCmd"),
                                 ("/move_cmd", "inspection_robot/MoveCmd")):
@@ -94,7 +102,7 @@ class Backend(object):
 
         def beat():
             while not stop.wait(period):
-                self.publish("/server_status", {"sender": SENDER_SERVER, "data": "alive"})
+                self.publish("/server_status", {"sender": SENDER_SERVER, "trans_id": self.session, "data": ""})
         thread = threading.Thread(target=beat, name="soak_heartbeat")
         thread.daemon = True
         thread.start()
@@ -139,6 +147,7 @@ class Observer(object):
         self.memory = memory
         self.lock = threading.Lock()
         self.offline = None
+        self.session = None   # the heartbeat session robot_status names
         self.mode = None
         self.expect_offline_stop = False
         rospy.Subscriber("sim/chassis_cmd", TwistStamped, self._on_command, queue_size=1000)
@@ -156,6 +165,7 @@ class Observer(object):
                 t = msg.header.stamp.to_sec()
                 self.motion.stop_cause(t, t + TOPIC_ALLOWANCE + CYCLE, "heartbeat lost (offline_warn)")
             self.offline = offline
+            self.session = msg.trans_id
 
     def authorise(self):
         with self.lock:
@@ -239,13 +249,14 @@ class Soak(object):
         self.liveness = checkers["liveness"]
         self.reasons = checkers["reasons"]
         self.restart_calls = checkers["restart_calls"]
+        self.kept = checkers["kept"]
         self.rng = rng
         self.port = port
         self.camera = camera
         self.faults = OrderedDict((name, 0) for name in (
             "head unplugged and back", "camera answering 401", "camera timing out",
             "node killed (SIGKILL), respawned", "backend link dropped and back",
-            "heartbeat stopped during backend control", "hard e-stop during motion",
+            "heartbeat stopped during backend control", RECONNECT, "hard e-stop during motion",
             "100 websocket clients + 1 that never reads", "service node killed during a stream of calls")
             if (camera is not None or not name.startswith("camera"))
             and (not only or any(word in name for word in only)))
@@ -261,9 +272,14 @@ class Soak(object):
     def wait(self, condition, timeout, what):
         return _wait(condition, timeout, what, period=0.05)
 
-    def take_control(self):
+    def take_control(self, acquire_first=False):
+        """Beat, wait for robot_status to answer this connection's heartbeat, acquire (trans_id = the
+        session) until granted; ``acquire_first``: acquire even when mode 1 is already in force."""
         self.b.start_heartbeat()
-        self.wait(lambda: self.o.offline is False, 30.0, "robot online")
+        self.wait(lambda: self.o.offline is False and self.o.session == self.b.session, 30.0,
+                  "robot online on our heartbeat")
+        if acquire_first:
+            self.acquire()
         # robot_control hears robot_status on its own: it may still take the link as offline for a
         # moment and refuse (mode_ack "offline: ..."), so ask again each second until granted.
         asked = [0.0]
@@ -273,11 +289,14 @@ class Soak(object):
                 return True
             if time.monotonic() - asked[0] >= 1.0:
                 asked[0] = time.monotonic()
-                self.b.publish("/mode_cmd", {"sender": SENDER_SERVER, "cmd": MODE_CMD_ACQUIRE,
-                                             "data": MODE_NAMES[MODE_SERVER]})
+                self.acquire()
             return False
         self.wait(granted, 15.0, "backend mode")
         self.o.authorise()
+
+    def acquire(self):
+        self.b.publish("/mode_cmd", {"sender": SENDER_SERVER, "trans_id": self.b.session, "cmd": MODE_CMD_ACQUIRE,
+                                     "data": MODE_NAMES[MODE_SERVER]})
 
     def mode(self):
         return self.o.mode
@@ -348,6 +367,7 @@ class Soak(object):
          "node killed (SIGKILL), respawned": self.kill_node,
          "backend link dropped and back": self.drop_link,
          "heartbeat stopped during backend control": self.stop_heartbeat,
+         RECONNECT: self.reconnect,
          "hard e-stop during motion": self.estop,
          "100 websocket clients + 1 that never reads": self.many_clients,
          "service node killed during a stream of calls": self.kill_called_node}[name]()
@@ -457,6 +477,19 @@ class Soak(object):
         self.b.connect()
         self.take_control()
 
+    def reconnect(self):
+        """The backend drops its link while holding control and comes back as a new one 0 .. 3.2 s
+        later (a restarted backend), which acquires at once: control kept = mode 1 and online until
+        the old connection's last heartbeat has expired (HEARTBEAT_TIMEOUT + 0.5 s after the grant)."""
+        if self.mode() != 1:
+            self.take_control()
+        self.b.close()
+        time.sleep(self.rng.uniform(0.0, HEARTBEAT_TIMEOUT + 0.2))
+        self.b.connect()
+        self.take_control(acquire_first=True)
+        lost = self.time_until(lambda: self.mode() != 1 or self.o.offline, HEARTBEAT_TIMEOUT + 0.5, period=0.02)
+        self.kept.observed(RECONNECT, lost is None, "mode %s, offline %s" % (self.mode(), self.o.offline))
+
     def stop_heartbeat(self):
         self.o.expect_offline_stop = True
         self.b.stop_heartbeat()
@@ -551,16 +584,17 @@ def run(args):
     duration = args.minutes * 60.0
     motion, liveness = MotionAuthority(), NodeLiveness(5.0)
     memory = MemoryGrowth(args.warmup if args.warmup is not None else min(max(0.2 * duration, 30.0), 0.5 * duration))
-    ledger, availability, reasons, restart_calls = Ledger(), Availability(15.0), FaultReasons(), CallsAcrossRestart()
+    ledger, availability, reasons = Ledger(), Availability(15.0), FaultReasons()
+    restart_calls, kept = CallsAcrossRestart(), ControlKept()
     observer = Observer(motion, liveness, memory)
     rospy.Subscriber("control_status", ControlStatus, lambda m: setattr(observer, "mode", m.mode), queue_size=10)
     port = int(_wait(lambda: rospy.get_param("/rosbridge_websocket/actual_port", None), 120.0, "bridge port"))
     _wait(lambda: set(KILLABLE) <= set(rosnode.get_node_names()), 120.0, "every node up")
     observer.nodes = sorted(n for n in rosnode.get_node_names() if n not in ("/rosout", "/" + NODE_NAME))
-    backend = Backend(port)
+    backend = Backend(port, random.Random(args.seed + 1))
     backend.call_topic_vo = _call_topic_vo(backend)
     soak = Soak(backend, observer, {"ledger": ledger, "availability": availability, "liveness": liveness,
-                                    "reasons": reasons, "restart_calls": restart_calls},
+                                    "reasons": reasons, "restart_calls": restart_calls, "kept": kept},
                 random.Random(args.seed), port, camera, [w for w in args.faults.split(",") if w])
 
     soak.warm_up()
@@ -592,6 +626,8 @@ def run(args):
     checkers = [motion, liveness, memory, ledger, availability] + ([reasons] if camera is not None else [])
     if "service node killed during a stream of calls" in soak.faults:
         checkers.append(restart_calls)
+    if RECONNECT in soak.faults:
+        checkers.append(kept)
     print("soak: %.1f min, %d patrol loops, %d respawns, stop latency max %.3f s (n=%d), load average %.1f"
           % (args.minutes, soak.loops, liveness.respawns, max(motion.stop_latencies or [0.0]),
              len(motion.stop_latencies), os.getloadavg()[1]))
