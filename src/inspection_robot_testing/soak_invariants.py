@@ -264,6 +264,19 @@ class ControlKept(Checker):
             self._violate("%s: control lost after the grant (%s)" % (what, state))
 
 
+class SpoofsRefused(Checker):
+    """A client claiming another node's safety input changes nothing: while a box stops the robot,
+    a spoofed obstacle clear and a spoofed joystick acquire leave the stop and the mode as they were."""
+
+    name = "spoofed safety inputs change nothing"
+
+    def observed(self, what, unchanged, state=""):
+        """``unchanged``: every robot_status kept the obstacle bit and the mode stayed the backend's."""
+        self.checks += 1
+        if not unchanged:
+            self._violate("%s: a spoofed input took effect (%s)" % (what, state))
+
+
 def _median(values):
     ordered = sorted(values)
     return ordered[len(ordered) // 2]

@@ -136,3 +136,13 @@ def test_control_kept_counts_each_reconnect_and_names_a_loss():
     kept.observed("reconnect", False, "mode 0, offline True")
     assert not held([kept]) and kept.checks == 2
     assert kept.violations == ["reconnect: control lost after the grant (mode 0, offline True)"]
+
+
+def test_spoofs_refused_names_what_took_effect():
+    from inspection_robot_testing.soak_invariants import SpoofsRefused
+    spoofs = SpoofsRefused()
+    assert not held([spoofs])
+    spoofs.observed("spoof", True)
+    assert held([spoofs])
+    spoofs.observed("spoof", False, "2 robot_status without the obstacle bit, mode 1")
+    assert spoofs.violations == ["spoof: a spoofed input took effect (2 robot_status without the obstacle bit, mode 1)"]

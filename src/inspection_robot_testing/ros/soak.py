@@ -9,7 +9,8 @@ service the node had before), the backend link dropped and back, the heartbeat s
 control, a backend that disconnects while holding control and a new one that acquires at once (it
 must keep control past the old heartbeat's expiry), a hard e-stop during motion, 100 websocket
 clients plus one client that never reads, file_server killed while a second backend connection
-calls file_control without pause.
+calls file_control without pause, a spoofing client claiming the obstacle detector's clear and the
+joystick's acquire while a box stops the robot.
 Invariants (inspection_robot_testing.soak_invariants) are checked all along from ROS-side
 observations: every command reaching the chassis driver (sim/chassis_cmd), robot_status, node pids
 and resident memory (/proc), what the camera answers during its faults. Prints the table of faults
@@ -20,6 +21,7 @@ the message classes).
 """
 import base64
 import json
+import math
 import os
 import random
 import signal
@@ -33,15 +35,17 @@ from xmlrpc.client import ServerProxy
 import rosgraph
 import rosnode
 import rospy
-from geometry_msgs.msg import TwistStamped
+from geometry_msgs.msg import PoseWithCovarianceStamped, TwistStamped
 
-from inspection_robot.interface import ACK_FAILED, ACK_SUCCESS, MODE_CMD_ACQUIRE, MODE_NAMES, MODE_SERVER, SENDER_SERVER
-from inspection_robot.msg import ControlStatus, RobotStatus
+from inspection_robot.interface import (ACK_FAILED, ACK_SUCCESS, MODE_CMD_ACQUIRE, MODE_NAMES, MODE_SERVER,
+                                        SENDER_SERVER, STOP_OBSTACLE)
+from inspection_robot.msg import ControlStatus, ObstacleStatus, RobotStatus
 from inspection_robot.srv import ControlService
 from inspection_robot_testing.bridge_client import RawClient
 from inspection_robot_testing.fake_isapi import FakeIsapiCamera
 from inspection_robot_testing.soak_invariants import (Availability, CallsAcrossRestart, ControlKept, FaultReasons,
-                                                      Ledger, MemoryGrowth, MotionAuthority, NodeLiveness, held, table)
+                                                      Ledger, MemoryGrowth, MotionAuthority, NodeLiveness,
+                                                      SpoofsRefused, held, table)
 
 NODE_NAME = "soak"
 CYCLE = 0.02            # s, robot_control's control cycle (config/robot_control.yaml rate 50 Hz)
@@ -52,6 +56,8 @@ VO = "virtual obstacle"
 ISAPI_USER, ISAPI_PASSWORD = "admin", "soak"   # launch/include/camera.launch, camera_isapi_url
 HEARTBEAT_TIMEOUT = 3.0  # s, status_control's (config/status_control.yaml)
 RECONNECT = "backend reconnecting, the new one acquiring at once"
+SPOOF = "spoofed obstacle clear and joystick acquire while a box stops the robot"
+SPOOF_BOX_M = 1.0   # m ahead and behind the robot: whichever way the backend drives, the box is in the way
 CAMERA_FAULT_REASONS = {"401": ["refused the credentials (HTTP 401"], "timeout": ["unreachable", "timed out"]}
 
 
@@ -150,6 +156,9 @@ class Observer(object):
         self.session = None   # the heartbeat session robot_status names
         self.mode = None
         self.expect_offline_stop = False
+        self.stop_status = 0
+        self.hold_obstacle = False   # a box is ahead: every robot_status must carry the obstacle bit
+        self.obstacle_lifted = 0
         rospy.Subscriber("sim/chassis_cmd", TwistStamped, self._on_command, queue_size=1000)
         rospy.Subscriber("robot_status", RobotStatus, self._on_status, queue_size=100)
         self.nodes = []
@@ -166,6 +175,9 @@ class Observer(object):
                 self.motion.stop_cause(t, t + TOPIC_ALLOWANCE + CYCLE, "heartbeat lost (offline_warn)")
             self.offline = offline
             self.session = msg.trans_id
+            self.stop_status = msg.stop_status
+            if self.hold_obstacle and not msg.stop_status & STOP_OBSTACLE:
+                self.obstacle_lifted += 1   # a robot_status without the obstacle bit while the box is there
 
     def authorise(self):
         with self.lock:
@@ -250,6 +262,7 @@ class Soak(object):
         self.reasons = checkers["reasons"]
         self.restart_calls = checkers["restart_calls"]
         self.kept = checkers["kept"]
+        self.spoofs = checkers["spoofs"]
         self.rng = rng
         self.port = port
         self.camera = camera
@@ -257,7 +270,8 @@ class Soak(object):
             "head unplugged and back", "camera answering 401", "camera timing out",
             "node killed (SIGKILL), respawned", "backend link dropped and back",
             "heartbeat stopped during backend control", RECONNECT, "hard e-stop during motion",
-            "100 websocket clients + 1 that never reads", "service node killed during a stream of calls")
+            "100 websocket clients + 1 that never reads", "service node killed during a stream of calls",
+            SPOOF)
             if (camera is not None or not name.startswith("camera"))
             and (not only or any(word in name for word in only)))
         self.respawn_times = []   # (node, {"process": s, "registered": s, "ready": s} after the kill)
@@ -268,6 +282,9 @@ class Soak(object):
         rospy.wait_for_service("sim/inject_fault", 60.0)
         self.inject = rospy.ServiceProxy("sim/inject_fault", ControlService)
         self.head = rospy.ServiceProxy("sim_pelco_head/sim_control", ControlService)
+        self.yard = rospy.ServiceProxy("sim_obstacle_control", ControlService)
+        # a ROS node that is not obstacle_detector claiming its clear (spoof_safety_inputs)
+        self.spoof_pub = rospy.Publisher("obstacle_status", ObstacleStatus, queue_size=10)
 
     def wait(self, condition, timeout, what):
         return _wait(condition, timeout, what, period=0.05)
@@ -370,7 +387,8 @@ class Soak(object):
          RECONNECT: self.reconnect,
          "hard e-stop during motion": self.estop,
          "100 websocket clients + 1 that never reads": self.many_clients,
-         "service node killed during a stream of calls": self.kill_called_node}[name]()
+         "service node killed during a stream of calls": self.kill_called_node,
+         SPOOF: self.spoof_safety_inputs}[name]()
 
     def head_unplug(self):
         self.head(cmd="unplug", data="")
@@ -490,6 +508,50 @@ class Soak(object):
         lost = self.time_until(lambda: self.mode() != 1 or self.o.offline, HEARTBEAT_TIMEOUT + 0.5, period=0.02)
         self.kept.observed(RECONNECT, lost is None, "mode %s, offline %s" % (self.mode(), self.o.offline))
 
+    def spoof_safety_inputs(self):
+        """A box dropped ahead and behind stops the robot (stop_status bit 32). A spoofing client then
+        claims the detector's clear and the joystick's acquire, over the link (the backend surface
+        refuses the obstacle_status publish; robot_control's owner check refuses mode_cmd from sender
+        joy_control through the bridge) and as a ROS node that is not the detector (its
+        obstacle_status is dropped by caller id), while the backend keeps commanding a drive. Held:
+        no robot_status without the obstacle bit while the box is there, the mode stays server mode,
+        and no motion at the driver (MotionAuthority) until the real detector clears the stop."""
+        if self.mode() != 1:
+            self.take_control()
+        pose = rospy.wait_for_message("sim/true_pose", PoseWithCovarianceStamped, 10.0).pose.pose
+        yaw = 2.0 * math.atan2(pose.orientation.z, pose.orientation.w)
+        boxes = {}
+        for name, sign in (("soak_spoof_ahead", 1.0), ("soak_spoof_behind", -1.0)):
+            boxes[name] = (pose.position.x + sign * SPOOF_BOX_M * math.cos(yaw),
+                           pose.position.y + sign * SPOOF_BOX_M * math.sin(yaw))
+            self.yard(cmd="drop", data="%s,%.3f,%.3f" % ((name,) + boxes[name]))
+        try:
+            self.wait(lambda: self.o.stop_status & STOP_OBSTACLE, 15.0, "the boxes stop the robot")
+            now = time.time()
+            self.o.stop_cause(now, now + TOPIC_ALLOWANCE + CYCLE, "obstacle ahead (spoofing follows)")
+            self.o.obstacle_lifted, self.o.hold_obstacle = 0, True
+            spoofer = Backend(self.port, self.rng)   # connected: a second client, never beating
+            try:
+                end = time.monotonic() + 1.5
+                while time.monotonic() < end:
+                    clear = {"sender": "obstacle_detector", "obstacle": False}
+                    spoofer.publish("/obstacle_status", clear)
+                    self.spoof_pub.publish(ObstacleStatus(**clear))
+                    spoofer.publish("/mode_cmd", {"sender": "joy_control", "cmd": MODE_CMD_ACQUIRE, "data": "joy"})
+                    self.b.drive(300.0 * self._direction, 0.1)   # the holder keeps commanding meanwhile
+            finally:
+                spoofer.close()
+            time.sleep(0.5)   # a spoofed input that got through would show in robot_status by now
+            self.o.hold_obstacle = False
+            state = "%d robot_status without the obstacle bit, mode %s" % (self.o.obstacle_lifted, self.mode())
+            self.spoofs.observed(SPOOF, self.o.obstacle_lifted == 0 and self.mode() == 1, state)
+        finally:
+            self.o.hold_obstacle = False
+            for name in boxes:
+                self.yard(cmd="remove", data=name)
+        self.wait(lambda: not self.o.stop_status & STOP_OBSTACLE, 15.0, "the detector clears the stop")
+        self.take_control()
+
     def stop_heartbeat(self):
         self.o.expect_offline_stop = True
         self.b.stop_heartbeat()
@@ -585,7 +647,7 @@ def run(args):
     motion, liveness = MotionAuthority(), NodeLiveness(5.0)
     memory = MemoryGrowth(args.warmup if args.warmup is not None else min(max(0.2 * duration, 30.0), 0.5 * duration))
     ledger, availability, reasons = Ledger(), Availability(15.0), FaultReasons()
-    restart_calls, kept = CallsAcrossRestart(), ControlKept()
+    restart_calls, kept, spoofs = CallsAcrossRestart(), ControlKept(), SpoofsRefused()
     observer = Observer(motion, liveness, memory)
     rospy.Subscriber("control_status", ControlStatus, lambda m: setattr(observer, "mode", m.mode), queue_size=10)
     port = int(_wait(lambda: rospy.get_param("/rosbridge_websocket/actual_port", None), 120.0, "bridge port"))
@@ -594,7 +656,8 @@ def run(args):
     backend = Backend(port, random.Random(args.seed + 1))
     backend.call_topic_vo = _call_topic_vo(backend)
     soak = Soak(backend, observer, {"ledger": ledger, "availability": availability, "liveness": liveness,
-                                    "reasons": reasons, "restart_calls": restart_calls, "kept": kept},
+                                    "reasons": reasons, "restart_calls": restart_calls, "kept": kept,
+                                    "spoofs": spoofs},
                 random.Random(args.seed), port, camera, [w for w in args.faults.split(",") if w])
 
     soak.warm_up()
@@ -628,6 +691,8 @@ def run(args):
         checkers.append(restart_calls)
     if RECONNECT in soak.faults:
         checkers.append(kept)
+    if SPOOF in soak.faults:
+        checkers.append(spoofs)
     print("soak: %.1f min, %d patrol loops, %d respawns, stop latency max %.3f s (n=%d), load average %.1f"
           % (args.minutes, soak.loops, liveness.respawns, max(motion.stop_latencies or [0.0]),
              len(motion.stop_latencies), os.getloadavg()[1]))
