@@ -390,6 +390,9 @@ class Soak(object):
          "service node killed during a stream of calls": self.kill_called_node,
          SPOOF: self.spoof_safety_inputs}[name]()
 
+    def every_fault_ran(self):
+        return all(self.faults.values())
+
     def head_unplug(self):
         self.head(cmd="unplug", data="")
         self.wait(lambda: self.b.call("/terrace_control", "get_angle")[0] == ACK_FAILED, 10.0, "head reported lost")
@@ -672,9 +675,11 @@ def run(args):
     end = time.monotonic() + duration
     try:
         soak.take_control()
-        while time.monotonic() < end:
+        # at least the given minutes, and at least one of every fault: on a slow machine an invariant
+        # left unexercised would fail the soak for want of time, not for a fault
+        while time.monotonic() < end or not soak.every_fault_ran():
             soak.patrol()
-            if time.monotonic() < end:
+            if time.monotonic() < end or not soak.every_fault_ran():
                 soak.fault()
                 soak.patrol()
         time.sleep(2.0)
