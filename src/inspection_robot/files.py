@@ -187,16 +187,18 @@ def refuse_hidden(path, resolved, real_roots):
                         % (shown(path), shown(part)))
 
 
-def new_file_path(path, roots, root_names=None):
+def new_file_path(path, roots, root_names=None, staged=False):
     """confine_path for a file a command is about to create: no ``..`` component (a new file is
     named, not navigated to), no hidden name below the root (refuse_hidden; the only exception is a
-    fresh ``staged_name``), not a folder, and nothing there yet (files are never replaced)."""
+    fresh ``staged_name`` when ``staged``: the device's staging service, which the backend surface
+    does not offer), not a folder, and nothing there yet (files are never replaced)."""
     check_path_text(path)
     if ".." in path.split("/"):
         raise FileError("path '%s' contains '..' (name the file inside the roots directly)" % shown(path))
     resolved = confine_path(path, roots, root_names=root_names)
     real_roots = [os.path.realpath(os.path.expanduser(r)) for r in roots]
-    if not (is_staged_name(path) and os.path.dirname(resolved) == os.path.join(real_roots[0], STAGING_DIR)):
+    if not (staged and is_staged_name(path)
+            and os.path.dirname(resolved) == os.path.join(real_roots[0], STAGING_DIR)):
         refuse_hidden(path, resolved, real_roots)
     if os.path.isdir(resolved):
         raise FileError("path '%s' is a directory" % shown(path))

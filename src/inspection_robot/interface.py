@@ -195,6 +195,12 @@ INFRARED_COMMANDS = (
     "get_high_temperature", "get_low_temperature", "auto_focus", "set_measure_spot",
 )
 
+# The devices' staging services: preset_scale's and find_scale's pictures under a fresh hidden
+# staged name (files.staged_name), which they move away at once. The robot's own nodes only: the
+# backend surface does not offer them, and camera_control / infrared_control refuse hidden names.
+CAMERA_STAGING_SERVICE = "camera_staging"
+INFRARED_STAGING_SERVICE = "infrared_staging"
+
 # --- voice -----------------------------------------------------------------------------------
 VOICE_LANGUAGES = ("chinese", "english")
 

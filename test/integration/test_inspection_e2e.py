@@ -73,8 +73,8 @@ class TestInspectionAcceptance(unittest.TestCase):
         cls.true_pose = GroundTruth()   # where the robot is
         cls.joints = Latest("terrace_state", JointState, queue_size=1)
         names = ("terrace_control", "camera_control", "sim/set_world_value", "sim/get_world_value",
-                 "sim/inject_fault", "arm_control")
-        cls.terrace, cls.camera, cls.set_value, cls.get_value, cls.inject, cls.arm = (
+                 "sim/inject_fault", "arm_control", "camera_staging")
+        cls.terrace, cls.camera, cls.set_value, cls.get_value, cls.inject, cls.arm, cls.camera_staging = (
             control_proxy(n, 30.0) for n in names)
         cls.find = actionlib.SimpleActionClient("find_scale_action", GeneralAction)
         cls.move = actionlib.SimpleActionClient("move_action", GeneralAction)
@@ -264,7 +264,7 @@ class TestInspectionAcceptance(unittest.TestCase):
             self.read(directory, dict(found, second_filename=""))
             one_look_s = time.monotonic() - started
             started = time.monotonic()
-            os.unlink(self.call(self.camera, "capture_picture", files.staged_name(".jpg")))
+            os.unlink(self.call(self.camera_staging, "capture_picture", files.staged_name(".jpg")))
             capture_s = time.monotonic() - started
             print("two looks, %s: %d pointer(s), second picture %.2f s, read %.2f s instead of %.2f s: +%.2f s"
                   % (preset_id, sum(1 for t in load_preset(directory).targets if t.kind == "pointer"), capture_s,

@@ -131,8 +131,12 @@ def test_every_service_of_the_running_robot_is_placed():
     sim = Surface("backend", "sim")
     robot = Surface("backend", "robot")
     for service in services:
+        if service.lstrip("/") in surface_module.ROBOT_ONLY_SERVICES:
+            assert not sim.allows("call", service) and not robot.allows("call", service), service
+            continue
         assert sim.allows("call", service), service
         assert robot.allows("call", service) == (service.lstrip("/") in surface_module.ROBOT_SERVICES), service
+    assert set(surface_module.ROBOT_ONLY_SERVICES) <= {s.lstrip("/") for s in services}
 
 
 class Graph(object):
@@ -198,3 +202,19 @@ def test_an_open_bridge_applies_no_table():
     h = harness(surface="open")
     h.send({"op": "publish", "id": "p", "topic": "/obstacle_status", "msg": {"obstacle": False}})
     assert not h.messages() and h.backend.published
+
+
+def test_a_command_with_nan_infinity_or_null_is_refused_where_the_backend_hears_it():
+    h = harness()
+    h.backend.topic_types["/move_cmd"] = "inspection_robot/MoveCmd"
+    for mid, msg in (("nan", '{"velocity_x": NaN, "velocity_yaw": 0}'),
+                     ("inf", '{"velocity_x": 1, "velocity_yaw": -Infinity}'), ("null", '{"velocity_x": null}')):
+        h.send('{"op": "publish", "id": "%s", "topic": "/move_cmd", "msg": %s}' % (mid, msg))
+    replies = h.messages()
+    assert [m["id"] for m in replies] == ["nan", "inf", "null"]
+    assert replies[0]["msg"] == ("publish: /move_cmd refused: field velocity_x is NaN; commands take finite numbers "
+                                 "(nothing published)")
+    assert "field velocity_yaw is -Infinity" in replies[1]["msg"] and "field velocity_x is null" in replies[2]["msg"]
+    assert not h.backend.published
+    h.send({"op": "publish", "id": "ok", "topic": "/move_cmd", "msg": {"velocity_x": 300.0}})   # positive control
+    assert not h.messages() and [t for t, _m in h.backend.published] == ["/move_cmd"]

@@ -283,7 +283,8 @@ def test_captures_stop_at_the_quota_and_a_refused_one_writes_nothing(world, came
     jpeg = b"\xff\xd8" + b"x" * 998
     driver.capture_jpeg = lambda: jpeg
     quota = CaptureQuota([str(root)], 2500)
-    table = CameraCommands(driver, ZoomOptics(TABLE, 1920, 1080), [str(root)], DeviceHealth(), quota=quota).table
+    commands = CameraCommands(driver, ZoomOptics(TABLE, 1920, 1080), [str(root)], DeviceHealth(), quota=quota)
+    table = commands.table
     assert table.dispatch("capture_picture", "a.jpg").ack == "success"       # positive control: 1000 of 2500
     assert table.dispatch("capture_picture", "b.jpg").ack == "success"       # 2000
     reply = table.dispatch("capture_picture", "c.jpg")
@@ -291,7 +292,8 @@ def test_captures_stop_at_the_quota_and_a_refused_one_writes_nothing(world, came
                                "needs 1000; delete old captures (nothing written)")
     assert sorted(os.listdir(str(root))) == ["a.jpg", "b.jpg"]
     staged = staged_name(".jpg")                     # the owners' staged pictures have a reserve beyond the quota
-    assert table.dispatch("capture_picture", staged).ack == "success"
+    assert table.dispatch("capture_picture", staged).data.startswith("path '%s' has the hidden name" % staged)
+    assert commands.staging_table.dispatch("capture_picture", staged).ack == "success"   # the owners' service only
     (root / staged).unlink()                                                    # moved away by its owner
     (root / "a.jpg").unlink()                                                   # deleting old captures frees room
     assert table.dispatch("capture_picture", "c.jpg").ack == "success"
@@ -299,8 +301,9 @@ def test_captures_stop_at_the_quota_and_a_refused_one_writes_nothing(world, came
                              world.sensor_height)
     thermal_root = root / "thermal"
     frame_bytes = 128 + 384 * 288 * 4                                         # .npy: header + float32 frame
-    thermal = ThermalCommands(imager, [str(thermal_root)], DeviceHealth(), 384, 288,
-                              quota=CaptureQuota([str(thermal_root)], frame_bytes)).table
+    thermal_commands = ThermalCommands(imager, [str(thermal_root)], DeviceHealth(), 384, 288,
+                                       quota=CaptureQuota([str(thermal_root)], frame_bytes))
+    thermal = thermal_commands.table
     assert thermal.dispatch("save_temperature", "a.npy").ack == "success"   # fills the quota exactly
     reply = thermal.dispatch("capture_picture", "a.jpg")                   # full: refused before the imager is asked
     assert reply == ("failed", "capture quota exceeded: the capture folders hold %d of %d bytes and a file needs 1; "
@@ -308,7 +311,8 @@ def test_captures_stop_at_the_quota_and_a_refused_one_writes_nothing(world, came
     reply = thermal.dispatch("save_temperature", "b.png")
     assert reply.ack == "failed" and reply.data.startswith("capture quota exceeded")
     assert sorted(os.listdir(str(thermal_root))) == ["a.npy"]
-    assert thermal.dispatch("save_temperature", staged_name(".png")).ack == "success"   # the reserve
+    assert thermal.dispatch("save_temperature", staged_name(".png")).ack == "failed"    # not a client's
+    assert thermal_commands.staging_table.dispatch("save_temperature", staged_name(".png")).ack == "success"
 
 
 def test_the_staged_reserve_is_bounded_too(tmp_path):

@@ -498,6 +498,13 @@ class Session(object):
     def _op_publish(self, args, mid):
         topic = args["topic"]
         self._allowed("publish", topic)
+        if self.surface is not None and not self.surface.open:
+            # a robot command is never meaningful with NaN, ±Infinity or null (read as NaN): told here,
+            # where the backend hears it, instead of a node dropping it with only a log line
+            field = _not_finite(args["msg"] or {})
+            if field is not None:
+                raise BridgeError("%s refused: field %s is %s; commands take finite numbers (nothing published)"
+                                  % (topic, field[0] or "msg", field[1]))
         if topic not in self._advertised:
             topic_type = self._backend.topic_type(topic)
             if not topic_type:
@@ -727,6 +734,25 @@ class Session(object):
             fn(*args)
         except Exception as exc:  # boundary: cleanup of one item must not stop the others
             self._log("error", "client %s: cleanup failed: %r" % (self.client_id, exc))
+
+
+def _not_finite(value, path=""):
+    """(field path, what) of the first NaN, ±Infinity or null in a message's JSON value, or None."""
+    if value is None:
+        return path, "null"
+    if isinstance(value, float) and not math.isfinite(value):
+        return path, repr(value).replace("inf", "Infinity").replace("nan", "NaN")
+    if isinstance(value, dict):
+        items = value.items()
+    elif isinstance(value, list):
+        items = enumerate(value)
+    else:
+        return None
+    for key, item in items:
+        found = _not_finite(item, "%s.%s" % (path, key) if path else str(key))
+        if found is not None:
+            return found
+    return None
 
 
 def _text(frame):

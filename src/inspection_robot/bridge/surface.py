@@ -25,7 +25,8 @@ Pure module: the node passes rospy's resolver in.
 import fnmatch
 from collections import OrderedDict
 
-from inspection_robot.interface import ACTION_NAMES, BACKEND_ACK_TYPES, BACKEND_TOPIC_TYPES, INTERFACE_TOPICS
+from inspection_robot.interface import (ACTION_NAMES, BACKEND_ACK_TYPES, BACKEND_TOPIC_TYPES, CAMERA_STAGING_SERVICE,
+                                        INFRARED_STAGING_SERVICE, INTERFACE_TOPICS)
 
 SURFACES = ("robot", "sim", "open")
 NO_PARAMETER = "/no_parameter_is_readable"  # upstream reads an empty glob list as "everything": match nothing
@@ -37,6 +38,8 @@ KIND_OPS = {"publish": "advertise, publish", "subscribe": "subscribe", "call": "
 
 ROBOT_SERVICES = ("arm_control", "calibration_control", "camera_control", "charge_control", "file_control",
                   "imu_control", "infrared_control", "task_control", "terrace_control")
+# The robot's own services no role offers (test_bridge_surface places every service of the running robot).
+ROBOT_ONLY_SERVICES = (CAMERA_STAGING_SERVICE, INFRARED_STAGING_SERVICE)
 ROSAPI_READ_ONLY = tuple("/rosapi/" + name for name in (
     "topics", "topics_for_type", "topic_type", "services", "services_for_type", "service_type", "nodes",
     "node_details", "publishers", "subscribers", "service_providers", "service_node", "message_details",

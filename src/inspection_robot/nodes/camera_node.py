@@ -1,6 +1,8 @@
 """camera_node: the visible zoom camera (INTERFACE.md section 4, "Camera").
 
 Services:    camera_control (ControlService): every command of the spec (camera.commands)
+             camera_staging (ControlService): capture_picture under a fresh staged name
+                 (.staging/<32 hex>.<ext>) for preset_scale and find_scale only: not in the backend surface
 Subscribes:  camera_cmd (GeneralCmd) -> answers on camera_ack (GeneralAck), trans_id echoed
              control_status (ControlStatus): joystick-busy rule (mode 2)
              sim only: sim/true_pose, terrace_state, sim/world_state (nodes.sim_view)
@@ -40,6 +42,7 @@ from inspection_robot.files import DEFAULT_CAPTURE_QUOTA_MIB, CaptureQuota, capt
 from inspection_robot.ros.diagnostics import DeviceDiagnostics, probe_device
 from inspection_robot.ros.images import LiveViewPublisher
 from inspection_robot.ros.node import init_node
+from inspection_robot.interface import CAMERA_STAGING_SERVICE
 from inspection_robot.ros.twin import CommandTwin
 from inspection_robot.ros.data_root import data_root, path_list_param
 
@@ -71,7 +74,8 @@ class CameraNode(object):
         self._live = LiveViewPublisher("camera/image_raw", stream_quality)
         self._info_pub = rospy.Publisher("camera/camera_info", CameraInfo, queue_size=1)
         self._diagnostics = DeviceDiagnostics("camera", HARDWARE_ID)
-        self._twin = CommandTwin(self.commands.table, "camera_control", "camera_cmd", "camera_ack", NODE)
+        self._twin = CommandTwin(self.commands.table, "camera_control", "camera_cmd", "camera_ack", NODE,
+                                 staging=(self.commands.staging_table, CAMERA_STAGING_SERVICE))
         self._status_timer = rospy.Timer(rospy.Duration(1.0 / status_rate), self._on_status)
         self._image_timer = None
         if image_rate > 0:

@@ -1,6 +1,8 @@
 """infrared_imager: the radiometric thermal imager (INTERFACE.md section 4, "Thermal imager").
 
 Services:    infrared_control (ControlService): every command of the spec (thermal.commands)
+             infrared_staging (ControlService): capture_picture, save_temperature under a fresh staged name
+                 (.staging/<32 hex>.<ext>) for preset_scale and find_scale only: not in the backend surface
 Subscribes:  infrared_cmd (GeneralCmd) -> answers on infrared_ack (GeneralAck), trans_id echoed
              control_status (ControlStatus): joystick-busy rule (mode 2)
              sim only: sim/true_pose, terrace_state, sim/world_state (nodes.sim_view)
@@ -36,6 +38,7 @@ from inspection_robot.drivers import SIM, make_driver
 from inspection_robot.ros.diagnostics import DeviceDiagnostics, probe_device
 from inspection_robot.ros.images import LiveViewPublisher
 from inspection_robot.ros.node import init_node
+from inspection_robot.interface import INFRARED_STAGING_SERVICE
 from inspection_robot.ros.twin import CommandTwin
 from inspection_robot.thermal.commands import ThermalCommands
 from inspection_robot.thermal.driver import NoImager, ThermalError
@@ -52,7 +55,8 @@ class InfraredNode(object):
         self._health = health
         self.commands = commands
         self._diagnostics = DeviceDiagnostics("thermal imager", HARDWARE_ID)
-        self._twin = CommandTwin(commands.table, "infrared_control", "infrared_cmd", "infrared_ack", NODE)
+        self._twin = CommandTwin(commands.table, "infrared_control", "infrared_cmd", "infrared_ack", NODE,
+                                 staging=(commands.staging_table, INFRARED_STAGING_SERVICE))
         self._timer = rospy.Timer(rospy.Duration(1.0 / status_rate), self._on_status)
         self._live = LiveViewPublisher("thermal/image_raw", stream_quality)
         self._hottest_pub = rospy.Publisher("thermal/hottest", GeneralTopic, queue_size=1)

@@ -17,7 +17,7 @@ import rospy
 from inspection_robot.files import FileError, move_file, staged_name
 from inspection_robot.lazy import lazy_import
 from inspection_robot.inspection.finder import FindError
-from inspection_robot.interface import ACK_SUCCESS, ANGLE_CENTI_DEG
+from inspection_robot.interface import ACK_SUCCESS, ANGLE_CENTI_DEG, CAMERA_STAGING_SERVICE, INFRARED_STAGING_SERVICE
 from inspection_robot.msg import NavStatus
 from inspection_robot.srv import ControlService
 from sensor_msgs.msg import JointState
@@ -56,6 +56,9 @@ class RosHead(object):
         self.terrace = DeviceClient("terrace_control", sender, timeout)
         self.camera = DeviceClient("camera_control", sender, timeout)
         self.infrared = DeviceClient("infrared_control", sender, timeout)
+        # the pictures this head takes go through the devices' staging services (hidden staged names)
+        self.camera_staging = DeviceClient(CAMERA_STAGING_SERVICE, sender, timeout)
+        self.infrared_staging = DeviceClient(INFRARED_STAGING_SERVICE, sender, timeout)
         self._state = threading.Condition()
         self._joints = None
         self._state_sub = rospy.Subscriber("terrace_state", JointState, self._on_state, queue_size=1)
@@ -121,15 +124,15 @@ class RosHead(object):
             rospy.logwarn_throttle(30.0, "inspection: cannot turn the OSD off: %s" % err)
 
     def capture(self, path):
-        _take(self.camera, "capture_picture", path)
+        _take(self.camera_staging, "capture_picture", path)
         image = cv2.imread(path, cv2.IMREAD_COLOR)
         if image is None:
             raise FindError("camera_control wrote no readable picture at %s" % path)
         return image
 
     def capture_thermal(self, picture_path, frame_path):
-        _take(self.infrared, "capture_picture", picture_path)
-        _take(self.infrared, "save_temperature", frame_path)
+        _take(self.infrared_staging, "capture_picture", picture_path)
+        _take(self.infrared_staging, "save_temperature", frame_path)
 
 
 def _take(device, cmd, path):

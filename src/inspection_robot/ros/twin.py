@@ -55,7 +55,7 @@ class CommandTwin(object):
     """
 
     def __init__(self, table, service, cmd_topic, ack_topic, node_name,
-                 busy_when_joystick=True, queue_size=50):
+                 busy_when_joystick=True, queue_size=50, staging=None):
         self._table = table
         self._node_name = node_name
         self._modes = ModeWatcher() if busy_when_joystick else None
@@ -66,18 +66,24 @@ class CommandTwin(object):
                                      queue_size)
         self._cmd_sub = rospy.Subscriber(cmd_topic, GeneralCmd, self._worker.submit, queue_size=50)
         self._service = rospy.Service(service, ControlService, self._on_service) if service else None
+        # (table, service name): the device's staging service for the robot's own nodes, same lock
+        self._staging = None
+        if staging is not None:
+            self._staging_table = staging[0]
+            self._staging = rospy.Service(staging[1], ControlService, self._on_staging)
 
     def busy_for(self, sender):
         """True while the joystick holds the robot and ``sender`` is not the joystick."""
         return self._modes is not None and self._modes.joystick_holds() and sender != SENDER_JOY
 
-    def handle(self, sender, cmd, data):
-        """Run one command and return its Reply; the single entry point of both twins."""
+    def handle(self, sender, cmd, data, table=None):
+        """Run one command and return its Reply; the single entry point of both twins (and of the
+        staging service, with its ``table``)."""
         if self.busy_for(sender):
             return failed(BUSY)
         try:
             with self._lock:
-                reply = self._table.dispatch(cmd, data)
+                reply = (table or self._table).dispatch(cmd, data)
         except Exception as err:  # boundary: a bug in one command must not kill the node
             rospy.logerr("%s: command %s(%r) raised: %s\n%s", self._node_name, cmd, data, err,
                          traceback.format_exc())
@@ -91,6 +97,9 @@ class CommandTwin(object):
 
     def _on_service(self, req):
         return control_response(req, self.handle(req.sender, req.cmd, req.data))
+
+    def _on_staging(self, req):
+        return control_response(req, self.handle(req.sender, req.cmd, req.data, self._staging_table))
 
     def _run_topic_command(self, msg):
         self.publish_ack(self.handle(msg.sender, msg.cmd, msg.data), msg)

@@ -113,6 +113,9 @@ class ThermalCommands(object):
             if not driver.supports(name):
                 handlers[name] = lambda data: failed(UNSUPPORTED)
         self.table = CommandTable(handlers)
+        # preset_scale's and find_scale's files, under a fresh hidden staged name (camera.commands)
+        self.staging_table = CommandTable({"capture_picture": lambda data: self.capture_picture(data, True),
+                                           "save_temperature": lambda data: self.save_temperature(data, True)})
 
     def _frame(self):
         frame = self._call(self._driver.frame)
@@ -126,10 +129,10 @@ class ThermalCommands(object):
         x_text, y_text = split_fields(data, 2, "spot")
         return (parse_int(x_text, "x", 0, self.width - 1), parse_int(y_text, "y", 0, self.height - 1))
 
-    def _target(self, data):
+    def _target(self, data, staging=False):
         """(path, staged) of a new file's ``data``; refused before the imager is asked, also when the
-        quota is full already."""
-        path, staged = new_file_path(data, self._roots), is_staged_name(data)
+        quota is full already. ``staging``: through staging_table only (a fresh staged_name allowed)."""
+        path, staged = new_file_path(data, self._roots, staged=staging), staging and is_staged_name(data)
         self._count(1, staged)
         return path, staged
 
@@ -143,13 +146,13 @@ class ThermalCommands(object):
         if self._quota is not None:
             self._quota.add(len(data))
 
-    def save_temperature(self, data):
-        path, staged = self._target(data)
+    def save_temperature(self, data, staging=False):
+        path, staged = self._target(data, staging)
         self._write(path, staged, radiometric_bytes(path, self._frame()), PUBLIC_FILE_MODE)
         return path
 
-    def capture_picture(self, data):
-        path, staged = self._target(data)
+    def capture_picture(self, data, staging=False):
+        path, staged = self._target(data, staging)
         picture = self._call(self._driver.capture_jpeg) or None   # _call answers "" for None
         if picture is None:
             try:
