@@ -650,10 +650,16 @@ class SecurityTest(unittest.TestCase):
             statuses = []
             for field in ("velocity_x", "velocity_yaw"):
                 for literal in ("NaN", "Infinity", "-Infinity", "1e400", "null"):
-                    text = ('{"op": "publish", "topic": "/move_cmd", "msg": {"sender": "server", "%s": %s, '
-                            '"wheel_control": 0}}' % (field, literal))
+                    text = ('{"op": "publish", "topic": "/move_cmd", "id": "%s=%s", "msg": {"sender": "server", '
+                            '"%s": %s, "wheel_control": 0}}' % (field, literal, field, literal))
                     for _ in range(10):
                         raw.send(text)
+                    for _ in range(10):   # the bridge tells the backend (#39): refused, nothing published
+                        status = raw.recv_message(lambda m: m.get("op") == "status"
+                                                  and m.get("id") == "%s=%s" % (field, literal), timeout=5.0)["msg"]
+                        self.assertIn("field %s is " % field, status)
+                        self.assertIn("commands take finite numbers (nothing published)", status)
+                    self.refusals.append(("bridge publish move_cmd " + field, literal, status))
             for field, literal in (("wheel_control", "1e400"), ("wheel_control", "NaN"), ("wheel_control", "256"),
                                    ("trans_id", "1" + "0" * 70)):
                 raw.send('{"op": "publish", "topic": "/move_cmd", "id": "bad", "msg": {"%s": %s}}' % (field, literal))
