@@ -1,7 +1,7 @@
 /* Driving: the heartbeat (the page acting as the backend), e-stop, taking and releasing control, and
    hold-to-move teleop (buttons and keys) that sends one explicit stop when the last key goes. */
 import { MODES } from './decode.js';
-import { command, onClose, publish } from './link.js';
+import { command, onClose, publish, session } from './link.js';
 import { state } from './state.js';
 import { $, holdButton, log, typing } from './ui.js';
 
@@ -18,7 +18,7 @@ let wheelControl = 0;
 
 function heartbeat() {
   if (state.connected && $('heartbeat').checked) {
-    publish('server_status', 'inspection_robot/GeneralTopic', { data: 'console' });
+    publish('server_status', 'inspection_robot/GeneralTopic', { data: 'console', trans_id: session() });
   }
 }
 
@@ -85,12 +85,15 @@ function acquire() {
   $('heartbeat').checked = true;
   heartbeat();
   const started = Date.now();
+  // the robot has this connection's own heartbeat when robot_status names its session (an older
+  // connection's heartbeat could still expire after the grant and take the robot offline)
+  const ours = () => state.status && !state.status.offline_warn && state.status.trans_id === session();
   const tryAcquire = () => {
-    if ((!state.status || state.status.offline_warn) && Date.now() - started < ACQUIRE_WAIT_MS) {
+    if (!ours() && Date.now() - started < ACQUIRE_WAIT_MS) {
       setTimeout(tryAcquire, 200);
       return;
     }
-    command('mode_cmd', 'acquire', 'server');
+    publish('mode_cmd', 'inspection_robot/GeneralCmd', { cmd: 'acquire', data: 'server', trans_id: session() });
     setTimeout(() => {
       if (!state.status || state.status.mode !== 1) log('acquire: control not granted yet (mode '
         + (state.status ? MODES[state.status.mode] : '?') + ')', true);

@@ -12,7 +12,8 @@ const AUTH_LIFETIME_S = 12 * 3600;  // the auth op's end: an operator's shift
 // The acks the Replies panel lists (every command topic's answer).
 const ACKS = ['control_ack', 'terrace_ack', 'camera_ack', 'infrared_ack', 'virtual_obstacle_ack', 'voice_ack', 'mode_ack'];
 
-const link = { ros: null, topics: {}, services: {}, transId: 1, authRequired: false, waitingForToken: false };
+const link = { ros: null, topics: {}, services: {}, transId: 1, authRequired: false, waitingForToken: false,
+  session: 0 };
 const subscriptions = [];   // [name, type, options, handler] in registration order
 const ackHandlers = [];
 const closeHandlers = [];
@@ -44,6 +45,13 @@ export function topic(name, type, options) {
 /** The spec's header of a command: the backend as sender, trans_id counting up from 1 per page load. */
 export function header() {
   return { sender: SENDER, receiver: '', trans_id: link.transId++ };
+}
+
+/** This connection's heartbeat session number (docs/interface.md, "Heartbeat and status", Sessions):
+    a random non-zero uint32 drawn on every (re)connection, the trans_id of its server_status and of
+    its `acquire server`. */
+export function session() {
+  return link.session;
 }
 
 /** The trans_id the next command will carry (to recognise its ack). */
@@ -106,6 +114,7 @@ function connect() {
   }
   const ros = new ROSLIB.Ros();
   link.ros = ros;
+  link.session = 1 + crypto.getRandomValues(new Uint32Array(1))[0] % 0xfffffffe;
   link.topics = {};
   let opened = false;
   ros.on('connection', () => {
