@@ -11,6 +11,7 @@ import rospy
 
 from inspection_robot.motion.owners import OwnerCheck
 from inspection_robot.ros.compat_rospy import caller_id
+from inspection_robot.ros.data_root import startup_files
 
 REFUSAL_LOG_PERIOD = 5.0  # s between two warnings about one refused input (each one counts)
 
@@ -24,7 +25,13 @@ class OwnerGate(object):
 
     @classmethod
     def from_param(cls, node_name):
-        """The gate of a node with the ``~owners`` parameter ({key: node name} over the defaults)."""
+        """The gate of a node with the ``~owners`` setting ({key: node name} over the defaults). Under
+        core.launch it is fixed at launch like the security settings (ros/data_root.startup_files: the
+        defaults file, the site file, the command line), so a parameter written later and a respawn
+        cannot make a client an owner; a node a test starts on its own reads the parameter."""
+        files = startup_files()
+        if files.launched:
+            return cls(node_name, files.get("owners", {}) or {})
         return cls(node_name, rospy.get_param("~owners", {}))
 
     def refusal(self, topic, key, msg):
