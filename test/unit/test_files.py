@@ -145,7 +145,11 @@ def test_only_a_fresh_staged_name_may_be_hidden_and_a_link_does_not_lead_into_a_
     with pytest.raises(FileError, match="hidden name '.staging'"):
         files.new_file_path("staging/a.jpg", [str(root)])
     staged = files.staged_name(".png")
-    assert files.new_file_path(staged, [str(root)]) == str(root / staged)
+    with pytest.raises(FileError, match="hidden name '.staging'"):   # not through a client's command
+        files.new_file_path(staged, [str(root)])
+    assert files.new_file_path(staged, [str(root)], staged=True) == str(root / staged)   # the staging service's
+    with pytest.raises(FileError, match="hidden name '.staging'"):   # and only a fresh staged name there
+        files.new_file_path(".staging/mine.png", [str(root)], staged=True)
     assert files.new_file_path(str(root / "a.jpg"), [str(root)]) == str(root / "a.jpg")   # the root's own path
     assert files.staged_name(".png") != staged
 

@@ -57,6 +57,7 @@ ISAPI_USER, ISAPI_PASSWORD = "admin", "soak"   # launch/include/camera.launch, c
 HEARTBEAT_TIMEOUT = 3.0  # s, status_control's (config/status_control.yaml)
 RECONNECT = "backend reconnecting, the new one acquiring at once"
 SPOOF = "spoofed obstacle clear and joystick acquire while a box stops the robot"
+RETRY_PAUSE = 0.02   # s a calling backend waits after a failed call before the next (kill_called_node)
 SPOOF_BOX_M = 1.0   # m ahead and behind the robot: whichever way the backend drives, the box is in the way
 CAMERA_FAULT_REASONS = {"401": ["refused the credentials (HTTP 401"], "timeout": ["unreachable", "timed out"]}
 
@@ -447,8 +448,8 @@ class Soak(object):
 
     def kill_called_node(self):
         """file_server SIGKILLed while a second backend connection calls file_control stat without
-        pause: only calls made while it is away (until its respawn registered file_control) may fail,
-        and they must say so (CallsAcrossRestart)."""
+        pause (RETRY_PAUSE after a failed call): only calls made while it is away (until its respawn
+        registered file_control) may fail, and they must say so (CallsAcrossRestart)."""
         node, service = "/file_server", "/file_control"
         pid = self.o.pid(node)
         if not pid:
@@ -468,6 +469,10 @@ class Soak(object):
                 reply = caller.recv_message(lambda m, i="restart%d" % n: m.get("op") == "service_response"
                                             and m.get("id") == i, 30.0)
                 calls.append((start, time.monotonic(), bool(reply.get("result")), str(reply.get("values"))))
+                if not reply.get("result"):
+                    # a backend asks again after a failure, not in a tight loop: unpaced, every failed call's
+                    # lookup at the master (hundreds a second) delayed the respawn's own registration
+                    time.sleep(RETRY_PAUSE)
         streaming = threading.Thread(target=call_continuously, name="soak_restart_calls")
         streaming.daemon = True
         streaming.start()
