@@ -13,16 +13,14 @@ per figure: a line per round, then ``bridge_preauth`` with start / peak / end RS
 import argparse
 import base64
 import os
-import shutil
 import socket
 import struct
-import subprocess
 import sys
 import threading
 import time
 
 from benchlib import report, start_roscore
-from bench_bridge_tail import EXPORTS, export, start_bridge
+from bench_bridge_tail import export, start_bridge, stop_all
 
 
 def rss_mb(pid):
@@ -141,15 +139,7 @@ def main():
                end_over_start=round(end / start, 3), sockets_back_to_start=settled,
                bridge_alive=bridge.poll() is None)
     finally:
-        for proc in reversed(procs):
-            proc.send_signal(2)
-        for proc in reversed(procs):
-            try:
-                proc.wait(15)
-            except subprocess.TimeoutExpired:
-                proc.kill()
-        for where in EXPORTS:
-            shutil.rmtree(where, ignore_errors=True)
+        stop_all(procs)
     sys.stdout.flush()
     os._exit(0)
 

@@ -59,6 +59,20 @@ def parse_env(text):
     return dict(pairs)
 
 
+def stop_all(procs):
+    """SIGINT the bench's processes, newest first (rospy shuts down and runs its hooks: the trace dump),
+    kill any that do not end within 15 s, and remove the exported code trees."""
+    for proc in reversed(procs):
+        proc.send_signal(2)
+    for proc in reversed(procs):
+        try:
+            proc.wait(15)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+    for where in EXPORTS:
+        shutil.rmtree(where, ignore_errors=True)
+
+
 def start_bridge(name, python_path, extra_env, log, params=()):
     env = dict(os.environ)
     extra_env = dict(extra_env)
@@ -156,15 +170,7 @@ def main():
         for client in clients.values():
             client.close()
     finally:
-        for proc in reversed(procs):
-            proc.send_signal(2)  # SIGINT: rospy shuts down and runs its hooks (trace dump)
-        for proc in reversed(procs):
-            try:
-                proc.wait(15)
-            except subprocess.TimeoutExpired:
-                proc.kill()
-        for where in EXPORTS:
-            shutil.rmtree(where, ignore_errors=True)
+        stop_all(procs)
     os._exit(0)
 
 

@@ -19,19 +19,8 @@ import sys
 import threading
 import time
 
-from benchlib import latency_figures, report, start_roscore
+from benchlib import latency_figures, report, start_roscore, wait_for
 from bench_bridge_tail import EXPORTS, export, start_bridge
-
-
-def wait_for(condition, timeout_s, what, period_s=0.01):
-    deadline = time.monotonic() + timeout_s
-    while True:
-        value = condition()
-        if value:
-            return value
-        if time.monotonic() > deadline:
-            raise RuntimeError("timed out waiting for %s" % what)
-        time.sleep(period_s)
 
 
 def main():

@@ -29,7 +29,7 @@ import threading
 import time
 import xmlrpc.client
 
-from benchlib import latency_figures, report, start_roscore
+from benchlib import latency_figures, report, start_roscore, wait_for
 from bench_bridge_tail import EXPORTS, export
 
 SERVICE = "/file_control"
@@ -49,17 +49,6 @@ LAUNCH = """<launch>
   </node>
 </launch>
 """
-
-
-def wait_for(condition, timeout_s, what, period_s=0.02):
-    deadline = time.monotonic() + timeout_s
-    while True:
-        value = condition()
-        if value:
-            return value
-        if time.monotonic() > deadline:
-            raise RuntimeError("timed out waiting for %s" % what)
-        time.sleep(period_s)
 
 
 class Caller(object):

@@ -1,6 +1,7 @@
 """Helpers shared by the benchmarks: a free TCP port, percentiles, one JSON line per figure."""
 import json
 import socket
+import time
 
 
 def free_port():
@@ -37,7 +38,6 @@ def start_roscore(timeout_s=20.0):
     its children); returns its process once the master answers (the caller stops it)."""
     import os
     import subprocess
-    import time
 
     import rosgraph
     port = free_port()
@@ -50,3 +50,15 @@ def start_roscore(timeout_s=20.0):
             raise RuntimeError("roscore did not start")
         time.sleep(0.1)
     return proc
+
+
+def wait_for(condition, timeout_s, what, period_s=0.02):
+    """``condition()``'s first truthy value, polled every ``period_s``; RuntimeError after ``timeout_s``."""
+    deadline = time.monotonic() + timeout_s
+    while True:
+        value = condition()
+        if value:
+            return value
+        if time.monotonic() > deadline:
+            raise RuntimeError("timed out waiting for %s" % what)
+        time.sleep(period_s)

@@ -629,20 +629,8 @@ class SecurityTest(unittest.TestCase):
 
     def test_7_numbers_of_motion_topics(self):
         """move_cmd with NaN / Infinity / 1e400 / null while the backend holds server mode: nothing moves."""
-        heartbeat = roslibpy.Topic(self.ros, "/server_status", "inspection_robot/GeneralTopic")
-        stop = threading.Event()
-
-        def beat():
-            while not stop.wait(0.2):
-                heartbeat.publish(roslibpy.Message({"sender": "server", "data": "alive"}))
-        thread = threading.Thread(target=beat)
-        thread.daemon = True
-        thread.start()
+        end_heartbeat = self.server_mode()
         try:
-            wait_for(lambda: self.topic_command("/mode_cmd", "inspection_robot/GeneralCmd", "/mode_ack",
-                                                "inspection_robot/GeneralAck",
-                                                {"cmd": "acquire", "data": "server"})["ack"] == "success",
-                     20.0, "server mode", period=0.5)
             raw = RawClient("ws://127.0.0.1:%d" % self.port)
             self.addCleanup(raw.close)
             raw.send({"op": "set_level", "level": "error"})
@@ -683,10 +671,35 @@ class SecurityTest(unittest.TestCase):
             for status in statuses:
                 self.assertTrue(status, status)
         finally:
-            stop.set()
-            thread.join(2.0)
+            end_heartbeat()
             self.topic_command("/mode_cmd", "inspection_robot/GeneralCmd", "/mode_ack", "inspection_robot/GeneralAck",
                                {"cmd": "release", "data": ""})
+
+    def server_mode(self):
+        """Beat server_status every 0.2 s over the main link and take server mode; returns the function
+        that stops the heartbeat (the robot then goes offline after its timeout)."""
+        heartbeat = roslibpy.Topic(self.ros, "/server_status", "inspection_robot/GeneralTopic")
+        stop = threading.Event()
+
+        def beat():
+            while not stop.wait(0.2):
+                heartbeat.publish(roslibpy.Message({"sender": "server", "data": "alive"}))
+        thread = threading.Thread(target=beat)
+        thread.daemon = True
+        thread.start()
+
+        def end():
+            stop.set()
+            thread.join(2.0)
+        try:
+            wait_for(lambda: self.topic_command("/mode_cmd", "inspection_robot/GeneralCmd", "/mode_ack",
+                                                "inspection_robot/GeneralAck",
+                                                {"cmd": "acquire", "data": "server"})["ack"] == "success",
+                     20.0, "server mode", period=0.5)
+        except AssertionError:
+            end()
+            raise
+        return end
 
     def served_main(self, client):
         client.send({"op": "call_service", "service": "/rosapi/get_time", "id": "alive"})
@@ -931,24 +944,13 @@ class SecurityTest(unittest.TestCase):
         self.assertEqual(reply.ack, "success", reply.data)
         self.addCleanup(yard, sender="test", cmd="remove", data="spoof_box")
         wait_for(owned(lambda m: m.stop_status & STOP_OBSTACLE), 10.0, "the box stops the robot")
-        heartbeat = roslibpy.Topic(self.ros, "/server_status", "inspection_robot/GeneralTopic")
         obstacle = roslibpy.Topic(self.ros, "/obstacle_status", "inspection_robot/ObstacleStatus")
         status = roslibpy.Topic(self.ros, "/robot_status", "inspection_robot/RobotStatus")
         move = roslibpy.Topic(self.ros, "/move_cmd", "inspection_robot/MoveCmd")
         mode = {"cmd": "acquire", "data": "server"}
-        stop = threading.Event()
-
-        def beat():
-            while not stop.wait(0.2):
-                heartbeat.publish(roslibpy.Message({"sender": "server", "data": "alive"}))
-        thread = threading.Thread(target=beat)
-        thread.daemon = True
-        thread.start()
         self.chassis.clear()
+        end_heartbeat = self.server_mode()
         try:
-            wait_for(lambda: self.topic_command("/mode_cmd", "inspection_robot/GeneralCmd", "/mode_ack",
-                                                "inspection_robot/GeneralAck", mode)["ack"] == "success",
-                     20.0, "server mode", period=0.5)
             since = time.monotonic()
             for _ in range(30):   # 1.5 s: a clear claimed by the detector, and the holder's drive
                 obstacle.publish(roslibpy.Message({"sender": "obstacle_detector", "obstacle": False}))
@@ -960,8 +962,7 @@ class SecurityTest(unittest.TestCase):
                              "a client's obstacle clear lifted the stop")
             self.refusals.append(("spoofed obstacle_status", "obstacle: false", "stop_status kept 32"))
         finally:
-            stop.set()
-            thread.join(2.0)
+            end_heartbeat()
         wait_for(owned(lambda m: m.offline_warn == 1), 10.0, "offline without the heartbeat")
         for _ in range(10):
             status.publish(roslibpy.Message({"sender": "status_control", "offline_warn": 0}))
