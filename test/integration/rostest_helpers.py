@@ -80,6 +80,14 @@ class Latest(object):
         return wait_for(lambda: self.last is not None and predicate(self.last) and self.last,
                         timeout, what)
 
+    def wait_any(self, predicate, timeout=5.0, what="message"):
+        """Wait for any message kept so far or from now on that satisfies predicate (e.g. the ack of one
+        trans_id): unlike wait, one reply among a stream of others is not missed between two polls."""
+        def found():
+            with self._lock:
+                return next((msg for _t, msg in reversed(self.messages) if predicate(msg)), None)
+        return wait_for(found, timeout, what)
+
     def wait_connected(self, timeout=5.0):
         """Until a publisher is connected and every publisher of the topic has added this node.
 
