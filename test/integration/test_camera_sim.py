@@ -81,7 +81,7 @@ class CameraSimTest(unittest.TestCase):
         return ack.ack, ack.data
 
     def aim(self, pose, pan, tilt):
-        """Publish the robot pose and head angles and wait until the node renders that view."""
+        """Publish the robot pose and head angles (a test then waits until the pictures show that view)."""
         msg = PoseWithCovarianceStamped()
         msg.header.frame_id = "map"
         msg.pose.pose.position.x, msg.pose.pose.position.y = pose[0], pose[1]
@@ -159,14 +159,15 @@ class CameraSimTest(unittest.TestCase):
         gray = cv2.cvtColor(cv2.imread(path), cv2.COLOR_BGR2GRAY)
         os.unlink(path)   # a capture never replaces a file: the next try needs the name free
         window = int(0.6 * expected)   # the dial only, not the neighbouring gauges
-        row = gray[540, 960 - window:960 + window] > 185
-        cols = np.nonzero(row)[0] + 960 - window
-        if len(cols) < 10:
-            return None
-        left, right = cols.min(), cols.max()
-        if abs((left + right) / 2.0 - 960) > 15:
-            return None
-        return float(right - left)
+        extents = []
+        # centred along both axes: the view the test aimed at, not the previous one still rendered
+        # (a stale pose or head angle can centre another dial along one axis, never along both)
+        for line in (gray[540, 960 - window:960 + window], gray[540 - window:540 + window, 960]):
+            bright = np.nonzero(line > 185)[0] - window
+            if len(bright) < 10 or abs((bright.min() + bright.max()) / 2.0) > 15:
+                return None
+            extents.append(float(bright.max() - bright.min()))
+        return extents[0]
 
     def test_camera_bad_input(self):
         cases = [("set_zoom_level", "0.5"), ("set_zoom_level", "31"), ("set_zoom_level", "abc"),
