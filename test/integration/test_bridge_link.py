@@ -153,18 +153,17 @@ class BridgeLinkTest(unittest.TestCase):
         self.addCleanup(release.set)
 
         def stuck(request):
-            release.wait(5.0)
+            release.wait(30.0)   # answers only after the test: a reply before that is the bridge's timeout
             return ControlServiceResponse(trans_id=request.trans_id, ack="success", data="late")
         service = rospy.Service(NS + "stuck_control", ControlService, stuck)
         self.addCleanup(service.shutdown)
         client = self.raw()
-        start = time.monotonic()
         client.send({"op": "call_service", "id": "slow", "service": NS + "stuck_control", "timeout": 0.3,
                      "args": {"sender": "s", "trans_id": 1, "cmd": "c", "data": "d"}})
-        reply = client.recv_message(lambda m: m["op"] == "service_response", timeout=3.0)
+        reply = client.recv_message(lambda m: m["op"] == "service_response", timeout=20.0)
         self.assertEqual((reply["id"], reply["result"]), ("slow", False))
         self.assertIn("Timeout", reply["values"])
-        self.assertLess(time.monotonic() - start, 2.0)
+        self.assertFalse(release.is_set())   # answered by the bridge's timeout, not by the service
         release.set()  # the late ROS response is dropped; the connection keeps serving
         client.send({"op": "call_service", "id": "after", "service": NS + "test_control", "timeout": 5,
                      "args": {"sender": "s", "trans_id": 2, "cmd": "c", "data": "d"}})
