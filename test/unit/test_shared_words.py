@@ -39,7 +39,7 @@ COINCIDENCES = {
     ("task/patrol.py", "done"): "a task_status key name (FINAL_PROGRESS_KEYS)",
     ("task/action.py", "done"): "a task_action feedback key name",
     ("task/store.py", "alarm"): "a results column name",
-    ("nodes/task_manager.py", "read"): "a step timing's name",
+    ("task/service.py", "read"): "a step timing's name",
     ("task/report.py", "read"): "a summary tile's label (the count of read values)",
     ("bridge/trace.py", "read"): "the echo trace's first stage (a frame read), not a reading's status",
     ("bridge/server.py", "read"): "the echo trace's stage name (bridge/trace.py)",
