@@ -2,7 +2,7 @@
 starts sim.launch and this). Test harness, not installed: run from the devel space, not with rosrun.
 
 Usage: python3 -m inspection_robot_testing.soak --minutes M [--seed S] [--warmup S] [--isapi-port P]
-       [--faults WORD,...]   (inside scripts/rosenv, sim.launch running; scripts/soak starts both)
+       [--faults WORD,...] [--respawn-limit S]   (inside scripts/rosenv, sim.launch running; scripts/soak starts both)
 """
 import argparse
 import sys
@@ -19,6 +19,9 @@ def main():
     parser.add_argument("--isapi-port", type=int, default=None,
                         help="serve the fake ISAPI camera here (sim.launch camera_isapi_url:=http://127.0.0.1:PORT)"
                              " and inject its faults")
+    parser.add_argument("--respawn-limit", type=float, default=5.0,
+                        help="s a killed node may take to come back (process, registration, topics); make test's "
+                             "soak allows more: on a loaded CI machine a start takes what the CPU gives it")
     parser.add_argument("--faults", default="",
                         help="only the faults whose names contain one of these comma-separated words (e.g. kill)")
     # roslaunch appends __name:=... and __log:=... when it runs this as a node

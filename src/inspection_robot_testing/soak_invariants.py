@@ -84,10 +84,9 @@ class MotionAuthority(Checker):
 class NodeLiveness(Checker):
     """Every node alive, or respawned within ``max_down`` s; counts respawns (pid changes)."""
 
-    name = "every node alive or respawned within 5 s"
-
     def __init__(self, max_down=5.0):
         super(NodeLiveness, self).__init__()
+        self.name = "every node alive or respawned within %g s" % max_down
         self._max_down = max_down
         self._pid = {}
         self._down_since = {}

@@ -652,7 +652,7 @@ def run(args):
         camera = FakeIsapiCamera(user=ISAPI_USER, password=ISAPI_PASSWORD, port=args.isapi_port).start()
     rospy.init_node(NODE_NAME, disable_signals=True)
     duration = args.minutes * 60.0
-    motion, liveness = MotionAuthority(), NodeLiveness(5.0)
+    motion, liveness = MotionAuthority(), NodeLiveness(args.respawn_limit)
     memory = MemoryGrowth(args.warmup if args.warmup is not None else min(max(0.2 * duration, 30.0), 0.5 * duration))
     ledger, availability, reasons = Ledger(), Availability(15.0), FaultReasons()
     restart_calls, kept, spoofs = CallsAcrossRestart(), ControlKept(), SpoofsRefused()
