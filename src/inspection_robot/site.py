@@ -216,7 +216,7 @@ def _dock_problems(spec, sim_spec):
     sim = parse_dock(sim_spec)
     if _same_pose(dock.pose, sim.pose) or _same_pose(dock.approach, sim.approach):
         return ["%s is the simulated yard's dock (%s world.dock): measure the site's dock "
-                "(docs/operations.md, Charging dock)" % (DOCK, SIM_WORLD_FILE)]
+                "(docs/deployment.md, Charging dock)" % (DOCK, SIM_WORLD_FILE)]
     return []
 
 
@@ -372,5 +372,5 @@ def _bridge_problems(effective, insecure):
 def format_problems(problems, site_path):
     """robot.launch's one start-up refusal for ``problems`` (site_problems)."""
     return ("robot.launch refused to start, %d site setting(s) to fix in %s (template: %s, "
-            "docs/operations.md \"Site configuration\"):\n  - %s"
+            "docs/deployment.md \"Site configuration\"):\n  - %s"
             % (len(problems), site_path or "(no robot_config given)", TEMPLATE, "\n  - ".join(problems)))

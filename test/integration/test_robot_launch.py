@@ -129,8 +129,8 @@ class RobotLaunchTest(unittest.TestCase):
                       "adapter's output, set move_base/pose_topic: localization/pose", result[1])
 
     def test_bridge_gets_the_cpu_first_on_the_robot_unless_the_site_file_says_otherwise(self):
-        """robot.launch gives the bridge niceness -10 (the link's echo tail during a patrol, docs/operations.md);
-        the site file, loaded after it, can change that."""
+        """robot.launch gives the bridge niceness -10 (the link's echo tail during a patrol,
+        docs/development.md "Niceness and autogroup scheduling"); the site file, loaded after it, can change that."""
         with tempfile.TemporaryDirectory() as folder:
             site = template_site(folder)
             path = os.path.join(folder, "robot.yaml")

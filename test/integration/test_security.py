@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""rostest: the backend link's security suite (docs/operations.md, "Backend link security").
+"""rostest: the backend link's security suite (docs/deployment.md, "Backend link security").
 
 The whole simulated robot, attacked over the websocket as a client on the station network would:
 authentication (missing, wrong, replayed, guessing until blocked from another loopback address,

@@ -138,7 +138,7 @@ class SystemSimTest(unittest.TestCase):
         return heartbeat
 
     def test_0_the_runtime_picture_is_current(self):
-        """docs/runtime.dot (docs/architecture.md) is the graph of this very robot: the nodes of
+        """docs/runtime.dot (docs/development.md, "The running robot") is the graph of this very robot: the nodes of
         sim.launch and what they publish, subscribe to, serve and act on, as the master knows it."""
         with open(runtime_graph.DOT_FILE) as f:
             documented = f.read()

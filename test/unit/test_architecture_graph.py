@@ -1,4 +1,4 @@
-"""docs/architecture.dot (the picture in docs/architecture.md) is the package's current import graph."""
+"""docs/architecture.dot (the picture in docs/development.md, "Architecture") is the package's current import graph."""
 import importlib.util
 import os
 

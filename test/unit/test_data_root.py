@@ -24,8 +24,8 @@ def test_standalone_root_is_per_namespace():
     assert standalone_data_root(env, "/site/a/") == "/h/inspection_robot/site_a"
 
 
-def test_operations_doc_lists_every_sub_directory():
-    text = open(os.path.join(ROOT, "docs", "operations.md")).read()
+def test_deployment_doc_lists_every_sub_directory():
+    text = open(os.path.join(ROOT, "docs", "deployment.md")).read()
     for sub in DATA_SUBDIRS:
         assert "`%s/" % sub in text, sub
 

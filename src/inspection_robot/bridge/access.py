@@ -1,7 +1,7 @@
 """Who may open the backend link: the start-up checks of rosbridge_websocket's listening address.
 
 A bridge reachable from the station network without authentication lets anyone there take backend
-control and drive the robot (threat model: docs/operations.md, "Backend link security"). So a
+control and drive the robot (threat model: docs/deployment.md, "Backend link security"). So a
 non-loopback bind needs an auth token or TLS client certificates, unless explicitly ``insecure``.
 The token may come from a file only the robot's user can read (not the command line, where ``ps``
 shows it).
@@ -63,7 +63,7 @@ def listen_check(address, authenticated, client_certificates, insecure):
     if insecure:
         return INSECURE_WARNING % shown
     raise AccessError("refusing to listen on %s without authentication: set ~auth_token_file (a file readable only "
-                      "by the robot's user; see docs/operations.md) or ~certfile/~keyfile with ~client_ca (TLS "
+                      "by the robot's user; see docs/deployment.md) or ~certfile/~keyfile with ~client_ca (TLS "
                       "client certificates), or bind to 127.0.0.1; insecure:=true overrides (never on a station "
                       "network)" % shown)
 

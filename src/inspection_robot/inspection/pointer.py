@@ -1,8 +1,8 @@
 """Pointer gauge reader: the needle found (needle), scored (needle_confidence) and mapped on the
 scale (gauge), in the dial's frame (dial_frame).
 
-Steps, each measured on the real set's tuning part (bench/real_set.py; docs/interface.md,
-"Accuracy"), none chosen on the test part:
+Steps, each measured on the real set's tuning part (bench/real_set.py; docs/development.md,
+"Meter reading accuracy"), none chosen on the test part:
 1. the dial's frame: the calibrated box, or the frontal frame the scale marks' ellipse gives
    (dial_frame.dial_from_marks);
 2. the needle in the inner band of the dial (``inner``..``outer`` dial radii): its line read where

@@ -92,7 +92,7 @@ def read_fixed():
     changed = overridden(fixed, current)
     if changed:
         rospy.logwarn("bridge: ignoring the parameter server's %s: security settings come only from %s, the site "
-                      "file (%s) and the command line (docs/operations.md, Backend link security)",
+                      "file (%s) and the command line (docs/deployment.md, Backend link security)",
                       ", ".join("~" + k for k in changed), "config/%s.yaml" % NODE, fixed["site_file"] or "not given")
     return fixed
 
@@ -247,7 +247,7 @@ def main():
     params = read_params()
     if params["nice"]:
         # an echo's time in the bridge on a busy CPU is mostly its threads waiting to be scheduled
-        # (docs/interface.md, Backend link performance): a lower niceness shortens those waits
+        # (docs/development.md, "Niceness and autogroup scheduling"): a lower niceness shortens those waits
         failed = renice(params["nice"])
         if failed:
             rospy.logwarn("bridge: ~nice %d not applied (%s): the link's latency tail stays the machine's",

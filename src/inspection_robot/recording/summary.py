@@ -5,7 +5,7 @@ strings, one call per message; ``finish()`` returns a RunSummary (series for the
 goals, readings, alarms, faults, obstacles) and ``format_summary`` the text. No ROS, no plotting:
 unit tests drive it with made-up runs.
 
-Definitions (docs/operations.md "bag_report"):
+Definitions (docs/operator.md "bag_report"):
 - position: robot_status's, except while its nav_status stale bit is set (no pose yet: not drawn);
 - distance: path length of robot_status positions (pose jitter under 1 mm is measured only once
   it adds up; a step over ``max_jump_m`` is a relocalisation, not distance);

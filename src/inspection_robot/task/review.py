@@ -2,7 +2,7 @@
 
 ``parse_query`` checks the JSON of query_results and review_queue (one set of rules for both);
 ``parse_review`` the JSON of ``review``; ``review`` settles one reading: the correction file
-first (the bench's field set, docs/interface.md "Review of uncertain readings"), then the store,
+first (the bench's field set, docs/interface.md "Uncertain readings and their review"), then the store,
 so a refused or failed review leaves neither behind.
 """
 import os
