@@ -23,12 +23,23 @@ ROS_PREFIXES = ("rospy", "actionlib", "genpy", "roslib", "rosgraph", "rosservice
 CORE = "core (interface, command, files, angles)"
 ROS = "ROS 1 (rospy, actionlib, messages)"
 WING = ("nodes", "ros", "tools")
+ROS_SIDE = " (ROS side)"   # a capability's modules named ros_*.py: one box beside the capability's pure box
+
+
+def is_wing(box):
+    """Whether a box may import ROS: nodes/, ros/, tools/ and every capability's ROS side."""
+    return box in WING or box.endswith(ROS_SIDE)
 
 
 def folder_of(rel_path):
-    """The box a module belongs to: its folder under inspection_robot, or CORE for top-level files."""
+    """The box a module belongs to: its folder under inspection_robot (its ROS side for ros_*.py), or
+    CORE for top-level files."""
     parts = rel_path.split(os.sep)
-    return parts[0] if len(parts) > 1 else CORE
+    if len(parts) == 1:
+        return CORE
+    if parts[0] not in WING and parts[-1].startswith("ros_"):
+        return parts[0] + ROS_SIDE
+    return parts[0]
 
 
 def module_box(module):
@@ -38,7 +49,9 @@ def module_box(module):
         return None
     if parts[1] in ("msg", "srv"):
         return ROS
-    return parts[1] if os.path.isdir(os.path.join(SRC, parts[1])) else CORE
+    if not os.path.isdir(os.path.join(SRC, parts[1])):
+        return CORE
+    return folder_of(os.path.join(*parts[1:]) + ".py")
 
 
 def imports_of(path):
@@ -81,7 +94,7 @@ def dot_source():
              '  rankdir=TB; node [shape=box, fontname="Helvetica", fontsize=11]; edge [color="#555555"];']
     for box in boxes:
         style = ""
-        if box in WING:
+        if is_wing(box):
             style = ', style=filled, fillcolor="#dbe9f6"'
         elif box == ROS:
             style = ', style="filled,dashed", fillcolor="#eeeeee"'

@@ -23,7 +23,7 @@ from inspection_robot_testing.bridge_client import CLOSED, RawClient
 from inspection_robot.interface import MODE_SERVER, MODE_TASK
 from inspection_robot.msg import RobotStatus
 from inspection_robot.recording.compare import transition_differences, transitions
-from inspection_robot.ros.bag_reading import status_fields
+from inspection_robot.recording.ros_bag_reading import status_fields
 from rostest_helpers import Latest, outbound_connections, replay_bag, wait_for
 
 FIELDS = ("offline_warn", "mode")

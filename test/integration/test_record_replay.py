@@ -21,7 +21,7 @@ import rostest
 from inspection_robot.interface import LIGHT_SOFT_ESTOP, MODE_SERVER, MODE_TASK
 from inspection_robot.msg import GeneralAck, GeneralAction, GeneralCmd, GeneralGoal, GeneralTopic, MoveCmd, RobotStatus
 from inspection_robot.recording.compare import compare_runs, rising_edges
-from inspection_robot.ros.bag_reading import status_fields
+from inspection_robot.recording.ros_bag_reading import status_fields
 from rostest_helpers import Latest, replay_bag, wait_for, wait_subscribed
 
 WALL = {"id": "record_test_wall", "points": [[30.0, 30.0], [31.0, 30.0]], "closed": False}   # far from the drive

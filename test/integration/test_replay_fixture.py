@@ -22,7 +22,7 @@ from inspection_robot_testing.bridge_client import CLOSED, RawClient
 from inspection_robot.msg import GeneralAck, GeneralCmd, RobotStatus
 from inspection_robot.nav.virtual_obstacles import REPLAY_REFUSAL
 from inspection_robot.recording.compare import compare_runs, rising_edges
-from inspection_robot.ros.bag_reading import status_fields
+from inspection_robot.recording.ros_bag_reading import status_fields
 from rostest_helpers import Latest, wait_for
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "scripts"))

@@ -6,7 +6,7 @@ import genpy
 from inspection_robot.bridge import cbor
 from inspection_robot.bridge.codec import Codec
 from inspection_robot.bridge.protocol import BridgeError, Session, SessionConfig
-from inspection_robot.ros.message_types import GenpyTypes
+from inspection_robot.bridge.ros_message_types import GenpyTypes
 
 
 class FakeBackend(object):

@@ -8,6 +8,7 @@ import re
 
 ROS_IMPORT = re.compile(r"^\s*(?:import|from)\s+(rospy|genpy|roslib|rosgraph|rosservice|rostest|actionlib|tf2_ros|"
                         r"diagnostic_updater|\w+_msgs|inspection_robot\.(?:msg|srv|ros)\b|"
+                        r"inspection_robot\.\w+\.ros_\w+|inspection_robot\.\w+\s+import\s+ros_\w+|"
                         r"inspection_robot_testing\.ros\b)", re.M)
 
 

@@ -20,7 +20,6 @@ def test_architecture_picture_is_current():
 
 def test_pure_folders_import_neither_the_ros_wing_nor_sim():
     tool = load_tool()
-    allowed_to_import_sim = set(tool.WING)
     bad = [(a, b) for a, b in tool.edges()
-           if a not in tool.WING and (b in tool.WING or (b == "sim" and a not in allowed_to_import_sim | {"sim"}))]
+           if not tool.is_wing(a) and (tool.is_wing(b) or (b == "sim" and a != "sim"))]
     assert bad == []

@@ -2,11 +2,11 @@
 (The TCPROS publisher it writes to: test_tcpros_publisher.py.)"""
 import pytest
 
-from inspection_robot.ros import bridge_backend
+from inspection_robot.bridge import ros_backend
 
 
 class Handle(object):
-    """What RosBackend uses of a tcpros_publisher.Publication."""
+    """What RosBackend uses of a ros_tcpros.Publication."""
     data_class = object
 
     def __init__(self):
@@ -23,8 +23,8 @@ class Codec(object):
 
 def test_a_lone_message_goes_at_once_a_burst_once_per_loop_pass():
     posted = []
-    backend = bridge_backend.RosBackend(None, Codec(), lambda fn, *args: posted.append((fn, args)), None)
-    entry = bridge_backend._Topic(Handle(), "std_msgs/String")
+    backend = ros_backend.RosBackend(None, Codec(), lambda fn, *args: posted.append((fn, args)), None)
+    entry = ros_backend._Topic(Handle(), "std_msgs/String")
     writes = entry.handle.writes
     backend._publishers["/t"] = entry
 
@@ -82,8 +82,8 @@ class Tcpros(object):
 def test_clients_share_the_tcpros_publication_and_the_last_to_leave_unadvertises_it():
     tcpros = Tcpros()
     posted = []
-    backend = bridge_backend.RosBackend(Types(), Codec(), lambda fn, *args: posted.append((fn, args)), None,
-                                        tcpros=tcpros)
+    backend = ros_backend.RosBackend(Types(), Codec(), lambda fn, *args: posted.append((fn, args)), None,
+                                     tcpros=tcpros)
     backend._master = Master()
     backend.advertise("a", "/t", "std_msgs/String", True, 20)
     backend.advertise("b", "/t", "std_msgs/String", False, 100)
@@ -142,10 +142,10 @@ class JsonCodec(object):
 def backend(monkeypatch):
     import rospy
     monkeypatch.setattr(rospy, "ServiceProxy", Proxy)
-    monkeypatch.setattr(bridge_backend, "idle_service_connection_closed", lambda proxy: proxy.dead)
-    monkeypatch.setattr(bridge_backend, "service_proxy_uri", lambda proxy: proxy.uri)
+    monkeypatch.setattr(ros_backend, "idle_service_connection_closed", lambda proxy: proxy.dead)
+    monkeypatch.setattr(ros_backend, "service_proxy_uri", lambda proxy: proxy.uri)
     Proxy.made, Proxy.next_failures, Proxy.uri = [], [], "rosrpc://host:1"
-    made = bridge_backend.RosBackend(ServiceTypes(), JsonCodec(), None, None)
+    made = ros_backend.RosBackend(ServiceTypes(), JsonCodec(), None, None)
     made._service_uri = lambda service: Proxy.uri   # the master's word, without a master
     return made
 
@@ -179,7 +179,7 @@ def test_a_read_only_call_whose_answer_never_came_is_made_again_once_on_a_fresh_
 def test_a_call_that_may_have_changed_something_is_not_made_again(backend):
     call(backend, "/calibration_control", "get")
     Proxy.made[0].failures = [transport_error()]
-    with pytest.raises(bridge_backend.BridgeError) as failed:
+    with pytest.raises(ros_backend.BridgeError) as failed:
         call(backend, "/calibration_control", "mark_box")
     assert "its node closed the connection before answering, the request may have run" in str(failed.value)
     assert len(Proxy.made) == 1
@@ -198,12 +198,12 @@ def test_while_the_node_is_away_the_call_fails_once_with_the_clear_reason(backen
     call(backend, "/file_control", "stat")
     Proxy.made[0].failures = [transport_error()]
     Proxy.next_failures = [rospy.ServiceException("unable to connect to service: [Errno 111] Connection refused")]
-    with pytest.raises(bridge_backend.BridgeError) as failed:
+    with pytest.raises(ros_backend.BridgeError) as failed:
         call(backend, "/file_control", "stat")
     assert str(failed.value).startswith("service /file_control is not available: its node is restarting or down (")
     assert len(Proxy.made) == 2                 # one fresh connection, not a loop
     Proxy.next_failures = [rospy.ServiceException("service [/file_control] unavailable")]
-    with pytest.raises(bridge_backend.BridgeError) as failed:
+    with pytest.raises(ros_backend.BridgeError) as failed:
         call(backend, "/file_control", "stat")  # a fresh connection fails: not called again
     assert "is not available: its node is restarting or down" in str(failed.value)
     assert len(Proxy.made) == 3

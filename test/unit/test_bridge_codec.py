@@ -7,7 +7,7 @@ import pytest
 
 from inspection_robot.bridge import cbor
 from inspection_robot.bridge.codec import Codec, CodecError
-from inspection_robot.ros.message_types import GenpyTypes, UnknownTypeError
+from inspection_robot.bridge.ros_message_types import GenpyTypes, UnknownTypeError
 
 TYPES = GenpyTypes(now=lambda: genpy.Time(42, 7))
 CODEC = Codec(TYPES)

@@ -1,4 +1,6 @@
-"""Imports go one way: only the ROS wing (nodes/, ros/) may import ROS; the layout holds; the robot's
+"""Imports go one way: only the ROS wing (nodes/, ros/ and each capability's ROS-side modules, named
+ros_*.py beside the pure modules they serve) may import ROS, and no pure module imports a ROS-side
+one; the layout holds; the robot's
 package never imports the test harness (src/inspection_robot_testing) and setup.py never installs it.
 
 The list of ROS modules is every ROS package that package.xml declares plus the client library's
@@ -21,9 +23,22 @@ HARNESS = os.path.join(ROOT, "src", "inspection_robot_testing")
 ROS_CLIENT_MODULES = {"rospy", "genpy", "genmsg", "roslib", "rosgraph", "rospkg", "rosservice",
                       "rostopic", "rosnode", "rosparam", "roslaunch", "rosmsg", "rosbag", "rostest",
                       "actionlib", "tf", "tf2_py", "tf2_ros", "diagnostic_updater", "message_filters"}
-# nodes/ holds the nodes' entry points, ros/ everything else that imports ROS (tools/ is command lines
-# only: their ROS side, e.g. bag_report's reading and the soak, lives in ros/).
+# nodes/ holds the nodes' entry points, ros/ the ROS helpers every capability shares, and a
+# capability's own ROS side sits in its folder as ros_*.py (bridge/ros_backend.py, task/ros_steps.py).
+# tools/ is command lines only: their ROS side (e.g. bag_report's reading) is a ros_*.py module.
 ROS_WING = ("nodes", "ros")
+
+
+def is_ros_side(rel):
+    """Whether the module at ``rel`` (relative to the package) may import ROS."""
+    parts = rel.split(os.sep)
+    return parts[0] in ROS_WING or (len(parts) > 1 and parts[-1].startswith("ros_"))
+
+
+def is_ros_side_module(module):
+    """Whether an imported ``inspection_robot.…`` module is one of the ROS wing's."""
+    parts = module.split(".")
+    return parts[0] == "inspection_robot" and len(parts) > 1 and is_ros_side(os.path.join(*parts[1:]) + ".py")
 
 
 def declared_ros_packages():
@@ -73,11 +88,32 @@ def test_only_the_ros_wing_imports_ros():
     names = ros_modules()
     offenders = []
     for rel, path in python_files():
-        if rel.split(os.sep)[0] in ROS_WING:
+        if is_ros_side(rel):
             continue
+        tool = rel.split(os.sep)[0] == "tools"   # a command line may use the ROS wing, never ROS itself
         offenders.extend("%s imports %s" % (rel, module) for module in imported_modules(path)
-                         if is_ros_import(module, names))
+                         if is_ros_import(module, names) or (is_ros_side_module(module) and not tool))
     assert offenders == []
+
+
+def test_ros_side_modules_sit_beside_their_pure_ones():
+    """A capability's ros_*.py shares its folder with pure modules (else the folder belongs in ros/)."""
+    lonely = []
+    for folder in sorted(os.listdir(SRC)):
+        path = os.path.join(SRC, folder)
+        if folder in ROS_WING or not os.path.isdir(path):
+            continue
+        modules = [n for n in os.listdir(path) if n.endswith(".py") and n != "__init__.py"]
+        if any(n.startswith("ros_") for n in modules) and all(n.startswith("ros_") for n in modules):
+            lonely.append(folder)
+    assert lonely == []
+
+
+def test_the_side_rule_names_ros_modules():
+    assert is_ros_side(os.path.join("bridge", "ros_backend.py")) and is_ros_side(os.path.join("ros", "node.py"))
+    assert not is_ros_side(os.path.join("bridge", "protocol.py")) and not is_ros_side("interface.py")
+    assert is_ros_side_module("inspection_robot.task.ros_steps")
+    assert not is_ros_side_module("inspection_robot.task.patrol") and not is_ros_side_module("numpy")
 
 
 def test_only_the_harness_ros_wing_imports_ros():
@@ -129,7 +165,7 @@ def test_the_rule_catches_a_leak():
 
 
 def test_nodes_holds_one_module_per_node():
-    """nodes/<name>.py exists exactly for the executables nodes/<name>: helpers live in ros/."""
+    """nodes/<name>.py exists exactly for the executables nodes/<name>: helpers live in ros/ or as ros_*.py."""
     modules = {os.path.splitext(name)[0] for name in os.listdir(os.path.join(SRC, "nodes"))
                if name.endswith(".py") and name != "__init__.py"}
     executables = set(os.listdir(os.path.join(ROOT, "nodes")))

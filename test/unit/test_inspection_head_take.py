@@ -5,7 +5,7 @@ import os
 import pytest
 
 from inspection_robot.inspection.finder import FindError
-from inspection_robot.ros.inspection_head import _take
+from inspection_robot.inspection.ros_head import _take
 
 
 class FakeDevice(object):

@@ -1,6 +1,6 @@
-"""ros/task_goal.py: TaskService's goal calls become the actionlib goal handle's, each end its terminal state."""
+"""task/ros_goal.py: TaskService's goal calls become the actionlib goal handle's, each end its terminal state."""
 from inspection_robot.msg import GeneralGoal
-from inspection_robot.ros.task_goal import ActionGoal
+from inspection_robot.task.ros_goal import ActionGoal
 from inspection_robot.task.action import END_ABORTED, END_CANCELED, END_SUCCEEDED
 
 

@@ -72,7 +72,7 @@ class ScriptedRunner(object):
 
 
 class Goal(object):
-    """A task_action goal as the node hands it in (ros/task_goal.py), recording what it was told."""
+    """A task_action goal as the node hands it in (task/ros_goal.py), recording what it was told."""
 
     class Request(object):
         def __init__(self, goal_type, data, sender="backend"):

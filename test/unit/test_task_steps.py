@@ -1,8 +1,8 @@
-"""ros.task_steps.wait_for_server: a step waits for an action server that is starting or respawning,
+"""task.ros_steps.wait_for_server: a step waits for an action server that is starting or respawning,
 stays interruptible meanwhile, and fails naming the missing links only after its timeout."""
 import time
 
-from inspection_robot.ros import task_steps
+from inspection_robot.task import ros_steps
 from inspection_robot.task.patrol import OUTCOME_FAILED, OUTCOME_INTERRUPTED
 
 
@@ -31,7 +31,7 @@ class LateServer(object):
 
 def test_a_server_that_comes_up_late_is_waited_for():
     client = LateServer(up_at=12)   # 1.1 s of waits: longer than one poll, far shorter than the timeout
-    assert task_steps.wait_for_server(client, "move_action", lambda: False, 60.0) is None
+    assert ros_steps.wait_for_server(client, "move_action", lambda: False, 60.0) is None
     assert client.waits == 12
 
 
@@ -44,7 +44,7 @@ def test_a_pause_or_cancel_ends_the_wait_at_once():
         return len(asked) >= 3
 
     started = time.monotonic()
-    assert task_steps.wait_for_server(client, "find_scale_action", interrupted, 60.0) == \
+    assert ros_steps.wait_for_server(client, "find_scale_action", interrupted, 60.0) == \
         (OUTCOME_INTERRUPTED, "cancelled by task_manager")
     assert client.waits == 3
     assert time.monotonic() - started < 5.0
@@ -52,7 +52,7 @@ def test_a_pause_or_cancel_ends_the_wait_at_once():
 
 def test_no_server_within_the_timeout_fails_the_step_naming_what_is_missing():
     client = LateServer(up_at=None)
-    outcome, reason = task_steps.wait_for_server(client, "move_action", lambda: False, 0.3)
+    outcome, reason = ros_steps.wait_for_server(client, "move_action", lambda: False, 0.3)
     assert outcome == OUTCOME_FAILED
     assert reason == ("move_action server not available after 0.3 s: not connected: status (no message yet), "
                       "goal, cancel, result, feedback")

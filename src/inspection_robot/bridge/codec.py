@@ -61,7 +61,7 @@ class _UnknownField(Exception):
 
 
 class TypeSupport(object):
-    """What the codec needs from the ROS side; ros.message_types.GenpyTypes implements it."""
+    """What the codec needs from the ROS side; bridge.ros_message_types.GenpyTypes implements it."""
 
     def message_class(self, type_name):
         raise NotImplementedError

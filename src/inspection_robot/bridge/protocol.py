@@ -5,7 +5,7 @@ checked against it and dispatched through the session's handler table (``Session
 op name -> method). Any problem becomes a ``status`` message at level ``error`` naming the op
 and echoing the ``id``; the session keeps serving. The log gets at most one line per client
 every ``LOG_PERIOD`` s for such problems, with the count of those left out.
-ROS effects go through a backend (ros.bridge_backend.RosBackend, or a fake in the unit tests), frames
+ROS effects go through a backend (bridge.ros_backend.RosBackend, or a fake in the unit tests), frames
 out through ``send(frames, key, limit)`` of the transport's bounded queue. All methods run on
 the transport's event-loop thread; the backend hands ROS callbacks over to that thread.
 """
@@ -229,7 +229,7 @@ class SessionConfig(object):
 class Session(object):
     """The protocol state of one client.
 
-    ``backend``: ROS side (see ros.bridge_backend.RosBackend for the interface). ``send(frames, key, limit,
+    ``backend``: ROS side (see bridge.ros_backend.RosBackend for the interface). ``send(frames, key, limit,
     droppable)``: queue a list of frames (str text / bytes binary) as one message. ``clock()``:
     monotonic seconds. ``call_later(delay_s, fn)``: returns a handle with ``cancel()``.
     ``close()``: drop the connection after the queued frames. ``rosapi``: RosApi or None.

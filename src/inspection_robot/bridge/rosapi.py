@@ -4,7 +4,7 @@
 request/response JSON shapes, so roslibjs/roslibpy helpers (get_topics, get_params,
 get_message_details...) work unchanged. ``/rosapi/*`` names appear in ``services`` and
 ``service_type`` reports ``rosapi/<Type>`` as the rosapi node would. The ROS graph, parameter
-server and clock come from a ``graph`` object (ros.bridge_backend.RosGraph) and message classes from a
+server and clock come from a ``graph`` object (bridge.ros_backend.RosGraph) and message classes from a
 TypeSupport, so this module needs no rospy.
 """
 import json

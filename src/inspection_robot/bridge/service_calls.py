@@ -1,6 +1,6 @@
 """When the bridge calls a ROS service again, and what it tells the client when a call fails.
 
-The bridge keeps idle persistent connections to the services its clients call (ros/bridge_backend.py).
+The bridge keeps idle persistent connections to the services its clients call (bridge/ros_backend.py).
 When the node behind one restarts, the connection is dead; rospy's ServiceProxy only finds out when
 it uses it. Each way a call can fail says how far the request got, read from what rospy raises
 (Noetic's rospy/impl/tcpros_service.py ServiceProxy.call and tcpros_base.TCPROSTransport):

@@ -3,7 +3,7 @@
 No wire protocol of the motion board is specified, so this module is the contract a vendor
 implements (``inspection_robot.sim.chassis.SimChassis`` is the reference implementation).
 robot_control loads a driver with ``~driver: sim``, ``~driver: ros`` (any base with a ROS driver:
-``ros/chassis_base.py`` over the pure ``motion/ros_base.py``) or ``~driver: package.module:ClassName``;
+``motion/ros_chassis.py`` over the pure ``motion/base_inputs.py``) or ``~driver: package.module:ClassName``;
 the class is constructed as ``ClassName(**driver_params)`` from ``~driver_params``.
 
 Threading: robot_control calls a driver from several threads (subscriber callbacks apply

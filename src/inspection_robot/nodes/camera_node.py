@@ -5,7 +5,7 @@ Services:    camera_control (ControlService): every command of the spec (camera.
                  (.staging/<32 hex>.<ext>) for preset_scale and find_scale only: not in the backend surface
 Subscribes:  camera_cmd (GeneralCmd) -> answers on camera_ack (GeneralAck), trans_id echoed
              control_status (ControlStatus): joystick-busy rule (mode 2)
-             sim only: sim/true_pose, terrace_state, sim/world_state (nodes.sim_view)
+             sim only: sim/true_pose, terrace_state, sim/world_state (sim/ros_view.py)
 Publishes:   camera_zoom (std_msgs/Float64, latched, on change)
              camera/image_raw (sensor_msgs/Image, bgr8, ~image_width px wide, ~image_rate Hz)
              camera/image_raw/compressed (sensor_msgs/CompressedImage, format "jpeg", ~stream_jpeg_quality,
@@ -129,7 +129,7 @@ def make_camera(spec, optics):
                            str(params.get("snapshot_url", "/onvif-http/snapshot?Profile_1")))
 
     def simulator():
-        from inspection_robot.ros.sim_view import SimView
+        from inspection_robot.sim.ros_view import SimView
         from inspection_robot.sim.camera import SimulatedCamera
         from inspection_robot.sim.render import Renderer
         from inspection_robot.sim.world import World

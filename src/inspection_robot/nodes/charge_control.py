@@ -40,7 +40,7 @@ from inspection_robot.msg import GeneralAction, GeneralCmd, GeneralGoal, General
 from inspection_robot.nav.goal import move_goal_data
 from inspection_robot.ros.actions import server_unavailable
 from inspection_robot.ros.node import init_node, site_param
-from inspection_robot.ros.owner_gate import OwnerGate
+from inspection_robot.motion.ros_owner_gate import OwnerGate
 from inspection_robot.ros.twin import CommandTwin
 from inspection_robot.ros.worker import RequestWorker
 from inspection_robot.srv import ControlService

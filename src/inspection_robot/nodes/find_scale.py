@@ -40,7 +40,7 @@ from inspection_robot.inspection.find_goal import find_result_data, parse_find_g
 from inspection_robot.interface import (FIND_FEEDBACK_PRESET_SET, FIND_GOAL_PRE_FIND, FIND_RESULT_FAILED,
                                         FIND_RESULT_SUCCESS)
 from inspection_robot.msg import GeneralAction, GeneralFeedback, GeneralResult
-from inspection_robot.ros.inspection_head import HeadingWatcher, RosHead
+from inspection_robot.inspection.ros_head import HeadingWatcher, RosHead
 from inspection_robot.ros.data_root import data_root, path_param
 from inspection_robot.ros.node import init_node
 

@@ -5,7 +5,7 @@ Services:    infrared_control (ControlService): every command of the spec (therm
                  (.staging/<32 hex>.<ext>) for preset_scale and find_scale only: not in the backend surface
 Subscribes:  infrared_cmd (GeneralCmd) -> answers on infrared_ack (GeneralAck), trans_id echoed
              control_status (ControlStatus): joystick-busy rule (mode 2)
-             sim only: sim/true_pose, terrace_state, sim/world_state (nodes.sim_view)
+             sim only: sim/true_pose, terrace_state, sim/world_state (sim/ros_view.py)
 Publishes:   diagnostics (diagnostic_msgs/DiagnosticArray, hardware_id "thermal_imager", ~status_rate Hz)
              thermal/image_raw (sensor_msgs/Image, bgr8 false colour, ~image_rate Hz, only with subscribers)
              thermal/image_raw/compressed (sensor_msgs/CompressedImage, format "jpeg", ~stream_jpeg_quality,
@@ -89,7 +89,7 @@ def make_imager(spec, width, height):
         return imager_from_settings(rospy.get_param("~isapi", {}))
 
     def simulator():
-        from inspection_robot.ros.sim_view import SimView
+        from inspection_robot.sim.ros_view import SimView
         from inspection_robot.sim.render import ThermalRenderer
         from inspection_robot.sim.thermal import SimulatedImager
         from inspection_robot.sim.world import World

@@ -64,7 +64,7 @@ from inspection_robot.nav.planner import Planner, PlanningError
 from inspection_robot.nav.supervisor import FOLLOW, REPLAN, STOP, GoalAborted, GoalSupervisor
 from inspection_robot.nav.virtual_obstacles import VirtualObstacles
 from inspection_robot.ros.node import init_node, site_param
-from inspection_robot.ros.owner_gate import OwnerGate
+from inspection_robot.motion.ros_owner_gate import OwnerGate
 from inspection_robot.ros.twin import CommandTwin
 from inspection_robot.ros.data_root import data_root, path_param
 

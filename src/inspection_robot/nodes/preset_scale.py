@@ -32,7 +32,7 @@ from inspection_robot.interface import ACK_FAILED, ACK_SUCCESS
 from inspection_robot.ros.node import init_node
 from inspection_robot.ros.worker import RequestWorker
 from inspection_robot.msg import PresetScaleAck, PresetScaleCmd
-from inspection_robot.ros.inspection_head import HeadingWatcher, RosHead
+from inspection_robot.inspection.ros_head import HeadingWatcher, RosHead
 from inspection_robot.ros.data_root import data_root, path_list_param, path_param
 
 NODE_NAME = "preset_scale"

@@ -32,7 +32,7 @@ Services:    imu_control (ControlService): twin of imu_cmd/imu_ack
 Parameters:  ~driver (sim | ros | none | "package.module:Class", required; see inspection_robot.drivers),
              ~driver_params ({}): vendor constructor kwargs
              ~ros_base ({}): with driver ros, the base's topics, services and timeouts
-                 (motion.ros_base.SETTINGS; cmd_vel out, odom / battery_state / Bool inputs in,
+                 (motion.base_inputs.SETTINGS; cmd_vel out, odom / battery_state / Bool inputs in,
                  charge relay SetBool service or Bool topic; odom_timeout 0.5 s, battery_timeout 5 s)
              ~rate (Hz, 50.0) control cycle; ~status_rate (Hz, 10.0)
              ~cmd_timeout (s, 0.5)
@@ -63,13 +63,13 @@ from inspection_robot.motion.arbitration import REFUSAL_NOT_ALLOWED
 from inspection_robot.motion.chassis import ChassisError, NoChassis
 from inspection_robot.motion.controller import MotionController
 from inspection_robot.motion.owners import OBSTACLE_STATUS, ROBOT_STATUS
-from inspection_robot.motion.ros_base import PARAM as ROS_BASE_PARAM
-from inspection_robot.motion.ros_base import parse_settings
+from inspection_robot.motion.base_inputs import PARAM as ROS_BASE_PARAM
+from inspection_robot.motion.base_inputs import parse_settings
 from inspection_robot.motion.velocity import VelocityLimits
 from inspection_robot.msg import ControlStatus, GeneralAck, GeneralCmd, MoveCmd, ObstacleStatus, RobotStatus, VoiceCmd
-from inspection_robot.ros.chassis_base import RosChassis
+from inspection_robot.motion.ros_chassis import RosChassis
 from inspection_robot.ros.node import init_node
-from inspection_robot.ros.owner_gate import OwnerGate
+from inspection_robot.motion.ros_owner_gate import OwnerGate
 from inspection_robot.ros.twin import CommandTwin, control_response
 from inspection_robot.srv import ControlService
 

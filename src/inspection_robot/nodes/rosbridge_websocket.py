@@ -10,7 +10,7 @@ Publishes:   client_count (std_msgs/Int32, latched): connected websocket clients
              the topics a backend publishes (interface.BACKEND_TOPIC_TYPES: server_status, every *_cmd, ...),
              advertised at start; plus every other topic a client advertises (any type). These go out
              through the bridge's own TCPROS publisher, node name ``<this node>/tcpros`` in rosnode
-             and rostopic info (ros/tcpros_publisher.py)
+             and rostopic info (bridge/ros_tcpros.py)
 Subscribes:  every topic a client subscribes to (one ROS subscriber per topic, shared); the answers to
              a backend's commands (interface.BACKEND_ACK_TYPES: every *_ack) from the start, kept
 Services:    every service a client advertises; calls any ROS service for clients
@@ -61,8 +61,8 @@ from inspection_robot.bridge.codec import Codec
 from inspection_robot.bridge.console import CONSOLE_PATH, console_routes, missing_files
 from inspection_robot.bridge.protocol import Session, SessionConfig
 from inspection_robot.ros import compat_rospy
-from inspection_robot.ros.bridge_backend import RosBackend, RosGraph, start_tcpros_publisher
-from inspection_robot.ros.message_types import GenpyTypes
+from inspection_robot.bridge.ros_backend import RosBackend, RosGraph, start_tcpros_publisher
+from inspection_robot.bridge.ros_message_types import GenpyTypes
 from inspection_robot.bridge.rosapi import RosApi
 from inspection_robot.bridge.server import BridgeServer, LoopPoster, make_ssl_context
 from inspection_robot.bridge.surface import CONSOLE_LINK_PATH, Surface, role_of_path

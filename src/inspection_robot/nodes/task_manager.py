@@ -40,8 +40,8 @@ from nav_msgs.msg import OccupancyGrid
 from inspection_robot.msg import GeneralAction, GeneralTopic, RobotStatus
 from inspection_robot.ros.data_root import data_root, path_param
 from inspection_robot.ros.node import init_node, site_param
-from inspection_robot.ros.task_goal import ActionGoal
-from inspection_robot.ros.task_steps import StepRunner
+from inspection_robot.task.ros_goal import ActionGoal
+from inspection_robot.task.ros_steps import StepRunner
 from inspection_robot.ros.twin import CommandTwin
 from inspection_robot.ros.worker import RequestWorker
 from inspection_robot.task.checks import Reachability

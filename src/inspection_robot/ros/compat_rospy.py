@@ -23,7 +23,7 @@ the public API when those names differ (another rospy than Noetic's frozen 1.15)
 when it is not empty. :func:`describe` is for a node's start-up log.
 
 The bridge's publishing no longer reads rospy's publisher internals: it has a TCPROS publisher of
-its own on public APIs (ros/tcpros_publisher.py).
+its own on public APIs (bridge/ros_tcpros.py).
 """
 import select
 

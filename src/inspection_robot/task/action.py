@@ -2,7 +2,7 @@
 
 Goal ``type`` "patrol", ``data`` the task JSON of ``submit``. Feedback carries the task's progress
 (the task_status fields of that task, see Patrol.task_progress), result the final outcome. The
-node's goal handle (ros/task_goal.py) turns ``goal_end`` into set_succeeded / set_aborted / set_canceled.
+node's goal handle (task/ros_goal.py) turns ``goal_end`` into set_succeeded / set_aborted / set_canceled.
 Decisions (docs/interface.md, "Patrol as an action (task_action)"):
 
 - a refused task (any submit check, a wrong goal type, busy) rejects the goal: ret_code "3";

@@ -5,7 +5,7 @@ task_cmd/task_ack, feeds robot_status (``on_robot_status``) and virtual_obstacle
 (``on_virtual_map``), hands task_action requests to ``action_request``, calls ``status_tick`` and
 ``schedule_timer`` from timers and runs ``spin`` on its main thread. Everything else comes in
 through the constructor: the results store, the scheduler, the reachability check, the step
-runner (ros/task_steps.py in the node; tests pass a fake), ``publish_status(text)`` for
+runner (task/ros_steps.py in the node; tests pass a fake), ``publish_status(text)`` for
 task_status, ``log(level, text)`` (info, warn, error) and the clocks.
 
 Threads: commands (service and topic threads), the timers and the action worker meet the patrol

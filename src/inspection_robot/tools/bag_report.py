@@ -6,8 +6,8 @@
 ``--check`` only says whether the bags can be replayed (replay.launch runs it first): readable and
 indexed, robot_status of one robot, and status_control's inputs (REPLAY_INPUTS) of the right types.
 
-Reads the bags (ros/bag_reading.py, rosbag Python API; several splits of one run are read in time order), feeds
-recording.summary.RunAnalyzer and prints its summary (duration, distance, stops, readings,
+Reads the bags (recording/ros_bag_reading.py, rosbag Python API; several splits of one run are read in
+time order), feeds recording.summary.RunAnalyzer and prints its summary (duration, distance, stops, readings,
 alarms, faults). Unless ``--no-plot`` it writes a PNG (default: next to the first bag,
 ``<bag>.png``): the driven path over the recorded map with virtual obstacles, stops, goals,
 alarms and 3-D obstacles marked, and time plots of speed, battery and mode (matplotlib, Agg).
@@ -22,7 +22,7 @@ import os
 import sys
 
 from inspection_robot.recording.summary import READING_ALARMS, format_summary, reading_text
-from inspection_robot.ros.bag_reading import ReportError, check_replayable, read_run
+from inspection_robot.recording.ros_bag_reading import ReportError, check_replayable, read_run
 from inspection_robot.task.states import STATUS_FAILED
 
 MAX_LISTED = 14   # readings listed (and numbered R<i> on the map) in the picture

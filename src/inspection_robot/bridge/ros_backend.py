@@ -4,7 +4,7 @@
 serves every client; each ROS message is encoded once per compression its clients use, in
 rospy's thread, and handed to the event loop (``post``) for fan-out. Messages clients publish
 reach ROS at once, in a burst once per event-loop pass in one batch, through the bridge's own
-TCPROS publisher (tcpros_publisher.py: written from the event loop itself, never blocking; public
+TCPROS publisher (ros_tcpros.py: written from the event loop itself, never blocking; public
 APIs only).
 Service calls and rosapi requests run on a thread pool; their results come back through ``post``.
 A service call reuses an idle persistent connection unless its node closed it or the service moved
@@ -13,7 +13,7 @@ fresh connection when bridge/service_calls.py says it may (the request cannot ha
 or the command only reads).
 Services a client advertises are rospy.Services whose handler forwards the request to that client
 and waits (bounded) for its service_response.
-With message_types.py, the bridge's ROS side; both live in the ROS wing.
+With ros_message_types.py and ros_tcpros.py, the bridge's ROS side.
 """
 import concurrent.futures
 import threading
@@ -26,7 +26,7 @@ import rosservice
 from inspection_robot.bridge import service_calls, trace
 from inspection_robot.bridge.protocol import BridgeError, Outgoing
 from inspection_robot.ros.compat_rospy import idle_service_connection_closed, replay_latched, service_proxy_uri
-from inspection_robot.ros.tcpros_publisher import TcprosPublisher
+from inspection_robot.bridge.ros_tcpros import TcprosPublisher
 
 
 MAX_BATCH = 256  # messages converted for one topic before the client's socket waits for a flush
@@ -46,7 +46,7 @@ class _Topic(object):
     __slots__ = ("handle", "type_name", "sessions", "high_water", "pending", "in_pass", "bursting")
 
     def __init__(self, handle, type_name, high_water=None):
-        self.handle = handle    # a tcpros_publisher.Publication, or a rospy.Subscriber
+        self.handle = handle    # a ros_tcpros.Publication, or a rospy.Subscriber
         self.type_name = type_name
         self.sessions = set()
         self.high_water = high_water
@@ -86,7 +86,7 @@ class RosBackend(object):
         self._service_timeout = float(service_timeout)
         self._sub_queue = int(subscriber_queue_size)
         self._log = log or (lambda level, text: None)
-        self._publishers = {}   # topic -> _Topic(tcpros_publisher.Publication)
+        self._publishers = {}   # topic -> _Topic(ros_tcpros.Publication)
         self._subscribers = {}  # topic -> _Topic(rospy.Subscriber)
         self._kept = set()      # topics subscribed for the robot: kept when their last client leaves
         self._services = {}     # service -> (rospy.Service, session, type)

@@ -1,6 +1,6 @@
 """Type support for the bridge from genpy/roslib: message and service classes by name, time.
 
-The bridge's message classes from genpy (with bridge_backend.py the bridge's ROS side)
+The bridge's message classes from genpy (with ros_backend.py the bridge's ROS side)
 (test_import_rules.py exempts it), so codec.py and protocol.py stay pure.
 """
 import genpy

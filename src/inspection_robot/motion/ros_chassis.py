@@ -2,7 +2,7 @@
 
 Velocity goes out as geometry_msgs/Twist, odometry, battery and safety inputs come in on topics,
 the charge relay goes through a std_srvs/SetBool service or a std_msgs/Bool topic. What the
-inputs amount to (staleness, fault bits, units) is decided by the pure motion.ros_base.BaseInputs;
+inputs amount to (staleness, fault bits, units) is decided by the pure motion.base_inputs.BaseInputs;
 this module only wires topics to it. Topic names are relative to robot_control's namespace.
 
 Threading: subscriber callbacks store under the driver's own lock and call the safety listener
@@ -22,13 +22,13 @@ from std_srvs.srv import SetBool
 from inspection_robot.angles import yaw_from_quaternion
 from inspection_robot.interface import WHEEL_STRAIGHT
 from inspection_robot.motion.chassis import ChassisDriver, ChassisError, ImuReading
-from inspection_robot.motion.ros_base import PARAM, SAFETY_INPUTS, BaseInputs, battery_from_message
+from inspection_robot.motion.base_inputs import PARAM, SAFETY_INPUTS, BaseInputs, battery_from_message
 
 CHECK_PERIOD_S = 0.1   # how often input problems are looked for, to log them (the robot stops regardless)
 
 
 class RosChassis(ChassisDriver):
-    """settings: motion.ros_base.Settings; clock(): monotonic seconds; node: the name in log lines."""
+    """settings: motion.base_inputs.Settings; clock(): monotonic seconds; node: the name in log lines."""
 
     def __init__(self, settings, clock, node="robot_control"):
         self.settings = settings

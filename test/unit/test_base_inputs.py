@@ -9,10 +9,10 @@ from inspection_robot.interface import (BATTERY_CHARGING, BATTERY_DISCHARGING, B
                                         BATTERY_LINE_FAULT, BATTERY_UNDER_VOLTAGE, CIRCUIT_BATTERY_CRITICAL,
                                         CIRCUIT_COLLISION_LINE, CIRCUIT_STEPPER_COMM, LIGHT_CHARGE_RELAY,
                                         MODE_SERVER, TEMP_BATTERY, WHEEL_STRAIGHT)
-from inspection_robot.motion import ros_base
+from inspection_robot.motion import base_inputs
 from inspection_robot.motion.chassis import ChassisDriver, ChassisError, NoChassis
 from inspection_robot.motion.controller import MotionController
-from inspection_robot.motion.ros_base import BaseInputs, SettingsError, battery_from_message, parse_settings
+from inspection_robot.motion.base_inputs import BaseInputs, SettingsError, battery_from_message, parse_settings
 from inspection_robot.motion.status import control_status_fields
 from inspection_robot.motion.safety import SafetyLatch
 from inspection_robot.motion.velocity import VelocityLimits
@@ -49,7 +49,7 @@ def battery(percentage=0.8, status=2, health=1, voltage=48.34, current=-2.46, te
 def test_config_file_holds_every_setting_with_its_default():
     with open(os.path.join(ROOT, "config", "robot_control.yaml")) as f:
         config = yaml.safe_load(f)["ros_base"]
-    assert list(config) == list(ros_base.SETTINGS)
+    assert list(config) == list(base_inputs.SETTINGS)
     assert parse_settings(config) == parse_settings({})
 
 
@@ -77,12 +77,12 @@ def test_settings_must_be_a_dict():
 
 def test_battery_constants_match_the_message():
     from sensor_msgs.msg import BatteryState
-    assert ros_base.POWER_SUPPLY_STATUS_CHARGING == BatteryState.POWER_SUPPLY_STATUS_CHARGING
-    assert ros_base.POWER_SUPPLY_STATUS_DISCHARGING == BatteryState.POWER_SUPPLY_STATUS_DISCHARGING
-    assert ros_base.POWER_SUPPLY_HEALTH_OVERHEAT == BatteryState.POWER_SUPPLY_HEALTH_OVERHEAT
-    assert ros_base.POWER_SUPPLY_HEALTH_DEAD == BatteryState.POWER_SUPPLY_HEALTH_DEAD
-    assert ros_base.POWER_SUPPLY_HEALTH_OVERVOLTAGE == BatteryState.POWER_SUPPLY_HEALTH_OVERVOLTAGE
-    assert ros_base.POWER_SUPPLY_HEALTH_COLD == BatteryState.POWER_SUPPLY_HEALTH_COLD
+    assert base_inputs.POWER_SUPPLY_STATUS_CHARGING == BatteryState.POWER_SUPPLY_STATUS_CHARGING
+    assert base_inputs.POWER_SUPPLY_STATUS_DISCHARGING == BatteryState.POWER_SUPPLY_STATUS_DISCHARGING
+    assert base_inputs.POWER_SUPPLY_HEALTH_OVERHEAT == BatteryState.POWER_SUPPLY_HEALTH_OVERHEAT
+    assert base_inputs.POWER_SUPPLY_HEALTH_DEAD == BatteryState.POWER_SUPPLY_HEALTH_DEAD
+    assert base_inputs.POWER_SUPPLY_HEALTH_OVERVOLTAGE == BatteryState.POWER_SUPPLY_HEALTH_OVERVOLTAGE
+    assert base_inputs.POWER_SUPPLY_HEALTH_COLD == BatteryState.POWER_SUPPLY_HEALTH_COLD
 
 
 # --- staleness --------------------------------------------------------------------------------
@@ -165,7 +165,7 @@ def test_battery_flags_and_unknowns():
     charging = battery(percentage=0.05, status=1, health=2)
     assert charging.status_bits == BATTERY_CHARGING | BATTERY_HIGH_TEMP | BATTERY_UNDER_VOLTAGE
     unknown = battery_from_message(float("nan"), float("nan"), float("nan"), 0, 0, float("nan"), 10.0)
-    assert unknown == ros_base.Battery(0.0, 0.0, None, 0, None)
+    assert unknown == base_inputs.Battery(0.0, 0.0, None, 0, None)
 
 
 def test_critical_battery_sets_circuit_b7_but_does_not_stop(clock):

@@ -3,7 +3,7 @@
 Any base with a ROS driver (ros_control's diff_drive_controller, a vendor node) speaks
 geometry_msgs/Twist in, nav_msgs/Odometry, sensor_msgs/BatteryState and std_msgs/Bool out.
 ``BaseInputs`` turns what those topics last said, and how long ago, into the ChassisState
-robot_control already understands; ``ros/chassis_base.py`` only moves messages in and out.
+robot_control already understands; ``motion/ros_chassis.py`` only moves messages in and out.
 
 Fault mapping (docs/interface.md, "ROS base driver"):
 - odometry or battery older than its timeout, or not received yet, or a wired safety input
