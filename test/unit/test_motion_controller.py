@@ -269,9 +269,9 @@ def test_mode_reply_says_what_was_granted_and_why_not(rig):
 
 
 def test_acquire_while_offline_waits_for_the_next_robot_status(rig):
-    """A client that saw robot_status online may reach robot_control before that status does: its
-    acquire is decided on the next status (granted when online), refused on a status still offline
-    or after OFFLINE_RECHECK without any."""
+    """A client that saw robot_status online may reach robot_control before that status does, even
+    behind older offline statuses still queued: its acquire is granted on the first online status,
+    refused only when none came within OFFLINE_RECHECK."""
     ctl, _chassis, _clock, _rec, run, _logs, _ = rig
     answers = []
     ctl.on_offline(True)
@@ -282,7 +282,12 @@ def test_acquire_while_offline_waits_for_the_next_robot_status(rig):
     ctl.on_mode_cmd("server", "release", "")
     ctl.on_offline(True)
     ctl.on_mode_cmd("server", "acquire", "server", answers.append)
-    ctl.on_offline(True)  # a newer status, still offline
+    ctl.on_offline(True)  # an older status still queued, or really offline: not decided yet
+    assert len(answers) == 1 and ctl.mode == MODE_TASK
+    run(OFFLINE_RECHECK - 0.1)
+    ctl.on_offline(True)
+    assert len(answers) == 1
+    run(0.2)  # offline all along: refused after OFFLINE_RECHECK
     assert answers[-1].reason.startswith("offline") and ctl.mode == MODE_TASK
     ctl.on_mode_cmd("server", "acquire", "server", answers.append)
     run(OFFLINE_RECHECK - 0.1)

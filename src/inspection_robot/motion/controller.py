@@ -88,13 +88,13 @@ class MotionController(object):
 
         An ``acquire server`` is granted only on a robot_status that is online and names the
         acquire's ``trans_id`` as its heartbeat session (or names none: session 0, a backend that
-        does not number its heartbeats). Otherwise it waits for the next robot_status (at most
-        OFFLINE_RECHECK s) when the caller can be answered later: a client that saw its own
-        heartbeat answered sent its acquire after that status, but the status travels on another
-        topic and may reach this node after the acquire. Deciding on a newer status than the
-        client's gives it what the status it saw promised. A backend whose own heartbeat has not
-        arrived yet is refused: granting it on another (older) backend's heartbeat would let that
-        heartbeat's expiry take the robot back a moment later.
+        does not number its heartbeats). Otherwise, when the caller can be answered later, it waits
+        up to OFFLINE_RECHECK s for a robot_status that is: a client that saw its own heartbeat
+        answered sent its acquire after that status, but the status travels on another topic and
+        may reach this node after the acquire, behind older offline ones still queued (a loaded
+        node works through a backlog), so an offline status meanwhile decides nothing. A backend
+        whose own heartbeat has not arrived by then is refused: granting it on another (older)
+        backend's heartbeat would let that heartbeat's expiry take the robot back a moment later.
         """
         with self._lock:
             if cmd == MODE_CMD_ACQUIRE and data == MODE_NAMES[MODE_SERVER] and not self._heartbeat_of(trans_id):
@@ -129,17 +129,17 @@ class MotionController(object):
         self._log("info" if decision.accepted else "warn", "mode_cmd %s(%r) from %r: %s"
                   % (cmd, data, sender, decision.reason))
 
-    def _settle_pending(self, fresh_status):
-        """Decide the deferred acquires: all of them after a fresh robot_status, else the overdue ones.
+    def _settle_pending(self):
+        """Decide the deferred acquires: granted on their session's heartbeat, refused when overdue.
         Returns [(answer, decision)] for the caller to deliver outside the lock."""
         now = self._clock()
         settled, waiting = [], []
         for sender, cmd, data, trans_id, answer, deadline in self._pending:
             if self._heartbeat_of(trans_id):
                 settled.append((answer, self._decide(sender, cmd, data)))
-            elif (fresh_status and self._offline) or now >= deadline:
+            elif now >= deadline:
                 settled.append((answer, self._offline_refusal(sender, cmd, data, trans_id)))
-            else:   # online on another session's heartbeat: its own may come with a later status
+            else:   # offline, or online on another session's heartbeat: a later status may name its own
                 waiting.append((sender, cmd, data, trans_id, answer, deadline))
         self._pending = waiting
         return settled
@@ -206,7 +206,7 @@ class MotionController(object):
                 self.arbiter.force_task()
                 self._stop("backend offline")
                 self._log("warn", "backend offline in mode 1: stopped, back to task mode")
-            settled = self._settle_pending(fresh_status=True)
+            settled = self._settle_pending()
         for answer, decision in settled:
             answer(decision)
 
@@ -244,7 +244,7 @@ class MotionController(object):
                 self.odometry.update(state.velocity_x, state.velocity_yaw, now - self._last_tick)
             self._last_tick = now
             self._update_lamps(state)
-            settled = self._settle_pending(fresh_status=False)
+            settled = self._settle_pending()
         for answer, decision in settled:
             answer(decision)
 
