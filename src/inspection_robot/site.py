@@ -9,8 +9,8 @@ before any process starts), and that tool calls :func:`site_problems` with:
 - ``defaults``: every parameter robot.launch gives its nodes without a site file, flattened to
   ``node/key/sub`` names (from roslaunch's own parse of core.launch, so a setting the launch files
   give a node is known here without a second list);
-- ``sim_yard``: the simulated yard's site values (:func:`sim_yard`, read from config/sim_site.yaml
-  and the dock of config/sim_world.yaml, the one place sim.launch takes them from);
+- ``sim_yard``: the simulated yard's site values (:func:`sim_yard`, read from config/sim_site.yaml,
+  the one place sim.launch takes them from);
 - ``data_root_arg`` / ``insecure``: robot.launch's arguments.
 
 A problem is one line naming the setting (``move_base/map_file``) and how to fix it. Refused:
@@ -40,7 +40,6 @@ from inspection_robot.nav.pose_adapter import MODE_NONE, MODE_TOPIC, MODES, Adap
 
 DATA_ROOT = "data_root"
 SIM_SITE_FILE = "config/sim_site.yaml"
-SIM_WORLD_FILE = "config/sim_world.yaml"
 TEMPLATE = "config/robot.example.yaml"
 
 Setting = namedtuple("Setting", "name what")
@@ -121,12 +120,11 @@ def flatten(tree, prefix=""):
     return flat
 
 
-def sim_yard(sim_site, sim_world):
-    """{setting: value} of the simulated yard: config/sim_site.yaml (``$(find ...)`` already resolved)
-    and, for the dock, ``world.dock`` of config/sim_world.yaml (the dock the chassis simulator charges
-    on; charge_control takes it from there in simulation)."""
-    yard = flatten(sim_site)
-    yard[DOCK] = sim_world["world"]["dock"]
+def sim_yard(sim_site):
+    """{setting: value} of the simulated yard: config/sim_site.yaml (``$(find ...)`` already resolved);
+    the dock is one setting, as in a site file."""
+    yard = OrderedDict((name, value) for name, value in flatten(sim_site).items() if not name.startswith(DOCK + "/"))
+    yard[DOCK] = sim_site["charge_control"]["dock"]
     return yard
 
 
@@ -215,8 +213,8 @@ def _dock_problems(spec, sim_spec):
         return ["%s: %s" % (DOCK, err)]
     sim = parse_dock(sim_spec)
     if _same_pose(dock.pose, sim.pose) or _same_pose(dock.approach, sim.approach):
-        return ["%s is the simulated yard's dock (%s world.dock): measure the site's dock "
-                "(docs/deployment.md, Charging dock)" % (DOCK, SIM_WORLD_FILE)]
+        return ["%s is the simulated yard's dock (%s): measure the site's dock "
+                "(docs/deployment.md, Charging dock)" % (DOCK, SIM_SITE_FILE)]
     return []
 
 

@@ -1,9 +1,45 @@
 """bridge/trace: the per-stage summary of traced echoes (the hooks are off unless the environment asks)."""
+import gc
+import json
+
 from inspection_robot.bridge import trace
 
 
 def test_tracing_is_off_by_default():
-    assert trace.ON is False and trace.TOPIC is None
+    off = trace.from_environment({})
+    assert isinstance(off, trace.NoTrace) and off.on is False and off.topic is None
+    off.start()
+    off.stop()
+    off.mark("read")   # the null tracer takes the hooks' calls and keeps nothing
+    off.dump()
+
+
+def test_the_environment_names_the_topic_and_the_file(tmp_path):
+    tracer = trace.from_environment({"INSPECTION_BRIDGE_TRACE": "/bench/echo"})
+    assert tracer.on and tracer.topic == "/bench/echo" and tracer.file == "/tmp/bridge_trace.json"
+    where = str(tmp_path / "trace.json")
+    tracer = trace.from_environment({"INSPECTION_BRIDGE_TRACE": "/bench/echo", "INSPECTION_BRIDGE_TRACE_FILE": where})
+    assert tracer.file == where
+    assert trace.from_environment({"INSPECTION_BRIDGE_TRACE": ""}).on is False
+
+
+def test_a_traced_echo_is_kept_once_every_stage_was_stamped_in_order(tmp_path):
+    tracer = trace.EchoTrace("/bench/echo", str(tmp_path / "trace.json"))
+    tracer.mark("decoded")              # no echo in flight: ignored
+    for name in trace.NAMES:
+        tracer.mark(name)
+    tracer.mark("read")                 # an echo that never completes is not a sample
+    tracer.mark("decoded")
+    assert len(tracer.samples) == 1 and list(tracer.samples[0]) == list(trace.NAMES)
+    tracer.start()
+    try:
+        gc.collect()
+    finally:
+        tracer.stop()
+    assert tracer.gc_pauses and tracer.gc_pauses[-1][2] == 2
+    tracer.dump()
+    with open(tracer.file) as written:
+        assert json.load(written)["n"] == 1
 
 
 def test_summary_splits_each_echo_into_its_stages_and_finds_the_gc_pause_inside_one():

@@ -1,7 +1,9 @@
 """Imports go one way: only the ROS wing (nodes/, ros/ and each capability's ROS-side modules, named
 ros_*.py beside the pure modules they serve) may import ROS, and no pure module imports a ROS-side
-one; the layout holds; the robot's
-package never imports the test harness (src/inspection_robot_testing) and setup.py never installs it.
+one; the layout holds; the robot's package never imports the test harness
+(src/inspection_robot_testing) and setup.py never installs it; importing a production module neither
+loads a simulator nor reads the environment (issue #43: a simulator is imported inside the branch
+that chose it, configuration is read in main()).
 
 The list of ROS modules is every ROS package that package.xml declares plus the client library's
 own modules that a package gets without declaring them (genpy, roslib, rosgraph ...), so a new
@@ -64,6 +66,55 @@ def imported_modules(path):
                 yield alias.name
         elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
             yield node.module
+
+
+def import_time_nodes(tree):
+    """The AST nodes that run when the module is imported: everything outside function bodies (class
+    bodies, top-level if/try blocks and decorators included)."""
+    stack = list(tree.body)
+    while stack:
+        node = stack.pop()
+        if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef, ast.Lambda)):
+            # only the decorators and default values run at import
+            stack.extend(getattr(node, "decorator_list", []))
+            stack.extend(node.args.defaults + [d for d in node.args.kw_defaults if d is not None])
+            continue
+        yield node
+        stack.extend(ast.iter_child_nodes(node))
+
+
+def import_time_imports(source, path="<source>"):
+    """Modules imported when ``source`` is imported (``from inspection_robot import sim`` counts as
+    inspection_robot.sim)."""
+    for node in import_time_nodes(ast.parse(source, path)):
+        if isinstance(node, ast.Import):
+            for alias in node.names:
+                yield alias.name
+        elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+            yield node.module
+            for alias in node.names:
+                yield "%s.%s" % (node.module, alias.name)
+
+
+def import_time_environment_reads(source, path="<source>"):
+    """Line numbers where ``source`` reads the environment (os.environ, os.getenv, environ) at import."""
+    for node in import_time_nodes(ast.parse(source, path)):
+        if isinstance(node, ast.Attribute) and node.attr in ("environ", "getenv", "environb"):
+            yield node.lineno
+        elif isinstance(node, ast.Name) and node.id in ("environ", "getenv"):
+            yield node.lineno
+        elif isinstance(node, ast.ImportFrom) and node.module == "os" and \
+                any(alias.name in ("environ", "getenv") for alias in node.names):
+            yield node.lineno
+
+
+def is_simulator(rel):
+    """sim/ (with its ROS side sim/ros_view.py) and the simulators' own nodes (nodes/sim_*.py)."""
+    return rel.split(os.sep)[0] == "sim" or os.path.basename(rel).startswith("sim_")
+
+
+def is_sim_import(module):
+    return module == "inspection_robot.sim" or module.startswith("inspection_robot.sim.")
 
 
 def python_files(top=SRC):
@@ -194,3 +245,43 @@ def test_every_module_has_a_docstring():
             if ast.get_docstring(ast.parse(f.read())) is None:
                 missing.append(rel)
     assert missing == []
+
+
+def test_no_production_module_loads_a_simulator_when_imported():
+    """A device node or tool imports its simulator inside the branch that chose it (drivers.py: the
+    builder of ``~driver: sim``; calibrate_preset --from-world), so a robot never loads sim/."""
+    offenders = []
+    for rel, path in python_files():
+        if is_simulator(rel):
+            continue
+        with open(path) as f:
+            offenders.extend("%s imports %s" % (rel, module) for module in import_time_imports(f.read(), path)
+                             if is_sim_import(module))
+    assert offenders == []
+
+
+def test_no_module_reads_the_environment_when_imported():
+    """Configuration from the environment is read in a node's main() and passed in (bridge/trace.py's
+    from_environment), never into module globals at import."""
+    offenders = []
+    for rel, path in python_files():
+        with open(path) as f:
+            offenders.extend("%s line %d" % (rel, line) for line in import_time_environment_reads(f.read(), path))
+    assert offenders == []
+
+
+def test_the_import_time_rules_catch_a_leak():
+    leak = ("import os\nfrom inspection_robot.sim.world import World\nfrom inspection_robot import sim\n"
+            "TOPIC = os.environ.get('X')\n"
+            "class A(object):\n    import inspection_robot.sim.render\n    FILE = os.getenv('Y')\n"
+            "try:\n    from os import environ\nexcept ImportError:\n    pass\n")
+    assert {m for m in import_time_imports(leak) if is_sim_import(m)} == {
+        "inspection_robot.sim.world", "inspection_robot.sim.world.World", "inspection_robot.sim",
+        "inspection_robot.sim.render"}
+    assert sorted(set(import_time_environment_reads(leak))) == [4, 7, 9]
+    deferred = ("import os\n\ndef main(environ=None):\n    from inspection_robot.sim.world import World\n"
+                "    return os.environ.get('X'), World\n")
+    assert [m for m in import_time_imports(deferred) if is_sim_import(m)] == []
+    assert list(import_time_environment_reads(deferred)) == []
+    assert is_simulator(os.path.join("nodes", "sim_world.py")) and is_simulator(os.path.join("ros", "sim_view.py"))
+    assert not is_simulator(os.path.join("tools", "calibrate_preset.py"))

@@ -36,7 +36,7 @@ def package_defaults():
 def yard():
     with open(os.path.join(ROOT, "config", "sim_site.yaml")) as f:
         text = f.read().replace("$(find inspection_robot)", ROOT)
-    return sim_yard(load_site_text(text, "sim_site.yaml"), _yaml("sim_world.yaml"))
+    return sim_yard(load_site_text(text, "sim_site.yaml"))
 
 
 @pytest.fixture
@@ -78,6 +78,13 @@ def test_typo_in_a_key_is_named_with_the_nearest_setting(site):
     assert any(p.startswith("robot_control/ros_base/odom_topc: unknown setting (did you mean "
                             "robot_control/ros_base/odom_topic?)") for p in found)
     assert len(found) == 4, found
+
+
+def test_the_simulated_yards_dock_is_where_the_simulated_chassis_charges():
+    """sim.launch gives charge_control the dock of config/sim_site.yaml, the chassis simulator charges on
+    world.dock of config/sim_world.yaml: one dock, so the robot docks where the simulator charges it."""
+    assert yard()["charge_control/dock"] == _yaml("sim_world.yaml")["world"]["dock"]
+    assert not [name for name in yard() if name.startswith("charge_control/dock/")]
 
 
 def test_simulated_yard_values_are_refused(site, tmp_path):

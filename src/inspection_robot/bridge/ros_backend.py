@@ -23,8 +23,9 @@ import rosgraph
 import rospy
 import rosservice
 
-from inspection_robot.bridge import service_calls, trace
+from inspection_robot.bridge import service_calls
 from inspection_robot.bridge.protocol import BridgeError, Outgoing
+from inspection_robot.bridge.trace import NoTrace
 from inspection_robot.ros.compat_rospy import idle_service_connection_closed, replay_latched, service_proxy_uri
 from inspection_robot.bridge.ros_tcpros import TcprosPublisher
 
@@ -74,11 +75,15 @@ def start_tcpros_publisher(log):
 
 
 class RosBackend(object):
-    """ROS operations for the sessions. ``post(fn, *args)`` runs fn on the event-loop thread."""
+    """ROS operations for the sessions. ``post(fn, *args)`` runs fn on the event-loop thread.
+
+    ``trace``: a bridge/trace.py tracer stamping its topic's echoes as they pass (None: off).
+    """
 
     def __init__(self, types, codec, post, executor, service_timeout=10.0, subscriber_queue_size=100,
-                 log=None, tcpros=None):
+                 log=None, tcpros=None, trace=None):
         self._types = types
+        self._trace = trace or NoTrace()
         self._tcpros = tcpros   # TcprosPublisher: every topic clients publish
         self._codec = codec
         self._post = post
@@ -157,9 +162,9 @@ class RosBackend(object):
         pass that had more than one message of the topic, the next pass's first one waits too; the
         first message after a quiet pass never waits. No buffered-byte count is needed.
         """
-        traced = trace.ON and topic == trace.TOPIC
+        traced = self._trace.on and topic == self._trace.topic
         if traced:
-            trace.mark("decoded")
+            self._trace.mark("decoded")
         entry = self._publishers[topic]
         msg = self._codec.from_json(entry.handle.data_class, values)
         if entry.in_pass or entry.bursting:
@@ -170,7 +175,7 @@ class RosBackend(object):
         if entry.in_pass == 1:
             self._post(self._end_pass, topic, entry)
         if traced:
-            trace.mark("published")
+            self._trace.mark("published")
 
     def _end_pass(self, topic, entry):
         entry.bursting = entry.in_pass > 1
@@ -242,9 +247,9 @@ class RosBackend(object):
         return now.secs, now.nsecs
 
     def _on_message(self, msg, topic):
-        traced = trace.ON and topic == trace.TOPIC
+        traced = self._trace.on and topic == self._trace.topic
         if traced:
-            trace.mark("callback")
+            self._trace.mark("callback")
         entry = self._subscribers.get(topic)
         if entry is None or not entry.sessions:
             return   # a topic the bridge keeps for the robot (subscribe_for_the_robot) with no client on it now
@@ -260,12 +265,12 @@ class RosBackend(object):
             rospy.logwarn_throttle(5.0, "bridge: cannot convert a message on %s: %r" % (topic, exc))
             return
         if traced:
-            trace.mark("posted")
+            self._trace.mark("posted")
         self._post(self._deliver, topic, outgoing)
 
     def _deliver(self, topic, outgoing):
-        if trace.ON and topic == trace.TOPIC:
-            trace.mark("delivered")
+        if self._trace.on and topic == self._trace.topic:
+            self._trace.mark("delivered")
         entry = self._subscribers.get(topic)
         if entry is not None:
             for session in list(entry.sessions):

@@ -60,9 +60,10 @@ import tornado.web
 import tornado.websocket
 from tornado.iostream import StreamClosedError
 
-from inspection_robot.bridge import compat_tornado, trace
+from inspection_robot.bridge import compat_tornado
 from inspection_robot.bridge.access import Peer, local_names, origin_allowed
 from inspection_robot.bridge.compat_tornado import CLOSE_TOO_BIG
+from inspection_robot.bridge.trace import NoTrace
 
 KEEPALIVE_TICK = 1.0  # s between checks for silent or over-budget clients (pings go every ping_interval)
 READ_SLICE = 32  # incoming frames handled before the reader yields to the IOLoop once
@@ -267,6 +268,7 @@ class BridgeHandler(tornado.websocket.WebSocketHandler):
 
     def initialize(self, server):
         self._server = server
+        self._trace = server.trace
         self.queue = SendQueue(server.budget)
         self._writing = False
         self._closing = False
@@ -323,8 +325,8 @@ class BridgeHandler(tornado.websocket.WebSocketHandler):
             compat_tornado.set_frame_limit(self, self._server.preauth_bytes)
 
     def on_message(self, message):
-        if trace.ON:
-            trace.mark("read")
+        if self._trace.on:
+            self._trace.mark("read")
         self.last_heard = time.monotonic()
         if self.session is None or self.close_reason_sent is not None:
             return None
@@ -457,8 +459,8 @@ class BridgeHandler(tornado.websocket.WebSocketHandler):
             return None
         try:
             future = compat_tornado.write_frames(self, payloads)
-            if trace.ON:
-                trace.mark("written")
+            if self._trace.on:
+                self._trace.mark("written")
             return future, size
         except (tornado.websocket.WebSocketClosedError, StreamClosedError):
             self.queue.written(size)
@@ -499,13 +501,15 @@ class BridgeServer(object):
     ``websocket_paths``: exact paths that are the websocket even inside extra_routes (the console's link).
     ``preauth_bytes``: what an unauthenticated client may send, per frame and in all;
     ``max_clients_per_address``: websocket clients per peer address (module docstring).
+    ``trace``: a bridge/trace.py tracer stamping each echo's read and written stages (None: off).
     """
 
     def __init__(self, make_session, address="127.0.0.1", port=9090, ssl_context=None, ping_interval=10.0,
                  ping_timeout=30.0, max_message_size=10000000, budget=64 << 20, budget_grace=5.0,
                  on_client_count=None, log=None, extra_routes=(), allowed_origins=(), handshake_timeout=10.0,
-                 preauth_bytes=16384, max_clients_per_address=32, websocket_paths=()):
+                 preauth_bytes=16384, max_clients_per_address=32, websocket_paths=(), trace=None):
         self._make_session = make_session
+        self.trace = trace or NoTrace()
         self.preauth_bytes = int(preauth_bytes)
         self.max_clients_per_address = int(max_clients_per_address)
         self._per_address = collections.Counter()  # peer address -> open websocket clients

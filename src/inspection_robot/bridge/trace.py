@@ -1,21 +1,22 @@
 """Opt-in stage timings of the echo path through the bridge (a diagnostic for its tail latency).
 
-Off unless the environment names a topic: ``INSPECTION_BRIDGE_TRACE=/bench/echo`` (and
+The node makes its tracer once in main() (:func:`from_environment`) and hands it to the server and
+the backend; without one they get a :class:`NoTrace`. Tracing is asked for in the bridge's
+environment: ``INSPECTION_BRIDGE_TRACE=/bench/echo`` names the topic (and
 ``INSPECTION_BRIDGE_TRACE_FILE``, default /tmp/bridge_trace.json, written at shutdown). Off, each
-hook is one attribute test (``if trace.ON``). On, one echo at a time is followed (the bench's raw
+hook is one attribute test (``if tracer.on``). On, one echo at a time is followed (the bench's raw
 round trip has one in flight) with time.perf_counter, through the stages :data:`STAGES` name, and
 every garbage collection's pause is recorded (gc.callbacks), so a slow sample can be told apart as
 GC, a thread hand-off (GIL or scheduler) or work.
 """
 import gc
 import json
-import os
 import threading
 import time
 
-TOPIC = os.environ.get("INSPECTION_BRIDGE_TRACE") or None
-ON = TOPIC is not None
-FILE = os.environ.get("INSPECTION_BRIDGE_TRACE_FILE") or "/tmp/bridge_trace.json"
+TOPIC_VARIABLE = "INSPECTION_BRIDGE_TRACE"
+FILE_VARIABLE = "INSPECTION_BRIDGE_TRACE_FILE"
+DEFAULT_FILE = "/tmp/bridge_trace.json"
 
 # stage name -> where it is stamped (the thread in brackets)
 STAGES = (
@@ -29,39 +30,86 @@ STAGES = (
 )
 NAMES = tuple(name for name, _where in STAGES)
 
-_lock = threading.Lock()
-_current = {}
-samples = []      # dicts stage -> perf_counter time, complete echoes only
-gc_pauses = []    # (start, seconds, generation)
-_gc_start = [0.0]
+
+class NoTrace(object):
+    """Tracing off: the hooks test ``on`` and go no further."""
+
+    def __init__(self):
+        self.on = False
+        self.topic = None
+        self.file = None
+
+    def mark(self, stage):
+        pass
+
+    def start(self):
+        pass
+
+    def stop(self):
+        pass
+
+    def dump(self):
+        pass
 
 
-def mark(stage):
-    """Stamp ``stage`` of the echo in flight; "read" starts a new one, "written" completes it."""
-    now = time.perf_counter()
-    with _lock:
-        if stage == "read":
-            _current.clear()
-        elif "read" not in _current or stage in _current:
-            return
-        _current[stage] = now
-        if stage == "written" and len(_current) == len(NAMES):
-            samples.append(dict(_current))
-            _current.clear()
+class EchoTrace(object):
+    """Follows the echoes of ``topic`` through the stages; :meth:`dump` writes :func:`summary` to ``file``."""
+
+    def __init__(self, topic, file=DEFAULT_FILE):
+        self.on = True
+        self.topic = topic
+        self.file = file
+        self._lock = threading.Lock()
+        self._current = {}
+        self.samples = []      # dicts stage -> perf_counter time, complete echoes only
+        self.gc_pauses = []    # (start, seconds, generation)
+        self._gc_start = 0.0
+
+    def start(self):
+        """Record every garbage collection's pause from now on (the node: until it exits)."""
+        gc.callbacks.append(self._on_gc)
+
+    def stop(self):
+        """Stop recording garbage collections."""
+        if self._on_gc in gc.callbacks:
+            gc.callbacks.remove(self._on_gc)
+
+    def mark(self, stage):
+        """Stamp ``stage`` of the echo in flight; "read" starts a new one, "written" completes it."""
+        now = time.perf_counter()
+        with self._lock:
+            if stage == "read":
+                self._current.clear()
+            elif "read" not in self._current or stage in self._current:
+                return
+            self._current[stage] = now
+            if stage == "written" and len(self._current) == len(NAMES):
+                self.samples.append(dict(self._current))
+                self._current.clear()
+
+    def _on_gc(self, phase, info):
+        if phase == "start":
+            self._gc_start = time.perf_counter()
+        else:
+            self.gc_pauses.append((self._gc_start, time.perf_counter() - self._gc_start, info.get("generation")))
+
+    def dump(self):
+        """Write :func:`summary` to ``file`` (at shutdown)."""
+        with open(self.file, "w") as out:
+            json.dump(summary(list(self.samples), list(self.gc_pauses)), out, indent=1)
 
 
-def _on_gc(phase, info):
-    if phase == "start":
-        _gc_start[0] = time.perf_counter()
-    else:
-        gc_pauses.append((_gc_start[0], time.perf_counter() - _gc_start[0], info.get("generation")))
+def from_environment(environ):
+    """An :class:`EchoTrace` when ``environ`` (the node's os.environ) names a topic, else a :class:`NoTrace`."""
+    topic = environ.get(TOPIC_VARIABLE) or None
+    if topic is None:
+        return NoTrace()
+    return EchoTrace(topic, environ.get(FILE_VARIABLE) or DEFAULT_FILE)
 
 
-def summary(rows=None, pauses=None):
+def summary(rows, pauses):
     """Per stage p50 / p99 / max (ms) of the steps between consecutive stages, and the total; the
     GC pauses that fell inside an echo; the slowest echoes' steps."""
-    rows = samples if rows is None else rows
-    pauses = gc_pauses if pauses is None else pauses
 
     def stats(values):
         values = sorted(values)
@@ -87,14 +135,3 @@ def summary(rows=None, pauses=None):
                         for row in slowest],
             "threads": threading.active_count(), "gc_tracked_objects": len(gc.get_objects()),
             "gc_frozen_objects": gc.get_freeze_count()}
-
-
-def dump():
-    """Write :func:`summary` to FILE (at shutdown)."""
-    if ON:
-        with open(FILE, "w") as out:
-            json.dump(summary(list(samples), list(gc_pauses)), out, indent=1)
-
-
-if ON:
-    gc.callbacks.append(_on_gc)

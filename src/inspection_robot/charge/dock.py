@@ -3,7 +3,7 @@
 The same description serves the simulated chassis (it charges only when its true pose is within
 the tolerances) and charge_control (it drives to ``approach``, docks at ``pose`` with precision 1,
 backs off to ``approach``). YAML form (``world.dock`` in config/sim_world.yaml, ``charge_control/dock`` in
-the site file, config/robot.example.yaml)::
+the site file, config/robot.example.yaml and config/sim_site.yaml)::
 
     dock: {pose: [x, y, yaw], approach_pose: [x, y, yaw], tolerance_m: 0.03, tolerance_yaw: 0.05}
 

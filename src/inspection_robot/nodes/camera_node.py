@@ -60,8 +60,8 @@ def camera_info_msg(width, height, focal, stamp, frame_id):
 
 
 class CameraNode(object):
-    def __init__(self, driver, optics, roots, image_rate, image_width, status_rate, frame_id, stream_quality=80,
-                 quota=None):
+    def __init__(self, driver, optics, roots, image_rate, image_width, status_rate, frame_id, stream_quality,
+                 quota, data_root):
         self._driver = driver
         self._optics = optics
         self._image_width = int(image_width)
@@ -75,7 +75,7 @@ class CameraNode(object):
         self._info_pub = rospy.Publisher("camera/camera_info", CameraInfo, queue_size=1)
         self._diagnostics = DeviceDiagnostics("camera", HARDWARE_ID)
         self._twin = CommandTwin(self.commands.table, "camera_control", "camera_cmd", "camera_ack", NODE,
-                                 staging=(self.commands.staging_table, CAMERA_STAGING_SERVICE))
+                                 staging=(self.commands.staging_table, CAMERA_STAGING_SERVICE), data_root=data_root)
         self._status_timer = rospy.Timer(rospy.Duration(1.0 / status_rate), self._on_status)
         self._image_timer = None
         if image_rate > 0:
@@ -160,6 +160,6 @@ def main():
     driver = make_camera(rospy.get_param("~driver", ""), optics)
     node = CameraNode(driver, optics, roots, image_rate, image_width, status_rate,
                       rospy.get_param("~frame_id", "camera_optical_frame"),
-                      check_quality(rospy.get_param("~stream_jpeg_quality", 80)), quota)
+                      check_quality(rospy.get_param("~stream_jpeg_quality", 80)), quota, root)
     rospy.on_shutdown(node.shutdown)
     rospy.spin()

@@ -17,8 +17,8 @@ Clients:     move_action (GeneralAction) to the dock; task_control (ControlServi
 Parameters:  ~low_level (%, 25), ~full_level (%, 90), ~retries (2), ~pause_timeout (s, 300),
              ~relay_timeout (s, 5), ~current_timeout (s, 10), ~current_lost_timeout (s, 10),
              ~status_timeout (s, 3): robot_status older than this is not trusted
-             ~dock ({pose, approach_pose, tolerance_m, tolerance_yaw}), a site setting without default; in
-                 simulation the launch loads config/sim_world.yaml into ~sim_world and world.dock is used instead
+             ~dock ({pose, approach_pose, tolerance_m, tolerance_yaw}), a site setting without default (the
+                 site file; sim.launch: config/sim_site.yaml, the simulated chassis's world.dock)
              ~approach_velocity_x (m/s, 0.5), ~dock_velocity_x (m/s, 0.2), ~velocity_yaw (rad/s, 0.5)
              ~task_service ("task_control"), ~task_service_timeout (s, 2.0), ~rate (Hz, 5.0)
              ~voice_language ("chinese")
@@ -39,6 +39,7 @@ from inspection_robot.motion.owners import ROBOT_STATUS
 from inspection_robot.msg import GeneralAction, GeneralCmd, GeneralGoal, GeneralTopic, RobotStatus, VoiceCmd
 from inspection_robot.nav.goal import move_goal_data
 from inspection_robot.ros.actions import server_unavailable
+from inspection_robot.ros.data_root import data_root
 from inspection_robot.ros.node import init_node, site_param
 from inspection_robot.motion.ros_owner_gate import OwnerGate
 from inspection_robot.ros.twin import CommandTwin
@@ -167,14 +168,14 @@ class RosPorts(ChargePorts):
 
 
 class ChargeControl(object):
-    def __init__(self, config, dock, task_service, task_timeout, speeds, language, rate_hz, owners):
+    def __init__(self, config, dock, task_service, task_timeout, speeds, language, rate_hz, owners, data_root):
         self._lock = threading.Lock()
         self._events = RequestWorker(NODE_NAME + ": events", self._handle, self._refuse, EVENT_QUEUE)
         self._ports = RosPorts(self._events, task_service, task_timeout, speeds, language)
         with self._lock:
             self.machine = ChargeMachine(config, dock, self._ports, rospy.get_time)
         self._twin = CommandTwin(_LockedTable(self.machine.command_table(), self._lock), NODE_NAME,
-                                 "charge_cmd", "charge_ack", NODE_NAME, busy_when_joystick=False)
+                                 "charge_cmd", "charge_ack", NODE_NAME, busy_when_joystick=False, data_root=data_root)
         self._ports.twin = self._twin
 
         def on_robot_status(msg):
@@ -235,10 +236,7 @@ def main():
         current_timeout=float(rospy.get_param("~current_timeout", 10.0)),
         current_lost_timeout=float(rospy.get_param("~current_lost_timeout", 10.0)),
         status_timeout=float(rospy.get_param("~status_timeout", 3.0)))
-    dock_spec = rospy.get_param("~sim_world/world/dock", None)
-    if dock_spec is None:
-        dock_spec = site_param("~dock")
-    dock = parse_dock(dock_spec)
+    dock = parse_dock(site_param("~dock"))
     speeds = (float(rospy.get_param("~approach_velocity_x", 0.5)), float(rospy.get_param("~dock_velocity_x", 0.2)),
               float(rospy.get_param("~velocity_yaw", 0.5)))
     if min(speeds) <= 0:
@@ -251,7 +249,7 @@ def main():
         raise ValueError("~rate must be positive")
     node = ChargeControl(config, dock, str(rospy.get_param("~task_service", "task_control")),
                          float(rospy.get_param("~task_service_timeout", 2.0)), speeds, language, rate_hz,
-                         OwnerGate.from_param(NODE_NAME))
+                         OwnerGate.from_param(NODE_NAME), data_root())
     rospy.on_shutdown(node.shutdown)
     rospy.loginfo("%s: dock %s, charge below %.0f %% up to %.0f %%"
                   % (NODE_NAME, dock.pose, config.low_level, config.full_level))

@@ -33,6 +33,7 @@ from inspection_robot.drivers import SIM, make_driver
 from inspection_robot.msg import PresetRotate
 from inspection_robot.interface import ACK_SUCCESS, BUSY
 from inspection_robot.ros.diagnostics import DeviceDiagnostics
+from inspection_robot.ros.data_root import data_root
 from inspection_robot.ros.node import init_node
 from inspection_robot.ros.twin import CommandTwin
 from inspection_robot.ros.worker import RequestWorker
@@ -46,13 +47,14 @@ STATE_STALE_S = 1.0
 
 
 class CloudTerrace(object):
-    def __init__(self, head, terrace, optics, state_rate_hz):
+    def __init__(self, head, terrace, optics, state_rate_hz, data_root):
         self._head = head
         self._terrace = terrace
         self._optics = optics
         self._zoom = optics.min_zoom
         self._last_state_time = None
-        self.twin = CommandTwin(terrace.table(), "terrace_control", "terrace_cmd", "terrace_ack", NODE_NAME)
+        self.twin = CommandTwin(terrace.table(), "terrace_control", "terrace_cmd", "terrace_ack", NODE_NAME,
+                                data_root=data_root)
         self._state_pub = rospy.Publisher("terrace_state", JointState, queue_size=10)
         self._diagnostics = DeviceDiagnostics("pan/tilt head", HARDWARE_ID)
         # terrace_state's rate: too low when the head answers slowly, ERROR when it stops answering.
@@ -142,5 +144,5 @@ def main():
         head.close()
 
     rospy.on_shutdown(stop_head)
-    CloudTerrace(head, terrace, optics, state_rate)
+    CloudTerrace(head, terrace, optics, state_rate, data_root())
     rospy.spin()

@@ -41,8 +41,9 @@ def main():
     files = FileCommands(root, roots, int(rospy.get_param("~max_chunk_bytes", 262144)),
                          int(rospy.get_param("~max_list_entries", 1000)))
     calibration = CalibrationCommands(root, preset_roots, roots, optics)
-    CommandTwin(files.table, "file_control", "file_cmd", "file_ack", NODE_NAME, busy_when_joystick=False)
+    CommandTwin(files.table, "file_control", "file_cmd", "file_ack", NODE_NAME, busy_when_joystick=False,
+                data_root=root)
     CommandTwin(calibration.table, "calibration_control", "calibration_cmd", "calibration_ack", NODE_NAME,
-                busy_when_joystick=False)
+                busy_when_joystick=False, data_root=root)
     rospy.loginfo("%s: data root %s, readable %s" % (NODE_NAME, root, ", ".join(files.roots)))
     rospy.spin()

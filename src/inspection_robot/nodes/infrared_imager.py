@@ -50,13 +50,13 @@ HARDWARE_ID = "thermal_imager"
 
 
 class InfraredNode(object):
-    def __init__(self, driver, commands, health, status_rate, image_rate, stream_quality=80):
+    def __init__(self, driver, commands, health, status_rate, image_rate, stream_quality, data_root):
         self._driver = driver
         self._health = health
         self.commands = commands
         self._diagnostics = DeviceDiagnostics("thermal imager", HARDWARE_ID)
         self._twin = CommandTwin(commands.table, "infrared_control", "infrared_cmd", "infrared_ack", NODE,
-                                 staging=(commands.staging_table, INFRARED_STAGING_SERVICE))
+                                 staging=(commands.staging_table, INFRARED_STAGING_SERVICE), data_root=data_root)
         self._timer = rospy.Timer(rospy.Duration(1.0 / status_rate), self._on_status)
         self._live = LiveViewPublisher("thermal/image_raw", stream_quality)
         self._hottest_pub = rospy.Publisher("thermal/hottest", GeneralTopic, queue_size=1)
@@ -119,5 +119,5 @@ def main():
                                int(rospy.get_param("~measure_box_px", 16)), int(rospy.get_param("~jpeg_quality", 90)),
                                CaptureQuota.from_mib(roots, rospy.get_param("~quota_mib", DEFAULT_CAPTURE_QUOTA_MIB)))
     InfraredNode(driver, commands, health, status_rate, image_rate,
-                 check_quality(rospy.get_param("~stream_jpeg_quality", 80)))
+                 check_quality(rospy.get_param("~stream_jpeg_quality", 80)), root)
     rospy.spin()

@@ -132,7 +132,7 @@ class MoveBase(object):
         rospy.Subscriber("control_cmd", GeneralCmd, self._on_control, queue_size=10)
         rospy.Subscriber("location_cmd", GeneralCmd, self._on_location, queue_size=10)
         self._virtual_twin = CommandTwin(self.obstacles.table, None, "virtual_obstacle_cmd", "virtual_obstacle_ack",
-                                         SENDER_MOVE_BASE, busy_when_joystick=False)
+                                         SENDER_MOVE_BASE, busy_when_joystick=False, data_root=cfg["data_root"])
 
         self._server = actionlib.SimpleActionServer("move_action", GeneralAction, self._execute, auto_start=False)
         self._server.start()
@@ -393,6 +393,7 @@ class MoveBase(object):
 def _params():
     root = data_root()
     cfg = {
+        "data_root": root,
         "map_file": site_param("~map_file"),
         "pose_topic": site_param("~pose_topic"),
         "virtual_obstacles_file": path_param("~virtual_obstacles_file", "nav/virtual_obstacles.json", root),

@@ -54,8 +54,8 @@ def main():
     default_file = path_param("~default_trajectory", "arm/default_orbit.csv", root)
     limits = _limits(rospy.get_param("~limits", {}))
     sim = rospy.get_param("~sim", {})
-    for root in roots:
-        os.makedirs(root, exist_ok=True)
+    for folder in roots:
+        os.makedirs(folder, exist_ok=True)
     holder = {}
 
     def report(reply):
@@ -82,5 +82,5 @@ def main():
                                    report=report)
         table = controller.table()
         rospy.on_shutdown(controller.shutdown)
-    holder["twin"] = CommandTwin(table, "arm_control", "arm_cmd", "arm_ack", NODE_NAME)
+    holder["twin"] = CommandTwin(table, "arm_control", "arm_cmd", "arm_ack", NODE_NAME, data_root=root)
     rospy.spin()

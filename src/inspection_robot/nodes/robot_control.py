@@ -68,6 +68,7 @@ from inspection_robot.motion.base_inputs import parse_settings
 from inspection_robot.motion.velocity import VelocityLimits
 from inspection_robot.msg import ControlStatus, GeneralAck, GeneralCmd, MoveCmd, ObstacleStatus, RobotStatus, VoiceCmd
 from inspection_robot.motion.ros_chassis import RosChassis
+from inspection_robot.ros.data_root import data_root
 from inspection_robot.ros.node import init_node
 from inspection_robot.motion.ros_owner_gate import OwnerGate
 from inspection_robot.ros.twin import CommandTwin, control_response
@@ -107,7 +108,7 @@ class _ImuTable(object):
 
 class RobotControl(object):
     def __init__(self, controller, owners, rate_hz, status_rate_hz, odom_frame, base_frame, publish_tf,
-                 voice_language, sim=None):
+                 voice_language, data_root, sim=None):
         self._ctl = controller
         self._owners = owners
         self._sim = sim
@@ -129,7 +130,7 @@ class RobotControl(object):
             rospy.Service("sim/inject_fault", ControlService, self._on_inject_fault)
         controller.set_speaker(self._speak)
         self._imu_twin = CommandTwin(_ImuTable(controller), "imu_control", "imu_cmd", "imu_ack", NODE_NAME,
-                                     busy_when_joystick=False)
+                                     busy_when_joystick=False, data_root=data_root)
         # Every input, by topic: (message type, queue size, handler). A handler applies its stop in the
         # callback, before returning; _dispatch is the one boundary around all of them.
         self._inputs = {
@@ -342,7 +343,7 @@ def main():
                                   obstacle_timeout=obstacle_timeout or None)
     node = RobotControl(controller, owners, rate_hz, status_rate_hz, str(rospy.get_param("~odom_frame", "odom")),
                         str(rospy.get_param("~base_frame", "base_link")), bool(rospy.get_param("~publish_tf", True)),
-                        language, sim=sim)
+                        language, data_root(), sim=sim)
     rospy.on_shutdown(node.shutdown)
     rospy.loginfo("%s: driver %s, %.0f Hz, cmd_timeout %.2f s, safety inputs from %s" % (
         NODE_NAME, driver_spec, rate_hz, cmd_timeout, owners.describe()))

@@ -39,6 +39,8 @@ Parameters:  ~port (int, 9090; 0 = any free port), ~address (str, "127.0.0.1"; "
              ~console_dir (str: web/console of the package), ~console_vendor_dir (str: roslib's build/),
              ~nice (int, 0 = unchanged; -20..19: the process's scheduling niceness, below 0 needs
              CAP_SYS_NICE or RLIMIT_NICE; shortens the echo tail on a busy CPU)
+Environment: INSPECTION_BRIDGE_TRACE (a topic: time its echoes' stages, bridge/trace.py),
+             INSPECTION_BRIDGE_TRACE_FILE (str, /tmp/bridge_trace.json: written at shutdown)
 """
 import asyncio
 import concurrent.futures
@@ -243,6 +245,8 @@ def update_diagnostics(updater):
 
 
 def main():
+    tracer = trace.from_environment(os.environ)
+    tracer.start()   # GC pauses from start-up on, as when the hook was installed at import
     init_node("rosbridge_websocket")
     params = read_params()
     if params["nice"]:
@@ -260,7 +264,7 @@ def main():
     codec = Codec(types)
     tcpros = start_tcpros_publisher(log)
     backend = RosBackend(types, codec, LoopPoster(loop, log).post, executor, params["service_timeout"],
-                         params["subscriber_queue_size"], log, tcpros)
+                         params["subscriber_queue_size"], log, tcpros, trace=tracer)
     backend.advertise_for_the_robot(BACKEND_TOPIC_TYPES)
     backend.subscribe_for_the_robot(BACKEND_ACK_TYPES)
     rosapi = RosApi(RosGraph(backend), types)
@@ -297,7 +301,7 @@ def main():
                           log, extra_routes=http_routes, allowed_origins=params["allowed_origins"],
                           handshake_timeout=params["handshake_timeout"], preauth_bytes=params["preauth_bytes"],
                           max_clients_per_address=params["max_clients_per_address"],
-                          websocket_paths=(CONSOLE_LINK_PATH,))
+                          websocket_paths=(CONSOLE_LINK_PATH,), trace=tracer)
     port = io_thread.run_sync(server.start)
     updater = diagnostic_updater.Updater()
     updater.setHardwareID("backend_link")
@@ -320,9 +324,9 @@ def main():
     # the running sim a full collection took 59 ms, and an echo caught in it waited that long).
     gc.collect()
     gc.freeze()
-    if trace.ON:
-        rospy.loginfo("bridge: tracing the echo path of %s into %s", trace.TOPIC, trace.FILE)
-        rospy.on_shutdown(trace.dump)
+    if tracer.on:
+        rospy.loginfo("bridge: tracing the echo path of %s into %s", tracer.topic, tracer.file)
+        rospy.on_shutdown(tracer.dump)
     rospy.spin()
     io_thread.stop(server.stop)
     executor.shutdown(wait=False)

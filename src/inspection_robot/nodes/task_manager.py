@@ -55,9 +55,10 @@ NODE_NAME = "task_manager"
 LOGGERS = {"info": rospy.loginfo, "warn": rospy.logwarn, "error": rospy.logerr}
 
 
-def serve(service, status_period, schedule_check_s):
+def serve(service, root, status_period, schedule_check_s):
     """Wire ``service`` to ROS (its command twin, inputs, task_action server, timers), then run its patrol loop."""
-    twin = CommandTwin(service.table, "task_control", "task_cmd", "task_ack", NODE_NAME, busy_when_joystick=False)
+    twin = CommandTwin(service.table, "task_control", "task_cmd", "task_ack", NODE_NAME, root,
+                       busy_when_joystick=False)
 
     def on_robot_status(msg):
         pose = (float(msg.position[0]), float(msg.position[1]), float(msg.orientation)) \
@@ -145,4 +146,4 @@ def main():
                           Scheduler(store, schedule_grace_s, time.time()), reachable,
                           lambda pose: StepRunner(NODE_NAME, velocity[0], velocity[1], timeouts, pose, turn_at_stops),
                           publish_status, lambda level, text: LOGGERS[level]("%s: %s" % (NODE_NAME, text)))
-    serve(service, status_period, schedule_check_s)
+    serve(service, root, status_period, schedule_check_s)

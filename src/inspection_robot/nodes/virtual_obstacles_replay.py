@@ -19,17 +19,19 @@ import rospy
 from inspection_robot.interface import SENDER_MOVE_BASE
 from inspection_robot.msg import GeneralTopic
 from inspection_robot.nav.virtual_obstacles import VirtualObstacles, replay_table
+from inspection_robot.ros.data_root import data_root
 from inspection_robot.ros.node import init_node
 from inspection_robot.ros.twin import CommandTwin
 
 
 class ReplayedObstacles(object):
-    def __init__(self):
+    def __init__(self, data_root):
         self.obstacles = VirtualObstacles("")
         self.known = False
         self._sub = rospy.Subscriber("virtual_obstacles", GeneralTopic, self._on_listing, queue_size=5)
         self._twin = CommandTwin(replay_table(self.obstacles, lambda: self.known), None, "virtual_obstacle_cmd",
-                                 "virtual_obstacle_ack", SENDER_MOVE_BASE, busy_when_joystick=False)
+                                 "virtual_obstacle_ack", SENDER_MOVE_BASE, busy_when_joystick=False,
+                                 data_root=data_root)
 
     def _on_listing(self, msg):
         try:
@@ -42,5 +44,5 @@ class ReplayedObstacles(object):
 
 def main():
     init_node("virtual_obstacles_replay")
-    ReplayedObstacles()
+    ReplayedObstacles(data_root())
     rospy.spin()

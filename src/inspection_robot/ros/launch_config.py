@@ -6,7 +6,7 @@ from roslaunch.config import ROSLaunchConfig
 from roslaunch.substitution_args import resolve_args
 from roslaunch.xmlloader import XmlLoader
 
-from inspection_robot.site import SIM_SITE_FILE, SIM_WORLD_FILE, flatten, load_site_text, sim_yard
+from inspection_robot.site import SIM_SITE_FILE, flatten, load_site_text, sim_yard
 
 
 def launch_defaults(share, ns, data_root):
@@ -29,6 +29,4 @@ def launch_defaults(share, ns, data_root):
 def load_yard(share):
     with open(os.path.join(share, SIM_SITE_FILE)) as f:
         sim_site = load_site_text(resolve_args(f.read()), SIM_SITE_FILE)   # $(find ...) as subst_value does
-    with open(os.path.join(share, SIM_WORLD_FILE)) as f:
-        sim_world = load_site_text(f.read(), SIM_WORLD_FILE)
-    return sim_yard(sim_site, sim_world)
+    return sim_yard(sim_site)

@@ -15,7 +15,6 @@ import rospy
 
 from inspection_robot.command import Reply, echoed, failed
 from inspection_robot.files import hide_root
-from inspection_robot.ros.data_root import data_root
 from inspection_robot.interface import ACK_SUCCESS, BUSY, MODE_JOY, SENDER_JOY
 from inspection_robot.msg import ControlStatus, GeneralAck, GeneralCmd
 from inspection_robot.ros.worker import RequestWorker
@@ -51,16 +50,17 @@ class CommandTwin(object):
 
     ``node_name`` is written into the ack's sender field. ``busy_when_joystick`` applies the
     joystick-busy rule. ``unprompted`` acks (e.g. a failure during arm playback) go through
-    :meth:`publish_ack`.
+    :meth:`publish_ack`. ``data_root``: the node's data root (ros/data_root.data_root(), read once in
+    its main()), taken out of failure reasons.
     """
 
-    def __init__(self, table, service, cmd_topic, ack_topic, node_name,
+    def __init__(self, table, service, cmd_topic, ack_topic, node_name, data_root,
                  busy_when_joystick=True, queue_size=50, staging=None):
         self._table = table
         self._node_name = node_name
         self._modes = ModeWatcher() if busy_when_joystick else None
         self._lock = threading.Lock()  # one command at a time reaches the device
-        self._data_root = data_root()  # as the launch fixed it (ros/data_root.py); read once, here
+        self._data_root = data_root
         self._ack_pub = rospy.Publisher(ack_topic, GeneralAck, queue_size=50)
         self._worker = RequestWorker(node_name + ": " + cmd_topic, self._run_topic_command, self._refuse,
                                      queue_size)

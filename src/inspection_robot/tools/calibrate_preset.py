@@ -35,10 +35,8 @@ from inspection_robot.command import CommandError
 from inspection_robot.inspection.calibration import SelfCheck, calibrate
 from inspection_robot.inspection.calibration_commands import CalibrationCommands
 from inspection_robot.inspection.preset import PresetError
-from inspection_robot.sim.inspection_sim import calibrate_from_world
 from inspection_robot.interface import ACK_SUCCESS
 from inspection_robot.ros.package_share import share_file
-from inspection_robot.sim.world import World, WorldError
 
 
 def _config_file(name):
@@ -101,6 +99,9 @@ def run(argv=None):
         if args.command is not None:
             return _run_command(args.preset_dir, optics, *args.command)
         if args.from_world is not None:
+            # the simulator only when asked to calibrate from it: a robot's calibration never loads it
+            from inspection_robot.sim.inspection_sim import calibrate_from_world
+            from inspection_robot.sim.world import World
             world_file = args.from_world or _config_file("sim_world.yaml")
             if not world_file:
                 raise PresetError("no world file found; pass --from-world WORLD_YAML")
@@ -112,7 +113,8 @@ def run(argv=None):
             with open(args.targets_yaml) as f:
                 specs = (yaml.safe_load(f) or {}).get("targets", [])
             targets = calibrate(args.preset_dir, specs, optics, check=check)
-    except (OSError, yaml.YAMLError, KeyError, ValueError, PresetError, WorldError, CommandError) as err:
+    # (a bad world file raises sim.world.WorldError, a ValueError)
+    except (OSError, yaml.YAMLError, KeyError, ValueError, PresetError, CommandError) as err:
         sys.stderr.write("calibrate_preset: %s\n" % (err,))
         return 1
     for i, target in enumerate(targets):
