@@ -74,6 +74,8 @@ def stop_all(procs):
 
 
 def start_bridge(name, python_path, extra_env, log, params=()):
+    """A bridge from ``python_path`` (a checkout's src; None: this one) on a free port. Its surface is
+    ``open``: benches use their own /bench topics, which no backend role may touch."""
     env = dict(os.environ)
     extra_env = dict(extra_env)
     python_path = os.pathsep.join(p for p in (extra_env.pop("PYTHONPATH", None), python_path) if p)
@@ -82,7 +84,8 @@ def start_bridge(name, python_path, extra_env, log, params=()):
         env["PYTHONPATH"] = python_path + os.pathsep + env.get("PYTHONPATH", "")
     return subprocess.Popen([sys.executable, "-c",
                              "from inspection_robot.nodes.rosbridge_websocket import main; main()",
-                             "__name:=%s" % name, "_port:=0", "_address:=127.0.0.1", "_console:=false"] + list(params),
+                             "__name:=%s" % name, "_port:=0", "_address:=127.0.0.1", "_console:=false",
+                             "_surface:=open"] + list(params),
                             stdout=log, stderr=subprocess.STDOUT, env=env, start_new_session=True)
 
 

@@ -39,7 +39,7 @@ def main():
     from inspection_robot_testing.bridge_client import RawClient
     core = start_roscore()
     log = open(os.devnull, "w")
-    bridge = start_bridge("rosbridge_websocket", export(args.ref) if args.ref else None, {}, log, ["_surface:=open"])
+    bridge = start_bridge("rosbridge_websocket", export(args.ref) if args.ref else None, {}, log)
     hogs = [subprocess.Popen([sys.executable, "-c", "while True: pass"]) for _ in range(args.hogs)]
     try:
         rospy.init_node("bench_early_messages", disable_signals=True)
