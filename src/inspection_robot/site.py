@@ -36,7 +36,7 @@ from inspection_robot.drivers import DEVICES, PARAM, PARAMS_PARAM, SIM, DriverCo
 from inspection_robot.files import read_secret_file
 from inspection_robot.fixed_settings import FIXED_KEYS
 from inspection_robot.nav.gridmap import MapError, load_map
-from inspection_robot.nav.pose_adapter import MODE_NONE, MODE_TOPIC, MODES, AdapterParams
+from inspection_robot.nav.pose_adapter import ADAPTER_SETTINGS, MODE_NONE, MODE_TOPIC, MODES, AdapterParams
 
 DATA_ROOT = "data_root"
 SIM_SITE_FILE = "config/sim_site.yaml"
@@ -59,8 +59,7 @@ MAP = "move_base/map_file"
 POSE_TOPIC = "move_base/pose_topic"
 ADAPTER = "pose_adapter"
 ADAPTER_MODE = ADAPTER + "/mode"
-ADAPTER_PARAMS = ("input_topic", "output_topic", "rate", "map_frame", "base_frame", "sigma_xy", "sigma_yaw",
-                  "error_period")
+ADAPTER_PARAMS = ADAPTER_SETTINGS   # config/pose_adapter.yaml's settings besides mode
 BRIDGE = "rosbridge_websocket"
 TOKEN_FILE = "rosbridge_websocket/auth_token_file"
 AUTH_ALTERNATIVES = ("rosbridge_websocket/auth_token", "rosbridge_websocket/client_ca")

@@ -9,11 +9,13 @@ import threading
 import time
 
 import pytest
+import rospy
 
 from rosgraph.network import write_ros_handshake_header
 from rospy.impl import tcpros_base
 
 from inspection_robot.ros import node
+from inspection_robot.settings import SettingsError
 
 
 class Recorder(tcpros_base.TCPROSServer):
@@ -174,3 +176,17 @@ def test_a_slow_but_live_client_is_served_the_bound_is_per_read(monkeypatch):
     assert server.topics == ["/move_action/result"]
     client.close()
     server_side.close()
+
+
+def test_node_settings_take_the_parameter_server_else_the_file(monkeypatch):
+    server = {"~rate": 99.0, "~ros_base": {"odom_topic": "wheel/odom"}}
+    monkeypatch.setattr(rospy, "has_param", lambda name: name in server)
+    monkeypatch.setattr(rospy, "get_param", lambda name: server[name])
+    reader = node.NodeSettings("robot_control")   # config/ of this source tree, no ROS package path needed
+    assert reader.get("~rate") == 99.0 and reader.get("~cmd_timeout") == 0.5
+    base = reader.get("~ros_base")
+    assert base["odom_topic"] == "wheel/odom" and base["cmd_vel_topic"] == "cmd_vel"
+    with pytest.raises(SettingsError, match="config/robot_control.yaml"):
+        reader.get("~no_such_setting")
+    with pytest.raises(ValueError):
+        reader.get("rate")

@@ -17,6 +17,10 @@ from inspection_robot.angles import yaw_from_quaternion
 
 MODE_NONE, MODE_TOPIC, MODE_TF = "none", "topic", "tf"
 MODES = (MODE_NONE, MODE_TOPIC, MODE_TF)
+# AdapterParams' settings besides the mode, as config/pose_adapter.yaml names them (the node and the site check
+# read these; a unit test checks them against the file)
+ADAPTER_SETTINGS = ("input_topic", "output_topic", "rate", "map_frame", "base_frame", "sigma_xy", "sigma_yaw",
+                    "error_period")
 
 
 class AdapterParams(object):

@@ -12,12 +12,8 @@ twice that space is free. A recorder that dies is restarted (at most every ~chec
 Records:     <image topic>/compressed of each ~image_topics (sensor_msgs/CompressedImage, JPEG, as the camera
              or thermal node publishes it, at its ~image_rate) only when ~record_images
 Publishes:   diagnostics (diagnostic_msgs/DiagnosticArray, hardware_id "bag_recorder")
-Parameters:  ~enabled (true; false: the node only reports "disabled" on diagnostics, e.g. from robot_config)
-             data_root (namespace param: this robot's state directory, ros.data_root)
-             ~directory (folder of the bags, relative to data_root unless absolute, "bags"), ~prefix ("run"),
-             ~split_size_mb (MB, 100), ~budget_mb (MB, 2000), ~min_free_mb (MB, 500),
-             ~check_period (s, 5.0), ~record_images (false), ~image_topics (["camera/image_raw"]),
-             ~extra_topics ([])
+Parameters:  config/bag_recorder.yaml: every setting, its default and meaning (read through ros.node.NodeSettings);
+             data_root (namespace: this robot's state directory, ros.data_root)
 """
 import os
 import shutil
@@ -29,9 +25,9 @@ import roslib.packages
 import rospy
 
 from inspection_robot.recording.recorder import RecorderError, disk_verdict, enforce_budget, list_bags, record_command
-from inspection_robot.ros.data_root import data_root, path_param
+from inspection_robot.ros.data_root import data_root
 from inspection_robot.ros.diagnostics import DeviceDiagnostics
-from inspection_robot.ros.node import init_node
+from inspection_robot.ros.node import NodeSettings, init_node
 
 HARDWARE_ID = "bag_recorder"
 MB = 1000 * 1000
@@ -145,20 +141,21 @@ class BagRecorder(object):
 
 def main():
     init_node("bag_recorder")
-    if not rospy.get_param("~enabled", True):
+    settings = NodeSettings("bag_recorder")
+    if not settings.get("~enabled"):
         rospy.loginfo("bag_recorder: ~enabled is false; not recording")
         DeviceDiagnostics("bag recorder", HARDWARE_ID).publish(True, "disabled (~enabled false)", [])
         rospy.spin()
         return
-    directory = path_param("~directory", "bags", data_root())
-    prefix = rospy.get_param("~prefix", "run")
-    split_mb = float(rospy.get_param("~split_size_mb", 100))
-    budget_mb = float(rospy.get_param("~budget_mb", 2000))
-    min_free_mb = float(rospy.get_param("~min_free_mb", 500))
-    check_period = float(rospy.get_param("~check_period", 5.0))
-    record_images = bool(rospy.get_param("~record_images", False))
-    image_topics = list(rospy.get_param("~image_topics", ["camera/image_raw"])) if record_images else []
-    extra = list(rospy.get_param("~extra_topics", []))
+    directory = settings.path("~directory", data_root())
+    prefix = settings.get("~prefix")
+    split_mb = float(settings.get("~split_size_mb"))
+    budget_mb = float(settings.get("~budget_mb"))
+    min_free_mb = float(settings.get("~min_free_mb"))
+    check_period = float(settings.get("~check_period"))
+    record_images = bool(settings.get("~record_images"))
+    image_topics = list(settings.get("~image_topics")) if record_images else []
+    extra = list(settings.get("~extra_topics"))
     if budget_mb < 2 * split_mb or check_period <= 0:
         raise RecorderError("need ~budget_mb >= 2 * ~split_size_mb and ~check_period > 0 (got %s, %s, %s)"
                             % (budget_mb, split_mb, check_period))

@@ -12,19 +12,10 @@ Publishes:   camera_zoom (std_msgs/Float64, latched, on change)
              the same frames; each form encoded only while it has subscribers)
              camera/camera_info (sensor_msgs/CameraInfo, with each image)
              diagnostics (diagnostic_msgs/DiagnosticArray, hardware_id "camera", ~status_rate Hz)
-Parameters:  ~driver (sim | isapi | none | "package.module:Class" with ~driver_params, required),
-             ~camera_optics ({width, height, zoom_hfov_deg}, required),
-             ~roots (folders capture paths must lie in, under data_root unless absolute; [captures]; a root
-             overlapping presets, pictures, tasks ... is refused at start: files.capture_roots),
-             ~quota_mib (MiB the capture roots may hold, hidden files included, 2048 = 2 GiB; 0 = none:
-             files.CaptureQuota),
-             ~image_rate (Hz, 1.0; 0 = no image topic), ~image_width (px, 640), ~status_rate (Hz, 2.0),
-             ~jpeg_quality (captures, 0..100, 90), ~stream_jpeg_quality (0..100, 80),
-             ~frame_id ("camera_optical_frame"),
-             ~isapi/{url ("http://192.168.1.64"), user ("admin"), password (""), channel (1), timeout (s, 2.0),
-             snapshot_url ("/onvif-http/snapshot?Profile_1")},
-             ~sim/{world_file (required for sim), seed (0), noise_sigma (2.0), blur_sigma (0.6),
-             lighting_variation (0.08), zoom_rate (x per s, 2.0), focus_rate (units per s, 16384)}
+Parameters:  config/camera_node.yaml: every setting, its default and meaning (read through ros.node.NodeSettings),
+             and config/camera_optics.yaml (~camera_optics); ~driver is required (the site file sets it),
+             ~sim/world_file too with driver sim (the launch sets it); a ~roots entry overlapping presets, pictures,
+             tasks ... is refused at start (files.capture_roots); data_root (namespace)
 """
 import threading
 import traceback
@@ -38,13 +29,13 @@ from inspection_robot.camera.jpeg import check_quality
 from inspection_robot.camera.driver import CameraError, DeviceHealth, NoCamera
 from inspection_robot.camera.optics import ZoomOptics
 from inspection_robot.drivers import SIM, make_driver
-from inspection_robot.files import DEFAULT_CAPTURE_QUOTA_MIB, CaptureQuota, capture_roots
+from inspection_robot.files import CaptureQuota, capture_roots
 from inspection_robot.ros.diagnostics import DeviceDiagnostics, probe_device
 from inspection_robot.ros.images import LiveViewPublisher
-from inspection_robot.ros.node import init_node
+from inspection_robot.ros.node import NodeSettings, init_node
 from inspection_robot.interface import CAMERA_STAGING_SERVICE
 from inspection_robot.ros.twin import CommandTwin
-from inspection_robot.ros.data_root import data_root, path_list_param
+from inspection_robot.ros.data_root import data_root
 
 NODE = "camera_node"
 HARDWARE_ID = "camera"
@@ -119,47 +110,49 @@ class CameraNode(object):
         self.commands.shutdown()
 
 
-def make_camera(spec, optics):
+def make_camera(settings, optics):
+    """The camera driver ``~driver`` names, built from ``settings`` (ros.node.NodeSettings)."""
+    spec = settings.get("~driver")
+
     def isapi():
         from inspection_robot.camera.isapi import IsapiCamera
-        params = rospy.get_param("~isapi", {})
-        return IsapiCamera(str(params.get("url", "http://192.168.1.64")), str(params.get("user", "admin")),
-                           str(params.get("password", "")), int(params.get("channel", 1)),
-                           float(params.get("timeout", 2.0)),
-                           str(params.get("snapshot_url", "/onvif-http/snapshot?Profile_1")))
+        params = settings.get("~isapi")
+        return IsapiCamera(str(params["url"]), str(params["user"]), str(params["password"]), int(params["channel"]),
+                           float(params["timeout"]), str(params["snapshot_url"]))
 
     def simulator():
         from inspection_robot.sim.ros_view import SimView
         from inspection_robot.sim.camera import SimulatedCamera
         from inspection_robot.sim.render import Renderer
         from inspection_robot.sim.world import World
-        params = rospy.get_param("~sim", {})
+        params = settings.get("~sim")
         world = World.load(params["world_file"])
-        renderer = Renderer(world, int(params.get("seed", 0)), float(params.get("noise_sigma", 2.0)),
-                            float(params.get("blur_sigma", 0.6)), float(params.get("lighting_variation", 0.08)))
+        renderer = Renderer(world, int(params["seed"]), float(params["noise_sigma"]), float(params["blur_sigma"]),
+                            float(params["lighting_variation"]))
         return SimulatedCamera(renderer, optics, SimView(world), world.sensor_height,
-                               float(params.get("zoom_rate", 2.0)), float(params.get("focus_rate", 0x4000)),
-                               int(rospy.get_param("~jpeg_quality", 90)))
+                               float(params["zoom_rate"]), float(params["focus_rate"]),
+                               int(settings.get("~jpeg_quality")))
 
-    return make_driver("camera", spec, {"isapi": isapi, SIM: simulator}, rospy.get_param("~driver_params", {}),
+    return make_driver("camera", spec, {"isapi": isapi, SIM: simulator}, settings.get("~driver_params"),
                        NoCamera)
 
 
 def main():
     init_node(NODE)
-    optics_params = rospy.get_param("~camera_optics")
+    settings = NodeSettings("camera_node")
+    optics_params = settings.get("~camera_optics")
     optics = ZoomOptics(optics_params["zoom_hfov_deg"], optics_params["width"], optics_params["height"])
     root = data_root()
-    roots = capture_roots(path_list_param("~roots", ["captures"], root), root)
-    quota = CaptureQuota.from_mib(roots, rospy.get_param("~quota_mib", DEFAULT_CAPTURE_QUOTA_MIB))
-    image_rate = float(rospy.get_param("~image_rate", 1.0))
-    image_width = int(rospy.get_param("~image_width", 640))
-    status_rate = float(rospy.get_param("~status_rate", 2.0))
+    roots = capture_roots(settings.path_list("~roots", root), root)
+    quota = CaptureQuota.from_mib(roots, settings.get("~quota_mib"))
+    image_rate = float(settings.get("~image_rate"))
+    image_width = int(settings.get("~image_width"))
+    status_rate = float(settings.get("~status_rate"))
     if status_rate <= 0 or image_rate < 0 or not 16 <= image_width <= optics.width:
         raise ValueError("~status_rate must be > 0, ~image_rate >= 0, 16 <= ~image_width <= camera width")
-    driver = make_camera(rospy.get_param("~driver", ""), optics)
+    driver = make_camera(settings, optics)
     node = CameraNode(driver, optics, roots, image_rate, image_width, status_rate,
-                      rospy.get_param("~frame_id", "camera_optical_frame"),
-                      check_quality(rospy.get_param("~stream_jpeg_quality", 80)), quota, root)
+                      settings.get("~frame_id"),
+                      check_quality(settings.get("~stream_jpeg_quality")), quota, root)
     rospy.on_shutdown(node.shutdown)
     rospy.spin()

@@ -14,14 +14,10 @@ Publishes:   charge_status (GeneralTopic, latched): JSON status, on every change
              voice_cmd (VoiceCmd): prompts and alarms (clips with built-in phrases)
 Services:    charge_control (ControlService): twin of charge_cmd/charge_ack: dock, undock, status
 Clients:     move_action (GeneralAction) to the dock; task_control (ControlService) pause/resume "charge"
-Parameters:  ~low_level (%, 25), ~full_level (%, 90), ~retries (2), ~pause_timeout (s, 300),
-             ~relay_timeout (s, 5), ~current_timeout (s, 10), ~current_lost_timeout (s, 10),
-             ~status_timeout (s, 3): robot_status older than this is not trusted
-             ~dock ({pose, approach_pose, tolerance_m, tolerance_yaw}), a site setting without default (the
-                 site file; sim.launch: config/sim_site.yaml, the simulated chassis's world.dock)
-             ~approach_velocity_x (m/s, 0.5), ~dock_velocity_x (m/s, 0.2), ~velocity_yaw (rad/s, 0.5)
-             ~task_service ("task_control"), ~task_service_timeout (s, 2.0), ~rate (Hz, 5.0)
-             ~voice_language ("chinese")
+Parameters:  config/charge_control.yaml: every setting, its default and meaning (read through
+             ros.node.NodeSettings); ~dock ({pose, approach_pose, tolerance_m, tolerance_yaw}), a site setting
+             without default (the site file; sim.launch: config/sim_site.yaml); ~owners (test rigs only:
+             motion/ros_owner_gate.py)
 """
 import itertools
 import json
@@ -40,7 +36,7 @@ from inspection_robot.msg import GeneralAction, GeneralCmd, GeneralGoal, General
 from inspection_robot.nav.goal import move_goal_data
 from inspection_robot.ros.actions import server_unavailable
 from inspection_robot.ros.data_root import data_root
-from inspection_robot.ros.node import init_node, site_param
+from inspection_robot.ros.node import NodeSettings, init_node, site_param
 from inspection_robot.motion.ros_owner_gate import OwnerGate
 from inspection_robot.ros.twin import CommandTwin
 from inspection_robot.ros.worker import RequestWorker
@@ -227,28 +223,29 @@ def _task_state(data):
 
 def main():
     init_node(NODE_NAME)
+    settings = NodeSettings("charge_control")
     config = ChargeConfig(
-        low_level=float(rospy.get_param("~low_level", 25.0)),
-        full_level=float(rospy.get_param("~full_level", 90.0)),
-        retries=int(rospy.get_param("~retries", 2)),
-        pause_timeout=float(rospy.get_param("~pause_timeout", 300.0)),
-        relay_timeout=float(rospy.get_param("~relay_timeout", 5.0)),
-        current_timeout=float(rospy.get_param("~current_timeout", 10.0)),
-        current_lost_timeout=float(rospy.get_param("~current_lost_timeout", 10.0)),
-        status_timeout=float(rospy.get_param("~status_timeout", 3.0)))
+        low_level=float(settings.get("~low_level")),
+        full_level=float(settings.get("~full_level")),
+        retries=int(settings.get("~retries")),
+        pause_timeout=float(settings.get("~pause_timeout")),
+        relay_timeout=float(settings.get("~relay_timeout")),
+        current_timeout=float(settings.get("~current_timeout")),
+        current_lost_timeout=float(settings.get("~current_lost_timeout")),
+        status_timeout=float(settings.get("~status_timeout")))
     dock = parse_dock(site_param("~dock"))
-    speeds = (float(rospy.get_param("~approach_velocity_x", 0.5)), float(rospy.get_param("~dock_velocity_x", 0.2)),
-              float(rospy.get_param("~velocity_yaw", 0.5)))
+    speeds = (float(settings.get("~approach_velocity_x")), float(settings.get("~dock_velocity_x")),
+              float(settings.get("~velocity_yaw")))
     if min(speeds) <= 0:
         raise ValueError("~approach_velocity_x, ~dock_velocity_x and ~velocity_yaw must be positive")
-    language = str(rospy.get_param("~voice_language", "chinese"))
+    language = str(settings.get("~voice_language"))
     if language not in VOICE_LANGUAGES:
         raise ValueError("~voice_language must be one of %s" % (VOICE_LANGUAGES,))
-    rate_hz = float(rospy.get_param("~rate", 5.0))
+    rate_hz = float(settings.get("~rate"))
     if rate_hz <= 0:
         raise ValueError("~rate must be positive")
-    node = ChargeControl(config, dock, str(rospy.get_param("~task_service", "task_control")),
-                         float(rospy.get_param("~task_service_timeout", 2.0)), speeds, language, rate_hz,
+    node = ChargeControl(config, dock, str(settings.get("~task_service")),
+                         float(settings.get("~task_service_timeout")), speeds, language, rate_hz,
                          OwnerGate.from_param(NODE_NAME), data_root())
     rospy.on_shutdown(node.shutdown)
     rospy.loginfo("%s: dock %s, charge below %.0f %% up to %.0f %%"

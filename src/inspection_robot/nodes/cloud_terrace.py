@@ -11,15 +11,10 @@ Publishes:   terrace_ack (GeneralAck): replies to terrace_cmd, and the outcome o
              diagnostics (diagnostic_msgs/DiagnosticArray, diagnostic_updater): hardware_id
                "pan_tilt_head", 1 Hz; "pan/tilt head" ERROR while the head is lost, and
                "terrace_state rate" (FrequencyStatus against ~state_rate)
-Parameters:  ~driver (pelco | sim | none | "package.module:Class" with ~driver_params, required; sim is
-               pelco on the pty of sim_pelco_head; none: every command fails "head not fitted (driver: none)"),
-             ~port (pyserial URL or device, "/tmp/inspection_robot_pelco"), ~baudrate (9600),
-             ~address (Pelco-D address, 1), ~reply_timeout (s, 0.3),
-             ~reconnect_backoff ([first, max] s, [0.1, 2.0]),
-             ~speeds ({high_speed: 63, mid_speed: 32, low_speed: 8}, Pelco-D speed bytes),
-             ~tilt_min_deg (-90.0), ~tilt_max_deg (90.0), ~reach_tolerance_deg (0.01),
-             ~move_timeout (s, 10.0), ~poll_period (s, 0.05), ~state_rate (Hz, 20.0),
-             ~camera_optics (config/camera_optics.yaml: width, height, zoom_hfov_deg)
+Parameters:  config/cloud_terrace.yaml: every setting, its default and meaning (read through ros.node.NodeSettings),
+             and config/camera_optics.yaml (~camera_optics); ~driver is required (sim is pelco on the pty of
+             sim_pelco_head, whose link the launch passes as ~port; none: every command fails "head not fitted
+             (driver: none)")
 """
 
 import diagnostic_updater
@@ -34,7 +29,7 @@ from inspection_robot.msg import PresetRotate
 from inspection_robot.interface import ACK_SUCCESS, BUSY
 from inspection_robot.ros.diagnostics import DeviceDiagnostics
 from inspection_robot.ros.data_root import data_root
-from inspection_robot.ros.node import init_node
+from inspection_robot.ros.node import NodeSettings, init_node
 from inspection_robot.ros.twin import CommandTwin
 from inspection_robot.ros.worker import RequestWorker
 from inspection_robot.ptz import pelco
@@ -110,30 +105,31 @@ class CloudTerrace(object):
 
 def main():
     init_node(NODE_NAME)
-    port = rospy.get_param("~port", "/tmp/inspection_robot_pelco")
-    backoff = rospy.get_param("~reconnect_backoff", [0.1, 2.0])
-    speeds = rospy.get_param("~speeds", {"high_speed": 63, "mid_speed": 32, "low_speed": 8})
-    tilt_limits = (pelco.degrees_to_centi(rospy.get_param("~tilt_min_deg", -90.0)),
-                   pelco.degrees_to_centi(rospy.get_param("~tilt_max_deg", 90.0)))
-    tolerance = pelco.degrees_to_centi(rospy.get_param("~reach_tolerance_deg", 0.01))
-    move_timeout = float(rospy.get_param("~move_timeout", 10.0))
-    poll_period = float(rospy.get_param("~poll_period", 0.05))
-    state_rate = float(rospy.get_param("~state_rate", 20.0))
-    optics_param = rospy.get_param("~camera_optics")
+    settings = NodeSettings("cloud_terrace")
+    port = settings.get("~port")
+    backoff = settings.get("~reconnect_backoff")
+    speeds = settings.get("~speeds")
+    tilt_limits = (pelco.degrees_to_centi(settings.get("~tilt_min_deg")),
+                   pelco.degrees_to_centi(settings.get("~tilt_max_deg")))
+    tolerance = pelco.degrees_to_centi(settings.get("~reach_tolerance_deg"))
+    move_timeout = float(settings.get("~move_timeout"))
+    poll_period = float(settings.get("~poll_period"))
+    state_rate = float(settings.get("~state_rate"))
+    optics_param = settings.get("~camera_optics")
     optics = ZoomOptics(optics_param["zoom_hfov_deg"], optics_param["width"], optics_param["height"])
-    reply_timeout = float(rospy.get_param("~reply_timeout", 0.3))
+    reply_timeout = float(settings.get("~reply_timeout"))
     if not isinstance(backoff, list) or len(backoff) != 2 or not 0 < float(backoff[0]) <= float(backoff[1]):
         raise ValueError("~reconnect_backoff must be [first, max] seconds, 0 < first <= max, got %r" % (backoff,))
     if state_rate <= 0 or move_timeout <= 0 or poll_period <= 0 or reply_timeout <= 0:
         raise ValueError("~state_rate, ~move_timeout, ~poll_period and ~reply_timeout must be positive")
 
     def pelco_head():  # sim: the same Pelco-D driver, on the pty of sim_pelco_head (the launch starts it)
-        return PelcoHead(port, baudrate=rospy.get_param("~baudrate", 9600), address=rospy.get_param("~address", 1),
+        return PelcoHead(port, baudrate=settings.get("~baudrate"), address=settings.get("~address"),
                          reply_timeout=reply_timeout, backoff=backoff,
                          logger=lambda text: rospy.loginfo("%s: %s" % (NODE_NAME, text)))
 
-    head = make_driver("head", rospy.get_param("~driver", ""), {"pelco": pelco_head, SIM: pelco_head},
-                       rospy.get_param("~driver_params", {}), NoHead)
+    head = make_driver("head", settings.get("~driver"), {"pelco": pelco_head, SIM: pelco_head},
+                       settings.get("~driver_params"), NoHead)
     terrace = Terrace(head, speeds, tilt_limits, tolerance, move_timeout, poll_period)
 
     def stop_head():

@@ -9,21 +9,18 @@ Services:    file_control (ControlService): list | stat | read (storage.commands
                  (calibration_schema.MAX_TARGETS, MAX_REQUEST_BYTES: constants, not parameters)
 Subscribes:  file_cmd, calibration_cmd (GeneralCmd): topic twins of the services
 Publishes:   file_ack, calibration_ack (GeneralAck)
-Parameters:  data_root (namespace, the robot's state directory; under core.launch, like ~roots and
-                 ~preset_roots, fixed at launch and never re-read from the parameter server: ros/data_root.py)
-             ~roots (readable folders, under data_root unless absolute;
-                 [presets, pictures, captures, thermal, tasks])
-             ~preset_roots (where presets may be calibrated, [presets])
-             ~max_chunk_bytes (bytes per read, 262144), ~max_list_entries (entries per list, 1000)
-             ~camera_optics (dict, config/camera_optics.yaml): zoom boxes of a calibration
+Parameters:  config/file_server.yaml: every setting, its default and meaning (read through ros.node.NodeSettings),
+             and config/camera_optics.yaml (~camera_optics: zoom boxes of a calibration); data_root (namespace, the
+             robot's state directory; under core.launch, like ~roots and ~preset_roots, fixed at launch and never
+             re-read from the parameter server: ros/data_root.py)
 Neither service is refused while the joystick holds the robot: nothing here moves it.
 """
 import rospy
 
 from inspection_robot.camera.optics import ZoomOptics
 from inspection_robot.inspection.calibration_commands import CalibrationCommands
-from inspection_robot.ros.data_root import data_root, fixed_list
-from inspection_robot.ros.node import init_node
+from inspection_robot.ros.data_root import data_root
+from inspection_robot.ros.node import NodeSettings, init_node
 from inspection_robot.ros.twin import CommandTwin
 from inspection_robot.storage.commands import FileCommands
 
@@ -32,14 +29,15 @@ NODE_NAME = "file_server"
 
 def main():
     init_node(NODE_NAME)
+    settings = NodeSettings("file_server")
     root = data_root()
     # the folders it serves are fixed at launch like every data path (ros/data_root.py)
-    roots = list(fixed_list("~roots", ["presets", "pictures", "captures", "thermal", "tasks"]))
-    preset_roots = list(fixed_list("~preset_roots", ["presets"]))
-    optics_cfg = rospy.get_param("~camera_optics")
+    roots = list(settings.fixed_list("~roots"))
+    preset_roots = list(settings.fixed_list("~preset_roots"))
+    optics_cfg = settings.get("~camera_optics")
     optics = ZoomOptics(optics_cfg["zoom_hfov_deg"], optics_cfg["width"], optics_cfg["height"])
-    files = FileCommands(root, roots, int(rospy.get_param("~max_chunk_bytes", 262144)),
-                         int(rospy.get_param("~max_list_entries", 1000)))
+    files = FileCommands(root, roots, int(settings.get("~max_chunk_bytes")),
+                         int(settings.get("~max_list_entries")))
     calibration = CalibrationCommands(root, preset_roots, roots, optics)
     CommandTwin(files.table, "file_control", "file_cmd", "file_ack", NODE_NAME, busy_when_joystick=False,
                 data_root=root)

@@ -10,15 +10,9 @@ Subscribes:  nav_status (NavStatus): current heading for the pan correction
              terrace_state (sensor_msgs/JointState): after each set_angle, waits (<= 2 s) until the head
              reports the new angle, so the next picture is taken from the new view
 Services:    terrace_control, camera_control, infrared_control (ControlService), client
-Parameters:  data_root (namespace, the robot's state directory), ~preset_root (str, presets),
-             ~picture_root (str, pictures; both under data_root unless absolute): pictures go to
-             <picture_root>/<preset_id>/
-             ~camera_optics (dict, config/camera_optics.yaml): zoom -> field of view
-             ~detector (str, orb), ~max_moves (int, 3): PTZ re-centring moves,
-             ~centre_tolerance (fraction of the picture, 0.05), ~service_timeout (s, 10.0)
-             ~thermal_hfov_deg (deg, 25.0), ~thermal_width / ~thermal_height (px, 384 / 288),
-             ~thermal_offset_px ([dx, dy] px, [0, 0]): where the visible optical axis lands in the
-             thermal picture relative to its centre (lens offset, measured once per robot)
+Parameters:  config/find_scale.yaml: every setting, its default and meaning (read through ros.node.NodeSettings),
+             and config/camera_optics.yaml (~camera_optics: zoom -> field of view); data_root (namespace, the
+             robot's state directory)
 """
 import json
 import math
@@ -41,8 +35,8 @@ from inspection_robot.interface import (FIND_FEEDBACK_PRESET_SET, FIND_GOAL_PRE_
                                         FIND_RESULT_SUCCESS)
 from inspection_robot.msg import GeneralAction, GeneralFeedback, GeneralResult
 from inspection_robot.inspection.ros_head import HeadingWatcher, RosHead
-from inspection_robot.ros.data_root import data_root, path_param
-from inspection_robot.ros.node import init_node
+from inspection_robot.ros.data_root import data_root
+from inspection_robot.ros.node import NodeSettings, init_node
 
 cv2 = lazy_import("cv2")   # on first use: a node registers before its ~360 libraries load
 
@@ -113,26 +107,27 @@ class FindScaleNode(object):
 
 def main():
     init_node(NODE_NAME)
+    settings = NodeSettings("find_scale")
     root = data_root()
-    preset_root = path_param("~preset_root", "presets", root)
-    picture_root = path_param("~picture_root", "pictures", root)
-    optics_cfg = rospy.get_param("~camera_optics")
+    preset_root = settings.path("~preset_root", root)
+    picture_root = settings.path("~picture_root", root)
+    optics_cfg = settings.get("~camera_optics")
     optics = ZoomOptics(optics_cfg["zoom_hfov_deg"], optics_cfg["width"], optics_cfg["height"])
-    hfov = float(rospy.get_param("~thermal_hfov_deg", 25.0))
-    t_width, t_height = int(rospy.get_param("~thermal_width", 384)), int(rospy.get_param("~thermal_height", 288))
-    offset = [float(v) for v in rospy.get_param("~thermal_offset_px", [0.0, 0.0])]
+    hfov = float(settings.get("~thermal_hfov_deg"))
+    t_width, t_height = int(settings.get("~thermal_width")), int(settings.get("~thermal_height"))
+    offset = [float(v) for v in settings.get("~thermal_offset_px")]
     if len(offset) != 2:
         raise ValueError("~thermal_offset_px must be [dx, dy]")
     if not 0.0 < hfov < 180.0 or t_width <= 0 or t_height <= 0:
         raise ValueError("~thermal_hfov_deg must be in (0, 180) and ~thermal_width/~thermal_height positive")
-    service_timeout = float(rospy.get_param("~service_timeout", 10.0))
-    max_moves = int(rospy.get_param("~max_moves", 3))
-    centre_tolerance = float(rospy.get_param("~centre_tolerance", 0.05))
+    service_timeout = float(settings.get("~service_timeout"))
+    max_moves = int(settings.get("~max_moves"))
+    centre_tolerance = float(settings.get("~centre_tolerance"))
     if service_timeout <= 0 or max_moves < 0 or not 0.0 < centre_tolerance < 1.0:
         raise ValueError("~service_timeout must be > 0, ~max_moves >= 0 and 0 < ~centre_tolerance < 1")
     thermal = ThermalGeometry(focal_for_hfov(t_width, hfov), t_width, t_height, offset)
     head = RosHead(NODE_NAME, service_timeout)
-    finder = Finder(head, optics, Locator(rospy.get_param("~detector", "orb")), picture_root,
+    finder = Finder(head, optics, Locator(settings.get("~detector")), picture_root,
                     max_moves=max_moves, centre_tolerance=centre_tolerance, thermal=thermal)
     for folder in (preset_root, picture_root):
         os.makedirs(folder, exist_ok=True)

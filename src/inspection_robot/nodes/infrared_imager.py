@@ -11,20 +11,11 @@ Publishes:   diagnostics (diagnostic_msgs/DiagnosticArray, hardware_id "thermal_
              thermal/image_raw/compressed (sensor_msgs/CompressedImage, format "jpeg", ~stream_jpeg_quality,
              the same frames, only with subscribers)
              thermal/hottest (GeneralTopic, JSON {"x", "y", "temperature"} of the same frame)
-Parameters:  ~driver (sim | isapi | none | vendor plug-in "package.module:Class", required; none = not fitted:
-             every command fails "thermal not fitted (driver: none)" and diagnostics report ERROR),
-             ~driver_params (dict of keyword arguments for a plug-in, {}),
-             ~width, ~height (px, 384, 288), ~roots (under data_root unless absolute, [thermal];
-             a root overlapping presets, pictures, tasks ... is refused at start: files.capture_roots),
-             ~quota_mib (MiB the roots may hold, hidden files included, 2048 = 2 GiB; 0 = none:
-             files.CaptureQuota),
-             ~measure_box_px (px, 16), ~status_rate (Hz, 1.0), ~image_rate (Hz, 1.0), ~jpeg_quality (captures, 90),
-             ~stream_jpeg_quality (0..100, 80),
-             ~isapi/{host (required for isapi), port (80), user ("admin"), password_file (required for
-             isapi: file holding the password, mode 600), channel (2), timeout (s, 2.0),
-             picture_timeout (s, 5.0)} (Hikvision thermographic camera, thermal.isapi),
-             ~sim/{world_file (required for sim), seed (0), noise_sigma (degC, 0.05), hfov_deg (25.0),
-             unsupported (list of commands to refuse, [])}
+Parameters:  config/infrared_imager.yaml: every setting, its default and meaning (read through
+             ros.node.NodeSettings); ~driver is required (none = not fitted: every command fails "thermal not fitted
+             (driver: none)" and diagnostics report ERROR), ~isapi/host and ~isapi/password_file with driver isapi,
+             ~sim/world_file with driver sim (the launch sets it); a ~roots entry overlapping presets, pictures,
+             tasks ... is refused at start (files.capture_roots); data_root (namespace)
 """
 import json
 
@@ -37,13 +28,13 @@ from inspection_robot.msg import GeneralTopic
 from inspection_robot.drivers import SIM, make_driver
 from inspection_robot.ros.diagnostics import DeviceDiagnostics, probe_device
 from inspection_robot.ros.images import LiveViewPublisher
-from inspection_robot.ros.node import init_node
+from inspection_robot.ros.node import NodeSettings, init_node
 from inspection_robot.interface import INFRARED_STAGING_SERVICE
 from inspection_robot.ros.twin import CommandTwin
 from inspection_robot.thermal.commands import ThermalCommands
 from inspection_robot.thermal.driver import NoImager, ThermalError
-from inspection_robot.files import DEFAULT_CAPTURE_QUOTA_MIB, CaptureQuota, capture_roots
-from inspection_robot.ros.data_root import data_root, path_list_param
+from inspection_robot.files import CaptureQuota, capture_roots
+from inspection_robot.ros.data_root import data_root
 
 NODE = "infrared_imager"
 HARDWARE_ID = "thermal_imager"
@@ -83,41 +74,45 @@ class InfraredNode(object):
                                   [("measure_spot", "%d,%d" % (x, y)), ("failures", self._health.failures)])
 
 
-def make_imager(spec, width, height):
+def make_imager(settings, width, height):
+    """The thermal imager driver ``~driver`` names, built from ``settings`` (ros.node.NodeSettings)."""
+    spec = settings.get("~driver")
+
     def isapi():
         from inspection_robot.thermal.isapi import imager_from_settings
-        return imager_from_settings(rospy.get_param("~isapi", {}))
+        return imager_from_settings(settings.get("~isapi"))
 
     def simulator():
         from inspection_robot.sim.ros_view import SimView
         from inspection_robot.sim.render import ThermalRenderer
         from inspection_robot.sim.thermal import SimulatedImager
         from inspection_robot.sim.world import World
-        params = rospy.get_param("~sim", {})
+        params = settings.get("~sim")
         world = World.load(params["world_file"])
-        renderer = ThermalRenderer(world, int(params.get("seed", 0)), float(params.get("noise_sigma", 0.05)))
+        renderer = ThermalRenderer(world, int(params["seed"]), float(params["noise_sigma"]))
         return SimulatedImager(renderer, SimView(world), world.sensor_height, width, height,
-                               float(params.get("hfov_deg", 25.0)), list(params.get("unsupported", [])))
+                               float(params["hfov_deg"]), list(params["unsupported"]))
 
-    return make_driver("thermal", spec, {"isapi": isapi, SIM: simulator}, rospy.get_param("~driver_params", {}),
+    return make_driver("thermal", spec, {"isapi": isapi, SIM: simulator}, settings.get("~driver_params"),
                        NoImager)
 
 
 def main():
     init_node(NODE)
-    width = int(rospy.get_param("~width", 384))
-    height = int(rospy.get_param("~height", 288))
-    status_rate = float(rospy.get_param("~status_rate", 1.0))
-    image_rate = float(rospy.get_param("~image_rate", 1.0))
+    settings = NodeSettings("infrared_imager")
+    width = int(settings.get("~width"))
+    height = int(settings.get("~height"))
+    status_rate = float(settings.get("~status_rate"))
+    image_rate = float(settings.get("~image_rate"))
     if width < 8 or height < 8 or status_rate <= 0 or image_rate <= 0:
         raise ValueError("~width/~height must be >= 8 px, ~status_rate and ~image_rate > 0")
-    driver = make_imager(rospy.get_param("~driver", ""), width, height)
+    driver = make_imager(settings, width, height)
     health = DeviceHealth()
     root = data_root()
-    roots = capture_roots(path_list_param("~roots", ["thermal"], root), root)
+    roots = capture_roots(settings.path_list("~roots", root), root)
     commands = ThermalCommands(driver, roots, health, width, height,
-                               int(rospy.get_param("~measure_box_px", 16)), int(rospy.get_param("~jpeg_quality", 90)),
-                               CaptureQuota.from_mib(roots, rospy.get_param("~quota_mib", DEFAULT_CAPTURE_QUOTA_MIB)))
+                               int(settings.get("~measure_box_px")), int(settings.get("~jpeg_quality")),
+                               CaptureQuota.from_mib(roots, settings.get("~quota_mib")))
     InfraredNode(driver, commands, health, status_rate, image_rate,
-                 check_quality(rospy.get_param("~stream_jpeg_quality", 80)), root)
+                 check_quality(settings.get("~stream_jpeg_quality")), root)
     rospy.spin()

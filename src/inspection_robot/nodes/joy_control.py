@@ -5,10 +5,7 @@ Publishes:   mode_cmd (GeneralCmd) acquire joy / release; control_cmd (GeneralCm
              disable_stop; move_cmd (MoveCmd) at ~rate while the dead-man is held, one zero on release
              or when joy is silent for ~joy_timeout; terrace_cmd (GeneralCmd) pan/tilt on stick change.
              Every message has sender "joy_control" and an increasing trans_id.
-Parameters:  ~rate (Hz, 20.0), ~joy_timeout (s, 0.5), ~max_velocity_x (m/s, 0.8),
-             ~max_velocity_yaw (rad/s, 0.8), ~deadzone (0.1), ~terrace_speed ("mid_speed"),
-             ~axes ({velocity_x, velocity_yaw, pan, tilt}: Joy axis indices),
-             ~buttons ({deadman, acquire, release, estop, estop_release, steer_mode}: Joy button indices)
+Parameters:  config/joy_control.yaml: every setting, its default and meaning (read through ros.node.NodeSettings)
 """
 import threading
 import time
@@ -19,7 +16,7 @@ from sensor_msgs.msg import Joy
 from inspection_robot.interface import SENDER_JOY
 from inspection_robot.motion.joystick import JoyTeleop
 from inspection_robot.msg import GeneralCmd, MoveCmd
-from inspection_robot.ros.node import init_node
+from inspection_robot.ros.node import NodeSettings, init_node
 
 
 class JoyControl(object):
@@ -71,13 +68,14 @@ class JoyControl(object):
 
 def main():
     init_node("joy_control")
-    rate_hz = float(rospy.get_param("~rate", 20.0))
+    settings = NodeSettings("joy_control")
+    rate_hz = float(settings.get("~rate"))
     if rate_hz <= 0:
         raise ValueError("~rate must be positive")
-    teleop = JoyTeleop(rospy.get_param("~axes", {}), rospy.get_param("~buttons", {}),
-                       float(rospy.get_param("~max_velocity_x", 0.8)), float(rospy.get_param("~max_velocity_yaw", 0.8)),
-                       float(rospy.get_param("~deadzone", 0.1)), float(rospy.get_param("~joy_timeout", 0.5)),
-                       str(rospy.get_param("~terrace_speed", "mid_speed")))
+    teleop = JoyTeleop(settings.get("~axes"), settings.get("~buttons"),
+                       float(settings.get("~max_velocity_x")), float(settings.get("~max_velocity_yaw")),
+                       float(settings.get("~deadzone")), float(settings.get("~joy_timeout")),
+                       str(settings.get("~terrace_speed")))
     node = JoyControl(teleop, rate_hz)
     rospy.on_shutdown(node.shutdown)
     rospy.spin()

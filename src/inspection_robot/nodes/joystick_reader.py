@@ -3,7 +3,8 @@
 Publishes:   joy (sensor_msgs/Joy, axes in [-1, 1] with up/left +1 as the ROS joy package, buttons 0|1,
              header.frame_id = the device path) on every event and at ~autorepeat_rate while the device
              is open; nothing while it is missing, so joy_control's timeout stops the robot.
-Parameters:  ~device ("/dev/input/js0"), ~autorepeat_rate (Hz, 20.0), ~reconnect_max (s, 5.0) backoff cap
+Parameters:  config/joystick_reader.yaml: every setting, its default and meaning (read through
+             ros.node.NodeSettings) (motion.launch passes ~device)
 """
 import os
 import select
@@ -13,7 +14,7 @@ import rospy
 from sensor_msgs.msg import Joy
 
 from inspection_robot.motion.joystick import JsDecoder
-from inspection_robot.ros.node import init_node
+from inspection_robot.ros.node import NodeSettings, init_node
 
 READ_SIZE = 8 * 64
 
@@ -88,10 +89,11 @@ class JoystickReader(object):
 
 def main():
     init_node("joystick_reader")
-    rate = float(rospy.get_param("~autorepeat_rate", 20.0))
-    reconnect_max = float(rospy.get_param("~reconnect_max", 5.0))
+    settings = NodeSettings("joystick_reader")
+    rate = float(settings.get("~autorepeat_rate"))
+    reconnect_max = float(settings.get("~reconnect_max"))
     if rate <= 0 or reconnect_max <= 0:
         raise ValueError("~autorepeat_rate and ~reconnect_max must be positive")
-    node = JoystickReader(str(rospy.get_param("~device", "/dev/input/js0")), rate, reconnect_max)
+    node = JoystickReader(str(settings.get("~device")), rate, reconnect_max)
     rospy.on_shutdown(node.shutdown)
     rospy.spin()

@@ -16,19 +16,10 @@ Publishes:   map (nav_msgs/OccupancyGrid, latched) the static map, never holding
              nav_status (NavStatus) at ~status_rate; virtual_obstacle_ack (GeneralAck)
              initialpose (geometry_msgs/PoseWithCovarianceStamped) on set_location, for the localizer
 Actions:     move_action (GeneralAction) goal type "move"
-Parameters:  site settings, no default (the site file; sim.launch: config/sim_site.yaml): ~map_file
-             (map_server YAML), ~pose_topic (the localizer's), ~init_pose ([x, y, yaw] m, rad);
-             data_root (namespace), ~virtual_obstacles_file (nav/virtual_obstacles.json),
-             ~last_pose_file (nav/last_pose.json; both under data_root unless absolute), ~last_pose_period (s, 5.0),
-             ~robot_radius (m, 0.45), ~safety_margin (m, 0.3), ~margin_cost (4.0), ~coarse_factor (8),
-             ~control_rate (Hz, 20), ~status_rate (Hz, 10), ~feedback_period (s, 0.5),
-             ~default_velocity_x / ~max_velocity_x (m/s, 0.5 / 1.0),
-             ~default_velocity_yaw / ~max_velocity_yaw (rad/s, 0.5 / 1.0),
-             ~follower/* (see nav.follower.FollowerParams; m, rad, m/s),
-             ~off_track_m (m, 0.5), ~replan_min_interval (s, 2.0), ~obstacle_wait (s, 10.0),
-             ~mode_wait (s, 60.0) paused by another control mode before the goal ends with "4",
-             ~max_xy_std (m, 0.5), ~max_yaw_std (rad, 0.2), ~pose_timeout (s, 0.5),
-             ~enable_bits (NavStatus enable bits at start, 7)
+Parameters:  config/move_base.yaml: every setting, its default and meaning (read through ros.node.NodeSettings);
+             site settings, no default (the site file; sim.launch: config/sim_site.yaml): ~map_file (map_server
+             YAML), ~pose_topic (the localizer's), ~init_pose ([x, y, yaw] m, rad); data_root (namespace); ~owners
+             (test rigs only: motion/ros_owner_gate.py)
 """
 import json
 import math
@@ -63,10 +54,10 @@ from inspection_robot.files import FileError, read_json, rename_durable, write_j
 from inspection_robot.nav.planner import Planner, PlanningError
 from inspection_robot.nav.supervisor import FOLLOW, REPLAN, STOP, GoalAborted, GoalSupervisor
 from inspection_robot.nav.virtual_obstacles import VirtualObstacles
-from inspection_robot.ros.node import init_node, site_param
+from inspection_robot.ros.node import NodeSettings, init_node, site_param
 from inspection_robot.motion.ros_owner_gate import OwnerGate
 from inspection_robot.ros.twin import CommandTwin
-from inspection_robot.ros.data_root import data_root, path_param
+from inspection_robot.ros.data_root import data_root
 
 OBSTACLE_CONTROL = {"enable_obstacle": True, "disable_obstacle": False, "switch_obstacle": None}
 
@@ -390,25 +381,22 @@ class MoveBase(object):
         return MOVE_RESULT_CANCELLED, {"reason": "shutting down"}
 
 
-def _params():
+def _params(settings):
     root = data_root()
     cfg = {
         "data_root": root,
         "map_file": site_param("~map_file"),
         "pose_topic": site_param("~pose_topic"),
-        "virtual_obstacles_file": path_param("~virtual_obstacles_file", "nav/virtual_obstacles.json", root),
-        "last_pose_file": path_param("~last_pose_file", "nav/last_pose.json", root),
+        "virtual_obstacles_file": settings.path("~virtual_obstacles_file", root),
+        "last_pose_file": settings.path("~last_pose_file", root),
         "init_pose": [float(v) for v in site_param("~init_pose")],
-        "enable_bits": int(rospy.get_param("~enable_bits", 7)),
+        "enable_bits": int(settings.get("~enable_bits")),
     }
-    floats = {"last_pose_period": 5.0, "robot_radius": 0.45, "safety_margin": 0.3, "margin_cost": 4.0,
-              "control_rate": 20.0, "status_rate": 10.0, "feedback_period": 0.5,
-              "default_velocity_x": 0.5, "max_velocity_x": 1.0, "default_velocity_yaw": 0.5,
-              "max_velocity_yaw": 1.0, "off_track_m": 0.5, "replan_min_interval": 2.0, "obstacle_wait": 10.0,
-              "mode_wait": 60.0,
-              "max_xy_std": 0.5, "max_yaw_std": 0.2, "pose_timeout": 0.5, "coarse_factor": 8}
-    for name, default in floats.items():
-        cfg[name] = float(rospy.get_param("~" + name, default))
+    for name in ("last_pose_period", "robot_radius", "safety_margin", "margin_cost", "control_rate", "status_rate",
+                 "feedback_period", "default_velocity_x", "max_velocity_x", "default_velocity_yaw", "max_velocity_yaw",
+                 "off_track_m", "replan_min_interval", "obstacle_wait", "mode_wait", "max_xy_std", "max_yaw_std",
+                 "pose_timeout", "coarse_factor"):
+        cfg[name] = float(settings.get("~" + name))
     for name in ("control_rate", "status_rate", "last_pose_period", "feedback_period", "max_velocity_x",
                  "max_velocity_yaw", "default_velocity_x", "default_velocity_yaw", "pose_timeout", "max_xy_std",
                  "max_yaw_std"):
@@ -421,8 +409,9 @@ def _params():
 
 def main():
     init_node("move_base")
-    cfg = _params()
-    follower_params = FollowerParams(**{k: float(v) for k, v in rospy.get_param("~follower", {}).items()})
+    settings = NodeSettings("move_base")
+    cfg = _params(settings)
+    follower_params = FollowerParams(**{k: float(v) for k, v in settings.get("~follower").items()})
     grid = load_map(cfg["map_file"])
     obstacles = VirtualObstacles(cfg["virtual_obstacles_file"])
     try:

@@ -7,13 +7,9 @@ Subscribes:  ~cloud_topic ("obstacle_cloud", sensor_msgs/PointCloud2, float32 x/
 Publishes:   obstacle_status (ObstacleStatus, latched): once at start-up (false), then on every change and
              again every ~republish_period: robot_control takes a state not refreshed within its
              ~obstacle_timeout for an obstacle, so a silent detector never leaves a stale clear holding
-Parameters:  ~half_width (m, 0.45), ~front_offset (m, 0.45), ~rear_offset (m, 0.45), ~distance (m, 1.2),
-             ~ground_height (m, 0.08), ~max_height (m, 1.8), ~spin_radius (m, 0.8), ~min_points (5),
-             ~driver (pointcloud | sim | none | "package.module:Class" with ~driver_params, required; none:
-             no 3-D sensor fitted, obstacle_status stays false; a plug-in is start(callback)ed with
-             N x 3 float arrays), ~clear_count (clouds, 3),
-             ~sensor_pose ([x, y, z, yaw] of the sensor in the robot frame, m/rad)
-             ~republish_period (s, 1.0): the state is re-asserted this often
+Parameters:  config/obstacle_detector.yaml: every setting, its default and meaning (read through
+             ros.node.NodeSettings); ~driver is required (none: no 3-D sensor fitted, obstacle_status stays false; a
+             plug-in is start(callback)ed with N x 3 float arrays)
 """
 import threading
 
@@ -23,7 +19,7 @@ from sensor_msgs.msg import PointCloud2, PointField
 from inspection_robot.drivers import SIM, make_driver, not_fitted_reason
 from inspection_robot.msg import MoveCmd, ObstacleStatus
 from inspection_robot.nav.obstacle import FORWARD, CorridorDetector, direction_from_command, xyz_from_cloud
-from inspection_robot.ros.node import init_node
+from inspection_robot.ros.node import NodeSettings, init_node
 
 
 class ObstacleDetector(object):
@@ -74,12 +70,12 @@ class ObstacleDetector(object):
 
 def main():
     init_node("obstacle_detector")
-    p = {name: float(rospy.get_param("~" + name, default)) for name, default in (
-        ("half_width", 0.45), ("front_offset", 0.45), ("rear_offset", 0.45), ("distance", 1.2),
-        ("ground_height", 0.08), ("max_height", 1.8), ("spin_radius", 0.8))}
-    sensor_pose = [float(v) for v in rospy.get_param("~sensor_pose", [0.0, 0.0, 0.0, 0.0])]
-    min_points, clear_count = int(rospy.get_param("~min_points", 5)), int(rospy.get_param("~clear_count", 3))
-    republish_period = float(rospy.get_param("~republish_period", 1.0))
+    settings = NodeSettings("obstacle_detector")
+    p = {name: float(settings.get("~" + name)) for name in (
+        "half_width", "front_offset", "rear_offset", "distance", "ground_height", "max_height", "spin_radius")}
+    sensor_pose = [float(v) for v in settings.get("~sensor_pose")]
+    min_points, clear_count = int(settings.get("~min_points")), int(settings.get("~clear_count"))
+    republish_period = float(settings.get("~republish_period"))
     if not republish_period > 0:
         raise ValueError("~republish_period must be positive, got %r" % republish_period)
     if len(sensor_pose) != 4:
@@ -91,11 +87,11 @@ def main():
     detector = CorridorDetector(p["half_width"], p["front_offset"], p["rear_offset"], p["distance"],
                                 p["ground_height"], p["max_height"], p["spin_radius"], min_points, clear_count,
                                 sensor_pose)
-    cloud_topic = rospy.get_param("~cloud_topic", "obstacle_cloud")
+    cloud_topic = settings.get("~cloud_topic")
     node = ObstacleDetector(detector, republish_period)
-    source = make_driver("sensor3d", rospy.get_param("~driver", ""),
+    source = make_driver("sensor3d", settings.get("~driver"),
                          {SIM: lambda: cloud_topic, "pointcloud": lambda: cloud_topic},
-                         rospy.get_param("~driver_params", {}))
+                         settings.get("~driver_params"))
     if source is None:
         rospy.logwarn("obstacle_detector: %s: no obstacle detection, obstacle_status stays false"
                       % not_fitted_reason("sensor3d"))

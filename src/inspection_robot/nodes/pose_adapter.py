@@ -3,20 +3,18 @@
 Subscribes:  ~input_topic (geometry_msgs/PoseWithCovarianceStamped; mode topic), TF (mode tf)
 Publishes:   ~output_topic (geometry_msgs/PoseWithCovarianceStamped, frame ~map_frame): mode topic
              on every input, mode tf at ~rate while the lookup ~map_frame -> ~base_frame succeeds
-Parameters:  ~mode (none|topic|tf, required; none: nothing to adapt, the node only idles, since
-             robot.launch always starts it and the site file's pose_adapter/mode switches it on),
-             ~input_topic (amcl_pose), ~output_topic (localization/pose), ~rate (Hz, 10), ~map_frame
-             (map), ~base_frame (base_link), ~sigma_xy (m, 0.05), ~sigma_yaw (rad, 0.02) the
-             covariance published in tf mode, ~error_period (s, 5) between errors of a failing lookup
+Parameters:  config/pose_adapter.yaml: every setting, its default and meaning (read through ros.node.NodeSettings)
+             (~mode none: nothing to adapt, the node only idles, since robot.launch always starts it and the site
+             file's pose_adapter/mode switches it on)
 """
 import rospy
 import tf2_ros
 from geometry_msgs.msg import PoseWithCovarianceStamped
 
 from inspection_robot.angles import quaternion_from_yaw
-from inspection_robot.nav.pose_adapter import (MODE_NONE, MODE_TF, AdapterParams, LookupWatch, planar_covariance,
-                                               pose_from_transform)
-from inspection_robot.ros.node import init_node
+from inspection_robot.nav.pose_adapter import (ADAPTER_SETTINGS, MODE_NONE, MODE_TF, AdapterParams, LookupWatch,
+                                               planar_covariance, pose_from_transform)
+from inspection_robot.ros.node import NodeSettings, init_node
 
 
 class TfPoseAdapter(object):
@@ -59,10 +57,8 @@ class TopicPoseAdapter(object):
 
 def main():
     init_node("pose_adapter")
-    names = ("input_topic", "output_topic", "rate", "map_frame", "base_frame", "sigma_xy", "sigma_yaw",
-             "error_period")
-    given = {n: rospy.get_param("~" + n) for n in names if rospy.has_param("~" + n)}
-    params = AdapterParams(rospy.get_param("~mode", None), **given)
+    settings = NodeSettings("pose_adapter")
+    params = AdapterParams(settings.get("~mode"), **{n: settings.get("~" + n) for n in ADAPTER_SETTINGS})
     if params.mode == MODE_NONE:
         rospy.loginfo("pose_adapter: mode none, nothing to adapt (move_base reads the localizer's own topic, "
                       "the site setting move_base/pose_topic)")

@@ -8,12 +8,8 @@ Services:    camera_control (get_zoom_level, get_focus_position, set_osd_mode, s
              capture_picture), infrared_control (capture_picture, save_temperature),
              terrace_control (get_angle: asked every time, so a preferred move that is still
              under way finishes first, cloud_terrace serving one command at a time): clients
-Parameters:  data_root (namespace), ~preset_root (str, presets, under data_root):
-             <preset_root>/<preset_id>/<YYYYMMDD_HHMMSS>/
-             ~camera_optics (dict, config/camera_optics.yaml): the widest zoom of the ladder
-             ~arm_default_trajectory (str, arm/default_orbit.csv),
-             ~arm_trajectory_roots (list, [arm]): extra_data "1[,file]"
-             ~service_timeout (s, 10.0)
+Parameters:  config/preset_scale.yaml: every setting, its default and meaning (read through ros.node.NodeSettings),
+             and config/camera_optics.yaml (~camera_optics: the widest zoom of the ladder); data_root (namespace)
 Requests are served one at a time by a worker thread; the zoom is restored after the pictures.
 """
 import os
@@ -29,11 +25,11 @@ from inspection_robot.inspection.finder import FindError
 from inspection_robot.inspection.preset import PresetError, check_preset_id
 from inspection_robot.inspection.recorder import record_preset
 from inspection_robot.interface import ACK_FAILED, ACK_SUCCESS
-from inspection_robot.ros.node import init_node
+from inspection_robot.ros.node import NodeSettings, init_node
 from inspection_robot.ros.worker import RequestWorker
 from inspection_robot.msg import PresetScaleAck, PresetScaleCmd
 from inspection_robot.inspection.ros_head import HeadingWatcher, RosHead
-from inspection_robot.ros.data_root import data_root, path_list_param, path_param
+from inspection_robot.ros.data_root import data_root
 
 NODE_NAME = "preset_scale"
 
@@ -97,13 +93,14 @@ class PresetScaleNode(object):
 
 def main():
     init_node(NODE_NAME)
+    settings = NodeSettings("preset_scale")
     root = data_root()
-    preset_root = path_param("~preset_root", "presets", root)
-    optics_cfg = rospy.get_param("~camera_optics")
+    preset_root = settings.path("~preset_root", root)
+    optics_cfg = settings.get("~camera_optics")
     optics = ZoomOptics(optics_cfg["zoom_hfov_deg"], optics_cfg["width"], optics_cfg["height"])
-    arm_default = path_param("~arm_default_trajectory", "arm/default_orbit.csv", root)
-    arm_roots = path_list_param("~arm_trajectory_roots", ["arm"], root)
-    service_timeout = float(rospy.get_param("~service_timeout", 10.0))
+    arm_default = settings.path("~arm_default_trajectory", root)
+    arm_roots = settings.path_list("~arm_trajectory_roots", root)
+    service_timeout = float(settings.get("~service_timeout"))
     if service_timeout <= 0:
         raise ValueError("~service_timeout must be positive")
     os.makedirs(preset_root, exist_ok=True)

@@ -5,11 +5,8 @@ Publishes:   read_scale_ack (ReadScaleAck): result success | "uncertain: box <i>
              pointer reading under the confidence threshold) | failed; on failure foreign_result holds
              the reason. scale/possibility/picture_path aligned with the calibrated targets,
              foreign_* aligned with foreign_filename.
-Parameters:  data_root (namespace); under it unless absolute: ~preset_root (str, presets): holds <preset_id>/<stamp>/
-             ~picture_root (str, pictures): results in <preset_id>/
-             ~extra_picture_roots (list of str, [captures, thermal]): further roots input pictures may come from
-             ~detector (str, orb): orb | akaze | sift, for aligning foreign pictures with the reference
-             ~queue_size (int >= 1, 10): pending requests before new ones are refused
+Parameters:  config/read_scale.yaml: every setting, its default and meaning (read through ros.node.NodeSettings);
+             data_root (namespace)
 Requests are served one at a time in arrival order by a worker thread.
 """
 import os
@@ -23,9 +20,9 @@ from inspection_robot.inspection.locate import Locator
 from inspection_robot.inspection.reading import ReadError, ScaleReader, result_text
 from inspection_robot.interface import ACK_FAILED, ACK_SUCCESS
 from inspection_robot.msg import ReadScaleAck, ReadScaleCmd
-from inspection_robot.ros.node import init_node
+from inspection_robot.ros.node import NodeSettings, init_node
 from inspection_robot.ros.worker import RequestWorker
-from inspection_robot.ros.data_root import data_root, path_list_param, path_param
+from inspection_robot.ros.data_root import data_root
 
 NODE_NAME = "read_scale"
 
@@ -81,12 +78,13 @@ class ReadScaleNode(object):
 
 def main():
     init_node(NODE_NAME)
+    settings = NodeSettings("read_scale")
     root = data_root()
-    preset_root = path_param("~preset_root", "presets", root)
-    picture_root = path_param("~picture_root", "pictures", root)
-    extra = path_list_param("~extra_picture_roots", [], root)
-    detector = rospy.get_param("~detector", "orb")
-    queue_size = int(rospy.get_param("~queue_size", 10))
+    preset_root = settings.path("~preset_root", root)
+    picture_root = settings.path("~picture_root", root)
+    extra = settings.path_list("~extra_picture_roots", root)
+    detector = settings.get("~detector")
+    queue_size = int(settings.get("~queue_size"))
     if queue_size < 1:
         raise ValueError("~queue_size must be >= 1, got %d" % queue_size)
     for folder in (preset_root, picture_root):

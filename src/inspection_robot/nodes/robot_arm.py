@@ -6,15 +6,9 @@ Services:    arm_control (ControlService): every arm command
 Subscribes:  arm_cmd (GeneralCmd), control_status (ControlStatus): joystick-busy rule
 Publishes:   arm_ack (GeneralAck): replies to arm_cmd, and unprompted reports (trans_id 0,
                receiver "") when a recording or playback ends or fails
-Parameters:  ~driver (sim | none | "package.module:Class" with ~driver_params, required; none answers
-               every command failed "unsupported: arm not fitted (driver: none)"),
-             data_root (namespace), ~trajectory_roots ([arm], under data_root unless absolute): where
-             trajectory files may live, ~default_trajectory ("arm/default_orbit.csv"),
-             ~record_rate (Hz, 20.0), ~move_timeout (s, 20.0), ~tolerance_mm (0.5),
-             ~tolerance_deg (0.5), ~max_record_s (s, 600.0),
-             ~limits/position_mm ({x: [-600, 600], y: [-600, 600], z: [-200, 800]}),
-             ~limits/orientation_deg ({roll: [-180, 180], pitch: [-90, 90], yaw: [-180, 180]}),
-             ~sim/linear_speed_mm_s (200.0), ~sim/angular_speed_deg_s (90.0)
+Parameters:  config/robot_arm.yaml: every setting, its default and meaning (read through ros.node.NodeSettings);
+             ~driver is required (none answers every command failed "unsupported: arm not fitted (driver: none)");
+             data_root (namespace)
 """
 import os
 
@@ -25,19 +19,17 @@ from inspection_robot.arm.driver import Limits
 from inspection_robot.command import CommandTable, failed
 from inspection_robot.drivers import SIM, make_driver, not_fitted_reason
 from inspection_robot.interface import ARM_COMMANDS, UNSUPPORTED
-from inspection_robot.ros.node import init_node
+from inspection_robot.ros.node import NodeSettings, init_node
 from inspection_robot.ros.twin import CommandTwin, serve_table
-from inspection_robot.ros.data_root import data_root, path_list_param, path_param
+from inspection_robot.ros.data_root import data_root
 
 NODE_NAME = "robot_arm"
-DEFAULT_LIMITS = {"position_mm": {"x": [-600, 600], "y": [-600, 600], "z": [-200, 800]},
-                  "orientation_deg": {"roll": [-180, 180], "pitch": [-90, 90], "yaw": [-180, 180]}}
 
 
-def _limits(param):
-    merged = {key: dict(DEFAULT_LIMITS[key], **param.get(key, {})) for key in DEFAULT_LIMITS}
-    return Limits(tuple(tuple(merged["position_mm"][n]) for n in AXIS_NAMES[0]),
-                  tuple(tuple(merged["orientation_deg"][n]) for n in AXIS_NAMES[1]))
+def _limits(limits):
+    """Limits from ``~limits`` (every axis given: the file's, merged under the parameter server's)."""
+    return Limits(tuple(tuple(limits["position_mm"][n]) for n in AXIS_NAMES[0]),
+                  tuple(tuple(limits["orientation_deg"][n]) for n in AXIS_NAMES[1]))
 
 
 def _serve_sim_faults(arm):
@@ -48,12 +40,13 @@ def _serve_sim_faults(arm):
 
 def main():
     init_node(NODE_NAME)
-    driver_spec = rospy.get_param("~driver", "")
+    settings = NodeSettings("robot_arm")
+    driver_spec = settings.get("~driver")
     root = data_root()
-    roots = path_list_param("~trajectory_roots", ["arm"], root)
-    default_file = path_param("~default_trajectory", "arm/default_orbit.csv", root)
-    limits = _limits(rospy.get_param("~limits", {}))
-    sim = rospy.get_param("~sim", {})
+    roots = settings.path_list("~trajectory_roots", root)
+    default_file = settings.path("~default_trajectory", root)
+    limits = _limits(settings.get("~limits"))
+    sim = settings.get("~sim")
     for folder in roots:
         os.makedirs(folder, exist_ok=True)
     holder = {}
@@ -64,21 +57,21 @@ def main():
 
     def simulator():
         from inspection_robot.sim.arm import SimArm
-        arm = SimArm(limits, sim.get("linear_speed_mm_s", 200.0), sim.get("angular_speed_deg_s", 90.0))
+        arm = SimArm(limits, sim["linear_speed_mm_s"], sim["angular_speed_deg_s"])
         _serve_sim_faults(arm)
         return arm
 
-    arm = make_driver("arm", driver_spec, {SIM: simulator}, rospy.get_param("~driver_params", {}))
+    arm = make_driver("arm", driver_spec, {SIM: simulator}, settings.get("~driver_params"))
     if arm is None:  # driver: none
         reason = "%s: %s" % (UNSUPPORTED, not_fitted_reason("arm"))
         table = CommandTable({name: (lambda data: failed(reason)) for name in ARM_COMMANDS})
     else:
         controller = ArmController(arm, roots, default_file,
-                                   record_rate_hz=float(rospy.get_param("~record_rate", 20.0)),
-                                   move_timeout=float(rospy.get_param("~move_timeout", 20.0)),
-                                   tolerance_mm=float(rospy.get_param("~tolerance_mm", 0.5)),
-                                   tolerance_deg=float(rospy.get_param("~tolerance_deg", 0.5)),
-                                   max_record_s=float(rospy.get_param("~max_record_s", 600.0)),
+                                   record_rate_hz=float(settings.get("~record_rate")),
+                                   move_timeout=float(settings.get("~move_timeout")),
+                                   tolerance_mm=float(settings.get("~tolerance_mm")),
+                                   tolerance_deg=float(settings.get("~tolerance_deg")),
+                                   max_record_s=float(settings.get("~max_record_s")),
                                    report=report)
         table = controller.table()
         rospy.on_shutdown(controller.shutdown)

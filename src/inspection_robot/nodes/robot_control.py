@@ -29,24 +29,12 @@ Services:    imu_control (ControlService): twin of imu_cmd/imu_ack
              sim only: sim/inject_fault (ControlService): cmd = fault (hard_estop, bumper, fall_left,
                  fall_right, motor_disconnect, joystick_link_lost, stepper_comm, low_battery) or
                  condition (at_dock, charger_off), data 1|0; query; set_pose "x,y,yaw"; set_soc "%"
-Parameters:  ~driver (sim | ros | none | "package.module:Class", required; see inspection_robot.drivers),
-             ~driver_params ({}): vendor constructor kwargs
-             ~ros_base ({}): with driver ros, the base's topics, services and timeouts
-                 (motion.base_inputs.SETTINGS; cmd_vel out, odom / battery_state / Bool inputs in,
-                 charge relay SetBool service or Bool topic; odom_timeout 0.5 s, battery_timeout 5 s)
-             ~rate (Hz, 50.0) control cycle; ~status_rate (Hz, 10.0)
-             ~cmd_timeout (s, 0.5)
-             ~obstacle_timeout (s, 3.0; 0 = never): an obstacle state not refreshed for this long is an
-                 obstacle (obstacle_detector re-asserts every ~republish_period, 1 s)
-             ~owners ({}): {obstacle_status|robot_status|joy_control|move_base: node name} over the
-                 defaults (motion.owners.DEFAULT_OWNERS), relative to the namespace; test rigs only
-             ~max_velocity_x (m/s, 1.0), ~max_velocity_yaw (rad/s, 1.0)
-             ~refuse_velocity_x (m/s, 5.0), ~refuse_velocity_yaw (rad/s, 5.0)
-             ~odom_frame ("odom"), ~base_frame ("base_link"), ~publish_tf (true)
-             ~voice_language ("chinese")
-             ~sim ({}): SimChassis parameters; ~sim_world (config/sim_world.yaml, loaded by the launch
-                 file): the simulated robot starts at world.robot.start_pose ([x, y, yaw] in map) and
-                 charges on world.dock
+Parameters:  config/robot_control.yaml: every setting, its default and meaning (read through ros.node.NodeSettings);
+             ~driver is required (see inspection_robot.drivers; ~ros_base with driver ros:
+             motion.base_inputs.SETTINGS); ~owners ({obstacle_status|robot_status|joy_control|move_base: node name}
+             over the defaults (motion.owners.DEFAULT_OWNERS), relative to the namespace; test rigs only);
+             ~sim_world (config/sim_world.yaml, loaded by the launch file in simulation): the simulated robot starts
+             at world.robot.start_pose ([x, y, yaw] in map) and charges on world.dock
 """
 import time
 import traceback
@@ -69,7 +57,7 @@ from inspection_robot.motion.velocity import VelocityLimits
 from inspection_robot.msg import ControlStatus, GeneralAck, GeneralCmd, MoveCmd, ObstacleStatus, RobotStatus, VoiceCmd
 from inspection_robot.motion.ros_chassis import RosChassis
 from inspection_robot.ros.data_root import data_root
-from inspection_robot.ros.node import init_node
+from inspection_robot.ros.node import NodeSettings, init_node
 from inspection_robot.motion.ros_owner_gate import OwnerGate
 from inspection_robot.ros.twin import CommandTwin, control_response
 from inspection_robot.srv import ControlService
@@ -310,17 +298,18 @@ def _log(level, text):
 
 def main():
     init_node(NODE_NAME)
-    driver_spec = rospy.get_param("~driver", "")
-    rate_hz = float(rospy.get_param("~rate", 50.0))
-    status_rate_hz = float(rospy.get_param("~status_rate", 10.0))
-    cmd_timeout = float(rospy.get_param("~cmd_timeout", 0.5))
-    obstacle_timeout = float(rospy.get_param("~obstacle_timeout", 3.0))
+    settings = NodeSettings("robot_control")
+    driver_spec = settings.get("~driver")
+    rate_hz = float(settings.get("~rate"))
+    status_rate_hz = float(settings.get("~status_rate"))
+    cmd_timeout = float(settings.get("~cmd_timeout"))
+    obstacle_timeout = float(settings.get("~obstacle_timeout"))
     owners = OwnerGate.from_param(NODE_NAME)
-    limits = VelocityLimits(float(rospy.get_param("~max_velocity_x", 1.0)),
-                            float(rospy.get_param("~max_velocity_yaw", 1.0)),
-                            float(rospy.get_param("~refuse_velocity_x", 5.0)),
-                            float(rospy.get_param("~refuse_velocity_yaw", 5.0)))
-    language = str(rospy.get_param("~voice_language", "chinese"))
+    limits = VelocityLimits(float(settings.get("~max_velocity_x")),
+                            float(settings.get("~max_velocity_yaw")),
+                            float(settings.get("~refuse_velocity_x")),
+                            float(settings.get("~refuse_velocity_yaw")))
+    language = str(settings.get("~voice_language"))
     if rate_hz <= 0 or status_rate_hz <= 0:
         raise ValueError("~rate and ~status_rate must be positive")
     if obstacle_timeout < 0:
@@ -331,18 +320,18 @@ def main():
     def simulator():
         from inspection_robot.sim.chassis import SimChassis
         return SimChassis.from_world(time.monotonic, rospy.get_param("~sim_world/world", {}),
-                                     **rospy.get_param("~sim", {}))
+                                     **settings.get("~sim"))
 
     def ros_base():
-        return RosChassis(parse_settings(rospy.get_param("~" + ROS_BASE_PARAM, {})), time.monotonic, NODE_NAME)
+        return RosChassis(parse_settings(settings.get("~" + ROS_BASE_PARAM)), time.monotonic, NODE_NAME)
 
     driver = make_driver("chassis", driver_spec, {SIM: simulator, "ros": ros_base},
-                         rospy.get_param("~driver_params", {}), NoChassis)
+                         settings.get("~driver_params"), NoChassis)
     sim = driver if driver_spec == SIM else None
     controller = MotionController(driver, limits, cmd_timeout, time.monotonic, log=_log,
                                   obstacle_timeout=obstacle_timeout or None)
-    node = RobotControl(controller, owners, rate_hz, status_rate_hz, str(rospy.get_param("~odom_frame", "odom")),
-                        str(rospy.get_param("~base_frame", "base_link")), bool(rospy.get_param("~publish_tf", True)),
+    node = RobotControl(controller, owners, rate_hz, status_rate_hz, str(settings.get("~odom_frame")),
+                        str(settings.get("~base_frame")), bool(settings.get("~publish_tf")),
                         language, data_root(), sim=sim)
     rospy.on_shutdown(node.shutdown)
     rospy.loginfo("%s: driver %s, %.0f Hz, cmd_timeout %.2f s, safety inputs from %s" % (

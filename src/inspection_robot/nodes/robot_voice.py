@@ -3,10 +3,8 @@
 Subscribes:  voice_cmd (VoiceCmd)
 Publishes:   voice_ack (GeneralAck): success with the spoken text, or failed with the reason;
              trans_id echoed (a project addition: the spec defines no reply)
-Parameters:  ~output (speaker|file, "file"; the launch file picks file in simulation, speaker otherwise),
-             ~clip_dir (dir of <name>.wav clips, "~/.ros/voice_clips"; the launch file passes config/voice_clips),
-             ~out_dir (file output: where utterances are written, "voice_out" under the namespace's data_root),
-             ~queue_size (requests waiting, >= 1, 10)
+Parameters:  config/robot_voice.yaml: every setting, its default and meaning (read through ros.node.NodeSettings);
+             data_root (namespace: ~out_dir lies under it unless absolute)
 Requests are played one after another by a worker thread; a full queue drops the new request
 with a failed ack rather than delaying every later prompt.
 """
@@ -16,11 +14,11 @@ import rospy
 
 from inspection_robot.interface import ACK_FAILED, ACK_SUCCESS
 from inspection_robot.msg import GeneralAck, VoiceCmd
-from inspection_robot.ros.node import init_node
+from inspection_robot.ros.node import NodeSettings, init_node
 from inspection_robot.ros.worker import RequestWorker
 from inspection_robot.voice.phrases import Speech, VoiceError, parse_command
 from inspection_robot.voice.player import FileOutput, SpeakerOutput
-from inspection_robot.ros.data_root import data_root, path_param
+from inspection_robot.ros.data_root import data_root
 
 
 class RobotVoice(object):
@@ -53,13 +51,14 @@ class RobotVoice(object):
 
 def main():
     init_node("robot_voice")
-    kind = rospy.get_param("~output", "file")
-    clip_dir = os.path.expanduser(rospy.get_param("~clip_dir", "~/.ros/voice_clips"))
-    queue_size = int(rospy.get_param("~queue_size", 10))
+    settings = NodeSettings("robot_voice")
+    kind = settings.get("~output")
+    clip_dir = os.path.expanduser(settings.get("~clip_dir"))
+    queue_size = int(settings.get("~queue_size"))
     if queue_size < 1:  # 0 would make the worker's queue unbounded: nothing ever refused
         raise ValueError("~queue_size must be >= 1, got %d" % queue_size)
     if kind == "file":
-        out_dir = path_param("~out_dir", "voice_out", data_root())
+        out_dir = settings.path("~out_dir", data_root())
         output = FileOutput(clip_dir, out_dir)
     elif kind == "speaker":
         output = SpeakerOutput(clip_dir)

@@ -14,31 +14,11 @@ Publishes:   client_count (std_msgs/Int32, latched): connected websocket clients
 Subscribes:  every topic a client subscribes to (one ROS subscriber per topic, shared); the answers to
              a backend's commands (interface.BACKEND_ACK_TYPES: every *_ack) from the start, kept
 Services:    every service a client advertises; calls any ROS service for clients
-Parameters:  ~port (int, 9090; 0 = any free port), ~address (str, "127.0.0.1"; "" = all),
-             ~actual_port (int, written: the bound port),
-             ~certfile / ~keyfile (str, ""; both set = TLS), ~client_ca (str, "": CA file; set = TLS
-             client certificates required), ~auth_token (str, ""; empty = no auth),
-             ~auth_token_file (str, "": file holding the token, mode 600 or stricter),
-             ~insecure (bool, false): allow a non-loopback ~address without token or client
-             certificates (warns every minute); otherwise such a bind is refused at start-up,
-             ~auth_window (s, 60.0), ~auth_max_failures (int, 5: failed auths per peer address within
-             60 s before it is refused for 60 s), ~allowed_origins (list of str, []: browser origins
-             accepted besides the console's own), ~auth_timeout (s, 10.0: an unauthenticated client is
-             closed after it), ~handshake_timeout (s, 10.0: TLS + HTTP handshake of a connection),
-             ~max_message_size (bytes, 10000000: a frame, a fragmented message, a client's fragmented
-             messages in progress together), ~preauth_bytes (bytes, 16384: what an unauthenticated client
-             may send, per frame and in all, before it is closed), ~max_clients_per_address (int, 32:
-             websocket clients per peer address, loopback included),
-             ~ping_interval (s, 10.0; 0 = off), ~ping_timeout (s, 30.0),
-             ~client_budget (bytes per client send queue, 67108864), ~budget_grace (s, 5.0: over budget
-             that long = disconnected), ~fragment_timeout (s, 600.0),
-             ~service_timeout (s, 10.0: wait for a client's service_response),
-             ~subscriber_queue_size (ROS messages per subscribed topic, 0 = unbounded as rosbridge),
-             ~service_threads (int, 8: concurrent service calls / rosapi requests),
-             ~console (bool, true: serve the operator console at /console/),
-             ~console_dir (str: web/console of the package), ~console_vendor_dir (str: roslib's build/),
-             ~nice (int, 0 = unchanged; -20..19: the process's scheduling niceness, below 0 needs
-             CAP_SYS_NICE or RLIMIT_NICE; shortens the echo tail on a busy CPU)
+Parameters:  config/rosbridge_websocket.yaml: every setting, its default and meaning (read through
+             ros.node.NodeSettings); ~address (command line only, bridge.launch's address argument: "127.0.0.1" when
+             none; "" = all), ~actual_port (int, written: the bound port). The security settings
+             (fixed_settings.FIXED_KEYS) come from that file, the site file and the command line only, never the
+             parameter server
 Environment: INSPECTION_BRIDGE_TRACE (a topic: time its echoes' stages, bridge/trace.py),
              INSPECTION_BRIDGE_TRACE_FILE (str, /tmp/bridge_trace.json: written at shutdown)
 """
@@ -70,10 +50,10 @@ from inspection_robot.bridge.server import BridgeServer, LoopPoster, make_ssl_co
 from inspection_robot.bridge.surface import CONSOLE_LINK_PATH, Surface, role_of_path
 from inspection_robot.fixed_settings import FIXED_KEYS, fixed_settings, overridden
 from inspection_robot.interface import BACKEND_ACK_TYPES, BACKEND_TOPIC_TYPES
-from inspection_robot.ros.package_share import share_file
-from inspection_robot.ros.node import init_node, renice
+from inspection_robot.ros.node import NodeSettings, init_node, renice
 
 NODE = "rosbridge_websocket"
+LOOPBACK = "127.0.0.1"   # ~address when the command line gives none (bridge.launch passes its address argument)
 INSECURE_WARNING_PERIOD = 60.0  # s between warnings while insecure:=true leaves the link open
 
 # A client repeating one bad request must not flood the log: identical lines once a second.
@@ -86,10 +66,10 @@ def log(level, text):
     LOGGERS.get(level, rospy.loginfo)("bridge: " + text)
 
 
-def read_fixed():
+def read_fixed(settings):
     """The security settings (fixed_settings.FIXED_KEYS): from the defaults file, the site file and the
     command line only; a parameter-server value that differs is ignored and named in a warning."""
-    fixed = fixed_settings(NODE, sys.argv[1:], share_file("config", NODE + ".yaml"), os.environ)
+    fixed = fixed_settings(NODE, sys.argv[1:], settings.defaults.files[0], os.environ)
     current = {key: rospy.get_param("~" + key) for key in FIXED_KEYS[NODE] if rospy.has_param("~" + key)}
     changed = overridden(fixed, current)
     if changed:
@@ -99,38 +79,38 @@ def read_fixed():
     return fixed
 
 
-def read_params():
-    fixed = read_fixed()
+def read_params(settings):
+    fixed = read_fixed(settings)
     params = {
-        "port": int(rospy.get_param("~port", 9090)),
-        "address": str(fixed.get("address", "127.0.0.1")),
-        "certfile": str(fixed.get("certfile", "")),
-        "keyfile": str(fixed.get("keyfile", "")),
-        "auth_token": str(fixed.get("auth_token", "")),
-        "auth_token_file": str(fixed.get("auth_token_file", "")),
-        "client_ca": str(fixed.get("client_ca", "")),
-        "insecure": fixed.get("insecure", False),
-        "surface": fixed.get("surface", "robot"),
-        "auth_window": float(rospy.get_param("~auth_window", 60.0)),
-        "auth_max_failures": int(rospy.get_param("~auth_max_failures", 5)),
-        "auth_timeout": float(rospy.get_param("~auth_timeout", 10.0)),
-        "handshake_timeout": float(rospy.get_param("~handshake_timeout", 10.0)),
-        "allowed_origins": fixed.get("allowed_origins", []),
-        "max_message_size": int(rospy.get_param("~max_message_size", 10000000)),
-        "preauth_bytes": int(rospy.get_param("~preauth_bytes", 16384)),
-        "max_clients_per_address": int(rospy.get_param("~max_clients_per_address", 32)),
-        "ping_interval": float(rospy.get_param("~ping_interval", 10.0)),
-        "ping_timeout": float(rospy.get_param("~ping_timeout", 30.0)),
-        "client_budget": int(rospy.get_param("~client_budget", 64 << 20)),
-        "budget_grace": float(rospy.get_param("~budget_grace", 5.0)),
-        "fragment_timeout": float(rospy.get_param("~fragment_timeout", 600.0)),
-        "service_timeout": float(rospy.get_param("~service_timeout", 10.0)),
-        "subscriber_queue_size": int(rospy.get_param("~subscriber_queue_size", 0)),
-        "service_threads": int(rospy.get_param("~service_threads", 8)),
-        "console": bool(rospy.get_param("~console", True)),
-        "console_dir": str(rospy.get_param("~console_dir", "")),
-        "console_vendor_dir": str(rospy.get_param("~console_vendor_dir", "")),
-        "nice": int(rospy.get_param("~nice", 0)),
+        "port": int(settings.get("~port")),
+        "address": str(fixed.get("address", LOOPBACK)),   # the launch's address argument
+        "certfile": str(fixed["certfile"]),
+        "keyfile": str(fixed["keyfile"]),
+        "auth_token": str(fixed["auth_token"]),
+        "auth_token_file": str(fixed["auth_token_file"]),
+        "client_ca": str(fixed["client_ca"]),
+        "insecure": fixed["insecure"],
+        "surface": fixed["surface"],
+        "auth_window": float(settings.get("~auth_window")),
+        "auth_max_failures": int(settings.get("~auth_max_failures")),
+        "auth_timeout": float(settings.get("~auth_timeout")),
+        "handshake_timeout": float(settings.get("~handshake_timeout")),
+        "allowed_origins": fixed["allowed_origins"],
+        "max_message_size": int(settings.get("~max_message_size")),
+        "preauth_bytes": int(settings.get("~preauth_bytes")),
+        "max_clients_per_address": int(settings.get("~max_clients_per_address")),
+        "ping_interval": float(settings.get("~ping_interval")),
+        "ping_timeout": float(settings.get("~ping_timeout")),
+        "client_budget": int(settings.get("~client_budget")),
+        "budget_grace": float(settings.get("~budget_grace")),
+        "fragment_timeout": float(settings.get("~fragment_timeout")),
+        "service_timeout": float(settings.get("~service_timeout")),
+        "subscriber_queue_size": int(settings.get("~subscriber_queue_size")),
+        "service_threads": int(settings.get("~service_threads")),
+        "console": bool(settings.get("~console")),
+        "console_dir": str(settings.get("~console_dir")),
+        "console_vendor_dir": str(settings.get("~console_vendor_dir")),
+        "nice": int(settings.get("~nice")),
     }
     check_fixed(params)
     if not -20 <= params["nice"] <= 19:
@@ -248,7 +228,8 @@ def main():
     tracer = trace.from_environment(os.environ)
     tracer.start()   # GC pauses from start-up on, as when the hook was installed at import
     init_node("rosbridge_websocket")
-    params = read_params()
+    settings = NodeSettings("rosbridge_websocket")
+    params = read_params(settings)
     if params["nice"]:
         # an echo's time in the bridge on a busy CPU is mostly its threads waiting to be scheduled
         # (docs/development.md, "Niceness and autogroup scheduling"): a lower niceness shortens those waits

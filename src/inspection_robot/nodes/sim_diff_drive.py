@@ -12,8 +12,7 @@ Publishes:   odom (nav_msgs/Odometry, frame odom -> base_link, twist in base_lin
 Services:    set_charge_relay (std_srvs/SetBool): close (true) / open the charge relay
              test hooks (std_srvs/SetBool): ~press_estop, ~press_bumper, ~stall_odometry and
                  ~stall_battery (true: stop publishing that topic, as a hung or dead driver would)
-Parameters:  ~odom_rate (Hz, 50.0), ~battery_rate (Hz, 1.0), ~base ({}): sim.diff_drive.DEFAULTS
-                 (latency 0.03 s, limits, cmd_timeout 0.5 s, odometry drift, battery)
+Parameters:  config/sim_diff_drive.yaml: every setting, its default and meaning (read through ros.node.NodeSettings)
 """
 import threading
 import time
@@ -26,7 +25,7 @@ from std_msgs.msg import Bool
 from std_srvs.srv import SetBool, SetBoolResponse
 
 from inspection_robot.angles import quaternion_from_yaw
-from inspection_robot.ros.node import init_node
+from inspection_robot.ros.node import NodeSettings, init_node
 from inspection_robot.sim.diff_drive import DiffDriveBase
 
 NODE_NAME = "sim_diff_drive"
@@ -119,11 +118,12 @@ class SimDiffDriveNode(object):
 
 def main():
     init_node(NODE_NAME)
-    odom_rate_hz = float(rospy.get_param("~odom_rate", 50.0))
-    battery_rate_hz = float(rospy.get_param("~battery_rate", 1.0))
+    settings = NodeSettings("sim_diff_drive")
+    odom_rate_hz = float(settings.get("~odom_rate"))
+    battery_rate_hz = float(settings.get("~battery_rate"))
     if odom_rate_hz <= 0 or battery_rate_hz <= 0:
         raise ValueError("~odom_rate and ~battery_rate must be positive")
-    base = DiffDriveBase(time.monotonic, **rospy.get_param("~base", {}))
+    base = DiffDriveBase(time.monotonic, **settings.get("~base"))
     SimDiffDriveNode(base, odom_rate_hz, battery_rate_hz)
     rospy.loginfo("%s: odometry %.0f Hz, battery %.1f Hz, latency %.3f s"
                   % (NODE_NAME, odom_rate_hz, battery_rate_hz, base.params["latency"]))

@@ -3,15 +3,15 @@
 Subscribes:  sim/true_pose (geometry_msgs/PoseWithCovarianceStamped) from the chassis simulator
 Publishes:   ~output_topic (geometry_msgs/PoseWithCovarianceStamped, frame map, sim/localization/pose) at
              ~rate while true poses arrive, each with gaussian noise and the matching covariance
-Parameters:  ~sigma_xy (m, 0.02), ~sigma_yaw (rad, 0.0087), ~rate (Hz, 10), ~latency (s, 0.05),
-             ~output_topic (sim/localization/pose), ~seed (none: random)
+Parameters:  config/sim_localizer.yaml: every setting, its default and meaning (read through ros.node.NodeSettings);
+             ~seed (int; unset: random noise)
 """
 import rospy
 from geometry_msgs.msg import PoseWithCovarianceStamped
 
 from inspection_robot.angles import quaternion_from_yaw, yaw_from_quaternion
 from inspection_robot.nav.localization import MAP_FRAME
-from inspection_robot.ros.node import init_node
+from inspection_robot.ros.node import NodeSettings, init_node
 from inspection_robot.sim.noisy_localizer import NoisyLocalizer
 
 
@@ -42,13 +42,14 @@ class SimLocalizer(object):
 
 def main():
     init_node("sim_localizer")
-    rate_hz = float(rospy.get_param("~rate", 10.0))
+    settings = NodeSettings("sim_localizer")
+    rate_hz = float(settings.get("~rate"))
     if not rate_hz > 0:
         raise ValueError("~rate must be positive, got %r" % rate_hz)
     seed = rospy.get_param("~seed", None)
-    localizer = NoisyLocalizer(float(rospy.get_param("~sigma_xy", 0.02)), float(rospy.get_param("~sigma_yaw", 0.0087)),
-                               float(rospy.get_param("~latency", 0.05)), seed)
-    output_topic = rospy.get_param("~output_topic", "sim/localization/pose")
+    localizer = NoisyLocalizer(float(settings.get("~sigma_xy")), float(settings.get("~sigma_yaw")),
+                               float(settings.get("~latency")), seed)
+    output_topic = settings.get("~output_topic")
     SimLocalizer(localizer, rate_hz, output_topic)
     rospy.loginfo("sim_localizer: sim/true_pose + noise (%.3f m, %.4f rad, %.2f s late, %.0f Hz) -> %s",
                   localizer.sigma_xy, localizer.sigma_yaw, localizer.latency, rate_hz,

@@ -4,8 +4,9 @@ Subscribes:  sim/true_pose (geometry_msgs/PoseWithCovarianceStamped) from the ch
 Publishes:   obstacle_cloud (sensor_msgs/PointCloud2, frame "base_link", float32 x/y/z) at ~rate
 Services:    sim_obstacle_control (ControlService): drop "id,x,y[,size[,height]]" (map m, default 0.5 m
              cube), remove "id", clear, list -> "id,id,..."
-Parameters:  ~world (the world: block of config/sim_world.yaml, required), ~rate (Hz, 10), ~range (m, 8),
-             ~spacing (m between surface points, 0.1)
+Parameters:  config/sim_obstacle_cloud.yaml: every setting, its default and meaning (read through
+             ros.node.NodeSettings); ~world (the world: block of config/sim_world.yaml, required; the launch loads
+             it)
 """
 import math
 
@@ -16,7 +17,7 @@ from sensor_msgs.msg import PointCloud2, PointField
 from inspection_robot.angles import yaw_from_quaternion
 from inspection_robot.command import CommandError, CommandTable, parse_float, success
 from inspection_robot.nav.obstacle import cloud_bytes
-from inspection_robot.ros.node import init_node
+from inspection_robot.ros.node import NodeSettings, init_node
 from inspection_robot.ros.twin import serve_table
 from inspection_robot.sim.nav_yard import ObstacleCloud
 
@@ -69,10 +70,11 @@ class SimObstacleCloud(object):
 
 def main():
     init_node("sim_obstacle_cloud")
+    settings = NodeSettings("sim_obstacle_cloud")
     world = rospy.get_param("~world")
-    rate_hz = float(rospy.get_param("~rate", 10.0))
-    sensor_range = float(rospy.get_param("~range", 8.0))
-    spacing = float(rospy.get_param("~spacing", 0.1))
+    rate_hz = float(settings.get("~rate"))
+    sensor_range = float(settings.get("~range"))
+    spacing = float(settings.get("~spacing"))
     if rate_hz <= 0 or sensor_range <= 0 or spacing <= 0:
         raise ValueError("~rate, ~range and ~spacing must be positive")
     cloud = ObstacleCloud(world, sensor_range, spacing)

@@ -8,15 +8,14 @@ Services:    ~sim_control (ControlService), simulator-only:
                unplug  the port vanishes (pty closed, link removed); replug: a new pty, same link
                get_state -> "pan,tilt,wiper,lamp" (standard hundredths of a degree, 0|1)
                get_motion -> "moving" | "still" (whether the last move frame still drives the head)
-Parameters:  ~link (path, "/tmp/inspection_robot_pelco"), ~address (1),
-             ~max_speed_deg_s (60.0: speed byte 0x3F; 0x40 turbo = 1.5x), ~position_speed_deg_s
-             (90.0: absolute moves), ~tilt_min_deg (-90.0), ~tilt_max_deg (90.0)
+Parameters:  config/sim_pelco_head.yaml: every setting, its default and meaning (read through ros.node.NodeSettings)
+             (the launch passes a unique ~link)
 """
 import rospy
 
 from inspection_robot.command import CommandError, CommandTable, parse_choice
 from inspection_robot.ptz import pelco
-from inspection_robot.ros.node import init_node
+from inspection_robot.ros.node import NodeSettings, init_node
 from inspection_robot.sim.pelco_head import FAULTS, PtyPelcoServer, SimPelcoHead
 from inspection_robot.ros.twin import serve_table
 
@@ -50,12 +49,13 @@ class SimPelcoHeadNode(object):
 
 def main():
     init_node("sim_pelco_head")
-    link = rospy.get_param("~link", "/tmp/inspection_robot_pelco")
-    head = SimPelcoHead(address=rospy.get_param("~address", 1),
-                        max_speed_deg_s=rospy.get_param("~max_speed_deg_s", 60.0),
-                        position_speed_deg_s=rospy.get_param("~position_speed_deg_s", 90.0),
-                        tilt_limits_centi=(pelco.degrees_to_centi(rospy.get_param("~tilt_min_deg", -90.0)),
-                                           pelco.degrees_to_centi(rospy.get_param("~tilt_max_deg", 90.0))))
+    settings = NodeSettings("sim_pelco_head")
+    link = settings.get("~link")
+    head = SimPelcoHead(address=settings.get("~address"),
+                        max_speed_deg_s=settings.get("~max_speed_deg_s"),
+                        position_speed_deg_s=settings.get("~position_speed_deg_s"),
+                        tilt_limits_centi=(pelco.degrees_to_centi(settings.get("~tilt_min_deg")),
+                                           pelco.degrees_to_centi(settings.get("~tilt_max_deg"))))
     server = PtyPelcoServer(head, link, logger=rospy.loginfo)
     server.plug()
     rospy.on_shutdown(server.unplug)

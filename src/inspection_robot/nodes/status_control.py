@@ -9,9 +9,9 @@ Publishes:   robot_status (RobotStatus) at ~rate and at once on any change; its 
                  at once at most once per 1/~rate s: status.merge.PublishGate)
              diagnostics (diagnostic_updater, 1 Hz): hardware_id "robot", status "status_control: software"
                  with the version (git describe of the build, inspection_robot.version) and the site check
-Parameters:  ~heartbeat_timeout (s, 3.0), ~rate (Hz, 10.0),
-             ~stale_timeout/{control,nav,odom} (s, 1.0/2.0/1.0),
-             ~sensor_hardware_bits ({hardware_id: sensor_status bit}, {camera: 0, thermal_imager: 1})
+Parameters:  config/status_control.yaml: every setting, its default and meaning (read through
+             ros.node.NodeSettings); site_check (namespace, written by robot.launch's site check: shown on
+             diagnostics)
 """
 import threading
 
@@ -21,7 +21,7 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from nav_msgs.msg import Odometry
 
 from inspection_robot.msg import ControlStatus, GeneralTopic, NavStatus, RobotStatus
-from inspection_robot.ros.node import init_node
+from inspection_robot.ros.node import NodeSettings, init_node
 from inspection_robot.version import version
 from inspection_robot.status.merge import (CONTROL_FIELDS, Heartbeat, PublishGate, StatusMerger,
                                            heartbeat_text_problem)
@@ -137,11 +137,11 @@ class StatusControl(object):
 
 def main():
     init_node("status_control")
-    timeout = float(rospy.get_param("~heartbeat_timeout", 3.0))
-    rate_hz = float(rospy.get_param("~rate", 10.0))
-    stale = {"control": 1.0, "nav": 2.0, "odom": 1.0}
-    stale.update({k: float(v) for k, v in rospy.get_param("~stale_timeout", {}).items()})
-    sensor_bits = rospy.get_param("~sensor_hardware_bits", {"camera": 0, "thermal_imager": 1})
+    settings = NodeSettings("status_control")
+    timeout = float(settings.get("~heartbeat_timeout"))
+    rate_hz = float(settings.get("~rate"))
+    stale = {k: float(v) for k, v in settings.get("~stale_timeout").items()}
+    sensor_bits = settings.get("~sensor_hardware_bits")
     if rate_hz <= 0 or timeout <= 0 or any(v <= 0 for v in stale.values()):
         raise ValueError("~rate, ~heartbeat_timeout and every ~stale_timeout must be positive")
     StatusControl(StatusMerger(Heartbeat(timeout), stale), rate_hz, sensor_bits)

@@ -12,23 +12,12 @@ Subscribes:  task_cmd (GeneralCmd), robot_status (RobotStatus: mode, pose; the p
 Publishes:   task_ack (GeneralAck), task_status (GeneralTopic, latched, JSON), read_scale_cmd (ReadScaleCmd)
 Actions:     task_action (GeneralAction), server: goal type "patrol" = submit, feedback = progress
              move_action, find_scale_action (GeneralAction), client
-Parameters:  data_root (namespace: the robot's state directory; its tasks/ and corrections/: task/service.py);
-             ~preset_root (str, presets: relative to data_root unless absolute);
-             map_file, robot_radius: move_base's own (move_base/map_file, move_base/robot_radius) so
-             reachability uses the map and inflation move_base plans with (~map_file and
-             ~robot_radius override them where task_manager runs without move_base);
-             ~home_pose ([x, y, yaw] m, rad; a site setting, no default); ~retries (int, 1); ~retry_delay_s (s, 3.0);
-             ~uncertain_retries (int >= 0, 1): inspections again of a preset read uncertain;
-             ~trend_window (10), ~trend_min_points (4), ~trend_horizon_days (7.0): the trend warning;
-             ~velocity_x (m/s, 0.8), ~velocity_yaw (rad/s, 0.8); ~turn_at_stops (bool, false: the
-             head's pan, not the robot, turns to a stop's heading); ~move_timeout_s (300),
-             ~find_timeout_s (90), ~read_timeout_s (60), ~server_timeout_s (60: a step waits this long
-             for an action server that is not up); ~move_estimate_s (20), ~preset_estimate_s (10):
-             ETA before anything was measured; ~status_period (s, 1.0): task_status (and task_action
-             feedback) republished at least this often while a task runs (at once on every change);
-             ~virtual_wait_s (s, 5.0): a submission waits this long for move_base's virtual obstacles;
-             ~schedule_check_s (s, 10.0): how often schedules are looked at; ~schedule_grace_s (s, 600.0):
-             how long a due scheduled run waits for a running task before it is missed
+Parameters:  config/task_manager.yaml: every setting, its default and meaning (read through
+             ros.node.NodeSettings); data_root (namespace: the robot's state directory; its tasks/ and
+             corrections/: task/service.py); map_file, robot_radius: move_base's own (move_base/map_file,
+             move_base/robot_radius) so reachability uses the map and inflation move_base plans with
+             (~map_file and ~robot_radius override them where task_manager runs without move_base);
+             ~home_pose ([x, y, yaw] m, rad; a site setting, no default)
 """
 import os
 import time
@@ -38,8 +27,8 @@ import rospy
 from nav_msgs.msg import OccupancyGrid
 
 from inspection_robot.msg import GeneralAction, GeneralTopic, RobotStatus
-from inspection_robot.ros.data_root import data_root, path_param
-from inspection_robot.ros.node import init_node, site_param
+from inspection_robot.ros.data_root import data_root
+from inspection_robot.ros.node import NodeSettings, init_node, site_param
 from inspection_robot.task.ros_goal import ActionGoal
 from inspection_robot.task.ros_steps import StepRunner
 from inspection_robot.ros.twin import CommandTwin
@@ -96,44 +85,45 @@ def move_base_param(name):
 
 def main():
     init_node(NODE_NAME)
+    settings = NodeSettings(NODE_NAME)
     root = data_root()
     tasks_dir = os.path.join(root, "tasks")
     os.makedirs(tasks_dir, exist_ok=True)
-    preset_root = path_param("~preset_root", "presets", root)
+    preset_root = settings.path("~preset_root", root)
     home_pose = [float(v) for v in site_param("~home_pose")]
     if len(home_pose) != 3:
         raise ValueError("~home_pose must be [x, y, yaw], got %r" % (home_pose,))
-    uncertain_retries = rospy.get_param("~uncertain_retries", 1)
+    uncertain_retries = settings.get("~uncertain_retries")
     if isinstance(uncertain_retries, bool) or not isinstance(uncertain_retries, int) \
             or not 0 <= uncertain_retries <= 10:
         raise ValueError("~uncertain_retries must be an integer in [0, 10], got %r" % (uncertain_retries,))
-    trend = TrendConfig(int(rospy.get_param("~trend_window", 10)), int(rospy.get_param("~trend_min_points", 4)),
-                        float(rospy.get_param("~trend_horizon_days", 7.0)), 600.0)
+    trend = TrendConfig(int(settings.get("~trend_window")), int(settings.get("~trend_min_points")),
+                        float(settings.get("~trend_horizon_days")), 600.0)
     if not 2 <= trend.min_points <= trend.window or not trend.horizon_days > 0:
         raise ValueError("~trend_min_points must be in [2, ~trend_window] and ~trend_horizon_days positive")
-    config = PatrolConfig(retry_delay_s=float(rospy.get_param("~retry_delay_s", 3.0)), home_pose=tuple(home_pose),
-                          move_estimate_s=float(rospy.get_param("~move_estimate_s", 20.0)),
-                          preset_estimate_s=float(rospy.get_param("~preset_estimate_s", 10.0)),
+    config = PatrolConfig(retry_delay_s=float(settings.get("~retry_delay_s")), home_pose=tuple(home_pose),
+                          move_estimate_s=float(settings.get("~move_estimate_s")),
+                          preset_estimate_s=float(settings.get("~preset_estimate_s")),
                           uncertain_retries=uncertain_retries, trend=trend)
-    retries = int(rospy.get_param("~retries", 1))
+    retries = int(settings.get("~retries"))
     reachable = Reachability(os.path.expanduser(move_base_param("map_file")),
                              float(move_base_param("robot_radius")), home_pose[:2],
-                             float(rospy.get_param("~virtual_wait_s", 5.0)))
-    timeouts = {"move": float(rospy.get_param("~move_timeout_s", 300.0)),
-                "find": float(rospy.get_param("~find_timeout_s", 90.0)),
-                "read": float(rospy.get_param("~read_timeout_s", 60.0)),
-                "server": float(rospy.get_param("~server_timeout_s", 60.0))}
-    velocity = (float(rospy.get_param("~velocity_x", 0.8)), float(rospy.get_param("~velocity_yaw", 0.8)))
-    turn_at_stops = rospy.get_param("~turn_at_stops", False)
+                             float(settings.get("~virtual_wait_s")))
+    timeouts = {"move": float(settings.get("~move_timeout_s")),
+                "find": float(settings.get("~find_timeout_s")),
+                "read": float(settings.get("~read_timeout_s")),
+                "server": float(settings.get("~server_timeout_s"))}
+    velocity = (float(settings.get("~velocity_x")), float(settings.get("~velocity_yaw")))
+    turn_at_stops = settings.get("~turn_at_stops")
     if not isinstance(turn_at_stops, bool):
         raise ValueError("~turn_at_stops must be true or false, got %r" % (turn_at_stops,))
     store = ResultStore(os.path.join(tasks_dir, "results.sqlite"))
-    schedule_check_s = float(rospy.get_param("~schedule_check_s", 10.0))
-    schedule_grace_s = float(rospy.get_param("~schedule_grace_s", 600.0))
+    schedule_check_s = float(settings.get("~schedule_check_s"))
+    schedule_grace_s = float(settings.get("~schedule_grace_s"))
     if not 0 < schedule_check_s <= 60 or not schedule_grace_s >= schedule_check_s:
         raise ValueError("~schedule_check_s must be in (0, 60] s and ~schedule_grace_s at least as long, got %r, %r"
                          % (schedule_check_s, schedule_grace_s))
-    status_period = float(rospy.get_param("~status_period", 1.0))
+    status_period = float(settings.get("~status_period"))
     if status_period <= 0:
         raise ValueError("~status_period must be positive, got %r" % status_period)
     status_pub = rospy.Publisher("task_status", GeneralTopic, queue_size=5, latch=True)

@@ -18,6 +18,9 @@ had not got as far as a handshake (compat_rospy.merge_publisher_updates).
 environment variable ``INSPECTION_ROBOT_NICE`` (:data:`NICE_ENV`) renices every node of this package at
 start-up (a test machine's suites yielding to the chaos soak's robot, or a site's robot beside
 weightier work).
+
+:class:`NodeSettings` reads a node's settings: the parameter server's value, else config/<node>.yaml's
+(settings.py), the one place each default is written.
 """
 import errno
 import os
@@ -27,7 +30,9 @@ import time
 
 import rospy
 
-from inspection_robot.ros import compat_rospy
+from inspection_robot import settings
+from inspection_robot.ros import compat_rospy, data_root
+from inspection_robot.ros.package_share import share_file
 
 HANDSHAKE_TIMEOUT_S = 5.0   # a TCPROS client sends its header right after connecting
 NICE_ENV = "INSPECTION_ROBOT_NICE"   # niceness every node of this package takes at start-up (init_node)
@@ -162,3 +167,49 @@ def site_param(name):
         raise ValueError("%s is not set: a site setting with no default; the site file sets it "
                          "(config/robot.example.yaml), sim.launch config/sim_site.yaml" % rospy.resolve_name(name))
     return rospy.get_param(name)
+
+
+class NodeSettings(object):
+    """One node's settings, read in its main(): ``get("~rate")`` is the parameter server's ``~rate`` when
+    set, else config/<node>.yaml's ``rate`` (a mapping: the parameter server's keys over the file's, as a
+    launch merges them). The file is found in the source tree or the installed package, so a node a test
+    starts without loading it runs with the same values as under a launch. A name the file does not
+    define raises settings.SettingsError: every setting and its default live in that file, nowhere else
+    (site settings without a default: :func:`site_param`; the data root: ros/data_root.py).
+
+    ``node_type``: the node's module (nodes/<node_type>.py), whatever name the launch gives it.
+    ``defaults``: a settings.NodeDefaults (tests), else read from config/.
+    """
+
+    def __init__(self, node_type, defaults=None):
+        if defaults is None:
+            directory = settings.source_config_dir() or settings.config_dir(share_file())
+            defaults = settings.node_defaults(node_type, directory)
+        self.defaults = defaults
+
+    @staticmethod
+    def _private(name):
+        if not name.startswith("~"):
+            raise ValueError("NodeSettings reads private settings (~name), not %r" % name)
+        return name
+
+    def default(self, name):
+        """config/<node>.yaml's value of ``~name``."""
+        return self.defaults.default(self._private(name))
+
+    def get(self, name):
+        """The value the node runs with (see the class)."""
+        default = self.default(name)
+        return settings.merged(default, rospy.get_param(name)) if rospy.has_param(name) else default
+
+    def path(self, name, root):
+        """A path setting fixed at launch (ros/data_root.py), relative to ``root`` unless absolute."""
+        return data_root.path_param(name, self.default(name), root)
+
+    def path_list(self, name, root):
+        """A list of path settings fixed at launch, each relative to ``root`` unless absolute."""
+        return data_root.path_list_param(name, self.default(name), root)
+
+    def fixed_list(self, name):
+        """A list setting fixed at launch like the paths (relative as given)."""
+        return data_root.fixed_list(name, self.default(name))
