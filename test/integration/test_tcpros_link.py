@@ -15,9 +15,9 @@ import rospy
 import rostest
 from std_msgs.msg import Int32, String
 
-from inspection_robot.bridge import ros_tcpros
+from inspection_robot.bridge import tcpros_publication
 from inspection_robot.bridge.ros_backend import start_tcpros_publisher
-from inspection_robot.bridge.ros_tcpros import encode_header, read_header
+from inspection_robot.bridge.tcpros_header import encode_header, read_header
 from rostest_helpers import wait_for
 
 
@@ -83,9 +83,9 @@ class TcprosLinkTest(unittest.TestCase):
         received.sub.unregister()
 
     def test_a_late_subscriber_gets_the_latched_message(self):
-        original = ros_tcpros.EARLY_WINDOW_S
-        ros_tcpros.EARLY_WINDOW_S = 0.0   # past the early window: the latched message alone
-        self.addCleanup(setattr, ros_tcpros, "EARLY_WINDOW_S", original)
+        original = tcpros_publication.EARLY_WINDOW_S
+        tcpros_publication.EARLY_WINDOW_S = 0.0   # past the early window: the latched message alone
+        self.addCleanup(setattr, tcpros_publication, "EARLY_WINDOW_S", original)
         publication = self.advertise("latched", latch=True)
         publication.publish([String("first"), String("last")])
         received = Collector("latched")
@@ -94,9 +94,9 @@ class TcprosLinkTest(unittest.TestCase):
         received.sub.unregister()
 
     def test_messages_of_the_early_window_reach_a_subscriber_that_connects_in_it(self):
-        original = ros_tcpros.EARLY_WINDOW_S
-        ros_tcpros.EARLY_WINDOW_S = 60.0  # the window, long enough for a loaded machine
-        self.addCleanup(setattr, ros_tcpros, "EARLY_WINDOW_S", original)
+        original = tcpros_publication.EARLY_WINDOW_S
+        tcpros_publication.EARLY_WINDOW_S = 60.0  # the window, long enough for a loaded machine
+        self.addCleanup(setattr, tcpros_publication, "EARLY_WINDOW_S", original)
         publication = self.advertise("early")
         publication.publish([String("a"), String("b")])
         publication.publish([String("c")])

@@ -5,7 +5,8 @@ import genpy
 
 from inspection_robot.bridge import cbor
 from inspection_robot.bridge.codec import Codec
-from inspection_robot.bridge.protocol import BridgeError, Session, SessionConfig
+from inspection_robot.bridge.ops import BridgeError
+from inspection_robot.bridge.protocol import Session, SessionConfig
 from inspection_robot.bridge.ros_message_types import GenpyTypes
 
 

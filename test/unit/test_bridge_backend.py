@@ -6,7 +6,7 @@ from inspection_robot.bridge import ros_backend
 
 
 class Handle(object):
-    """What RosBackend uses of a ros_tcpros.Publication."""
+    """What RosBackend uses of a tcpros_publication.Publication."""
     data_class = object
 
     def __init__(self):

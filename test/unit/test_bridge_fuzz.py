@@ -6,7 +6,7 @@ from hypothesis import strategies as st
 
 from bridge_fakes import Harness
 from inspection_robot.bridge import cbor
-from inspection_robot.bridge.protocol import OPS, BridgeError, check_fields
+from inspection_robot.bridge.ops import OPS, BridgeError, check_fields
 
 SCALARS = st.one_of(st.none(), st.booleans(), st.integers(-2 ** 70, 2 ** 70), st.floats(allow_nan=True),
                     st.text(max_size=20))

@@ -8,7 +8,9 @@ from bridge_fakes import FakeBackend, Harness
 from inspection_robot.bridge import cbor
 from inspection_robot.bridge.compression import fragments, png_decode
 from inspection_robot.bridge.access import Authenticator, FailureLimiter, Peer
-from inspection_robot.bridge.protocol import LOG_PERIOD, OPS, Outgoing, SessionConfig
+from inspection_robot.bridge.ops import OPS
+from inspection_robot.bridge.protocol import LOG_PERIOD, SessionConfig
+from inspection_robot.bridge.session_topics import Outgoing
 
 
 def outgoing(backend, topic, text):

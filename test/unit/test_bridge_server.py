@@ -1,4 +1,5 @@
-"""server: bounded send queue; a live tornado server with the fake backend (TLS, size limit, keep-alive)."""
+"""server (and send_queue, handler, listener): bounded send queue; a live tornado server with the fake backend
+(TLS, size limit, keep-alive)."""
 import asyncio
 import base64
 import concurrent.futures
@@ -24,9 +25,11 @@ from bridge_fakes import FakeBackend
 from inspection_robot.bridge import cbor
 from inspection_robot.bridge.access import Authenticator, FailureLimiter
 from inspection_robot_testing.bridge_client import CLOSED, RawClient, SocketClient
-from inspection_robot.bridge.protocol import Outgoing, Session, SessionConfig
+from inspection_robot.bridge.protocol import Session, SessionConfig
+from inspection_robot.bridge.session_topics import Outgoing
 from inspection_robot.bridge.compat_tornado import ws_frame
-from inspection_robot.bridge.server import BridgeServer, LoopPoster, SendQueue, make_ssl_context
+from inspection_robot.bridge.send_queue import SendQueue
+from inspection_robot.bridge.server import BridgeServer, LoopPoster, make_ssl_context
 
 
 def test_queue_length_keeps_the_newest_of_its_topic_only():

@@ -21,6 +21,8 @@ for _name in ("ACK_SUCCESS", "ACK_FAILED", "BUSY", "UNSUPPORTED"):
 # (file under src/inspection_robot, word): why the literal is not one of task_manager's words
 COINCIDENCES = {
     ("bridge/protocol.py", "none"): "rosbridge's status levels (set_level none)",
+    ("bridge/ops.py", "none"): "rosbridge's compression none (the op table's default)",
+    ("bridge/session_topics.py", "none"): "rosbridge's compression none",
     ("nodes/rosbridge_websocket.py", "none"): "rosbridge's status levels",
     ("bridge/ros_backend.py", "none"): "rosbridge's compression none",
     ("drivers.py", "none"): "a device fitted with no driver",
@@ -42,7 +44,7 @@ COINCIDENCES = {
     ("task/service.py", "read"): "a step timing's name",
     ("task/report.py", "read"): "a summary tile's label (the count of read values)",
     ("bridge/trace.py", "read"): "the echo trace's first stage (a frame read), not a reading's status",
-    ("bridge/server.py", "read"): "the echo trace's stage name (bridge/trace.py)",
+    ("bridge/handler.py", "read"): "the echo trace's stage name (bridge/trace.py)",
     ("interface.py", "read"): "file_control's read command (READ_ONLY_COMMANDS)",
     ("ros/compat_rospy.py", "done"): "rospy's Transport attribute named done",
     ("task/report.py", "failed"): "a summary tile's label",

@@ -1,4 +1,5 @@
-"""bridge/ros_tcpros.py on real sockets on 127.0.0.1, a recording master instead of a roscore.
+"""bridge/ros_tcpros.py (with tcpros_header, tcpros_publication, tcpros_slave) on real sockets on 127.0.0.1,
+a recording master instead of a roscore.
 
 Headers (encode, parse, truncated, oversized, malformed), the handshake's answers (md5sum and type
 mismatch, unknown topic, a silent client), the slave API, latched and early messages, and the
@@ -13,8 +14,9 @@ import xmlrpc.client
 import pytest
 from std_msgs.msg import Header, String
 
-from inspection_robot.bridge import ros_tcpros
-from inspection_robot.bridge.ros_tcpros import HeaderError, TcprosPublisher, encode_header, parse_header, read_header
+from inspection_robot.bridge import tcpros_header, tcpros_publication
+from inspection_robot.bridge.ros_tcpros import TcprosPublisher
+from inspection_robot.bridge.tcpros_header import HeaderError, encode_header, parse_header, read_header
 
 
 def wait_for(condition, timeout=5.0, what="condition"):
@@ -69,9 +71,9 @@ def connect(publisher, header=None):
 def read_frames(sock, count):
     messages = []
     for _ in range(count):
-        (length,) = struct.unpack("<I", ros_tcpros._recv_exactly(sock, 4, "frame"))
+        (length,) = struct.unpack("<I", tcpros_header._recv_exactly(sock, 4, "frame"))
         msg = String()
-        msg.deserialize(ros_tcpros._recv_exactly(sock, length, "frame"))
+        msg.deserialize(tcpros_header._recv_exactly(sock, length, "frame"))
         messages.append(msg.data)
     return messages
 
@@ -98,7 +100,7 @@ def test_a_malformed_header_is_a_clear_error(body, error):
 def test_read_header_refuses_oversized_truncated_and_silent_peers():
     ours, peer = socket.socketpair()
     ours.settimeout(0.2)
-    peer.sendall(struct.pack("<I", ros_tcpros.MAX_HEADER_BYTES + 1))
+    peer.sendall(struct.pack("<I", tcpros_header.MAX_HEADER_BYTES + 1))
     with pytest.raises(HeaderError, match="over the limit"):
         read_header(ours)
     peer.sendall(b"\x10\x00\x00\x00abc")
@@ -146,8 +148,8 @@ def test_messages_arrive_in_order_with_header_seq(publisher):
     wait_for(lambda: points.num_connections())
     points.publish([PointStamped(header=Header(frame_id="map")) for _ in range(3)])
     for seq in (1, 2, 3):
-        (length,) = struct.unpack("<I", ros_tcpros._recv_exactly(sock, 4, "frame"))
-        msg = PointStamped().deserialize(ros_tcpros._recv_exactly(sock, length, "frame"))
+        (length,) = struct.unpack("<I", tcpros_header._recv_exactly(sock, 4, "frame"))
+        msg = PointStamped().deserialize(tcpros_header._recv_exactly(sock, length, "frame"))
         assert (msg.header.seq, msg.header.frame_id) == (seq, "map")
 
 
@@ -161,7 +163,7 @@ def test_latched_and_early_messages_reach_a_late_subscriber(publisher, monkeypat
     assert read_frames(sock, 2) == ["old", "last"]  # both in the early window (the latched one is its last)
     sock, _ = connect(publisher)
     assert read_frames(sock, 2) == ["e1", "e2"]
-    monkeypatch.setattr(ros_tcpros, "EARLY_WINDOW_S", 0.0)
+    monkeypatch.setattr(tcpros_publication, "EARLY_WINDOW_S", 0.0)
     sock, _ = connect(publisher, subscriber_header(topic="/latched"))
     assert read_frames(sock, 1) == ["last"]
     sock.settimeout(0.2)
@@ -170,7 +172,7 @@ def test_latched_and_early_messages_reach_a_late_subscriber(publisher, monkeypat
 
 
 def test_early_messages_wait_for_the_subscribers_the_master_listed(monkeypatch):
-    monkeypatch.setattr(ros_tcpros, "EARLY_WINDOW_S", 0.0)   # a loaded machine: they connect after it
+    monkeypatch.setattr(tcpros_publication, "EARLY_WINDOW_S", 0.0)   # a loaded machine: they connect after it
     pub = TcprosPublisher("/bridge/tcpros", RecordingMaster(["http://a:1/", "http://b:2/"]), host="127.0.0.1",
                           bind_address="127.0.0.1", handshake_timeout=0.5)
     try:
@@ -187,7 +189,7 @@ def test_early_messages_wait_for_the_subscribers_the_master_listed(monkeypatch):
         with pytest.raises(socket.timeout):
             late.recv(1)   # every subscriber listed has connected: no more early messages
         assert topic.early == [] or not topic.early_open()
-        monkeypatch.setattr(ros_tcpros, "EARLY_WAIT_MAX_S", 0.0)   # the wait is bounded
+        monkeypatch.setattr(tcpros_publication, "EARLY_WAIT_MAX_S", 0.0)   # the wait is bounded
         other = pub.advertise("/other", String)
         other.publish([String("x")])
         assert not other.early_open() and other.awaited == 2

@@ -1,4 +1,4 @@
-"""The one place that touches tornado's websocket internals (the bridge's transport, server.py).
+"""The one place that touches tornado's websocket internals (the bridge's transport, server.py and handler.py).
 
 tornado's public websocket API writes one message per call (a future, a frame header built in
 Python, a try at the socket each). The bridge needs three things it does not offer; each is

@@ -24,7 +24,8 @@ import rospy
 import rosservice
 
 from inspection_robot.bridge import service_calls
-from inspection_robot.bridge.protocol import BridgeError, Outgoing
+from inspection_robot.bridge.ops import BridgeError
+from inspection_robot.bridge.session_topics import Outgoing
 from inspection_robot.bridge.trace import NoTrace
 from inspection_robot.ros.compat_rospy import idle_service_connection_closed, replay_latched, service_proxy_uri
 from inspection_robot.bridge.ros_tcpros import TcprosPublisher
@@ -47,7 +48,7 @@ class _Topic(object):
     __slots__ = ("handle", "type_name", "sessions", "high_water", "pending", "in_pass", "bursting")
 
     def __init__(self, handle, type_name, high_water=None):
-        self.handle = handle    # a ros_tcpros.Publication, or a rospy.Subscriber
+        self.handle = handle    # a tcpros_publication.Publication, or a rospy.Subscriber
         self.type_name = type_name
         self.sessions = set()
         self.high_water = high_water
@@ -91,7 +92,7 @@ class RosBackend(object):
         self._service_timeout = float(service_timeout)
         self._sub_queue = int(subscriber_queue_size)
         self._log = log or (lambda level, text: None)
-        self._publishers = {}   # topic -> _Topic(ros_tcpros.Publication)
+        self._publishers = {}   # topic -> _Topic(tcpros_publication.Publication)
         self._subscribers = {}  # topic -> _Topic(rospy.Subscriber)
         self._kept = set()      # topics subscribed for the robot: kept when their last client leaves
         self._services = {}     # service -> (rospy.Service, session, type)

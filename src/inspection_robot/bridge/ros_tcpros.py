@@ -23,218 +23,31 @@ publisher serves the bridge's topics itself, as the ROS wiki specifies TCPROS
   than EARLY_WINDOW_S to connect: bench/bench_early_messages.py).
 
 No rospy API here (ros/node.py only lends its handshake bound): the node passes caller_id, the
-master and the addresses, so the unit tests run it on 127.0.0.1 without a roscore.
+master and the addresses, so the unit tests run it on 127.0.0.1 without a roscore. Its parts that
+need no ROS sit beside it: tcpros_header.py (the connection header codec), tcpros_publication.py
+(a topic's and a connection's state, framing) and tcpros_slave.py (the slave API's answers).
 """
 import collections
-import io
-import os
 import selectors
 import socket
-import socketserver
-import struct
 import threading
 import time
 import traceback
-import xmlrpc.server
 
 import rosgraph
 import rosgraph.network
 
+from inspection_robot.bridge.tcpros_header import HeaderError, encode_header, read_header
+from inspection_robot.bridge.tcpros_publication import EARLY_MAX_MESSAGES, Connection, Publication, split_frames
+from inspection_robot.bridge.tcpros_slave import SlaveApi, SlaveServer, SlaveServer6
 from inspection_robot.ros.node import HANDSHAKE_TIMEOUT_S
 
 ANYTYPE = "*"                # md5sum (or type) a subscriber sends when it takes any type (rostopic echo, rosbag)
-MAX_HEADER_BYTES = 1 << 20   # a subscriber's header carries its message_definition: a few kB, rarely more
-EARLY_WINDOW_S = 1.0         # a new topic's messages replayed to subscribers that connect this soon
-EARLY_WAIT_MAX_S = 10.0      # ... kept open this long at most for the subscribers the master listed at advertise
-EARLY_MAX_MESSAGES = 100
 DROP_LOG_PERIOD_S = 5.0
 SEND_BYTES = 1 << 18         # the I/O thread's largest single send of queued frames
-_LENGTH = struct.Struct("<I")
 
 
-class HeaderError(ValueError):
-    """A connection header that is truncated, oversized or malformed."""
-
-
-def encode_header(fields):
-    """A TCPROS connection header: 4-byte little-endian length, then each ``key=value`` with its length."""
-    parts = []
-    for key, value in fields.items():
-        if not key or "=" in key:
-            raise HeaderError("bad header field name %r" % (key,))
-        field = ("%s=%s" % (key, value)).encode("utf-8")
-        parts.append(_LENGTH.pack(len(field)))
-        parts.append(field)
-    body = b"".join(parts)
-    return _LENGTH.pack(len(body)) + body
-
-
-def parse_header(body):
-    """The fields of a header's body (what follows its 4-byte length); HeaderError when malformed."""
-    fields = {}
-    pos = 0
-    while pos < len(body):
-        if pos + 4 > len(body):
-            raise HeaderError("header truncated: %d bytes left at byte %d, a field length takes 4"
-                              % (len(body) - pos, pos))
-        (length,) = _LENGTH.unpack_from(body, pos)
-        pos += 4
-        if pos + length > len(body):
-            raise HeaderError("header field of %d bytes at byte %d overruns the %d-byte header"
-                              % (length, pos, len(body)))
-        key, sep, value = bytes(body[pos:pos + length]).partition(b"=")
-        pos += length
-        if not sep or not key:
-            raise HeaderError("header field %r is not key=value" % (key[:40],))
-        try:
-            fields[key.decode("utf-8")] = value.decode("utf-8")
-        except UnicodeDecodeError:
-            raise HeaderError("header field %r is not UTF-8" % (key[:40],))
-    return fields
-
-
-def _recv_exactly(sock, count, what):
-    chunks = []
-    while count:
-        try:
-            chunk = sock.recv(min(count, 65536))
-        except socket.timeout:
-            raise HeaderError("no complete %s within %.1f s" % (what, sock.gettimeout()))
-        if not chunk:
-            raise HeaderError("connection closed during the %s" % what)
-        chunks.append(chunk)
-        count -= len(chunk)
-    return b"".join(chunks)
-
-
-def read_header(sock, max_bytes=MAX_HEADER_BYTES):
-    """Read one connection header from a blocking socket (its timeout bounds each read)."""
-    (length,) = _LENGTH.unpack(_recv_exactly(sock, 4, "header length"))
-    if length > max_bytes:
-        raise HeaderError("header of %d bytes is over the limit of %d" % (length, max_bytes))
-    return parse_header(_recv_exactly(sock, length, "header"))
-
-
-class _Connection(object):
-    """One subscriber's socket and what it has not taken yet (whole frames; the first maybe in part)."""
-
-    __slots__ = ("sock", "callerid", "number", "frames", "offset", "bytes_sent", "messages_sent", "dropped",
-                 "closed", "writing", "drop_logged")
-
-    def __init__(self, sock, callerid, number):
-        self.sock = sock
-        self.callerid = callerid
-        self.number = number
-        self.frames = collections.deque()
-        self.offset = 0         # bytes of frames[0] already sent
-        self.bytes_sent = 0
-        self.messages_sent = 0
-        self.dropped = 0
-        self.closed = False
-        self.writing = False    # the I/O thread watches it for writability
-        self.drop_logged = None  # monotonic time of the last drop warning (one per DROP_LOG_PERIOD_S)
-
-
-class Publication(object):
-    """One advertised topic: its type, latch, queue bound, connections and the state rospy keeps per topic."""
-
-    def __init__(self, owner, topic, data_class, latch, queue_size):
-        self.topic = topic
-        self.data_class = data_class
-        self.latch = bool(latch)
-        self.queue_size = int(queue_size)  # per connection, in messages; 0 or less: unbounded
-        self.lock = threading.RLock()   # _drop runs with it held (a failed send) and without
-        self.connections = []
-        self.closed = False
-        self.refs = 1
-        self._owner = owner
-        self._has_header = bool(getattr(data_class, "_has_header", False))
-        self.seq = 0
-        self.latched = None    # the last frame, for a latched topic
-        self._created = time.monotonic()
-        self.early = []        # frames of the first EARLY_WINDOW_S, for subscribers that connect in it
-        self.awaited = 0       # subscribers the master listed when the topic was registered
-        self.joined = set()    # caller ids of the subscribers that have connected since
-        self.bytes_sent = 0
-
-    def publish(self, messages):
-        """Send ``messages`` in order to every subscriber, one write per connection (see the module)."""
-        self._owner.publish(self, messages)
-
-    def queue_depth(self):
-        """Messages waiting in the fullest connection queue of the topic (0 when none wait)."""
-        with self.lock:
-            return max([len(c.frames) for c in self.connections] or [0])
-
-    def num_connections(self):
-        with self.lock:
-            return len(self.connections)
-
-    def early_open(self):
-        """Early messages are still kept: within EARLY_WINDOW_S of the advertise, or (at most
-        EARLY_WAIT_MAX_S) while fewer subscribers have connected than the master listed then."""
-        age = time.monotonic() - self._created
-        return age < EARLY_WINDOW_S or (age < EARLY_WAIT_MAX_S and len(self.joined) < self.awaited)
-
-    def await_subscribers(self, uris):
-        """The master's answer to registerPublisher: the subscribers (slave URIs) it knows of now."""
-        with self.lock:
-            self.awaited = len(set(uris or ()))
-
-    def serialize(self, messages):
-        """(bytes, frame ends): each message framed with its length, header.seq set as rospy does."""
-        buff = io.BytesIO()
-        ends = []
-        seq = self.seq
-        for msg in messages:
-            seq += 1
-            if self._has_header:
-                msg.header.seq = seq
-                if msg.header.frame_id is None:
-                    msg.header.frame_id = "0"
-            start = buff.tell()
-            buff.seek(start + 4)
-            msg.serialize(buff)
-            end = buff.tell()
-            buff.seek(start)
-            buff.write(_LENGTH.pack(end - start - 4))
-            buff.seek(end)
-            ends.append(end)
-        self.seq = seq  # only once all serialized: a message that fails leaves nothing half-published
-        return buff.getvalue(), ends
-
-
-class _SlaveServer(socketserver.ThreadingMixIn, xmlrpc.server.SimpleXMLRPCServer):
-    daemon_threads = True
-
-
-class _SlaveServer6(_SlaveServer):
-    address_family = socket.AF_INET6
-
-
-def _split(data, ends, skip):
-    """The whole frames of ``data`` (ending at ``ends``), the first ones' ``skip`` bytes already sent:
-    (frames left, bytes of the first one already sent, frames fully sent)."""
-    frames = []
-    start = 0
-    offset = 0
-    done = 0
-    for end in ends:
-        if end <= skip:
-            done += 1
-        else:
-            if not frames:
-                offset = max(0, skip - start)
-            frames.append(data[start:end])
-        start = end
-    return frames, offset, done
-
-
-def _xmlrpc_int(value):
-    return min(value, (1 << 31) - 1)  # XML-RPC's int is 32-bit: a long-lived counter saturates
-
-
-class TcprosPublisher(object):
+class TcprosPublisher(SlaveApi):
     """Publishes topics over TCPROS under ``caller_id`` with its own slave API (see the module).
 
     ``master``: a rosgraph.Master-like object (registerPublisher, unregisterPublisher, getUri).
@@ -262,7 +75,7 @@ class TcprosPublisher(object):
         self._listener.listen(128)
         self._listener.setblocking(False)
         self.port = self._listener.getsockname()[1]
-        server_class = _SlaveServer6 if family == socket.AF_INET6 else _SlaveServer
+        server_class = SlaveServer6 if family == socket.AF_INET6 else SlaveServer
         self._xmlrpc = server_class((bind_address, 0), logRequests=False, allow_none=True)
         for name, function in (("requestTopic", self._request_topic), ("getBusInfo", self._bus_info),
                                ("getBusStats", self._bus_stats), ("getPid", self._pid),
@@ -356,7 +169,7 @@ class TcprosPublisher(object):
     def _write(self, publication, connection, data, ends):
         """Send now what the socket takes, queue the rest (publication.lock held)."""
         if connection.frames:
-            frames, offset, done = _split(data, ends, 0)
+            frames, offset, done = split_frames(data, ends, 0)
         else:
             try:
                 sent = connection.sock.send(data)
@@ -367,7 +180,7 @@ class TcprosPublisher(object):
                 return
             connection.bytes_sent += sent
             publication.bytes_sent += sent
-            frames, offset, done = _split(data, ends, sent)
+            frames, offset, done = split_frames(data, ends, sent)
             connection.messages_sent += done
             connection.offset = offset
             if not frames:
@@ -543,7 +356,7 @@ class TcprosPublisher(object):
             self._log("warning", "tcpros: lost %s during its handshake: %s" % (header["callerid"], exc))
             sock.close()
             return
-        connection = _Connection(sock, header["callerid"], next(self._numbers))
+        connection = Connection(sock, header["callerid"], next(self._numbers))
         with publication.lock:
             if publication.closed:
                 sock.close()
@@ -578,58 +391,6 @@ class TcprosPublisher(object):
                           "[%s/%s] Dropping connection." % (header["callerid"], header["topic"], requested,
                                                             header["md5sum"], data_class._type, data_class._md5sum))
         return publication, None
-
-    # ------------------------------------------------------------------ slave API (wiki.ros.org/ROS/Slave_API)
-    def _snapshot(self):
-        with self._topics_lock:
-            return sorted(self._topics.items())
-
-    def _request_topic(self, caller_id, topic, protocols):
-        with self._topics_lock:
-            published = topic in self._topics
-        if not published:
-            return [-1, "Not a publisher of [%s]" % topic, []]
-        if not any(protocol and protocol[0] == "TCPROS" for protocol in protocols):
-            return [0, "no supported protocol implementations", []]
-        return [1, "ready on %s:%d" % (self._host, self.port), ["TCPROS", self._host, self.port]]
-
-    def _bus_info(self, caller_id):
-        info = []
-        for topic, publication in self._snapshot():
-            with publication.lock:
-                for connection in publication.connections:
-                    info.append([connection.number, connection.callerid, "o", "TCPROS", topic, True,
-                                 "TCPROS connection on port %d to [%s]" % (self.port, connection.callerid)])
-        return [1, "bus info", info]
-
-    def _bus_stats(self, caller_id):
-        stats = []
-        for topic, publication in self._snapshot():
-            with publication.lock:
-                stats.append([topic, _xmlrpc_int(publication.bytes_sent),
-                              [[c.number, _xmlrpc_int(c.bytes_sent), _xmlrpc_int(c.messages_sent), True]
-                               for c in publication.connections]])
-        return [1, "", [stats, [], [0, 0, 0]]]
-
-    def _pid(self, caller_id):
-        return [1, "", os.getpid()]
-
-    def _master_uri(self, caller_id):
-        return [1, "", self._master.getUri()]
-
-    def _publications(self, caller_id):
-        return [1, "publications", [[topic, p.data_class._type] for topic, p in self._snapshot()]]
-
-    def _subscriptions(self, caller_id):
-        return [1, "subscriptions", []]
-
-    def _ignored(self, caller_id, *args):
-        return [1, "", 0]
-
-    def _shutdown(self, caller_id, message=""):
-        reason = "shutdown requested by %s: %s" % (caller_id, message)
-        threading.Thread(target=self._on_shutdown_request, args=(reason,), daemon=True).start()
-        return [1, "shutdown", 0]
 
     # ------------------------------------------------------------------ closing
     def close(self):
