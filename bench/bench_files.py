@@ -17,7 +17,8 @@ import cv2
 import numpy as np
 
 from inspection_robot.camera.optics import ZoomOptics
-from inspection_robot.files import CaptureQuota, tree_bytes, write_atomic
+from inspection_robot.data_layout import CaptureQuota, tree_bytes
+from inspection_robot.files import write_atomic
 from inspection_robot.inspection.calibration_commands import CalibrationCommands
 from inspection_robot.inspection.preset import PresetError, PresetInfo, load_preset
 from inspection_robot.storage.commands import DEFAULT_MAX_CHUNK_BYTES, FileCommands

@@ -11,29 +11,25 @@ Every module that takes a path from a caller or saves a file other code may read
   hard-linked, which fails on an existing file); the folder is fsynced so the rename survives a
   power cut. A reader or a crash sees the old file or the new one, never half of one; a failed
   write leaves no temporary file behind;
-- ``DirUpdate(folder)``: several files of one folder changed at once (a preset's calibration): the
-  changes go into a hard-linked copy beside it that replaces the folder in one atomic rename, so
-  a reader or a crash sees all of them or none;
 - ``rename_durable(src, dst)``: the one rename of product data (preset commits, files set aside):
   the rename, then an fsync of the folder(s) it changed (``fsync_dir``);
 - ``write_json_atomic`` / ``read_json``: small JSON state files (virtual obstacles, last pose);
 - ``read_secret_file(path, setting)``: a token or password kept out of parameters and command lines
   (``ps`` shows those), in a file only the robot's user may read.
 
+Beside it: dir_update.py (``DirUpdate``: several files of one folder changed at once) and
+data_layout.py (the data root's folders, path parameters under it, the capture roots and their quota).
+
 Every failure raises :class:`FileError` (a CommandError, so a command handler that lets it pass
 fails that one request with the message as the reason). Messages name a path as the caller gave
 it (control characters escaped, long paths shortened).
 """
-import ctypes
 import errno
 import json
 import os
 import re
-import shutil
 import stat
 import tempfile
-import threading
-import time
 import uuid
 
 from inspection_robot.command import CommandError
@@ -299,113 +295,6 @@ def fsync_dir(folder, strict=False):
     return True
 
 
-_RENAME_EXCHANGE = 2      # linux/fs.h
-_AT_FDCWD = -100
-
-
-def _exchange(a, b):
-    """Swap two paths in one atomic step (renameat2 RENAME_EXCHANGE, Linux >= 3.15, glibc >= 2.28).
-    OSError ENOSYS when the C library lacks it, EINVAL when the file system does."""
-    libc = ctypes.CDLL(None, use_errno=True)
-    renameat2 = getattr(libc, "renameat2", None)
-    if renameat2 is None:
-        raise OSError(errno.ENOSYS, "renameat2 not available")
-    renameat2.argtypes = [ctypes.c_int, ctypes.c_char_p, ctypes.c_int, ctypes.c_char_p, ctypes.c_uint]
-    if renameat2(_AT_FDCWD, os.fsencode(a), _AT_FDCWD, os.fsencode(b), _RENAME_EXCHANGE) != 0:
-        code = ctypes.get_errno()
-        raise OSError(code, os.strerror(code), a)
-
-
-class DirUpdate(object):
-    """Changes to a folder made all at once: nobody ever sees some of them without the others.
-
-    A hidden sibling (``.<name>.update.<random>``) is filled with hard links to the folder's
-    entries (copies where a link is refused); the changes are written into it (``file(name)``,
-    with write_atomic, which fsyncs each file); ``commit()`` fsyncs it and swaps it with the folder
-    in one atomic rename (renameat2 RENAME_EXCHANGE), fsyncs the parent, and removes the old
-    content. Leaving the block without commit (an exception) removes the sibling: the folder is
-    untouched. Where the file system cannot exchange, the folder is first renamed aside and the
-    copy renamed in, and the old one renamed back if that fails (a power cut between the two
-    renames leaves the old folder under the hidden ``.<name>.old.<random>`` name). Files in the
-    folder are replaced, never written in place, so a link shared with the old content is safe.
-
-        with DirUpdate(path) as update:
-            write_atomic(update.file("a.ini"), text)
-            update.commit()
-    """
-
-    def __init__(self, folder):
-        self.folder = os.path.abspath(folder)
-        parent, name = os.path.split(self.folder)
-        if not os.path.isdir(self.folder):
-            raise FileError("no such directory: '%s'" % folder)
-        self.path = None
-        self.committed = False
-        try:
-            self.path = tempfile.mkdtemp(prefix=".%s.update." % name, dir=parent)
-            os.chmod(self.path, stat.S_IMODE(os.stat(self.folder).st_mode))
-            _link_tree(self.folder, self.path)
-        except OSError as err:
-            self.abort()
-            raise FileError("cannot stage a copy of '%s': %s" % (folder, err.strerror or err))
-
-    def file(self, name):
-        return os.path.join(self.path, name)
-
-    def commit(self):
-        try:
-            fsync_dir(self.path, strict=True)
-            try:
-                _exchange(self.path, self.folder)
-            except OSError as err:
-                if err.errno not in (errno.ENOSYS, errno.EINVAL, errno.ENOTSUP):
-                    raise
-                self._two_renames()
-        except OSError as err:
-            raise FileError("cannot replace '%s': %s (it is unchanged)" % (self.folder, err.strerror or err))
-        self.committed = True
-        fsync_dir(os.path.dirname(self.folder))
-        shutil.rmtree(self.path, ignore_errors=True)   # now the old content
-
-    def _two_renames(self):
-        aside = self.path.replace(".update.", ".old.", 1)
-        os.rename(self.folder, aside)
-        try:
-            os.rename(self.path, self.folder)
-        except OSError:
-            os.rename(aside, self.folder)
-            raise
-        self.path = aside
-
-    def abort(self):
-        if self.path and not self.committed:
-            shutil.rmtree(self.path, ignore_errors=True)
-
-    def __enter__(self):
-        return self
-
-    def __exit__(self, exc_type, exc, tb):
-        if not self.committed:
-            self.abort()
-        return False
-
-
-def _link_tree(source, target):
-    for entry in os.scandir(source):
-        destination = os.path.join(target, entry.name)
-        if entry.is_symlink():
-            os.symlink(os.readlink(entry.path), destination)
-        elif entry.is_dir():
-            os.mkdir(destination)
-            shutil.copystat(entry.path, destination)
-            _link_tree(entry.path, destination)
-        else:
-            try:
-                os.link(entry.path, destination)
-            except OSError:   # hard links refused (fs.protected_hardlinks, a file system without them)
-                shutil.copy2(entry.path, destination)
-
-
 def move_file(src, dst):
     """Move the file ``src`` (another process's, maybe on another filesystem) to ``dst`` with
     write_atomic; ``src`` is removed once ``dst`` is in place. FileError on failure."""
@@ -440,131 +329,6 @@ def read_json(path):
         raise FileError("cannot read '%s': %s" % (path, err.strerror or err))
     except ValueError as err:
         raise FileError("'%s' is not valid JSON: %s" % (path, err))
-
-
-# --- one robot, one state directory -----------------------------------------------------------
-# Every file the robot writes lives under its data root (the namespace parameter ``data_root``),
-# in these sub-directories; a node's path parameters are relative to the root unless absolute.
-DATA_SUBDIRS = {
-    "nav": "virtual obstacles and the last good pose (move_base)",
-    "arm": "arm trajectories (robot_arm, preset_scale)",
-    "presets": "recorded presets and their calibration (preset_scale, find_scale, read_scale)",
-    "pictures": "find_scale's pictures and read_scale's annotated results",
-    "captures": "camera_node's capture_picture pictures given a relative path",
-    "thermal": "infrared_imager's pictures and radiometric frames given a relative path",
-    "voice_out": "robot_voice's output files in simulation",
-    "tasks": "task_manager's tasks and results",
-}
-
-
-CAPTURE_SUBDIRS = ("captures", "thermal")   # written by the devices' capture commands; the rest by their owners
-
-
-def capture_roots(roots, data_root):
-    """``roots`` (absolute) checked as a device's capture roots: none may be, contain or lie inside
-    a data-root folder another node owns (presets, pictures, tasks, ...), so no capture can ever
-    replace a preset or a result. ValueError naming the root otherwise; returns ``roots``."""
-    owned = [os.path.realpath(os.path.join(data_root, d)) for d in sorted(DATA_SUBDIRS) if d not in CAPTURE_SUBDIRS]
-    for root in roots:
-        real = os.path.realpath(root)
-        for folder in owned:
-            if inside(real, [folder]) or inside(folder, [real]):
-                raise ValueError("capture root %s overlaps %s, which only its owner writes (%s); use captures, "
-                                 "thermal or a folder outside the data root's owned folders"
-                                 % (root, folder, DATA_SUBDIRS[os.path.basename(folder)]))
-    return list(roots)
-
-
-DEFAULT_CAPTURE_QUOTA_MIB = 2048        # 2 GiB per device's capture roots (camera_node, infrared_imager ~quota_mib)
-QUOTA_RESCAN_S = 60.0                    # the usage is counted again at most this old (files deleted meanwhile)
-STAGED_RESERVE_BYTES = 256 << 20         # beyond the quota, for the owners' staged pictures (moved away at once)
-
-
-class CaptureQuota(object):
-    """The bytes a device's capture roots may hold, every file counted (hidden ones too: staged
-    pictures, a client's leftovers). A full walk of the roots is what a capture would otherwise cost
-    each time; here the roots are walked once, then each write adds its size, and the count is
-    taken again when older than ``rescan_s`` or before a capture is refused (so files deleted
-    meanwhile count at once). A staged picture (staged_name: preset_scale's and find_scale's, moved
-    out of the roots at once) may use STAGED_RESERVE_BYTES beyond the quota, so captures a backend
-    left behind do not stop recordings and patrols. Thread-safe. ``limit_bytes`` 0: no quota."""
-
-    def __init__(self, roots, limit_bytes=DEFAULT_CAPTURE_QUOTA_MIB << 20, rescan_s=QUOTA_RESCAN_S,
-                 clock=time.monotonic):
-        if isinstance(limit_bytes, bool) or not isinstance(limit_bytes, int) or limit_bytes < 0:
-            raise ValueError("capture quota must be a whole number of bytes >= 0 (0: none), got %r" % (limit_bytes,))
-        self.roots = list(roots)
-        self.limit = limit_bytes
-        self._rescan_s = float(rescan_s)
-        self._clock = clock
-        self._lock = threading.Lock()
-        self._used = None
-        self._counted_at = None
-
-    @classmethod
-    def from_mib(cls, roots, mib):
-        """A quota of ``mib`` MiB (a node's ~quota_mib: ROS parameters are 32-bit integers, 2 GiB in
-        bytes is not one); ValueError unless a whole number >= 0."""
-        if isinstance(mib, bool) or not isinstance(mib, int) or mib < 0:
-            raise ValueError("~quota_mib must be a whole number of MiB >= 0 (0: none), got %r" % (mib,))
-        return cls(roots, mib << 20)
-
-    def used(self, fresh=False):
-        """Bytes in the roots (counted again when ``fresh`` or when the count is older than rescan_s)."""
-        with self._lock:
-            if fresh or self._used is None or self._clock() - self._counted_at > self._rescan_s:
-                self._used = sum(tree_bytes(root) for root in self.roots)
-                self._counted_at = self._clock()
-            return self._used
-
-    def check(self, size, what="the capture", staged=False):
-        """FileError, before anything is written, when ``size`` more bytes would exceed the quota (a
-        ``staged`` picture: the quota and STAGED_RESERVE_BYTES)."""
-        limit = self.limit + (STAGED_RESERVE_BYTES if staged else 0)
-        if not self.limit or self.used() + size <= limit:
-            return
-        used = self.used(fresh=True)
-        if used + size > limit:
-            raise FileError("capture quota exceeded: the capture folders hold %d of %d bytes and %s needs %d; "
-                            "delete old captures (nothing written)" % (used, limit, what, size))
-
-    def add(self, size):
-        """Count ``size`` bytes just written."""
-        with self._lock:
-            if self._used is not None:
-                self._used += size
-
-
-def tree_bytes(folder):
-    """The size of every file below ``folder`` (links not followed, unreadable folders skipped)."""
-    total = 0
-    try:
-        entries = list(os.scandir(folder))
-    except OSError:
-        return 0
-    for entry in entries:
-        try:
-            if entry.is_dir(follow_symlinks=False):
-                total += tree_bytes(entry.path)
-            elif entry.is_file(follow_symlinks=False):
-                total += entry.stat(follow_symlinks=False).st_size
-        except OSError:   # removed while counting
-            continue
-    return total
-
-
-def under(root, path):
-    """``path`` (``~`` expanded) taken relative to ``root``; an absolute path is kept as it is."""
-    path = os.path.expanduser(str(path))
-    return path if os.path.isabs(path) else os.path.normpath(os.path.join(root, path))
-
-
-def standalone_data_root(environ, namespace):
-    """The data root of a node started without the ``data_root`` parameter (outside core.launch):
-    ``$ROS_HOME/inspection_robot/<namespace>`` (ROS_HOME defaults to ~/.ros), one per namespace."""
-    ros_home = environ.get("ROS_HOME") or os.path.join(os.path.expanduser("~"), ".ros")
-    name = namespace.strip("/").replace("/", "_") or "robot"
-    return os.path.join(ros_home, "inspection_robot", name)
 
 
 def read_secret_file(path, setting, stat_fn=os.stat, open_fn=open):

@@ -366,11 +366,11 @@ class Faults(object):
     NAMES = ("open", "fdopen", "fsync", "link", "replace", "rename", "mkdir", "symlink", "chmod")
 
     def __init__(self, monkeypatch, fail_at=None):
-        import inspection_robot.files as files
+        import inspection_robot.dir_update as dir_update
         self.calls, self.fail_at, self.failed = [], fail_at, None
         for name in self.NAMES:
             monkeypatch.setattr(os, name, self._wrap(name, getattr(os, name)))
-        monkeypatch.setattr(files, "_exchange", self._wrap("exchange", files._exchange))
+        monkeypatch.setattr(dir_update, "_exchange", self._wrap("exchange", dir_update._exchange))
 
     def _wrap(self, name, real):
         def call(*args, **kwargs):
@@ -435,14 +435,14 @@ def test_without_an_atomic_exchange_two_renames_replace_the_folder(robot, monkey
     """A file system without RENAME_EXCHANGE: the preset is renamed aside and the copy renamed in;
     the directory keeps its mode."""
     import errno
-    import inspection_robot.files as files
+    import inspection_robot.dir_update as dir_update
     commands, root = robot
     calibrated(robot)
     os.chmod(str(root / PRESET), 0o750)
 
     def no_exchange(a, b):
         raise OSError(errno.EINVAL, "not supported")
-    monkeypatch.setattr(files, "_exchange", no_exchange)
+    monkeypatch.setattr(dir_update, "_exchange", no_exchange)
     ack, out = call(commands, "upload", targets=with_pointer(end_value=4.0))
     assert ack == "success"
     assert load_preset(str(root / PRESET)).targets[0].params["end_value"] == 4.0

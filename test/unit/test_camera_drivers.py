@@ -14,7 +14,8 @@ from inspection_robot_testing.fake_isapi import FakeIsapiCamera
 from inspection_robot.sim.render import Renderer, ThermalRenderer
 from inspection_robot.sim.thermal import SimulatedImager
 from inspection_robot.sim.world import World
-from inspection_robot.files import STAGED_RESERVE_BYTES, CaptureQuota, FileError, staged_name
+from inspection_robot.data_layout import STAGED_RESERVE_BYTES, CaptureQuota
+from inspection_robot.files import FileError, staged_name
 from inspection_robot.thermal.commands import NO_DATA_COMMANDS as THERMAL_NO_DATA
 from inspection_robot.thermal.commands import ThermalCommands, load_radiometric, save_radiometric
 

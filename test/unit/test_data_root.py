@@ -6,7 +6,7 @@ import sys
 
 import pytest
 
-from inspection_robot.files import DATA_SUBDIRS, standalone_data_root, under
+from inspection_robot.data_layout import DATA_SUBDIRS, standalone_data_root, under
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 

@@ -1,10 +1,11 @@
 """The files module: confined paths, atomic writes (whole old file or whole new file, never
-leftovers), JSON state files; every failure is one FileError."""
+leftovers), JSON state files; every failure is one FileError. With its neighbours: a folder's files
+changed at once (dir_update), the capture roots and their quota (data_layout)."""
 import os
 
 import pytest
 
-from inspection_robot import files
+from inspection_robot import data_layout, dir_update, files
 from inspection_robot.command import CommandError
 from inspection_robot.files import FileError, confine_path, read_json, write_atomic, write_json_atomic
 
@@ -161,11 +162,11 @@ def test_capture_quota_counts_once_then_adds_and_counts_again_before_refusing(tm
     (root / ".staging" / "b.jpg").write_bytes(b"x" * 300)      # hidden files count too
     os.symlink("/etc/passwd", str(root / "link.jpg"))           # a link is not followed
     walks = []
-    real_tree_bytes = files.tree_bytes
-    monkeypatch.setattr(files, "tree_bytes", lambda folder: (walks.append(folder) if folder == str(root) else None)
-                        or real_tree_bytes(folder))
+    real_tree_bytes = data_layout.tree_bytes
+    monkeypatch.setattr(data_layout, "tree_bytes", lambda folder: (walks.append(folder) if folder == str(root)
+                                                                   else None) or real_tree_bytes(folder))
     now = [0.0]
-    quota = files.CaptureQuota([str(root)], 1000, rescan_s=60.0, clock=lambda: now[0])
+    quota = data_layout.CaptureQuota([str(root)], 1000, rescan_s=60.0, clock=lambda: now[0])
     quota.check(100)                                           # positive control: 900 + 100 fits
     assert quota.used() >= 900 and len(walks) == 1
     quota.add(100)
@@ -181,13 +182,13 @@ def test_capture_quota_counts_once_then_adds_and_counts_again_before_refusing(tm
     assert len(walks) == 3
     now[0] = 61.0
     assert quota.used() == 300 and len(walks) == 4              # older than rescan_s: counted again
-    assert files.CaptureQuota([str(root)], 0).check(10 ** 12) is None   # 0: no quota
+    assert data_layout.CaptureQuota([str(root)], 0).check(10 ** 12) is None   # 0: no quota
     with pytest.raises(ValueError, match="whole number of bytes"):
-        files.CaptureQuota([str(root)], -1)
-    assert files.CaptureQuota.from_mib([str(root)], 2048).limit == 2 << 30   # the default, in a ROS int
+        data_layout.CaptureQuota([str(root)], -1)
+    assert data_layout.CaptureQuota.from_mib([str(root)], 2048).limit == 2 << 30   # the default, in a ROS int
     for bad in (-1, 1.5, "8", True):
         with pytest.raises(ValueError, match="~quota_mib must be a whole number of MiB"):
-            files.CaptureQuota.from_mib([str(root)], bad)
+            data_layout.CaptureQuota.from_mib([str(root)], bad)
 
 
 def test_confine_path_names_the_request_not_the_resolved_path(tmp_path):
@@ -260,14 +261,14 @@ def test_move_file_puts_another_process_file_in_place(tmp_path):
 def test_capture_roots_never_overlap_an_owner_folder(tmp_path, roots, owned):
     root = str(tmp_path)
     with pytest.raises(ValueError) as err:
-        files.capture_roots([r.format(root=root) for r in roots], root)
+        data_layout.capture_roots([r.format(root=root) for r in roots], root)
     assert os.path.join(root, owned) in str(err.value)
 
 
 def test_capture_roots_accepts_captures_thermal_and_folders_elsewhere(tmp_path):
     root = str(tmp_path / "data")
     good = [root + "/captures", root + "/thermal/x", str(tmp_path / "usb")]
-    assert files.capture_roots(good, root) == good
+    assert data_layout.capture_roots(good, root) == good
 
 
 def test_dir_update_replaces_the_folder_at_once_or_not_at_all(tmp_path):
@@ -279,14 +280,14 @@ def test_dir_update_replaces_the_folder_at_once_or_not_at_all(tmp_path):
     os.symlink("keep.jpg", str(folder / "link.jpg"))
     before = _tree(folder)
     with pytest.raises(RuntimeError):     # left without commit: the folder untouched, no copy left
-        with files.DirUpdate(str(folder)) as update:
+        with dir_update.DirUpdate(str(folder)) as update:
             write_atomic(update.file("calib.ini"), "new")
             write_atomic(update.file("zoom0.xml"), "<zoom/>")
             assert _tree(folder) == before
             raise RuntimeError("operator gave up")
     assert _tree(folder) == before and os.listdir(str(tmp_path)) == ["preset"]
     inode = os.stat(str(folder)).st_ino
-    with files.DirUpdate(str(folder)) as update:
+    with dir_update.DirUpdate(str(folder)) as update:
         write_atomic(update.file("calib.ini"), "new")
         write_atomic(update.file("zoom0.xml"), "<zoom/>")
         update.commit()
@@ -297,7 +298,7 @@ def test_dir_update_replaces_the_folder_at_once_or_not_at_all(tmp_path):
 
 def test_dir_update_refuses_a_missing_folder(tmp_path):
     with pytest.raises(FileError) as err:
-        files.DirUpdate(str(tmp_path / "nowhere"))
+        dir_update.DirUpdate(str(tmp_path / "nowhere"))
     assert "no such directory" in str(err.value)
 
 

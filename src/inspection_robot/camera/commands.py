@@ -6,7 +6,7 @@ Continuous zoom/focus commands take a duration in ms (0 = until camera_stop): th
 the command answers at once, and a timer stops it; a newer move or camera_stop supersedes it.
 capture_picture creates a new file inside the capture roots and never replaces one (the spec's
 data is a bare path: there is no field to ask for a replacement), never under a hidden name (the
-robot's own, files.new_file_path) and never beyond the roots' quota (files.CaptureQuota).
+robot's own, files.new_file_path) and never beyond the roots' quota (data_layout.CaptureQuota).
 """
 import functools
 import threading
@@ -43,7 +43,7 @@ def parse_focus_position(text):
 
 class CameraCommands(object):
     """Builds the camera's CommandTable over ``driver``; ``roots`` (the capture roots, see
-    files.capture_roots) confine capture paths; ``quota`` (files.CaptureQuota, None: none) bounds
+    data_layout.capture_roots) confine capture paths; ``quota`` (data_layout.CaptureQuota, None: none) bounds
     the bytes they hold."""
 
     def __init__(self, driver, optics, roots, health, timer_factory=threading.Timer, quota=None):

@@ -14,7 +14,8 @@ import os
 import numpy as np
 
 from inspection_robot.lazy import lazy_import
-from inspection_robot.files import DirUpdate, write_atomic, write_json_atomic
+from inspection_robot.dir_update import DirUpdate
+from inspection_robot.files import write_atomic, write_json_atomic
 from inspection_robot.inspection import calibration_schema as schema
 from inspection_robot.inspection.preset import (TARGET_KINDS, PresetError, Target, load_info, write_calibration,
                                                 zoom_picture_name)
@@ -115,7 +116,7 @@ def calibrate(preset_dir, specs, optics, draft=None, check=None):
 
     All or nothing: the reference patches, zoom<k>.xml, preset_calib_info.ini and (``draft`` not
     None) the draft are written into a copy of the preset directory that replaces it in one rename
-    (files.DirUpdate); an I/O failure (FileError) leaves the old calibration as it was.
+    (dir_update.DirUpdate); an I/O failure (FileError) leaves the old calibration as it was.
     """
     preset_dir = os.path.realpath(preset_dir)
     info, targets, patches = build_targets(preset_dir, specs, optics)

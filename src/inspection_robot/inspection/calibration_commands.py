@@ -9,7 +9,7 @@ as the command-line tool does (inspection.calibration); ``apply`` validates the 
 calibration schema (inspection.calibration_schema) and writes ``preset_calib_info.ini`` +
 ``zoom<k>.xml`` + reference patches; ``upload`` does the same with a complete target list in one
 request (and makes it the draft). A bad draft or upload fails with the reason and writes nothing;
-the files of a good one replace the old calibration in one rename (files.DirUpdate), so an I/O
+the files of a good one replace the old calibration in one rename (dir_update.DirUpdate), so an I/O
 failure leaves the old one whole. Pictures a target names (switch/lamp references) must lie inside
 the readable roots; a reference file named in the preset directory must decode as the reader
 decodes it. A request larger than calibration_schema.MAX_REQUEST_BYTES, or more than MAX_TARGETS
@@ -23,8 +23,9 @@ import threading
 import numpy as np
 
 from inspection_robot.command import CommandError, CommandTable, parse_json
+from inspection_robot.data_layout import under
 from inspection_robot.files import FileError, confine_data_path, confine_path, read_json, refuse_hidden, \
-    root_relative, under, write_json_atomic
+    root_relative, write_json_atomic
 from inspection_robot.inspection import calibration
 from inspection_robot.inspection import calibration_schema as schema
 from inspection_robot.inspection.preset import PresetError, load_info, load_preset

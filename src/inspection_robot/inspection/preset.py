@@ -14,7 +14,7 @@ Layout of ``<preset_root>/<preset_id>/<YYYYMMDD_HHMMSS>/`` (documented in docs/i
 A new preset directory is filled under a hidden temporary name and renamed at the end (the parent
 folder fsynced), so a failure or a power cut never leaves half a preset; a calibration is written
 into a copy of the directory that replaces it in one rename (calibration.calibrate,
-files.DirUpdate), so it is whole or absent too. Only preset_scale (recording) and the calibration
+dir_update.DirUpdate), so it is whole or absent too. Only preset_scale (recording) and the calibration
 tool write here; the camera and the imager write into their own capture roots, never into a preset.
 """
 import configparser
@@ -308,7 +308,7 @@ def load_preset(path, need_calibration=True):
 
     One snapshot: the directory is opened once and every file (preset.ini, preset_calib_info.ini,
     zoom<k>.xml, the reference patches) read relative to that descriptor, so a calibration swapped
-    in meanwhile (files.DirUpdate replaces the whole directory) is never mixed with the old one.
+    in meanwhile (dir_update.DirUpdate replaces the whole directory) is never mixed with the old one.
     When the path no longer names the directory read once the reading is done (an upload
     overtook it: the old content may be removed while it is read), the load starts again, up to
     SNAPSHOT_TRIES times.

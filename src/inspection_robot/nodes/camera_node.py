@@ -29,7 +29,7 @@ from inspection_robot.camera.jpeg import check_quality
 from inspection_robot.camera.driver import CameraError, DeviceHealth, NoCamera
 from inspection_robot.camera.optics import ZoomOptics
 from inspection_robot.drivers import SIM, make_driver
-from inspection_robot.files import CaptureQuota, capture_roots
+from inspection_robot.data_layout import CaptureQuota, capture_roots
 from inspection_robot.ros.diagnostics import DeviceDiagnostics, probe_device
 from inspection_robot.ros.images import LiveViewPublisher
 from inspection_robot.ros.node import NodeSettings, init_node

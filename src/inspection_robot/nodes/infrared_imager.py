@@ -33,7 +33,7 @@ from inspection_robot.interface import INFRARED_STAGING_SERVICE
 from inspection_robot.ros.twin import CommandTwin
 from inspection_robot.thermal.commands import ThermalCommands
 from inspection_robot.thermal.driver import NoImager, ThermalError
-from inspection_robot.files import CaptureQuota, capture_roots
+from inspection_robot.data_layout import CaptureQuota, capture_roots
 from inspection_robot.ros.data_root import data_root
 
 NODE = "infrared_imager"

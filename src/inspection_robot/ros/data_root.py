@@ -7,14 +7,14 @@ parameter server: a parameter written while the robot runs cannot move where a r
 and writes (docs/interface.md, "Backend link access"). A node started on its own (a test's launch
 file) reads the namespace parameter ``data_root`` and its private path parameters as before, and
 falls back to ``$ROS_HOME/inspection_robot/<namespace>``, saying so. Path parameters are relative to
-the data root unless absolute (``files.under``).
+the data root unless absolute (``data_layout.under``).
 """
 import os
 import sys
 
 import rospy
 
-from inspection_robot.files import standalone_data_root, under
+from inspection_robot.data_layout import standalone_data_root, under
 from inspection_robot.fixed_settings import StartupFiles
 from inspection_robot.ros.package_share import share_file
 

@@ -24,7 +24,8 @@ import os
 from stat import S_ISDIR, S_ISLNK
 
 from inspection_robot.command import CommandError, CommandTable, parse_json
-from inspection_robot.files import FileError, confine_path, inside, root_relative, shown, under
+from inspection_robot.data_layout import under
+from inspection_robot.files import FileError, confine_path, inside, root_relative, shown
 
 DEFAULT_MAX_CHUNK_BYTES = 262144
 DEFAULT_MAX_ENTRIES = 1000

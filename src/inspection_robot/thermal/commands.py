@@ -86,7 +86,7 @@ def load_radiometric(path):
 
 class ThermalCommands(object):
     """The imager's CommandTable; ``roots`` confine the paths of new files, ``quota``
-    (files.CaptureQuota, None: none) bounds the bytes they hold."""
+    (data_layout.CaptureQuota, None: none) bounds the bytes they hold."""
 
     def __init__(self, driver, roots, health, width, height, measure_box_px=16, jpeg_quality=90, quota=None):
         self._driver = driver
