@@ -5,7 +5,7 @@ import wave
 
 import pytest
 
-from inspection_robot.charge.machine import VOICE_CLIPS as CHARGE_VOICE_CLIPS
+from inspection_robot.charge.states import VOICE_CLIPS as CHARGE_VOICE_CLIPS
 from inspection_robot.interface import BATTERY_CHARGING, CIRCUIT_BATTERY_CRITICAL, CIRCUIT_JOY_COMM_LOST, MODE_NAMES
 from inspection_robot.motion.safety import SafetyLatch
 from inspection_robot.motion.voice import status_sentence

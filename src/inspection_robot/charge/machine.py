@@ -2,7 +2,7 @@
 
 No rospy: the node feeds it robot_status (``on_battery``), task_status (``on_task_status``), the
 replies of task_control (``on_task_reply``) and move_action (``on_move_result``), and calls
-``tick()`` periodically; the machine acts only through its ``ports`` (see :class:`ChargePorts`),
+``tick()`` periodically; the machine acts only through its ``ports`` (see ports.ChargePorts),
 which never call back into it synchronously. Time comes from an injected ``clock`` (seconds), so
 unit tests drive every timeout with a fake clock.
 
@@ -21,130 +21,19 @@ relay is opened, ``ports.alarm`` raises the reason (topic + voice) and the patro
 until an operator sends ``dock`` (try again) or ``undock`` (relay off, back off if on the dock,
 resume the patrol). The robot drives only in task mode; in another
 mode the machine waits and says why in its status. Found idle on the dock with the relay closed
-(charge_control restarted mid-charge) it adopts that charge and finishes the cycle.
+(charge_control restarted mid-charge) it adopts that charge and finishes the cycle. The states,
+timings, failure kinds and voice clips are in states.py.
 """
 import json
-from collections import namedtuple
 
 from inspection_robot.charge.dock import is_docked, near_dock
+from inspection_robot.charge.ports import validate_config
+from inspection_robot.charge.states import BACKING_OFF, CHARGING, DOCKING, DRIVE_FAILURES, DRIVE_STATES, FAILED, \
+    FAILURES, GOAL_RETRY_S, IDLE, PAUSE_RETRY_S, PAUSING, RELAY_OFF, RELAY_ON, RESUMING, SERVER_RETRY_S, \
+    SERVER_TIMEOUT_S, TASK_QUIET_STATES, TO_APPROACH, TRIGGER_LOW_BATTERY, TRIGGER_MANUAL, TRIGGER_RECOVERED, \
+    VOICE_ALARM, VOICE_CHARGED, VOICE_GOING_TO_DOCK, VOICE_LOW_BATTERY, WAIT_CURRENT
 from inspection_robot.command import CommandError, CommandTable, no_data
-from inspection_robot.interface import BATTERY_CHARGING, LIGHT_CHARGE_RELAY, MODE_NAMES, MODE_TASK
-from inspection_robot.status.merge import STALE_CONTROL_STATUS, STALE_NAV_STATUS
-from inspection_robot.task.states import ENDED_STATES as TASK_ENDED_STATES, STATE_IDLE as TASK_IDLE, \
-    STATE_PAUSED as TASK_PAUSED
-
-IDLE = "idle"
-PAUSING = "pausing_task"
-TO_APPROACH = "to_approach"
-DOCKING = "docking"
-RELAY_ON = "relay_on"
-WAIT_CURRENT = "wait_current"
-CHARGING = "charging"
-RELAY_OFF = "relay_off"
-BACKING_OFF = "backing_off"
-RESUMING = "resuming_task"
-FAILED = "failed"
-STATES = (IDLE, PAUSING, TO_APPROACH, DOCKING, RELAY_ON, WAIT_CURRENT, CHARGING, RELAY_OFF, BACKING_OFF,
-          RESUMING, FAILED)
-DRIVE_STATES = (TO_APPROACH, DOCKING, BACKING_OFF)
-DRIVE_FAILURES = {TO_APPROACH: "approach", DOCKING: "dock", BACKING_OFF: "backoff"}  # state -> failure kind
-
-TRIGGER_LOW_BATTERY = "low_battery"
-TRIGGER_MANUAL = "manual"
-TRIGGER_RECOVERED = "recovered"  # found on the dock with the relay closed (e.g. after a restart)
-
-# task_manager's task_status states in which the patrol sends no goal (charge_control may drive)
-TASK_QUIET_STATES = (TASK_PAUSED, TASK_IDLE) + TASK_ENDED_STATES
-TASK_HOLD = "charge"  # data of task_control pause/resume
-PAUSE_RETRY_S = 1.0   # s between pause requests to a task_manager that does not answer (e.g. respawning)
-GOAL_RETRY_S = 3.0    # s before a failed move_action goal is sent again
-SERVER_RETRY_S = 1.0  # s between goals while move_action's server is not up (move_base starting or respawning)
-SERVER_TIMEOUT_S = 60.0  # s a drive state waits for that server before it counts as a failed goal
-
-# failure kind -> (voice clip, reason format); the reason is the alarm text (docs/interface.md)
-FAILURES = {
-    "pause": ("charge_task_not_paused", "task_manager did not pause: %s"),
-    "approach": ("charge_dock_unreachable", "dock unreachable: approach goal failed: %s"),
-    "dock": ("charge_dock_unreachable", "dock unreachable: docking goal failed: %s"),
-    "relay_on": ("charge_relay_not_confirmed", "relay not confirmed: %s"),
-    "current": ("charge_no_current", "no charging current: %s"),
-    "relay_off": ("charge_relay_not_released", "relay not released: %s"),
-    "backoff": ("charge_backoff_failed", "back-off failed: %s"),
-    "resume": ("charge_task_not_resumed", "task_manager did not resume: %s"),
-}
-VOICE_ALARM = "charge_alarm"
-VOICE_LOW_BATTERY = "charge_battery_low"
-VOICE_GOING_TO_DOCK = "charge_going_to_dock"
-VOICE_CHARGED = "charge_done"
-VOICE_CLIPS = (VOICE_ALARM, VOICE_LOW_BATTERY, VOICE_GOING_TO_DOCK, VOICE_CHARGED) + tuple(
-    sorted(set(clip for clip, _ in FAILURES.values())))
-
-Battery = namedtuple("Battery", "quantity charging relay mode pose")
-ChargeConfig = namedtuple("ChargeConfig", "low_level full_level retries pause_timeout relay_timeout "
-                                          "current_timeout current_lost_timeout status_timeout")
-
-
-def battery_from_robot_status(msg):
-    """The Battery a robot_status message reports, or None while its control_status input is stale
-    (status_control then repeats old values, or zeros before robot_control's first message).
-    The pose is None while nav_status is stale or has no position."""
-    other = msg.other_status[0] if len(msg.other_status) else 0
-    if other & STALE_CONTROL_STATUS:
-        return None
-    pose = None
-    if len(msg.position) >= 2 and not other & STALE_NAV_STATUS:
-        pose = (msg.position[0], msg.position[1], msg.orientation)
-    return Battery(msg.battery_quantity, bool(msg.battery_status & BATTERY_CHARGING),
-                   bool(msg.light_status & LIGHT_CHARGE_RELAY), msg.mode, pose)
-
-
-def validate_config(config):
-    """Raise ValueError naming the first inconsistent parameter of a ChargeConfig."""
-    if not 0 <= config.low_level < config.full_level <= 100:
-        raise ValueError("need 0 <= low_level < full_level <= 100, got %s and %s"
-                         % (config.low_level, config.full_level))
-    if config.retries < 0 or int(config.retries) != config.retries:
-        raise ValueError("retries must be a whole number >= 0, got %s" % (config.retries,))
-    for name in ("pause_timeout", "relay_timeout", "current_timeout", "current_lost_timeout", "status_timeout"):
-        if not getattr(config, name) > 0:
-            raise ValueError("%s must be positive, got %s" % (name, getattr(config, name)))
-    return config
-
-
-class ChargePorts(object):
-    """What the machine asks of the outside world; the node implements it, tests record it."""
-
-    def task(self, token, cmd):
-        """Send task_control ``cmd`` (pause|resume) with data "charge"; answer with
-        ``on_task_reply(token, ok, data)``, ok None when task_manager is not running."""
-        raise NotImplementedError
-
-    def goal(self, token, pose, precision, backward):
-        """Send a move_action goal to ``pose`` (x, y, yaw); answer ``on_move_result(token, ok, reason)``,
-        ok None when the goal could not be sent because move_action's server is not up."""
-        raise NotImplementedError
-
-    def cancel_goal(self):
-        raise NotImplementedError
-
-    def relay(self, closed):
-        """control_cmd enable_charge (True) or disable_charge (False)."""
-        raise NotImplementedError
-
-    def alarm(self, reason, clips):
-        """Report a failure that retries did not cure: alarm topic and voice prompt ``clips``."""
-        raise NotImplementedError
-
-    def speak(self, clips):
-        raise NotImplementedError
-
-    def warn(self, text):
-        """A throttled log warning (recoverable trouble, e.g. a retry or a missing task_manager)."""
-        raise NotImplementedError
-
-    def status(self, status):
-        """Publish the status dict (called only when it changed)."""
-        raise NotImplementedError
+from inspection_robot.interface import MODE_NAMES, MODE_TASK
 
 
 class ChargeMachine(object):

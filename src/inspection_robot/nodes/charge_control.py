@@ -28,7 +28,8 @@ import rospy
 from actionlib_msgs.msg import GoalStatus
 
 from inspection_robot.charge.dock import parse_dock
-from inspection_robot.charge.machine import ChargeConfig, ChargeMachine, ChargePorts, battery_from_robot_status
+from inspection_robot.charge.machine import ChargeMachine
+from inspection_robot.charge.ports import ChargeConfig, ChargePorts, battery_from_robot_status
 from inspection_robot.command import failed
 from inspection_robot.interface import ACK_SUCCESS, MOVE_GOAL_TYPE, MOVE_RESULT_SUCCESS, VOICE_LANGUAGES
 from inspection_robot.motion.owners import ROBOT_STATUS

@@ -52,7 +52,7 @@ BUILTIN_PHRASES = {
     "alarm_drive_fault": ("驱动器故障", "drive fault"),
     "alarm_battery_critical": ("电池电量严重不足", "battery critically low"),
     "alarm_joystick_lost": ("手柄通信中断", "joystick link lost"),
-    # charge_control (charge.machine.VOICE_CLIPS)
+    # charge_control (charge.states.VOICE_CLIPS)
     "charge_battery_low": ("电量低", "battery low"),
     "charge_going_to_dock": ("返回充电桩充电", "going to the charging dock"),
     "charge_done": ("充电完成", "charging complete"),
