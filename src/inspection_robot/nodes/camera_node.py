@@ -15,7 +15,7 @@ Publishes:   camera_zoom (std_msgs/Float64, latched, on change)
 Parameters:  config/camera_node.yaml: every setting, its default and meaning (read through ros.node.NodeSettings),
              and config/camera_optics.yaml (~camera_optics); ~driver is required (the site file sets it),
              ~sim/world_file too with driver sim (the launch sets it); a ~roots entry overlapping presets, pictures,
-             tasks ... is refused at start (files.capture_roots); data_root (namespace)
+             tasks ... is refused at start (data_layout.capture_roots); data_root (namespace)
 """
 import threading
 import traceback

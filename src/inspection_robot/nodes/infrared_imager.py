@@ -15,7 +15,7 @@ Parameters:  config/infrared_imager.yaml: every setting, its default and meaning
              ros.node.NodeSettings); ~driver is required (none = not fitted: every command fails "thermal not fitted
              (driver: none)" and diagnostics report ERROR), ~isapi/host and ~isapi/password_file with driver isapi,
              ~sim/world_file with driver sim (the launch sets it); a ~roots entry overlapping presets, pictures,
-             tasks ... is refused at start (files.capture_roots); data_root (namespace)
+             tasks ... is refused at start (data_layout.capture_roots); data_root (namespace)
 """
 import json
 
