@@ -9,7 +9,7 @@ Every device node reads ``~driver`` (and, for a plug-in, ``~driver_params``) and
 - ``package.module:Class``: a vendor plug-in, constructed as ``Class(**driver_params)``.
 
 An empty value is refused: no device silently falls back to a simulator. robot.launch's site check
-(inspection_robot.site, tools/check_site) refuses simulators and names every missing setting in
+(inspection_robot.site.check, tools/check_site) refuses simulators and names every missing setting in
 one message before any node starts. Pure module: no rospy.
 """
 from collections import OrderedDict, namedtuple

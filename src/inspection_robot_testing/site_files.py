@@ -7,7 +7,7 @@ import stat
 import numpy as np
 
 from inspection_robot.nav.gridmap import GridMap, save_map
-from inspection_robot.site import TEMPLATE, load_site_text
+from inspection_robot.site.check import TEMPLATE, load_site_text
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 

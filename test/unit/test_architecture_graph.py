@@ -23,3 +23,29 @@ def test_pure_folders_import_neither_the_ros_wing_nor_sim():
     bad = [(a, b) for a, b in tool.edges()
            if not tool.is_wing(a) and (tool.is_wing(b) or (b == "sim" and a != "sim"))]
     assert bad == []
+
+
+def test_the_top_level_imports_only_the_top_level():
+    """interface, command, files ... are what every capability shares: they import no capability."""
+    tool = load_tool()
+    assert [(a, b) for a, b in tool.edges() if a == tool.CORE] == []
+
+
+def test_no_folder_imports_back_up():
+    """The folder graph has no cycle: every chain of imports ends in the core or ROS."""
+    tool = load_tool()
+    graph = {}
+    for a, b in tool.edges():
+        graph.setdefault(a, set()).add(b)
+    done, cycles = set(), []
+
+    def visit(box, path):
+        for nxt in sorted(graph.get(box, ())):
+            if nxt in path:
+                cycles.append(path[path.index(nxt):] + [nxt])
+            elif nxt not in done:
+                visit(nxt, path + [nxt])
+        done.add(box)
+    for box in sorted(graph):
+        visit(box, [box])
+    assert cycles == []

@@ -2,7 +2,7 @@
 
 Checked here, without a roscore: every setting in the files has a comment; the nodes read their
 settings through ros.node.NodeSettings (no ``get_param("~name", default)`` writes a default again),
-and every top-level key of a node's file is read by that node; site.py's and fixed_settings.py's
+and every top-level key of a node's file is read by that node; site/check.py's and fixed_settings.py's
 lists of node settings name keys the files define; the launch files load a node's shared files as
 settings.SHARED_FILES says; and a default the docs quote (``~name`` then a number) is the file's.
 """
@@ -19,7 +19,7 @@ from inspection_robot.drivers import DEVICES
 from inspection_robot.fixed_settings import FIXED_KEYS
 from inspection_robot.motion.base_inputs import PARAM as ROS_BASE_PARAM
 from inspection_robot.nav.pose_adapter import ADAPTER_SETTINGS
-from inspection_robot.site import ADAPTER, ADAPTER_PARAMS, DRIVER_SETTINGS, REQUIRED, SECRET_FILES
+from inspection_robot.site.check import ADAPTER, ADAPTER_PARAMS, DRIVER_SETTINGS, REQUIRED, SECRET_FILES
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 SRC = os.path.join(ROOT, "src", "inspection_robot")

@@ -1,4 +1,4 @@
-"""inspection_robot.site: the site check refuses every unset, misspelt or simulated-yard setting,
+"""inspection_robot.site.check: the site check refuses every unset, misspelt or simulated-yard setting,
 all in one list; the template config/robot.example.yaml passes once its files exist."""
 import copy
 import os
@@ -7,8 +7,8 @@ import pytest
 import yaml
 
 from inspection_robot.drivers import DEVICES
-from inspection_robot.site import (SiteError, flatten, format_problems, load_site_text, sim_yard,
-                                   site_problems)
+from inspection_robot.site.check import (SiteError, flatten, format_problems, load_site_text, sim_yard,
+                                         site_problems)
 from inspection_robot_testing.site_files import template_site
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))

@@ -6,7 +6,7 @@ from roslaunch.config import ROSLaunchConfig
 from roslaunch.substitution_args import resolve_args
 from roslaunch.xmlloader import XmlLoader
 
-from inspection_robot.site import SIM_SITE_FILE, flatten, load_site_text, sim_yard
+from inspection_robot.site.check import SIM_SITE_FILE, flatten, load_site_text, sim_yard
 
 
 def launch_defaults(share, ns, data_root):

@@ -1,4 +1,4 @@
-"""check_site: may robot.launch start with this site file? (inspection_robot.site)
+"""check_site: may robot.launch start with this site file? (inspection_robot.site.check)
 
     check_site [SITE_FILE] [--data-root DIR] [--ns NS] [--insecure true|false]
 
@@ -16,7 +16,7 @@ import argparse
 import os
 import sys
 
-from inspection_robot.site import SiteError, format_problems, load_site_text, site_problems
+from inspection_robot.site.check import SiteError, format_problems, load_site_text, site_problems
 from inspection_robot.ros.launch_config import launch_defaults, load_yard
 from inspection_robot.ros.package_share import share_file
 from inspection_robot.version import version
