@@ -90,8 +90,10 @@ class WsBackend(object):
 
 
 def reconnect_trial(url, hold_s, gap_s=0.0, numbered=True, rng=random):
-    """One try: returns {"kept": bool, "why": text}. ``hold_s``: how long B watches after its grant
-    (more than the heartbeat timeout, so A's last heartbeat expires meanwhile)."""
+    """One try: returns {"kept": bool, "why": text, "held": (from, to)}. ``hold_s``: how long B watches
+    after its grant (more than the heartbeat timeout, so A's last heartbeat expires meanwhile);
+    ``held``: the wall-clock span B watched (a caller with ROS access can tell whether the robot went
+    offline in it: no heartbeat at all reached status_control, B's included)."""
     a = WsBackend(url, numbered, rng=rng)
     try:
         a.online()
@@ -107,6 +109,7 @@ def reconnect_trial(url, hold_s, gap_s=0.0, numbered=True, rng=random):
         ack, data = b.acquire()
         if ack != "success":
             return {"kept": False, "why": "B's acquire: %s %s" % (ack, data)}
+        held = (time.time(), time.time() + hold_s)
         deadline = time.monotonic() + hold_s
         while time.monotonic() < deadline:
             try:
@@ -115,8 +118,9 @@ def reconnect_trial(url, hold_s, gap_s=0.0, numbered=True, rng=random):
             except queue.Empty:   # nothing but mode 1 online until the deadline
                 break
             return {"kept": False, "why": "B lost control: mode %d, offline_warn %d" % (lost["mode"],
-                                                                                        lost["offline_warn"])}
+                                                                                        lost["offline_warn"]),
+                    "held": (held[0], time.time())}
         b.mode("release", "", 3, timeout=5.0)
-        return {"kept": True, "why": ""}
+        return {"kept": True, "why": "", "held": held}
     finally:
         b.close()
