@@ -5,13 +5,18 @@ styles, painted by the world's own gauge painter ``sim.faces.paint_gauge``, lamp
 textured scene through a known homography, so tests know the exact box and value of every target
 without the world.
 """
+import json
 import math
 import os
 
 import cv2
 import numpy as np
 
+from inspection_robot.camera.optics import ZoomOptics
+from inspection_robot.files import write_atomic
+from inspection_robot.inspection.calibration_commands import CalibrationCommands
 from inspection_robot.inspection.gauge import GaugeScale
+from inspection_robot.inspection.preset import PresetInfo
 from inspection_robot.sim.faces import paint_gauge
 
 GAUGE_STYLES = {
@@ -293,3 +298,19 @@ def record_synthetic_preset(root, preset_id, stamp, scene, view_centre, zoom_lev
             if os.path.exists(writer.file("calib_%s.png" % name)):
                 os.unlink(writer.file("calib_%s.png" % name))
         return writer.commit()
+
+
+def make_lamp_preset(data_root, preset_id):
+    """A calibrated one-lamp preset ``preset_id`` under <data_root>/presets (what the calibration tool
+    writes): the patrol's inspect steps have something real to read."""
+    folder = os.path.join(data_root, "presets", preset_id, "20260101_000000")
+    os.makedirs(folder)
+    info = PresetInfo(preset_id, "visible", False, "20260101_000000", 10.0, -5.0, 1.0, 0x4000, (5.0, 5.0, 0.0),
+                      [1.0, 2.0], 640, 360)
+    write_atomic(os.path.join(folder, "preset.ini"), info.to_ini())
+    optics = ZoomOptics([[1.0, 59.8], [2.0, 31.6]], 640, 360)
+    commands = CalibrationCommands(data_root, ["presets"], ["presets"], optics)
+    reply = commands.table.dispatch("upload", json.dumps({
+        "preset": "presets/%s/20260101_000000" % preset_id,
+        "targets": [{"kind": "lamp", "box": [100, 100, 200, 100, 200, 200, 100, 200], "colour": "red"}]}))
+    assert reply.ack == "success", reply.data

@@ -30,35 +30,17 @@ import rospy
 import rostest
 from actionlib_msgs.msg import GoalStatus
 
-from inspection_robot.camera.optics import ZoomOptics
-from inspection_robot.files import write_atomic
-from inspection_robot.inspection.calibration_commands import CalibrationCommands
-from inspection_robot.inspection.preset import PresetInfo
 from inspection_robot.msg import GeneralAck, GeneralAction, GeneralCmd, GeneralGoal, GeneralTopic, RobotStatus
 from inspection_robot.task.checks import Reachability
 from inspection_robot.task.route import plan_route
 from inspection_robot.task.spec import ORDER_SHORTEST, Task
+from inspection_robot_testing.fixtures import make_lamp_preset
 from rostest_helpers import GroundTruth, Latest, TwinClient, localizer_tolerance, pose_error, wait_for, wait_subscribed
 
 PRESET = "act_lamp"
 FAR_STOPS = [(20.0, 21.4), (10.0, 5.0)]
 HOME = (5.0, 5.0)   # config/sim_site.yaml task_manager/home_pose
 MAP = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "config", "maps", "substation.yaml")
-
-
-def make_preset(data_root):
-    """A calibrated one-lamp preset under <data_root>/presets (what the calibration tool writes)."""
-    folder = os.path.join(data_root, "presets", PRESET, "20260101_000000")
-    os.makedirs(folder)
-    info = PresetInfo(PRESET, "visible", False, "20260101_000000", 10.0, -5.0, 1.0, 0x4000, (5.0, 5.0, 0.0),
-                      [1.0, 2.0], 640, 360)
-    write_atomic(os.path.join(folder, "preset.ini"), info.to_ini())
-    optics = ZoomOptics([[1.0, 59.8], [2.0, 31.6]], 640, 360)
-    commands = CalibrationCommands(data_root, ["presets"], ["presets"], optics)
-    reply = commands.table.dispatch("upload", json.dumps({
-        "preset": "presets/%s/20260101_000000" % PRESET,
-        "targets": [{"kind": "lamp", "box": [100, 100, 200, 100, 200, 200, 100, 200], "colour": "red"}]}))
-    assert reply.ack == "success", reply.data
 
 
 def task(task_id, stops, priority="routine", order="given"):
@@ -71,7 +53,7 @@ class TaskActionTest(unittest.TestCase):
     @classmethod
     def setUpClass(cls):
         rospy.init_node("test_task_action")
-        make_preset(rospy.get_param("/data_root"))
+        make_lamp_preset(rospy.get_param("/data_root"), PRESET)
         cls.status = Latest("task_status", GeneralTopic, queue_size=500)
         # robot_status carries the localizer's pose: what task_manager plans from (test 5)
         cls.robot = Latest("robot_status", RobotStatus, queue_size=10)

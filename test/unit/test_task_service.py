@@ -7,10 +7,7 @@ import os
 
 import pytest
 
-from inspection_robot.camera.optics import ZoomOptics
-from inspection_robot.files import write_atomic
-from inspection_robot.inspection.calibration_commands import CalibrationCommands
-from inspection_robot.inspection.preset import PresetInfo
+from inspection_robot_testing.fixtures import make_lamp_preset
 from inspection_robot.task.action import END_CANCELED, END_SUCCEEDED
 from inspection_robot.task.checks import Reachability
 from inspection_robot.task.patrol import OUTCOME_FAILED, OUTCOME_OK, STEP_INSPECT, STEP_MOVE, Inspection
@@ -25,21 +22,6 @@ MAP = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "conf
 HOME = CONFIG.home_pose   # (5, 5): the simulated yard's home pose
 STOPS = [(20.0, 21.4), (10.0, 5.0)]
 PRESET = "lamp"
-
-
-def make_preset(data_root):
-    """A calibrated one-lamp preset under <data_root>/presets (what the calibration tool writes)."""
-    folder = os.path.join(data_root, "presets", PRESET, "20260101_000000")
-    os.makedirs(folder)
-    info = PresetInfo(PRESET, "visible", False, "20260101_000000", 10.0, -5.0, 1.0, 0x4000, (5.0, 5.0, 0.0),
-                      [1.0, 2.0], 640, 360)
-    write_atomic(os.path.join(folder, "preset.ini"), info.to_ini())
-    optics = ZoomOptics([[1.0, 59.8], [2.0, 31.6]], 640, 360)
-    commands = CalibrationCommands(data_root, ["presets"], ["presets"], optics)
-    reply = commands.table.dispatch("upload", json.dumps({
-        "preset": "presets/%s/20260101_000000" % PRESET,
-        "targets": [{"kind": "lamp", "box": [100, 100, 200, 100, 200, 200, 100, 200], "colour": "red"}]}))
-    assert reply.ack == "success", reply.data
 
 
 def task(task_id, stops=STOPS, priority="routine"):
@@ -102,7 +84,7 @@ class Goal(object):
 class Rig(object):
     def __init__(self, tmp_path):
         self.root = str(tmp_path / "data")
-        make_preset(self.root)
+        make_lamp_preset(self.root, PRESET)
         os.makedirs(os.path.join(self.root, "tasks"))
         self.store = ResultStore(os.path.join(self.root, "tasks", "results.sqlite"))
         self.clock, self.monotonic = Clock(), Clock()
