@@ -31,7 +31,13 @@ class MotionAuthority(Checker):
     latest; from ``t_deadline`` (one control cycle later) every driver command must be zero until
     the next ``authorise``, and a zero command must have reached the driver by then.
     ``command(t, vx, vyaw)``: a command reaching the driver, stamped by robot_control.
+
+    Judged by stamps, not by arrival: the stop's command usually reaches the soak before the cause
+    is declared (the fault service answers after robot_control stopped), so commands ignored while
+    authorised are kept for ``REPLAY`` s and judged again when a cause stamped before them arrives.
     """
+
+    REPLAY = 5.0
 
     name = "no motion without a live authorised source; stop within one cycle"
 
@@ -43,21 +49,32 @@ class MotionAuthority(Checker):
         self._cause = "start-up (not yet authorised)"
         self._pending = None      # (t_cause, deadline, cause) of a stop not yet seen at the driver
         self.stop_latencies = []  # s from a cause to its first zero command at the driver
+        self._unjudged = []       # (t, vx, vyaw) that arrived while authorised, newest last
 
     def authorise(self, t):
         self._authorised = True
         self._deadline = None
         self._pending = None
+        self._unjudged = []
 
     def stop_cause(self, t_cause, t_deadline, cause):
         self._authorised = False
         self._deadline = t_deadline
         self._cause = cause
         self._pending = (t_cause, t_deadline, cause)
+        arrived_first = [c for c in self._unjudged if c[0] >= t_cause]
+        self._unjudged = []
+        for c in sorted(arrived_first):
+            self._judge(*c)
 
     def command(self, t, vx, vyaw):
         if self._authorised:
+            self._unjudged = [c for c in self._unjudged if c[0] > t - self.REPLAY]
+            self._unjudged.append((t, vx, vyaw))
             return
+        self._judge(t, vx, vyaw)
+
+    def _judge(self, t, vx, vyaw):
         self.checks += 1
         moving = abs(vx) > self._eps or abs(vyaw) > self._eps
         if not moving:

@@ -25,6 +25,26 @@ def test_authorised_motion_and_a_stop_within_one_cycle_hold():
     assert m.violations == [] and m.checks == 3 and abs(m.stop_latencies[0] - 0.01) < 1e-9
 
 
+def test_a_stop_that_arrived_before_its_cause_was_declared_is_judged_by_its_stamp():
+    m = MotionAuthority()
+    m.authorise(1.0)
+    m.command(1.5, 0.3, 0.0)
+    m.command(2.01, 0.0, 0.0)           # the fault service had not answered yet
+    m.command(2.035, 0.0, 0.0)
+    m.stop_cause(2.0, 2.0 + CYCLE, "hard e-stop")
+    m.tick(5.0)
+    assert m.violations == [] and abs(m.stop_latencies[0] - 0.01) < 1e-9
+
+
+def test_motion_that_arrived_before_its_cause_was_declared_is_still_a_violation():
+    m = MotionAuthority()
+    m.authorise(1.0)
+    m.command(2.05, 0.3, 0.0)
+    m.command(2.07, 0.0, 0.0)
+    m.stop_cause(2.0, 2.0 + CYCLE, "hard e-stop")
+    assert len(m.violations) == 2 and "without an authorised source (after hard e-stop)" in m.violations[0]
+
+
 def test_late_stop_and_motion_after_the_deadline_are_violations():
     m = MotionAuthority()
     m.authorise(0.0)
