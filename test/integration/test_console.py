@@ -30,7 +30,8 @@ from playwright.sync_api import sync_playwright
 from sensor_msgs.msg import JointState
 
 from inspection_robot.msg import GeneralAck, GeneralCmd, GeneralTopic, MoveCmd, RobotStatus
-from inspection_robot.task.patrol import Inspection, reading_rows
+from inspection_robot.task.patrol import Inspection
+from inspection_robot.task.rows import reading_rows
 from inspection_robot.task.store import ResultStore
 from rostest_helpers import Latest, control_proxy, localizer_tolerance, wait_for, wait_subscribed
 

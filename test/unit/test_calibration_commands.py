@@ -325,6 +325,11 @@ def test_thermal_boxes_lie_inside_the_thermal_picture(robot):
     outside = dict(inside, thermal_box=[300, 200, 390, 200, 390, 287, 300, 287])
     ack, out = call(commands, "upload", targets=[outside])
     assert ack == "failed" and "thermal_box lies outside the 384x288 thermal picture" in out
+    phases = [dict(inside, phase="A", device="T1"), dict(inside, phase="B", device="T1"),
+              dict(inside, phase="ambient", emissivity=0.95)]
+    assert call(commands, "upload", targets=phases)[0] == "success"
+    ack, out = call(commands, "upload", targets=phases + [dict(inside, phase="B", device="T1")])
+    assert ack == "failed" and "thermal phases: device 'T1' has phase B twice (targets 1 and 3)" in out
 
 
 def test_get_then_upload_round_trips(robot):

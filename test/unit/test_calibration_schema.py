@@ -12,7 +12,8 @@ GOOD = {"name": "oil", "digits": 2, "normal": [0.2, 1.4], "start_angle": -135.0,
         "marks": [[0.0, 0.18, 0.82], [1.6, 0.82, 0.82]], "pointer_colour": "dark", "ignore_colour": "red",
         "colour": "green", "on_reference": "target_0_on.png", "off_reference": "target_0_off.png",
         "open_reference": "a.png", "closed_reference": "b.png",
-        "thermal_box": [5.0, 5.0, 30.5, 5.0, 30.5, 30.0, 5.0, 30.0]}
+        "thermal_box": [5.0, 5.0, 30.5, 5.0, 30.5, 30.0, 5.0, 30.0], "phase": "B", "device": "T1 bay 3",
+        "equipment_class": "breaker", "emissivity": 0.9}
 
 
 @pytest.mark.parametrize("key", sorted(k for k, f in schema.FIELDS.items() if f.stored))
@@ -51,6 +52,11 @@ def test_a_whole_pointer_round_trips_with_defaults():
     ("open_reference", ".hidden.png", "open_reference must be a file name"),
     ("name", "x" * 201, "name must be at most 200 characters"),
     ("radus", 0.4, "unknown key 'radus'"),
+    ("phase", "D", "phase must be one of A|B|C|ambient, got 'D'"),
+    ("equipment_class", "clamp", "equipment_class must be one of connector|metal_joint|"),
+    ("emissivity", 0.05, "emissivity must be in [0.1, 1], got 0.05"),
+    ("emissivity", 1.2, "emissivity must be in [0.1, 1], got 1.2"),
+    ("emissivity", float("nan"), "emissivity must be a finite number"),
 ])
 def test_values_are_refused_by_name(key, value, reason):
     with pytest.raises(schema.SchemaError) as err:
@@ -82,3 +88,15 @@ def test_keys_belong_to_their_kind():
     with pytest.raises(schema.SchemaError) as err:
         schema.check_params("thermal", {"thermal_box": GOOD["thermal_box"]}, thermal_size=(30, 40))
     assert "thermal_box lies outside the 30x40 thermal picture" in str(err.value)
+
+
+def test_a_thermal_device_needs_a_phase():
+    box = [5.0, 5.0, 30.5, 5.0, 30.5, 30.0, 5.0, 30.0]
+    assert schema.check_params("thermal", {"thermal_box": box, "phase": "A", "device": "T1"})["device"] == "T1"
+    with pytest.raises(schema.SchemaError) as err:
+        schema.check_params("thermal", {"thermal_box": box, "device": "T1"})
+    assert "device 'T1' needs a phase (A|B|C|ambient)" in str(err.value)
+    with pytest.raises(schema.SchemaError) as err:
+        schema.check_params("pointer", {"start_angle": 0, "end_angle": 90, "start_value": 0, "end_value": 1,
+                                        "phase": "A"})
+    assert "key 'phase' does not apply to a pointer target (thermal only)" in str(err.value)

@@ -12,7 +12,8 @@ from inspection_robot.inspection.preset import PresetError, Target
 from inspection_robot.nav.gridmap import GridMap
 from inspection_robot.task.client_view import client_row
 from inspection_robot.task.display import reading_text
-from inspection_robot.task.patrol import reading_rows, result_summary, Inspection
+from inspection_robot.task.patrol import Inspection
+from inspection_robot.task.rows import reading_rows, result_summary
 from inspection_robot.task.report import (map_cells, reading_state, render_html, summary, worst_state, write_reports,
                                           yard_svg)
 from inspection_robot.task.spec import Task
@@ -259,6 +260,7 @@ def test_the_report_files_carry_the_rounded_text_beside_the_raw_value(tmp_path):
     assert (data["readings"][0]["value"], data["readings"][0]["display"]) == (0.80273, "0.80 MPa")
     assert data["summary"]["distance_driven_m"] == 2.2
     lines = open(paths["report.csv"]).read().splitlines()
-    assert lines[0].endswith(",decimals,display,review_display") and lines[1].endswith(",2,0.80 MPa,")
+    assert lines[0].endswith(",decimals,grade,diagnosis,display,review_display")
+    assert lines[1].endswith(",2,,,0.80 MPa,")
     page = open(paths["report.html"]).read()
     assert "0.80 MPa" in page and "0.80273" not in page and '<svg class="yard"' in page

@@ -24,6 +24,7 @@ from inspection_robot.inspection.pointer import PointerReader
 from inspection_robot.inspection.readers import ReadFailed
 from inspection_robot.inspection.switch import switch_patch
 from inspection_robot.inspection.reading import decode_reference, read_pointer
+from inspection_robot.thermal.diagnosis import DiagnosisError, thermal_groups
 
 cv2 = lazy_import("cv2")   # on first use: a node registers before its ~360 libraries load
 
@@ -90,6 +91,11 @@ def build_targets(preset_dir, specs, optics):
                 _check_reference(preset_dir, i, kind, state, reference)
         targets.append(Target(kind, derive_zoom_boxes(box, info.zoom_levels, optics, width, height),
                               name=name, thermal_size=thermal_size, **params))
+    try:
+        thermal_groups([(i, t.params.get("phase", ""), t.params.get("device", ""))
+                        for i, t in enumerate(targets) if t.kind == "thermal"])
+    except DiagnosisError as err:
+        raise PresetError("thermal phases: %s" % err)
     return info, targets, patches
 
 

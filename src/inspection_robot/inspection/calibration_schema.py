@@ -10,6 +10,8 @@ edit and a file are refused for the same reasons in the same words, each naming 
   radius in (0, 1.5] box widths, aspect in [0.05, 20];
 - a scale_table has at least 2 [value, angle] entries, values strictly monotonic (angles must
   increase along the sweep: checked with the sweep, see pointer_scale);
+- a thermal box's phase is A|B|C|ambient (thermal.diagnosis), its equipment_class one of the
+  graded classes, its emissivity in [MIN_EMISSIVITY, 1];
 - boxes (zoom0 and thermal) are 8 numbers forming a convex TL, TR, BR, BL quad inside their picture;
 - text has no control characters (they would break the INI file) and at most MAX_TEXT characters;
   reference patch names are plain file names in the preset directory;
@@ -31,12 +33,14 @@ from inspection_robot.inspection.gauge import GaugeScale
 from inspection_robot.inspection.geometry import quad_inside, quad_is_convex
 from inspection_robot.inspection.lamp import LAMP_COLOURS
 from inspection_robot.inspection.needle import POINTER_COLOURS
+from inspection_robot.thermal.diagnosis import DEFAULT_RULES, PHASE_CHOICES
 
 TARGET_KINDS = ("pointer", "lamp", "switch", "thermal")
 MAX_ABS_VALUE = 1e9          # a reading (start/end value, scale_table and marks values, normal band)
 MAX_ANGLE_DEG = 360.0
 MAX_PICTURE_PX = 100000.0    # a thermal box's coordinates when the thermal picture's size is unknown
 MAX_TEXT = 200
+MIN_EMISSIVITY = 0.1        # below, a surface's own radiance drowns in its reflection: not measurable
 MAX_DIGITS = 6               # decimal places a reading may be shown with (``digits``)
 MAX_TARGETS = 64             # targets per preset: a meter cabinet in one picture has a dozen or two
 MAX_REQUEST_BYTES = 1 << 20  # bytes of a calibration_control request: 64 richly described targets take ~150 KB
@@ -243,6 +247,11 @@ FIELDS = {
     "open_picture": Field(("switch",), _picture_path, stored=False),
     "closed_picture": Field(("switch",), _picture_path, stored=False),
     "thermal_box": Field(("thermal",), _quad, "numbers"),
+    # thermal diagnosis (thermal.diagnosis): the box's phase of its device, or the ambient reference
+    "phase": Field(("thermal",), _choice(PHASE_CHOICES, optional=True)),
+    "device": Field(("thermal",), _text),
+    "equipment_class": Field(("thermal",), _choice(tuple(DEFAULT_RULES), optional=True)),
+    "emissivity": Field(("thermal",), lambda v, k: number(v, k, MIN_EMISSIVITY, 1.0), "number"),
 }
 REQUIRED = {"pointer": ("start_angle", "end_angle", "start_value", "end_value"), "lamp": ("colour",),
             "switch": ("open_reference", "closed_reference"), "thermal": ("thermal_box",)}
@@ -301,6 +310,8 @@ def check_params(kind, params, thermal_size=None):
         raise SchemaError("a lamp needs both on_reference and off_reference (or on_picture and off_picture), "
                           "or neither")
     elif kind == "thermal":
+        if out.get("device") and not out.get("phase"):
+            raise SchemaError("device '%s' needs a phase (%s)" % (out["device"], "|".join(PHASE_CHOICES)))
         corners = np.reshape(out["thermal_box"], (4, 2))
         width, height = thermal_size or (MAX_PICTURE_PX + 1, MAX_PICTURE_PX + 1)
         if not quad_inside(corners, width, height):

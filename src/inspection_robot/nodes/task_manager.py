@@ -39,6 +39,7 @@ from inspection_robot.task.schedule import Scheduler
 from inspection_robot.task.service import ServiceConfig, TaskService
 from inspection_robot.task.store import ResultStore
 from inspection_robot.task.trend import TrendConfig
+from inspection_robot.thermal.diagnosis import DiagnosisError, check_rules
 
 NODE_NAME = "task_manager"
 LOGGERS = {"info": rospy.loginfo, "warn": rospy.logwarn, "error": rospy.logerr}
@@ -83,6 +84,13 @@ def move_base_param(name):
     return rospy.get_param("move_base/" + name)
 
 
+def _thermal_rules(overrides):
+    try:
+        return check_rules(overrides)
+    except DiagnosisError as err:
+        raise ValueError("~thermal_grades: %s" % err)
+
+
 def main():
     init_node(NODE_NAME)
     settings = NodeSettings(NODE_NAME)
@@ -104,7 +112,8 @@ def main():
     config = PatrolConfig(retry_delay_s=float(settings.get("~retry_delay_s")), home_pose=tuple(home_pose),
                           move_estimate_s=float(settings.get("~move_estimate_s")),
                           preset_estimate_s=float(settings.get("~preset_estimate_s")),
-                          uncertain_retries=uncertain_retries, trend=trend)
+                          uncertain_retries=uncertain_retries, trend=trend,
+                          thermal_rules=_thermal_rules(settings.get("~thermal_grades")))
     retries = int(settings.get("~retries"))
     reachable = Reachability(os.path.expanduser(move_base_param("map_file")),
                              float(move_base_param("robot_radius")), home_pose[:2],

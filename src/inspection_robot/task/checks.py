@@ -16,6 +16,8 @@ from inspection_robot.nav.tour import TourError
 from inspection_robot.task.spec import ResolvedPreset
 from inspection_robot.task.states import target_unit
 
+THERMAL_TASK_KEYS = ("phase", "device", "equipment_class", "emissivity")   # what task.rows diagnoses with
+
 
 def resolve_preset(preset_root, name, data_root=None):
     """``name`` = a preset directory or a preset id (its newest recording), relative to
@@ -36,13 +38,22 @@ def resolve_preset(preset_root, name, data_root=None):
         preset = load_preset(path)
     except PresetError as err:
         raise CommandError("unknown preset directory '%s': %s" % (name, err))
-    # decimals: the resolution its readings are shown with (task.display), fixed with the task
-    targets = [{"name": t.name, "kind": t.kind, "unit": target_unit(t.kind, t.params.get("unit", "")),
-                "decimals": display_decimals(t.kind, t.params)} for t in preset.targets]
+    targets = [_target_entry(t) for t in preset.targets]
     # a preset's own alarm bands: ``normal = low,high`` in a target's section, read and checked
     # with the rest of the calibration (inspection.calibration_schema)
     bands = dict((t.name, list(t.params["normal"])) for t in preset.targets if t.params.get("normal"))
     return ResolvedPreset(path, targets, bands)
+
+
+def _target_entry(target):
+    """A target as a task stores it: its name, kind, unit, decimals (the resolution its readings are
+    shown with, task.display) and, for a thermal box, the diagnosis keys it has (task.rows)."""
+    entry = {"name": target.name, "kind": target.kind, "unit": target_unit(target.kind, target.params.get("unit", "")),
+             "decimals": display_decimals(target.kind, target.params)}
+    for key in THERMAL_TASK_KEYS:
+        if target.kind == "thermal" and target.params.get(key) not in (None, ""):
+            entry[key] = target.params[key]
+    return entry
 
 
 class Reachability(object):

@@ -24,18 +24,17 @@ runs, ``interrupt_wanted(step)`` says whether to cancel it. Decisions:
   values are recorded with status ``uncertain`` and the reader's reason (also when the later
   attempts fail). Outside its band such a value is a ``check`` alarm, never silence.
 """
-import math
 from collections import namedtuple
 
 from inspection_robot.command import CommandError
 from inspection_robot.interface import MODE_TASK
-from inspection_robot.task.display import row_display
 from inspection_robot.task.spec import Task
-from inspection_robot.task.states import (ALARM_ALARM, ALARM_CHECK, ALARM_NORMAL, ALARM_TREND, STATE_CANCELLED,
-                                          STATE_DONE, STATE_FAILED, STATE_IDLE, STATE_PAUSED, STATE_RETURNING_HOME,
-                                          STATE_RUNNING, STATE_SUSPENDED, STATUS_FAILED, STATUS_READ, STATUS_UNCERTAIN,
-                                          alarm_state, target_unit)
+from inspection_robot.task.states import (ALARM_NORMAL, ALARM_TREND, STATE_CANCELLED, STATE_DONE, STATE_FAILED,
+                                          STATE_IDLE, STATE_PAUSED, STATE_RETURNING_HOME, STATE_RUNNING,
+                                          STATE_SUSPENDED, STATUS_FAILED, STATUS_READ)
+from inspection_robot.task.rows import reading_rows, result_summary
 from inspection_robot.task.trend import DEFAULT_TREND, trend_text, trend_warning
+from inspection_robot.thermal.diagnosis import DEFAULT_RULES
 
 HOLD_OPERATOR = "operator"
 HOLD_CHARGE = "charge"
@@ -76,8 +75,10 @@ def turns_to_yaw(step, turn_at_stops):
 Inspection = namedtuple("Inspection", "values confidences pictures pose foreign reasons sources")
 Inspection.__new__.__defaults__ = (None, None, None)
 # uncertain_retries: inspections again of a preset read uncertain before its uncertain values are kept
+# thermal_rules: grade rules per equipment class (thermal.diagnosis.check_rules)
 PatrolConfig = namedtuple("PatrolConfig", "retry_delay_s home_pose move_estimate_s preset_estimate_s "
-                                          "uncertain_retries trend", defaults=(DEFAULT_TREND,))
+                                          "uncertain_retries trend thermal_rules",
+                          defaults=(DEFAULT_TREND, DEFAULT_RULES))
 
 
 class BusyError(CommandError):
@@ -333,7 +334,7 @@ class Patrol(object):
     def _record(self, run, stop_index, preset_index, inspection, reason, now):
         stop = run.task.stops[stop_index]
         rows = reading_rows(run.task.task_id, stop_index, stop["name"], preset_index, stop["presets"][preset_index],
-                            inspection, reason, now)
+                            inspection, reason, now, self.config.thermal_rules)
         for row in rows:
             self._mark_trend(row)
         self.store.add_readings(rows)   # committed before it is announced
@@ -437,59 +438,3 @@ class Patrol(object):
     def _mean(self, kind, default):
         values = self._durations.get(kind) or []
         return sum(values[-20:]) / len(values[-20:]) if values else default
-
-
-def reading_rows(task_id, stop_index, stop_name, preset_index, preset, inspection, reason, now):
-    """The store rows of one preset: one per target (plus one for foreign objects when asked). A
-    value the reader doubts is kept with status ``uncertain`` and the reader's reason."""
-    rows = []
-    pose = inspection.pose if inspection is not None and inspection.pose else (None, None, None)
-    for k, target in enumerate(preset["targets"]):
-        band = preset["alarms"].get(target["name"])
-        value = confidence = None
-        picture = doubt = ""
-        source = None
-        if inspection is not None:
-            value, confidence = float(inspection.values[k]), float(inspection.confidences[k])
-            picture = inspection.pictures[k] if k < len(inspection.pictures) else ""
-            doubt = inspection.reasons[k] if inspection.reasons else ""
-            source = inspection.sources[k] if inspection.sources else None
-        unit = target_unit(target["kind"], target.get("unit", ""))   # also for tasks stored without it
-        rows.append(_row(task_id, stop_index, stop_name, preset_index, preset, k, target["name"], target["kind"],
-                         value, unit, band, confidence, picture, pose, now, doubt or reason, bool(doubt), source,
-                         target.get("decimals")))
-    if preset.get("foreign"):
-        foreign = inspection.foreign if inspection is not None else None
-        value, confidence, picture = (float(foreign[0]), float(foreign[1]), foreign[2]) if foreign else (None, None, "")
-        rows.append(_row(task_id, stop_index, stop_name, preset_index, preset, len(preset["targets"]), "foreign",
-                         "foreign", value, "objects", [0.0, 0.0], confidence, picture, pose, now,
-                         reason or ("" if foreign else "no foreign-object result"), decimals=0))
-    return rows
-
-
-def _row(task_id, stop_index, stop_name, preset_index, preset, target, name, kind, value, unit, band, confidence,
-         picture, pose, now, reason, uncertain=False, source=None, decimals=None):
-    """``source``: {"picture": the picture read, "roi": its box (8 numbers)} or None; ``decimals``:
-    the target's resolution (task.display; None for tasks stored before targets carried it)."""
-    if value is not None and not math.isfinite(value):
-        value, reason, uncertain = None, "reading is not a finite number", False
-    status = STATUS_FAILED if value is None else STATUS_UNCERTAIN if uncertain else STATUS_READ
-    return {"task_id": task_id, "stop": stop_index, "stop_name": stop_name, "preset_index": preset_index,
-            "preset": preset["directory"], "target": target, "target_name": name, "kind": kind,
-            "status": status, "value": value, "unit": unit, "alarm": alarm_state(value, band, uncertain),
-            "low": band[0] if band else None, "high": band[1] if band else None,
-            "confidence": confidence, "picture": picture, "x": pose[0], "y": pose[1], "yaw": pose[2], "time": now,
-            "reason": reason, "source_picture": source["picture"] if source else "",
-            "roi": ",".join("%.1f" % v for v in source["roi"]) if source else "", "decimals": decimals}
-
-
-def result_summary(rows):
-    """last_result of task_status: the preset just recorded, its values, alarms and doubts."""
-    return {"stop": rows[0]["stop"] + 1, "preset": rows[0]["preset"],
-            "readings": [{"target": r["target_name"], "value": r["value"], "unit": r["unit"], "alarm": r["alarm"],
-                          "status": r["status"], "reason": r["reason"], "display": row_display(r)["display"]}
-                         for r in rows],
-            "alarms": sum(1 for r in rows if r["alarm"] in (ALARM_ALARM, ALARM_CHECK)),
-            "uncertain": sum(1 for r in rows if r["status"] == STATUS_UNCERTAIN),
-            "failed": sum(1 for r in rows if r["status"] == STATUS_FAILED),
-            "reason": next((r["reason"] for r in rows if r["status"] == STATUS_FAILED), "")}

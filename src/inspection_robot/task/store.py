@@ -59,10 +59,12 @@ CREATE TABLE IF NOT EXISTS poses (
 # readings columns added since the first schema, with their declarations: the picture read and its
 # box (for the bench's field set), the operator's review of an uncertain value (true value or the
 # robot's own when confirmed, its alarm, who, when); the decimal places the value is shown with
-# (its meter's resolution when read, task.display; null in older rows)
+# (its meter's resolution when read, task.display; null in older rows); a thermal phase's defect grade
+# and its device's diagnosis (JSON, task.rows)
 ADDED_COLUMNS = (("source_picture", "TEXT NOT NULL DEFAULT ''"), ("roi", "TEXT NOT NULL DEFAULT ''"),
                  ("review_value", "REAL"), ("review_alarm", "TEXT NOT NULL DEFAULT ''"),
-                 ("review_by", "TEXT NOT NULL DEFAULT ''"), ("review_time", "REAL"), ("decimals", "INTEGER"))
+                 ("review_by", "TEXT NOT NULL DEFAULT ''"), ("review_time", "REAL"), ("decimals", "INTEGER"),
+                 ("grade", "TEXT NOT NULL DEFAULT ''"), ("diagnosis", "TEXT NOT NULL DEFAULT ''"))
 INDEXES = """
 CREATE INDEX IF NOT EXISTS readings_time ON readings (time);
 CREATE INDEX IF NOT EXISTS readings_review ON readings (status, review_time);
@@ -74,9 +76,14 @@ READING_COLUMNS = ("id", "task_id", "stop", "stop_name", "preset_index", "preset
                    "time", "reason") + tuple(name for name, _ in ADDED_COLUMNS)
 # what a patrol writes (the review columns are written by set_review only)
 WRITTEN_COLUMNS = tuple(c for c in READING_COLUMNS[1:] if not c.startswith("review_"))
-OPTIONAL_COLUMNS = ("decimals",)   # written columns a row may leave out (null)
+OPTIONAL_COLUMNS = {"decimals": None, "grade": "", "diagnosis": ""}   # written columns a row may leave out
 STEP_COLUMNS = ("task_id", "stop", "preset_index", "kind", "outcome", "started", "ended", "reason")
 EXPORTS_KEPT = 10   # snapshots kept in tasks/exports/ (the oldest removed beyond)
+
+
+def _optional(row, column):
+    value = row.get(column)
+    return OPTIONAL_COLUMNS[column] if value is None else value
 
 
 class StoreError(Exception):
@@ -225,7 +232,7 @@ class ResultStore(object):
         """Commit the readings of one preset in one transaction; returns how many were new."""
         statements = [("INSERT OR IGNORE INTO readings (%s) VALUES (%s)"
                        % (", ".join(WRITTEN_COLUMNS), ", ".join("?" * len(WRITTEN_COLUMNS))),
-                       tuple(row.get(c) if c in OPTIONAL_COLUMNS else row[c] for c in WRITTEN_COLUMNS))
+                       tuple(_optional(row, c) if c in OPTIONAL_COLUMNS else row[c] for c in WRITTEN_COLUMNS))
                       for row in rows]
         return self._write(statements)
 
