@@ -214,6 +214,7 @@ def test_the_summary_counts_each_kind_of_attention_and_the_distance_driven():
     info = summary(task, rows, [], [(0.0, 0.0, 0.0, 0.0), (1.0, 3.0, 4.0, 0.0), (2.0, 3.0, 10.0, 0.0)])
     assert info["counts"] == {"readings": 7, "read": 3, "uncertain": 3, "needs_review": 2, "failed": 1, "alarms": 1,
                               "checks": 1, "trends": 1}
+    assert info["thermal_defects"] == {"general": 0, "serious": 0, "critical": 0}
     assert (info["distance_driven_m"], info["planned_length_m"], info["duration_s"]) == (11.0, 12.34, 120.0)
     assert [reading_state(r) for r in rows] == ["normal", "alarm", "review", "check", "failed", "trend", "normal"]
     assert [worst_state([r for r in rows if r["stop"] == i]) for i in range(5)] == [
@@ -264,3 +265,18 @@ def test_the_report_files_carry_the_rounded_text_beside_the_raw_value(tmp_path):
     assert lines[1].endswith(",2,,,0.80 MPa,")
     page = open(paths["report.html"]).read()
     assert "0.80 MPa" in page and "0.80273" not in page and '<svg class="yard"' in page
+
+
+def test_thermal_defects_are_counted_by_grade_and_get_a_tile():
+    rows = [dict(reading(0, alarm="alarm", value=55.0), kind="thermal", unit="C", grade="serious",
+                 reason="serious defect (connector): dt 83 % >= 80 % (phase B 55.0 C, coolest sister 30.0 C, "
+                        "ambient 25.0 C)"),
+            dict(reading(0, value=30.0, target=1), kind="thermal", unit="C", grade="")]
+    task = {"task_id": "t1", "priority": "routine", "state": "done", "reason": "", "submitted": 10.0, "ended": 130.0,
+            "spec": {"stops": [{"name": "s0", "x": 0.0, "y": 0.0}], "planned_length_m": 1.0}}
+    info = summary(task, rows, [])
+    assert info["thermal_defects"] == {"general": 0, "serious": 1, "critical": 0}
+    shown = [dict(client_row(r, "/d"), link="", history=[]) for r in rows]
+    page = render_html(info, shown, "", task["spec"]["stops"])
+    assert '<div class="tile hot"><b>1</b>serious thermal defects</div>' in page
+    assert "general thermal defects" not in page and "dt 83 % &gt;= 80 %" in page

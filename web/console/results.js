@@ -57,7 +57,9 @@ function renderResults(rows) {
   shown.forEach((r, i) => {
     const tr = fresh.insertRow();
     tr.className = r.alarm === 'alarm' || r.alarm === 'check' ? r.alarm : r.status === 'failed' ? 'failed' : '';
-    tr.insertCell().textContent = r.alarm;
+    const alarm = tr.insertCell();   // a thermal defect names its grade; the rule and temperatures on hover
+    alarm.textContent = r.grade ? r.alarm + ' (' + r.grade + ' defect)' : r.alarm;
+    if (r.reason) alarm.title = r.reason;
     const target = tr.insertCell();
     target.textContent = r.target_name || r.kind + ' ' + r.target;
     if (r.target_name) {

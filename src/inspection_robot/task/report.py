@@ -35,6 +35,7 @@ from inspection_robot.task.states import (ALARM_ALARM, ALARM_CHECK, ALARM_FAILED
                                           ALARM_TREND, STATUS_FAILED, STATUS_READ, STATUS_UNCERTAIN)
 from inspection_robot.task.store import READING_COLUMNS
 from inspection_robot.task.track import path_length
+from inspection_robot.thermal.diagnosis import GRADES
 
 REPORT_FILES = ("report.csv", "report.json", "report.html")
 CSV_COLUMNS = READING_COLUMNS + ("display", "review_display")
@@ -96,6 +97,7 @@ def summary(task_row, readings, steps, path=None):
     ended = task_row["ended"]
     return {"task_id": task_row["task_id"], "priority": task_row["priority"], "state": task_row["state"],
             "reason": task_row["reason"], "submitted": task_row["submitted"], "ended": ended,
+            "thermal_defects": dict((g, sum(1 for r in readings if r.get("grade") == g)) for g in GRADES),
             "duration_s": round(ended - task_row["submitted"], 1) if ended else None,
             "stops": len(task_row["spec"]["stops"]), "order": task_row["spec"].get("order", "given"),
             "planned_length_m": task_row["spec"].get("planned_length_m"),
@@ -341,6 +343,8 @@ def _summary_part(info, rows):
              ("failed", counts["failed"], counts["failed"] > 0),
              ("need review", counts["needs_review"], counts["needs_review"] > 0),
              ("trends", counts["trends"], counts["trends"] > 0)]
+    defects = info["thermal_defects"]
+    tiles += [("%s thermal defects" % grade, defects[grade], True) for grade in reversed(GRADES) if defects[grade]]
     stops_read = len(set(r["stop"] for r in rows if r["status"] != STATUS_FAILED))
     planned = info["planned_length_m"]
     facts = [("state", "%s%s" % (info["state"], ": " + info["reason"] if info["reason"] else "")),
