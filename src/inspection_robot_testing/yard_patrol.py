@@ -30,7 +30,8 @@ HOT_SPOT_LIMIT_C = 60.0
 # stop name, pose (x, y, yaw), presets: (preset id, height aimed at m, distance to the side m, zoom, infrared)
 YARD_STOPS = [
     ("transformer_1_left", (15.5, 10.0, 0.0), [("transformer_1_left", 1.5, 3.0, 2.0, False)]),
-    ("transformer_1_front", (20.0, 15.0, -HALF_PI), [("transformer_1", 1.6, 3.0, 1.5, False)]),
+    ("transformer_1_front", (20.0, 15.0, -HALF_PI),
+     [("transformer_1", 1.6, 3.0, 1.5, False), ("transformer_1_thermal", 2.95, 3.0, 2.0, True)]),
     ("cabinet_1", (20.0, 21.4, HALF_PI), [("cabinet_1", 1.55, 3.0, 2.0, False)]),
     ("cabinet_2", (26.0, 21.4, HALF_PI),
      [("cabinet_2", 1.45, 3.0, 2.0, False), ("cabinet_2_zoom", 1.4, 3.0, 3.0, False)]),

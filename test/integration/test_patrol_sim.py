@@ -2,13 +2,15 @@
 """rostest: a real patrol of the simulated yard (sim.launch), driven as the backend drives it:
 roslibpy over the websocket only.
 
-Record and calibrate 8 presets at 6 stops (one infrared, lamps and switches), put an out-of-band
+Record and calibrate 9 presets at 6 stops (two infrared: a breaker terminal, and a transformer's
+three bushing phases with an ambient plate, graded by DL/T 664; lamps and switches), put an out-of-band
 value in the world (transformer_1/oil_temp 118 C, red zone), refuse malformed tasks before anything
 moves, run the routine patrol with a backend take-over and release, a task_manager kill and
 respawn, a low battery that sends the robot to its dock to charge and back, and a special task
 that pre-empts it; then every gauge within 0.5 % of full scale of the
-world's truth, lamps and switches exact, the hot spot within 1 C, the alarm where the world is out
-of band and nowhere else, no reading lost or duplicated, the report files present.
+world's truth, lamps and switches exact, the hot spots within 1 C, the alarm where the world is out
+of band and nowhere else, the serious thermal defect on the hot bushing phase (row grade, report),
+no reading lost or duplicated, the report files present.
 rospy is used only to read the bridge's port, the simulator's true pose, task_manager's pid and
 the data_root folder, and to drain the simulated battery.
 """
@@ -29,11 +31,12 @@ from geometry_msgs.msg import PoseWithCovarianceStamped
 
 from inspection_robot.sim.world import World
 from inspection_robot.srv import ControlService
-from inspection_robot_testing.yard_patrol import (YARD_STOPS, PatrolClient, build_task, default_world_file,
-                                                  expected_value)
+from inspection_robot_testing.yard_patrol import (HOT_SPOT_LIMIT_C, YARD_STOPS, PatrolClient, build_task,
+                                                  default_world_file, expected_value)
 from rostest_helpers import Latest, wait_for
 
 OUT_OF_BAND = ("transformer_1/oil_temp", "118")
+HOT_PHASE = "transformer_1/bushing_a"   # sim_world.yaml: phases A/B/C 78, 48, 47 C, ambient plate 25 C
 SPECIAL_STOPS = [s for s in YARD_STOPS if s[0] == "cabinet_1"]
 ENDED = ("done", "cancelled", "failed")
 GAUGE_LIMIT_PCT_FS = 0.5   # issue #26.6: every pointer meter of the simulated yard within 0.5 % of full scale
@@ -120,7 +123,10 @@ class PatrolSimTest(unittest.TestCase):
                 self.assertLess(error_fs, GAUGE_LIMIT_PCT_FS, what + (truth,))
             else:
                 self.assertEqual(value, truth, what)
-            self.assertEqual(row["alarm"], "alarm" if name == OUT_OF_BAND[0] else "normal", what)
+            out_of_band = name == OUT_OF_BAND[0] or (name in self.world.hot_spots and truth > HOT_SPOT_LIMIT_C)
+            self.assertEqual(row["alarm"], "alarm" if out_of_band else "normal", what)
+            # the bushing row (transformer_1_thermal): phase A at 78 C is a serious defect of a bushing (> 55 C)
+            self.assertEqual(row["grade"], "serious" if name == HOT_PHASE else "", what)
             self.assertFalse(os.path.isabs(row["picture"]) or os.path.isabs(row["preset"]), what)   # data-root-relative
             self.assertTrue(row["picture"] and os.path.isfile(os.path.join(self.data_root, row["picture"])), what)
 
@@ -202,10 +208,13 @@ class PatrolSimTest(unittest.TestCase):
             self.assertTrue(path.startswith("tasks/reports/"), path)   # data-root-relative
             self.assertTrue(os.path.isfile(os.path.join(self.data_root, path)), path)
         with open(os.path.join(self.data_root, paths["report.html"])) as f:
-            self.assertIn('<tr class="alarm">', f.read())
+            page = f.read()
+        self.assertIn('<tr class="alarm">', page)
+        self.assertIn('<b>1</b>serious thermal defects', page)
         with open(os.path.join(self.data_root, paths["report.json"])) as f:
             report = json.load(f)
         summary = report["summary"]   # the path recorded across the take-over, the kill and the charge cycle
+        self.assertEqual(summary["thermal_defects"], {"general": 0, "serious": 1, "critical": 0}, summary)
         self.assertIsNotNone(summary["distance_driven_m"], summary)
         self.assertGreater(summary["distance_driven_m"], 0.5 * summary["planned_length_m"], summary)
         self.assertTrue(all(r["display"] for r in report["readings"] if r["status"] != "failed"), report["readings"])

@@ -138,3 +138,44 @@ def test_calibration_checks_itself_against_the_operators_value(tmp_path):
     ack, out = call("upload", targets=[spec], expected=[truth])
     assert ack == "failed" and "the reader cannot read the calibration picture" in out, out
     assert open(os.path.join(path, CALIB_INI)).read() == before
+
+
+def test_the_transformer_bushings_calibrate_as_three_phases_and_grade_as_the_world_says(tmp_path):
+    """The yard's three-phase bushing row (phase A hot) and its ambient plate, recorded as patrol_sim
+    records transformer_1_thermal, calibrate as phases of one device and grade serious by DL/T 664."""
+    from inspection_robot.inspection.reading import load_frame
+    from inspection_robot.inspection.thermal_max import read_thermal_max
+    from inspection_robot.task.checks import _target_entry
+    from inspection_robot.task.rows import thermal_findings
+    with open(OPTICS) as f:
+        table = yaml.safe_load(f)["camera_optics"]
+    optics = ZoomOptics(table["zoom_hfov_deg"], WIDTH, HEIGHT)
+    world = World.load(WORLD)
+    base, normal, _r, _w = world.equipment["transformer_1"].side_frame("front")
+    p = base + normal * 3.0
+    pose = (float(p[0]), float(p[1]), math.atan2(-normal[1], -normal[0]))
+    tilt = math.degrees(math.atan2(1.2 - 2.95, 3.0))
+    head = RenderedHead(Renderer(world, seed=2), optics, pose, 1.2, WIDTH, HEIGHT, ThermalRenderer(world))
+    head.set_angles(0.0, tilt)
+    head.set_zoom(2.0)
+    state = {"pan_deg": 0.0, "tilt_deg": tilt, "zoom": 2.0, "focus_position": 0, "pose": pose}
+    path = record_preset(head, str(tmp_path), "t1", "20260101_000000", state, infrared=True)
+    assert run([path, "--from-world", WORLD]) == 0
+    preset = load_preset(path)
+    entries = [_target_entry(t) for t in preset.targets]
+    phases = dict((e["name"], e.get("phase")) for e in entries if e["kind"] == "thermal")
+    assert phases == {"transformer_1/bushing_a": "A", "transformer_1/bushing_b": "B", "transformer_1/bushing_c": "C",
+                      "transformer_1/ambient_plate": "ambient"}
+    frame = load_frame(os.path.join(path, preset.info.thermal_frame))
+    values = [read_thermal_max(frame, t.params["thermal_box"]).value if t.kind == "thermal" else None
+              for t in preset.targets]
+    truth = {"transformer_1/bushing_a": 78.0, "transformer_1/bushing_b": 48.0, "transformer_1/bushing_c": 47.0,
+             "transformer_1/ambient_plate": 25.0}
+    for entry, value in zip(entries, values):
+        if entry["name"] in truth:
+            assert abs(value - truth[entry["name"]]) < 1.0, (entry["name"], value)
+    findings = thermal_findings(entries, values)
+    hot = [findings[i] for i, e in enumerate(entries) if e["name"] == "transformer_1/bushing_a"][0]
+    assert hot["grade"] == "serious" and hot["diagnosis"]["class"] == "bushing"
+    assert hot["diagnosis"]["rule"].startswith("serious defect (bushing): hot spot 78")
+    assert hot["diagnosis"]["delta_t"] == pytest.approx((78.0 - 47.0) / (78.0 - 25.0) * 100.0, abs=3.0)

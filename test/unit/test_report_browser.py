@@ -50,6 +50,8 @@ TARGETS = {
     "cabinet_2_zoom": [("cabinet_2/sf6", "pointer", "MPa", 3)],
     "breaker_1": [("breaker_1/counter_pressure_gauge_with_a_long_name_nobody_shortened", "pointer", "MPa", 2)],
     "breaker_1_thermal": [("breaker_1/contact_hot_spot", "thermal", "C", 1)],
+    "transformer_1_thermal": ([("transformer_1/bushing_%s" % p, "thermal", "C", 1) for p in "abc"]
+                              + [("transformer_1/ambient_plate", "thermal", "C", 1)]),
     "breaker_2": [("breaker_2/sf6", "pointer", "MPa", 2)],
 }
 # per target name: (value, confidence, the reader's doubt or "")
@@ -66,11 +68,20 @@ VALUES = {
     "cabinet_2/sf6": (0.61744, 40.0, "uncertain: box 0: pointer_width 2.1 px below 3 px"),   # check (band)
     "breaker_1/counter_pressure_gauge_with_a_long_name_nobody_shortened": (0.6012, 89.0, ""),   # trend
     "breaker_1/contact_hot_spot": (55.1963, 99.0, ""),
+    "transformer_1/bushing_a": (58.61, 98.0, ""),   # inside its band, a serious defect by dt (84 %)
+    "transformer_1/bushing_b": (31.02, 98.0, ""),
+    "transformer_1/bushing_c": (30.44, 98.0, ""),
+    "transformer_1/ambient_plate": (24.91, 99.0, ""),
 }
+# thermal diagnosis keys of the calibration (task.checks._target_entry)
+PHASES = dict([("transformer_1/bushing_%s" % p, {"phase": p.upper(), "device": "transformer_1",
+                                                 "equipment_class": "connector"}) for p in "abc"]
+              + [("transformer_1/ambient_plate", {"phase": "ambient"})])
 BANDS = {"transformer_1_left/oil_temp": [0.0, 85.0], "transformer_1/pressure": [0.4, 1.2],
          "cabinet_1/ammeter": [0.0, 500.0], "cabinet_1/switch": [1.0, 1.0], "cabinet_2/sf6": [0.65, 0.9],
          "breaker_1/counter_pressure_gauge_with_a_long_name_nobody_shortened": [0.4, 0.62],
-         "breaker_1/contact_hot_spot": [-50.0, 60.0], "breaker_2/sf6": [0.5, 0.7]}
+         "breaker_1/contact_hot_spot": [-50.0, 60.0], "breaker_2/sf6": [0.5, 0.7],
+         "transformer_1/bushing_a": [-50.0, 60.0]}
 
 
 def picture(path, label):
@@ -92,7 +103,7 @@ def patrol_store(root):
 
     def resolve(name):
         preset_id = name.split("/")[-1]
-        targets = [{"name": n, "kind": k, "unit": u, "decimals": d} for n, k, u, d in TARGETS[preset_id]]
+        targets = [dict(PHASES.get(n, {}), name=n, kind=k, unit=u, decimals=d) for n, k, u, d in TARGETS[preset_id]]
         return ResolvedPreset(os.path.join(root, "presets", preset_id, "20261127_080000"), targets, {})
 
     # the trending gauge's last week (oldest first), read by earlier patrols
@@ -188,7 +199,8 @@ def test_the_report_fits_a_1280_px_window_with_every_picture_shown(report, brows
     paths, data = report
     counts = data["summary"]["counts"]
     assert (counts["alarms"], counts["checks"], counts["failed"], counts["needs_review"], counts["trends"]) == \
-        (3, 1, 1, 2, 1)   # the fixture holds every kind of attention (alarms: oil, switch, foreign)
+        (4, 1, 1, 2, 1)   # the fixture holds every kind of attention (alarms: oil, switch, foreign, bushing A)
+    assert data["summary"]["thermal_defects"] == {"general": 0, "serious": 1, "critical": 0}
     assert data["summary"]["distance_driven_m"] > 40.0
     page = browser.new_page(viewport={"width": WINDOW_PX, "height": 900})
     page.goto("file://" + paths["report.html"], wait_until="load")
@@ -199,10 +211,11 @@ def test_the_report_fits_a_1280_px_window_with_every_picture_shown(report, brows
     images = page.evaluate("() => Array.from(document.images).map(i => [i.getAttribute('src'), i.naturalWidth])")
     assert len(images) >= 8 and all(width == 1920 for _src, width in images), images
     assert page.locator("svg.yard g.stop").count() == len(YARD_STOPS)
-    assert page.locator("svg.yard g.stop.alarm").count() == 3 and page.locator("svg.yard g.stop.failed").count() == 1
+    assert page.locator("svg.yard g.stop.alarm").count() == 4 and page.locator("svg.yard g.stop.failed").count() == 1
     text = page.inner_text("body")
     assert "0.80 MPa" in text and "0.80273" not in text and "93 C" in text and "lit green" in text
-    assert text.index("Summary") < text.index("Needs attention (7)") < text.index("Yard map") < text.index("Stops")
+    assert "serious thermal defects" in text and "serious defect (connector): dt 84 % >= 80 %" in text
+    assert text.index("Summary") < text.index("Needs attention (8)") < text.index("Yard map") < text.index("Stops")
     page.close()
 
 
@@ -218,7 +231,7 @@ def test_the_report_prints_on_a4_without_cutting_anything(report, browser):
     pdf = page.pdf(path=pdf_path, format="A4", print_background=True, prefer_css_page_size=True)
     pages = len(re.findall(rb"/Type\s*/Page\b(?!s)", pdf))
     assert len(pdf) > 20000 and os.path.getsize(pdf_path) == len(pdf)
-    assert 2 <= pages <= 12, pages   # summary + attention + map + eight presets, not one page per picture
+    assert 2 <= pages <= 12, pages   # summary + attention + map + nine presets, not one page per picture
     boxes = re.findall(rb"/MediaBox\s*\[\s*0 0 ([\d.]+) ([\d.]+)\s*\]", pdf)
     assert boxes and all(abs(float(w) - 595.9) < 2 and abs(float(h) - 842.9) < 2 for w, h in boxes), boxes[:3]
     page.close()

@@ -280,3 +280,27 @@ def test_thermal_defects_are_counted_by_grade_and_get_a_tile():
     page = render_html(info, shown, "", task["spec"]["stops"])
     assert '<div class="tile hot"><b>1</b>serious thermal defects</div>' in page
     assert "general thermal defects" not in page and "dt 83 % &gt;= 80 %" in page
+
+
+def test_a_corrected_check_counts_with_its_reviewed_alarm_and_no_limits_is_not_normal():
+    """Issue #41: after an uncertain 118 C check was corrected to 55 the tile said "1 checks" while the
+    section below said nothing needed attention, and "Every reading is normal" was printed of readings
+    that had no limits at all."""
+    corrected = dict(reading(0, status="uncertain", alarm="check", value=1.18, review=0.55))
+    unlimited = dict(reading(1), alarm="none", low=None, high=None)
+    task = {"task_id": "t1", "priority": "routine", "state": "done", "reason": "", "submitted": 10.0, "ended": 130.0,
+            "spec": {"stops": [{"name": "s%d" % i, "x": float(i), "y": 0.0} for i in range(2)],
+                     "planned_length_m": 3.0}}
+
+    def page(rows):
+        info = summary(task, rows, [])
+        shown = [dict(client_row(r, "/d"), link="", history=[]) for r in rows]
+        return info, render_html(info, shown, "", task["spec"]["stops"])
+
+    info, html_page = page([corrected])
+    assert (info["counts"]["checks"], info["counts"]["alarms"]) == (0, 0)
+    assert "Needs attention (0)" in html_page and "Every reading is within its limits." in html_page
+    _info, html_page = page([unlimited])
+    assert "no reading had limits to compare with" in html_page and "within its limits" not in html_page
+    _info, html_page = page([corrected, unlimited])
+    assert "1 reading(s) within their limits, 1 without limits" in html_page

@@ -3,8 +3,8 @@
 import assert from 'node:assert';
 import test from 'node:test';
 
-import { bits, boxQuad, byteArray, decodeStatus, needleAngle, newestOnly, readingText, selfCheckText, sortReadings,
-  trendSeries } from '../../web/console/decode.js';
+import { bits, boxQuad, byteArray, decodeStatus, needleAngle, newestOnly, readingAlarm, readingText, selfCheckText,
+  sortReadings, trendSeries } from '../../web/console/decode.js';
 
 const quiet = {
   offline_warn: 0, mode: 0, velocity_x: 0, velocity_yaw: 0, position: [1.5, -2.25], orientation: Math.PI / 2,
@@ -64,6 +64,15 @@ test('readings: alarms first, then failures, newest first within each', () => {
     { id: 4, alarm: 'alarm', time: 3 }, { id: 5, alarm: 'none', time: 7 }, { id: 6, alarm: 'check', time: 8 }];
   assert.deepStrictEqual(sortReadings(rows).map((r) => r.id), [4, 2, 6, 3, 1, 5]);
   assert.deepStrictEqual(rows.map((r) => r.id), [1, 2, 3, 4, 5, 6]);   // not sorted in place
+});
+
+test('a reviewed reading states and sorts by its reviewed alarm, as the report does', () => {
+  const corrected = { id: 1, alarm: 'check', review_time: 10, review_alarm: 'normal', time: 9 };
+  const open = { id: 2, alarm: 'check', review_time: null, review_alarm: '', time: 1 };
+  assert.strictEqual(readingAlarm(corrected), 'normal');
+  assert.strictEqual(readingAlarm(open), 'check');
+  assert.strictEqual(readingAlarm({ alarm: 'alarm' }), 'alarm');   // rows of an older robot: no review columns
+  assert.deepStrictEqual(sortReadings([corrected, open]).map((r) => r.id), [2, 1]);
 });
 
 test('a reading in words', () => {

@@ -127,7 +127,12 @@ export function boxQuad(box) {
 
 // task_manager's alarm states, most urgent first (src/inspection_robot/task/states.py ALARM_ORDER)
 const ALARM_ORDER = { alarm: 0, check: 1, failed: 2, trend: 3, normal: 4, none: 5 };
-const alarmRank = (row) => (row.alarm in ALARM_ORDER ? ALARM_ORDER[row.alarm] : 5);
+/** A reading's alarm as the report states it: the reviewed value's once an operator reviewed it. */
+export function readingAlarm(row) {
+  return row.review_time !== null && row.review_time !== undefined && row.review_alarm ? row.review_alarm : row.alarm;
+}
+
+const alarmRank = (row) => (readingAlarm(row) in ALARM_ORDER ? ALARM_ORDER[readingAlarm(row)] : 5);
 
 /** query_results rows, alarms and checks first, then failures, then the rest; newest first within each. */
 export function sortReadings(rows) {

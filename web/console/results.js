@@ -1,6 +1,6 @@
 /* Readings and trends: a task's readings (task_control query_results), alarms first, with their
    annotated pictures; a click on a meter draws its last 90 days against its normal band. */
-import { readingText, sortReadings, trendSeries } from './decode.js';
+import { readingAlarm, readingText, sortReadings, trendSeries } from './decode.js';
 import { fetchPicture } from './files.js';
 import { control } from './link.js';
 import { $ } from './ui.js';
@@ -49,16 +49,17 @@ function queryResults() {
 /** Alarms first, then failures, then the rest; newest first within each (bounded to MAX_RESULT_ROWS). */
 function renderResults(rows) {
   const shown = sortReadings(rows).slice(0, MAX_RESULT_ROWS);
-  const alarms = rows.filter((r) => r.alarm === 'alarm').length;
+  const alarms = rows.filter((r) => readingAlarm(r) === 'alarm').length;
   $('results-count').textContent = rows.length + ' reading(s), ' + alarms + ' alarm(s)'
     + (shown.length < rows.length ? ', first ' + shown.length + ' shown' : '');
   const body = $('results').tBodies[0];
   const fresh = document.createElement('tbody');
   shown.forEach((r, i) => {
     const tr = fresh.insertRow();
-    tr.className = r.alarm === 'alarm' || r.alarm === 'check' ? r.alarm : r.status === 'failed' ? 'failed' : '';
+    const state = readingAlarm(r);
+    tr.className = state === 'alarm' || state === 'check' ? state : r.status === 'failed' ? 'failed' : '';
     const alarm = tr.insertCell();   // a thermal defect names its grade; the rule and temperatures on hover
-    alarm.textContent = r.grade ? r.alarm + ' (' + r.grade + ' defect)' : r.alarm;
+    alarm.textContent = r.grade ? state + ' (' + r.grade + ' defect)' : state;
     if (r.reason) alarm.title = r.reason;
     const target = tr.insertCell();
     target.textContent = r.target_name || r.kind + ' ' + r.target;

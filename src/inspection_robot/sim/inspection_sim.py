@@ -18,6 +18,7 @@ from inspection_robot.inspection.calibration import SelfCheck, calibrate
 from inspection_robot.inspection.preset import PresetError, load_info
 from inspection_robot.camera.optics import focal_for_hfov
 from inspection_robot.sim.render import PinholeCamera, Renderer, ThermalRenderer, ground_truth
+from inspection_robot.thermal.diagnosis import AMBIENT
 
 MIN_BOX_PX = 24.0
 
@@ -121,13 +122,17 @@ def world_specs(world, head, switch_picture_path=None, hot_spot_box_px=None):
             if not (vis["visible"] and therm["visible"]):
                 continue
             r = max(vis["radius_px"] * 2.0, MIN_BOX_PX / 2.0)
-            rt = hot_spot_box_px or max(therm["radius_px"] * 2.0, 4.0)
+            calibration = world.hot_spots[spot_id].calibration
+            if calibration.get("phase") == AMBIENT:   # a reference plate: its core, not the warmer surface around
+                rt = therm["radius_px"] * 0.6
+            else:
+                rt = hot_spot_box_px or max(therm["radius_px"] * 2.0, 4.0)
             (u, v), (ut, vt) = vis["center"], therm["center"]
             box = [u - r, v - r, u + r, v - r, u + r, v + r, u - r, v + r]
             tbox = [ut - rt, vt - rt, ut + rt, vt - rt, ut + rt, vt + rt, ut - rt, vt + rt]
             if _box_ok(np.reshape(box, (4, 2)), camera.width, camera.height) and \
                     _box_ok(np.reshape(tbox, (4, 2)), tcam.width, tcam.height):
-                specs.append({"kind": "thermal", "box": box, "thermal_box": tbox, "name": spot_id})
+                specs.append(dict(calibration, kind="thermal", box=box, thermal_box=tbox, name=spot_id))
     return specs
 
 

@@ -208,7 +208,13 @@ class Face(object):
 
 
 class HotSpot(object):
-    """A hot joint or bushing: a flat core of ``radius`` m at ``temperature`` degC on a side."""
+    """A hot joint or bushing: a flat core of ``radius`` m at ``temperature`` degC on a side.
+
+    ``phase``, ``device``, ``equipment_class`` (optional) go to its calibration as they are
+    (thermal diagnosis, checked by the calibration schema); ``phase: ambient`` makes it an ambient
+    reference plate, calibrated with a box inside its core."""
+
+    CALIBRATION_KEYS = ("phase", "device", "equipment_class")
 
     def __init__(self, spec, equipment_by_id):
         self.id = str(spec.get("id", ""))
@@ -225,6 +231,7 @@ class HotSpot(object):
         except (TypeError, ValueError) as err:
             raise WorldError("hot spot %s: %s" % (self.id, err))
         self.type = "hot_spot"
+        self.calibration = dict((k, spec[k]) for k in self.CALIBRATION_KEYS if k in spec)
         self.value = None
         self.set_value(spec.get("temperature"))
 

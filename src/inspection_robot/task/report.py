@@ -87,13 +87,13 @@ def worst_state(rows):
 def summary(task_row, readings, steps, path=None):
     """The report's summary of a task: counts, times, the route planned and (``path``: the poses
     recorded during it, store.driven_path) the distance driven (null without a recorded path)."""
+    states = [reading_state(r) for r in readings]   # a reviewed value counts with its reviewed alarm
     counts = {"readings": len(readings), "read": sum(1 for r in readings if r["status"] == STATUS_READ),
               "uncertain": sum(1 for r in readings if r["status"] == STATUS_UNCERTAIN),
               "needs_review": sum(1 for r in readings if needs_review(r)),
               "failed": sum(1 for r in readings if r["status"] == STATUS_FAILED),
-              "alarms": sum(1 for r in readings if r["alarm"] == ALARM_ALARM),
-              "checks": sum(1 for r in readings if r["alarm"] == ALARM_CHECK),
-              "trends": sum(1 for r in readings if r["alarm"] == ALARM_TREND)}
+              "alarms": states.count(ALARM_ALARM), "checks": states.count(ALARM_CHECK),
+              "trends": states.count(ALARM_TREND)}
     ended = task_row["ended"]
     return {"task_id": task_row["task_id"], "priority": task_row["priority"], "state": task_row["state"],
             "reason": task_row["reason"], "submitted": task_row["submitted"], "ended": ended,
@@ -362,11 +362,22 @@ def _summary_part(info, rows):
                "".join("<dt>%s</dt><dd>%s</dd>" % (html.escape(k), html.escape(v)) for k, v in facts)))
 
 
+def _calm_words(rows):
+    """What a report without attention says: "normal" only of readings that had limits to be within."""
+    unlimited = sum(1 for r in rows if reading_state(r) == ALARM_NONE)
+    if not unlimited:
+        return "Every reading is within its limits."
+    if unlimited == len(rows):
+        return "No alarm, but no reading had limits to compare with (no normal band set)."
+    return "No alarm: %d reading(s) within their limits, %d without limits (no normal band set)." \
+        % (len(rows) - unlimited, unlimited)
+
+
 def _attention_part(rows):
     urgent = sorted((r for r in rows if reading_state(r) in ATTENTION_STATES),
                     key=lambda r: (STATE_RANK[reading_state(r)], r["stop"], r["preset_index"], r["target"]))
     if not urgent:
-        return '<section class="attention"><h2>Needs attention (0)</h2><p>Every reading is normal.</p></section>'
+        return '<section class="attention"><h2>Needs attention (0)</h2><p>%s</p></section>' % _calm_words(rows)
     body = []
     for r in urgent:
         state = reading_state(r)
