@@ -89,6 +89,9 @@ class ChargeControlTest(unittest.TestCase):
         cls.sim = control_proxy("sim/inject_fault", 30.0)
         cls.charge = TwinClient("charge_control", "charge_cmd", "charge_ack", "charge_control", timeout=30.0)
         wait_subscribed(cls.vo_cmd, 30.0)
+        # the replies' publishers must have added this node before the first request (Latest.wait_connected)
+        cls.alarms.wait_connected(30.0)
+        cls.vo_acks.wait_connected(30.0)
         cls.robot.wait(lambda m: len(m.position) == 2, 30.0, "robot_status with a pose")
         cls.status.wait(lambda m: json.loads(m.data)["state"] == "idle", 30.0, "charge_control idle")
         # the contract's late joiner: charge_control must have heard the latched task_status

@@ -82,6 +82,9 @@ class TestInspectionAcceptance(unittest.TestCase):
         assert cls.move.wait_for_server(rospy.Duration(30.0)), "move_action server"
         wait_subscribed(cls.preset_pub, 20.0)
         wait_subscribed(cls.read_pub, 20.0)
+        # the replies' publishers must have added this node before the first request (Latest.wait_connected)
+        cls.preset_acks.wait_connected(20.0)
+        cls.read_acks.wait_connected(20.0)
         cls.trans_id = 100
 
     # --- helpers ------------------------------------------------------------------------------

@@ -55,6 +55,9 @@ class TestInspectionSim(unittest.TestCase):
         assert cls.find.wait_for_server(rospy.Duration(30.0)), "find_scale_action server"
         wait_subscribed(cls.preset_pub, 20.0)
         wait_subscribed(cls.read_pub, 20.0)
+        # the replies' publishers must have added this node before the first request (Latest.wait_connected)
+        cls.preset_acks.wait_connected(20.0)
+        cls.read_acks.wait_connected(20.0)
 
     @classmethod
     def publish_pose(cls, pose):

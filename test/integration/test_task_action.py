@@ -61,6 +61,8 @@ class TaskActionTest(unittest.TestCase):
         cls.vo_acks = Latest("virtual_obstacle_ack", GeneralAck)
         cls.vo_cmd = rospy.Publisher("virtual_obstacle_cmd", GeneralCmd, queue_size=10)
         wait_subscribed(cls.vo_cmd, 60.0)
+        # the replies' publishers must have added this node before the first request (Latest.wait_connected)
+        cls.vo_acks.wait_connected(60.0)
         cls.tasks = TwinClient("task_control", "task_cmd", "task_ack", "task_manager", timeout=60.0)
         cls.robot.wait(lambda m: len(m.position) == 2, 60.0, "robot_status with a pose")
         cls.action = actionlib.ActionClient("task_action", GeneralAction)
