@@ -539,6 +539,40 @@ class ConsoleTest(unittest.TestCase):
         self.assertEqual((record["true_value"], record["value"], record["picture"], record["preset"]),
                          (0.85, 1.3, picture, self.calibrated_preset))
 
+    def test_9d_an_alarm_shown_sounded_and_acknowledged_from_the_page(self):
+        """A reading outside its band recorded (as task_manager records it) while the page is open: the
+        header's banner and a tone, the alarm listed, acknowledged by a named operator with a note."""
+        self.open_console()
+        self.wait_connected()
+        self.wait_page("window.consoleAlarms.count !== null", "the open-alarm count of task_status")
+        chimes = self.page.evaluate("window.consoleAlarms.chimes")
+        task_id = "console_alarm_%d" % int(time.time() * 1000)
+        picture = os.path.join(self.calibrated_preset, "zoom0.jpg")
+        preset = {"directory": self.calibrated_preset, "foreign": False, "alarms": {"console_gauge": [0.0, 1.0]},
+                  "targets": [{"name": "console_gauge", "kind": "pointer", "unit": "MPa"}]}
+        rows = reading_rows(task_id, 0, "here", 0, preset, Inspection([1.6], [90.0], [picture], (1.0, 2.0, 0.0)), "",
+                            time.time())
+        store = ResultStore(os.path.join(rospy.get_param("/data_root"), "tasks", "results.sqlite"))
+        self.assertEqual(store.add_readings(rows), 1)   # another process's commit: task_manager counts it within 10 s
+        store.close()
+        (row_id,) = [r["id"] for r in self.task_control("query_results", {"task_id": task_id})]
+        listed = "document.querySelector('#alarm-list tr[data-id=\"%d\"]')" % row_id
+        self.wait_page(listed + " !== null", "the new alarm listed", timeout=30.0)
+        self.wait_page("window.consoleAlarms.chimes > %d" % chimes, "a tone for the new alarm")
+        self.assertFalse(self.page.is_hidden("#alarm-banner"))
+        self.assertIn("open alarm", self.page.inner_text("#alarm-banner"))
+        self.page.fill("#alarm-by", "")
+        self.page.click("#alarm-list tr[data-id='%d'] .alarm-ack" % row_id)
+        self.wait_page("document.getElementById('alarm-result').textContent.includes('operator')", "name asked")
+        self.page.fill("#alarm-by", "console_operator")
+        self.page.fill("#alarm-note", "gauge replaced")
+        self.page.click("#alarm-list tr[data-id='%d'] .alarm-ack" % row_id)
+        self.wait_page(listed + " === null", "the acknowledged alarm leaving the list")
+        (acked,) = self.task_control("alarms", {"task_id": task_id, "acknowledged": True})
+        self.assertEqual((acked["id"], acked["ack_by"], acked["ack_note"]),
+                         (row_id, "console_operator", "gauge replaced"))
+        self.assertEqual(self.task_control("alarms", {"task_id": task_id}), [])
+
     # ------------------------------------------------------------------ patrol planner, routines, schedules
     def task_control_raw(self, cmd, data):
         """task_control over ROS with ``data`` as it is: (ack, data)."""

@@ -11,6 +11,7 @@ from inspection_robot_testing.fixtures import make_lamp_preset
 from inspection_robot.task.action import END_CANCELED, END_SUCCEEDED
 from inspection_robot.task.checks import Reachability
 from inspection_robot.task.patrol import OUTCOME_FAILED, OUTCOME_OK, STEP_INSPECT, STEP_MOVE, Inspection
+from inspection_robot.task.rows import reading_rows
 from inspection_robot.task.schedule import Scheduler
 from inspection_robot.task.service import ServiceConfig, TaskService
 from inspection_robot.task.store import ResultStore, StoreError
@@ -262,3 +263,20 @@ def test_the_loop_outlives_a_store_failure(rig, monkeypatch):
     monkeypatch.setattr(rig.service, "once", full_disk)
     rig.service.spin(lambda: next(rounds), pauses.append)
     assert pauses == [1.0, 1.0] and [t for level, t in rig.logs if level == "error"] == ["disk full"]
+
+
+def test_open_alarms_are_listed_acknowledged_and_counted_in_the_status(rig):
+    preset = {"preset": "p", "directory": "/d/presets/p/1", "foreign": False, "alarms": {"oil": [0.0, 85.0]},
+              "targets": [{"name": "oil", "kind": "pointer", "unit": "C", "decimals": 1}]}
+    assert rig.status()["open_alarms"] == 0
+    rig.store.add_readings(reading_rows("t0", 0, "s1", 0, preset, Inspection([118.0], [90.0], [""], HOME), "", NOW))
+    assert rig.status()["open_alarms"] == 1
+    ack, rows = rig.call("alarms")
+    assert ack == "success" and [(r["target_name"], r["display"]) for r in rows] == [("oil", "118.0 C")]
+    ack, row = rig.call("acknowledge", json.dumps({"id": rows[0]["id"], "by": "li"}))
+    assert ack == "success" and (row["ack_by"], row["ack_time"]) == ("li", rig.clock.t)
+    assert ("info", "alarm of reading %d (oil, alarm) acknowledged by li" % row["id"]) in rig.logs
+    assert rig.status()["open_alarms"] == 0 and rig.call("alarms")[1] == []
+    assert rig.call("alarms", '{"acknowledged": true}')[1][0]["ack_by"] == "li"
+    assert rig.call("acknowledge", json.dumps({"id": row["id"], "by": "wang"})) == (
+        "failed", "reading %d was already acknowledged by li" % row["id"])

@@ -2,8 +2,9 @@
    its part of the page and registers its subscriptions, then the link connects. One module per panel:
    status, drive (heartbeat, e-stop, teleop), head, images, map (goals, obstacles), planner (patrol
    planner; its arithmetic in planning.js), schedules (routines, schedules), calibration (presets),
-   patrol, results (readings, trends), review; link (roslib, auth, commands) and decoding
+   patrol, results (readings, trends), review, alarms (open alarms, acknowledge, the header's banner); link (roslib, auth, commands) and decoding
    (decode.js, auth.js) apart; shared helpers in ui.js, shared state in state.js. */
+import * as alarms from './alarms.js';
 import * as calibration from './calibration.js';
 import * as drive from './drive.js';
 import * as head from './head.js';
@@ -17,7 +18,8 @@ import * as review from './review.js';
 import * as schedules from './schedules.js';
 import * as status from './status.js';
 
-for (const panel of [status, drive, head, images, map, planner, schedules, calibration, patrol, results, review]) {
+for (const panel of [status, drive, head, images, map, planner, schedules, calibration, patrol, results, review,
+  alarms]) {
   panel.init();
 }
 start();

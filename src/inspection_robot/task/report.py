@@ -30,6 +30,7 @@ import numpy as np
 
 from inspection_robot.files import PUBLIC_FILE_MODE, write_atomic
 from inspection_robot.nav.gridmap import OCC_OCCUPIED, OCC_UNKNOWN
+from inspection_robot.task.alarms import stated_alarm
 from inspection_robot.task.client_view import client_row
 from inspection_robot.task.states import (ALARM_ALARM, ALARM_CHECK, ALARM_FAILED, ALARM_NONE, ALARM_NORMAL,
                                           ALARM_TREND, STATUS_FAILED, STATUS_READ, STATUS_UNCERTAIN)
@@ -73,9 +74,7 @@ def reading_state(row):
         return ALARM_FAILED
     if needs_review(row):
         return ALARM_CHECK if row["alarm"] == ALARM_CHECK else STATE_REVIEW
-    if row.get("review_time") is not None and row.get("review_alarm"):
-        return row["review_alarm"]
-    return row["alarm"]
+    return stated_alarm(row)
 
 
 def worst_state(rows):
@@ -387,7 +386,7 @@ def _attention_part(rows):
                     '</td><td>%s</td><td>%s</td><td>%s</td></tr>'
                     % (html.escape(state), _badge(state), r["stop"] + 1, html.escape(r["stop_name"]),
                        html.escape(r["target_name"]), html.escape(r["kind"]), _value_cell(r), html.escape(_band(r)),
-                       html.escape(r["reason"]), thumb))
+                       html.escape(r["reason"]) + _acknowledged(r), thumb))
     hint = ("<p>Most urgent first. Uncertain values are confirmed or corrected with task_control "
             "<code>review</code> or the console's review queue.</p>")
     return ('<section class="attention"><h2>Needs attention (%d)</h2>%s<table><colgroup><col style="width:9%%">'
@@ -396,6 +395,15 @@ def _attention_part(rows):
             '<tr><th>state</th><th>stop</th><th>target</th>'
             '<th>value</th><th>normal band</th><th>reason</th><th>picture</th></tr>%s</table></section>'
             % (len(urgent), hint, "".join(body)))
+
+
+def _acknowledged(row):
+    """The acknowledgement of a row's alarm (task.alarms), as a line of the reason cell."""
+    if row.get("ack_time") is None:
+        return ""
+    note = ": " + row["ack_note"] if row.get("ack_note") else ""
+    return '<div class="ack">acknowledged by %s, %s%s</div>' % (html.escape(row["ack_by"]), _when(row["ack_time"]),
+                                                                html.escape(note))
 
 
 def _map_part(yard):

@@ -10,6 +10,7 @@ import os
 
 from inspection_robot.command import CommandError, no_data
 from inspection_robot.files import root_relative
+from inspection_robot.task.alarms import ALARM_STATES, acknowledge, parse_alarms_query
 from inspection_robot.task.client_view import client_row
 from inspection_robot.task.report import write_reports
 from inspection_robot.task.review import parse_query, review
@@ -43,7 +44,8 @@ class ResultCommands(object):
         """task_control's commands of the results side, name -> handler."""
         return {"query_tasks": no_data(self._query_tasks), "query_results": self._query_results,
                 "report": self._report, "review_queue": self._review_queue, "review": self._review,
-                "export_results": no_data(self._export_results)}
+                "export_results": no_data(self._export_results), "alarms": self._alarms,
+                "acknowledge": self._acknowledge}
 
     def _query_tasks(self, _data):
         return json.dumps([{"task_id": t["task_id"], "priority": t["priority"], "state": t["state"],
@@ -70,6 +72,22 @@ class ResultCommands(object):
         self._log("info", "reading %d reviewed by %s: %s (robot %s), %s" % (
             row["id"], row["review_by"], row["review_value"], row["value"], path))
         return json.dumps(dict(client_row(row, self._data_root), correction=root_relative(path, self._data_root)))
+
+    def _alarms(self, data):
+        task_id, acknowledged, limit = parse_alarms_query(data)
+        return json.dumps([client_row(r, self._data_root)
+                           for r in self._store.alarm_rows(ALARM_STATES, task_id, acknowledged, limit)])
+
+    def _acknowledge(self, data):
+        with self._lock:
+            try:
+                row = acknowledge(self._store, data, self._clock())
+            except StoreError as err:
+                raise CommandError(str(err))
+        note = ": " + row["ack_note"] if row["ack_note"] else ""
+        self._log("info", "alarm of reading %d (%s, %s) acknowledged by %s%s"
+                  % (row["id"], row["target_name"], row["alarm"], row["ack_by"], note))
+        return json.dumps(client_row(row, self._data_root))
 
     def _export_results(self, _data):
         """A consistent snapshot of the results store for file_control (the live file's latest

@@ -39,6 +39,7 @@ import numpy as np
 from inspection_robot.command import CommandError, CommandTable, no_data
 from inspection_robot.files import hide_root, root_relative
 from inspection_robot.task.action import END_SUCCEEDED, check_goal_type, goal_end, goal_feedback, goal_refused
+from inspection_robot.task.alarms import OpenAlarms
 from inspection_robot.task.checks import resolve_preset
 from inspection_robot.task.client_view import client_progress
 from inspection_robot.task.patrol import OUTCOME_FAILED, OUTCOME_OK, BusyError, Patrol
@@ -69,6 +70,7 @@ class TaskService(object):
         self._lock = threading.RLock()
         self._wake = threading.Condition(self._lock)
         self.store = store
+        self._open_alarms = OpenAlarms(store, monotonic)
         self._config = config
         self._data_root = config.data_root   # answers name files relative to it; taken out of refusals
         self._reachable = reachable
@@ -299,6 +301,7 @@ class TaskService(object):
         status = client_progress(self.patrol.status(), self._data_root)
         status["overhead_s"] = round(self._overhead_s, 3)
         status["store"] = root_relative(self.store.path, self._data_root)
+        status["open_alarms"] = self._open_alarms.count()
         status.update(self.schedules.status)
         if status["task_id"] and status["state"] in ENDED_STATES:
             status["report"] = root_relative(os.path.join(self.results.reports_dir, status["task_id"], "report.html"),

@@ -60,11 +60,13 @@ CREATE TABLE IF NOT EXISTS poses (
 # box (for the bench's field set), the operator's review of an uncertain value (true value or the
 # robot's own when confirmed, its alarm, who, when); the decimal places the value is shown with
 # (its meter's resolution when read, task.display; null in older rows); a thermal phase's defect grade
-# and its device's diagnosis (JSON, task.rows)
+# and its device's diagnosis (JSON, task.rows); an operator's acknowledgement of the row's alarm
+# (task.alarms: who, when, a note)
 ADDED_COLUMNS = (("source_picture", "TEXT NOT NULL DEFAULT ''"), ("roi", "TEXT NOT NULL DEFAULT ''"),
                  ("review_value", "REAL"), ("review_alarm", "TEXT NOT NULL DEFAULT ''"),
                  ("review_by", "TEXT NOT NULL DEFAULT ''"), ("review_time", "REAL"), ("decimals", "INTEGER"),
-                 ("grade", "TEXT NOT NULL DEFAULT ''"), ("diagnosis", "TEXT NOT NULL DEFAULT ''"))
+                 ("grade", "TEXT NOT NULL DEFAULT ''"), ("diagnosis", "TEXT NOT NULL DEFAULT ''"),
+                 ("ack_by", "TEXT NOT NULL DEFAULT ''"), ("ack_time", "REAL"), ("ack_note", "TEXT NOT NULL DEFAULT ''"))
 INDEXES = """
 CREATE INDEX IF NOT EXISTS readings_time ON readings (time);
 CREATE INDEX IF NOT EXISTS readings_review ON readings (status, review_time);
@@ -74,8 +76,10 @@ CREATE INDEX IF NOT EXISTS poses_task ON poses (task_id, id);
 READING_COLUMNS = ("id", "task_id", "stop", "stop_name", "preset_index", "preset", "target", "target_name", "kind",
                    "status", "value", "unit", "alarm", "low", "high", "confidence", "picture", "x", "y", "yaw",
                    "time", "reason") + tuple(name for name, _ in ADDED_COLUMNS)
-# what a patrol writes (the review columns are written by set_review only)
-WRITTEN_COLUMNS = tuple(c for c in READING_COLUMNS[1:] if not c.startswith("review_"))
+# what a patrol writes (the review and acknowledgement columns are written by set_review and acknowledge only)
+WRITTEN_COLUMNS = tuple(c for c in READING_COLUMNS[1:] if not c.startswith(("review_", "ack_")))
+# a row's alarm as the report states it (task.report.reading_state): the reviewed value's once reviewed
+STATED_ALARM_SQL = "(CASE WHEN review_time IS NOT NULL AND review_alarm != '' THEN review_alarm ELSE alarm END)"
 OPTIONAL_COLUMNS = {"decimals": None, "grade": "", "diagnosis": ""}   # written columns a row may leave out
 STEP_COLUMNS = ("task_id", "stop", "preset_index", "kind", "outcome", "started", "ended", "reason")
 EXPORTS_KEPT = 10   # snapshots kept in tasks/exports/ (the oldest removed beyond)
@@ -112,6 +116,7 @@ class ResultStore(object):
     def __init__(self, path):
         self.path = path
         self._lock = threading.Lock()
+        self.commits = 0   # transactions committed by this process: a cache of a count knows when to ask again
         private_database(path)
         try:
             self._db = sqlite3.connect(path, check_same_thread=False, isolation_level=None, timeout=10.0)
@@ -151,6 +156,7 @@ class ResultStore(object):
                 for sql, params in statements:
                     changed += self._db.execute(sql, params).rowcount
                 self._db.execute("COMMIT")
+                self.commits += 1
                 return changed
             except sqlite3.Error as err:
                 if self._db.in_transaction:
@@ -292,6 +298,26 @@ class ResultStore(object):
         return self._write([("UPDATE readings SET review_value = ?, review_alarm = ?, review_by = ?, review_time = ? "
                              "WHERE id = ? AND status = ? AND review_time IS NULL",
                              (value, alarm, by, now, row_id, STATUS_UNCERTAIN))]) == 1
+
+    # --- alarms and their acknowledgement (task.alarms) ------------------------------------------
+    def alarm_rows(self, states, task_id=None, acknowledged=False, limit=100):
+        """Rows whose stated alarm is one of ``states``, unacknowledged (``acknowledged``: those
+        acknowledged), newest first (optionally of one task)."""
+        clause, params = ("", ()) if task_id is None else (" AND task_id = ?", (task_id,))
+        rows = self._query("SELECT %s FROM readings WHERE %s IN (%s) AND ack_time IS %sNULL%s ORDER BY id DESC LIMIT ?"
+                           % (", ".join(READING_COLUMNS), STATED_ALARM_SQL, ", ".join("?" * len(states)),
+                              "NOT " if acknowledged else "", clause), tuple(states) + params + (limit,))
+        return [dict(zip(READING_COLUMNS, r)) for r in rows]
+
+    def alarm_count(self, states):
+        """How many rows have a stated alarm in ``states`` and no acknowledgement."""
+        return self._query("SELECT COUNT(*) FROM readings WHERE ack_time IS NULL AND %s IN (%s)"
+                           % (STATED_ALARM_SQL, ", ".join("?" * len(states))), tuple(states))[0][0]
+
+    def acknowledge(self, row_id, by, note, now):
+        """Acknowledge the alarm of an unacknowledged row; False (nothing written) when it already was."""
+        return self._write([("UPDATE readings SET ack_by = ?, ack_time = ?, ack_note = ? "
+                             "WHERE id = ? AND ack_time IS NULL", (by, now, note, row_id))]) == 1
 
     # --- the driven path ------------------------------------------------------------------------
     def add_poses(self, task_id, poses):

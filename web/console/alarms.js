@@ -1,0 +1,130 @@
+/* Open alarms: readings of any patrol whose alarm is ``alarm`` or ``check`` and nobody acknowledged
+   (task_control alarms), newest first, each acknowledged by a named operator with an optional note
+   (task_control acknowledge). task_status ``open_alarms`` drives the header's banner; a count that
+   grows sounds a short tone (Web Audio: nothing to download) and lists the alarms again. */
+import { readingText } from './decode.js';
+import { subscribe, control } from './link.js';
+import { refreshTask } from './results.js';
+import { $ } from './ui.js';
+
+const ALARM_LIMIT = 50;
+const alarms = { count: null, querying: false, again: false, audio: null };
+
+function alarmMessage(text, failed) {
+  $('alarm-result').textContent = text;
+  $('alarm-result').className = failed ? 'error' : '';
+}
+
+/** A two-note tone: the browser may refuse sound until the operator clicked the page once. */
+function chime() {
+  try {
+    alarms.audio = alarms.audio || new AudioContext();
+    const ctx = alarms.audio;
+    [880, 660].forEach((hz, i) => {
+      const osc = ctx.createOscillator();
+      const gain = ctx.createGain();
+      osc.frequency.value = hz;
+      gain.gain.setValueAtTime(0.2, ctx.currentTime + i * 0.25);
+      gain.gain.exponentialRampToValueAtTime(0.001, ctx.currentTime + i * 0.25 + 0.22);
+      osc.connect(gain).connect(ctx.destination);
+      osc.start(ctx.currentTime + i * 0.25);
+      osc.stop(ctx.currentTime + i * 0.25 + 0.23);
+    });
+    window.consoleAlarms.chimes += 1;
+  } catch (err) {
+    alarmMessage('no sound: ' + err.message, false);
+  }
+}
+
+function onTaskStatus(message) {
+  let count;
+  try {
+    count = JSON.parse(message.data).open_alarms;
+  } catch (err) {
+    return;   // patrol.js reports an unreadable task_status
+  }
+  if (typeof count !== 'number' || count === alarms.count) return;
+  const grew = alarms.count !== null && count > alarms.count;
+  alarms.count = count;
+  window.consoleAlarms.count = count;
+  const banner = $('alarm-banner');
+  banner.hidden = count === 0;
+  banner.textContent = count + ' open alarm' + (count === 1 ? '' : 's');
+  $('alarm-count').textContent = count ? '(' + count + ')' : '';
+  if (grew) chime();
+  queryAlarms();
+}
+
+function queryAlarms() {
+  if (alarms.querying) {
+    alarms.again = true;
+    return;
+  }
+  alarms.querying = true;
+  control('task_control', 'alarms', { limit: ALARM_LIMIT }, true)
+    .then((text) => renderAlarms(JSON.parse(text)))
+    .catch((err) => alarmMessage('alarm list refused: ' + err.message, true))
+    .then(() => {
+      alarms.querying = false;
+      if (alarms.again) {
+        alarms.again = false;
+        queryAlarms();
+      }
+    });
+}
+
+/** One row per open alarm: what, where, when, the value and its reason; acknowledge. */
+function renderAlarms(rows) {
+  const body = $('alarm-list').tBodies[0];
+  const fresh = document.createElement('tbody');
+  for (const r of rows) {
+    const tr = fresh.insertRow();
+    tr.className = r.alarm;
+    tr.dataset.id = r.id;
+    tr.insertCell().textContent = r.grade ? r.alarm + ' (' + r.grade + ' defect)' : r.alarm;
+    tr.insertCell().textContent = r.target_name || r.kind + ' ' + r.target;
+    tr.insertCell().textContent = readingText(r) + (r.reason && r.status !== 'uncertain' ? ' · ' + r.reason : '');
+    tr.insertCell().textContent = r.task_id + ' · ' + (r.stop_name || 'stop ' + (r.stop + 1));
+    tr.insertCell().textContent = new Date(r.time * 1000).toLocaleString();
+    const cell = tr.insertCell();
+    const button = document.createElement('button');
+    button.type = 'button';
+    button.className = 'alarm-ack';
+    button.textContent = 'acknowledge';
+    button.addEventListener('click', () => acknowledge(r, button));
+    cell.appendChild(button);
+  }
+  if (!rows.length) fresh.insertRow().insertCell().textContent = 'No open alarm.';
+  body.parentNode.replaceChild(fresh, body);
+}
+
+function acknowledge(row, button) {
+  const by = $('alarm-by').value.trim();
+  if (!by) {
+    alarmMessage('type your name in "operator" first', true);
+    $('alarm-by').focus();
+    return;
+  }
+  const note = $('alarm-note').value.trim();
+  button.disabled = true;
+  control('task_control', 'acknowledge', note ? { id: row.id, by, note } : { id: row.id, by })
+    .then((text) => {
+      const done = JSON.parse(text);
+      alarmMessage('alarm of ' + done.target_name + ' acknowledged by ' + done.ack_by);
+      $('alarm-note').value = '';
+      queryAlarms();
+      refreshTask(row.task_id);
+    })
+    .catch((err) => {
+      alarmMessage('acknowledge refused: ' + err.message, true);
+      button.disabled = false;
+    });
+}
+
+export function init() {
+  window.consoleAlarms = { chimes: 0, count: null, ids: () => Array.from(document.querySelectorAll('#alarm-list tr[data-id]'),
+    (e) => Number(e.dataset.id)) };
+  $('alarm-refresh').addEventListener('click', queryAlarms);
+  $('alarm-banner').addEventListener('click', () => $('alarm-panel').scrollIntoView());
+  subscribe('task_status', 'inspection_robot/GeneralTopic', { queue_length: 1 }, onTaskStatus);
+}
