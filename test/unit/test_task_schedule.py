@@ -257,3 +257,12 @@ def test_replacing_a_schedule_keeps_its_history(store):
     assert (row["time"], row["last_task_id"], row["set_at"]) == ("13:00", "r1_20261127_1201", NOW + 100)
     assert len(store.missed_runs("s1")) == 1
     assert not store.delete_routine("nothing")
+
+
+def test_local_zone_gives_the_offset_schedules_run_in():
+    import datetime
+    from inspection_robot.task.schedule import local_zone
+    china = datetime.timezone(datetime.timedelta(hours=8), "CST")
+    assert local_zone(1795680000.0, china) == {"name": "CST", "utc_offset_s": 28800}
+    own = local_zone(1795680000.0)   # the machine's zone: whatever it is, named with an offset
+    assert isinstance(own["name"], str) and own["utc_offset_s"] % 60 == 0

@@ -280,3 +280,8 @@ def test_open_alarms_are_listed_acknowledged_and_counted_in_the_status(rig):
     assert rig.call("alarms", '{"acknowledged": true}')[1][0]["ack_by"] == "li"
     assert rig.call("acknowledge", json.dumps({"id": row["id"], "by": "wang"})) == (
         "failed", "reading %d was already acknowledged by li" % row["id"])
+
+
+def test_the_status_names_the_time_zone_schedules_run_in(rig):
+    """A backend turns a schedule's HH:MM (robot local time) into a moment with it (issue #41)."""
+    assert rig.status()["time_zone"] == {"name": "UTC", "utc_offset_s": 0}

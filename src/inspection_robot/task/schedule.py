@@ -35,6 +35,14 @@ REASON_NOT_RUNNING = "task_manager was not running"
 Run = namedtuple("Run", "schedule routine at task_id")
 
 
+def local_zone(now, tz=None):
+    """The time zone schedules run in at ``now`` (``tz`` None: the robot's own): {"name": "CST",
+    "utc_offset_s": 28800}, so a backend can turn a schedule's HH:MM into a moment."""
+    moment = datetime.datetime.fromtimestamp(now, tz)
+    moment = moment if moment.tzinfo is not None else moment.astimezone()
+    return {"name": moment.tzname() or "", "utc_offset_s": int(moment.utcoffset().total_seconds())}
+
+
 def check_routine_name(name):
     """``name`` if it is 1-50 characters of A-Z a-z 0-9 _ - (the run's id adds 14), else CommandError."""
     if not isinstance(name, str) or not ROUTINE_NAME_PATTERN.fullmatch(name):

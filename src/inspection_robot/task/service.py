@@ -46,7 +46,7 @@ from inspection_robot.task.patrol import OUTCOME_FAILED, OUTCOME_OK, BusyError, 
 from inspection_robot.task.report import summary
 from inspection_robot.task.result_commands import ResultCommands
 from inspection_robot.task.route import plan_route, route_points
-from inspection_robot.task.schedule import routine_task
+from inspection_robot.task.schedule import local_zone, routine_task
 from inspection_robot.task.schedule_commands import PLAN_ID, ScheduleCommands
 from inspection_robot.task.spec import parse_task
 from inspection_robot.task.states import ENDED_STATES
@@ -303,6 +303,7 @@ class TaskService(object):
         status["store"] = root_relative(self.store.path, self._data_root)
         status["open_alarms"] = self._open_alarms.count()
         status.update(self.schedules.status)
+        status["time_zone"] = local_zone(self._clock(), self.schedules.scheduler.tz)
         if status["task_id"] and status["state"] in ENDED_STATES:
             status["report"] = root_relative(os.path.join(self.results.reports_dir, status["task_id"], "report.html"),
                                              self._data_root)
