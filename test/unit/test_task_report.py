@@ -304,3 +304,17 @@ def test_a_corrected_check_counts_with_its_reviewed_alarm_and_no_limits_is_not_n
     assert "no reading had limits to compare with" in html_page and "within its limits" not in html_page
     _info, html_page = page([corrected, unlimited])
     assert "1 reading(s) within their limits, 1 without limits" in html_page
+
+
+def test_the_planned_route_beside_the_distance_driven_leaves_the_way_home_apart():
+    """Issue #41: 'distance driven 35.8 m' stood beside 'planned route 51.5 m' that included the leg
+    home, which a patrol never drives."""
+    task = {"task_id": "t1", "priority": "routine", "state": "done", "reason": "", "submitted": 10.0, "ended": 130.0,
+            "spec": {"stops": [{"name": "s0", "x": 0.0, "y": 0.0}], "order": "shortest", "planned_length_m": 51.5,
+                     "home_leg_m": 15.7}}
+    page = render_html(summary(task, [], []), [], "", task["spec"]["stops"])
+    assert ("<dt>planned route</dt><dd>35.8 m (shortest order, from the robot through every stop; driving home "
+            "from the last stop would add 15.7 m, which a patrol does not drive)</dd>") in page
+    del task["spec"]["home_leg_m"]   # a task planned before the home leg was kept
+    page = render_html(summary(task, [], []), [], "", task["spec"]["stops"])
+    assert "51.5 m (shortest order, from the robot through every stop and home)" in page

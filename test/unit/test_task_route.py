@@ -25,10 +25,10 @@ def test_shortest_reorders_the_stops_given_keeps_them():
     stops = [stop("far", 10, 0), stop("near", 1, 0), stop("middle", 5, 0)]
     shortest = plan_route(Task("t", "routine", 1, list(stops), ORDER_SHORTEST), (0, 0), (0, 0), manhattan)
     assert [s["name"] for s in shortest.stops] == ["near", "middle", "far"]
-    assert shortest.planned_length_m == 20.0
+    assert (shortest.planned_length_m, shortest.home_leg_m) == (20.0, 10.0)   # home from "far"
     given = plan_route(Task("t", "routine", 1, list(stops), ORDER_GIVEN), (0, 0), (0, 0), manhattan)
     assert [s["name"] for s in given.stops] == ["far", "near", "middle"]
-    assert given.planned_length_m == 10 + 9 + 4 + 5
+    assert (given.planned_length_m, given.home_leg_m) == (10 + 9 + 4 + 5, 5.0)
 
 
 def test_a_stop_without_path_is_named():
@@ -44,9 +44,9 @@ def test_a_stop_without_path_is_named():
 def test_stored_tasks_round_trip_and_old_ones_load():
     task = plan_route(Task("t", "routine", 1, [stop("a", 1, 0)], ORDER_SHORTEST), (0, 0), (0, 0), manhattan)
     again = Task.from_dict(task.to_dict())
-    assert (again.order, again.planned_length_m) == (ORDER_SHORTEST, 2.0)
+    assert (again.order, again.planned_length_m, again.home_leg_m) == (ORDER_SHORTEST, 2.0, 1.0)
     old = Task.from_dict({"id": "o", "priority": "routine", "retries": 1, "stops": []})
-    assert (old.order, old.planned_length_m) == (ORDER_GIVEN, None)
+    assert (old.order, old.planned_length_m, old.home_leg_m) == (ORDER_GIVEN, None, None)
 
 
 def test_planner_lengths_on_the_yard_follow_the_free_space():

@@ -100,6 +100,7 @@ def summary(task_row, readings, steps, path=None):
             "duration_s": round(ended - task_row["submitted"], 1) if ended else None,
             "stops": len(task_row["spec"]["stops"]), "order": task_row["spec"].get("order", "given"),
             "planned_length_m": task_row["spec"].get("planned_length_m"),
+            "home_leg_m": task_row["spec"].get("home_leg_m"),
             "distance_driven_m": round(path_length(path), 1) if path else None, "counts": counts,
             "time_by_step_s": dict((k, round(v, 2)) for k, v in step_split(steps).items())}
 
@@ -350,8 +351,7 @@ def _summary_part(info, rows):
              ("priority", info["priority"]), ("started", _when(info["submitted"])), ("ended", _when(info["ended"])),
              ("duration", _duration(info["duration_s"])),
              ("distance driven", _metres(info["distance_driven_m"])),
-             ("planned route", "%s (%s order, from the robot through every stop to home)"
-              % ("not measured" if planned is None else "%.1f m" % planned, info["order"])),
+             ("planned route", _planned_words(planned, info.get("home_leg_m"), info["order"])),
              ("stops", "%d, %d with readings" % (info["stops"], stops_read)),
              ("uncertain", "%d (%d need review)" % (counts["uncertain"], counts["needs_review"])),
              ("robot software", str(info.get("software_version")))]
@@ -359,6 +359,17 @@ def _summary_part(info, rows):
             % ("".join('<div class="tile%s"><b>%d</b>%s</div>' % (" hot" if hot else "", n, html.escape(label))
                        for label, n, hot in tiles),
                "".join("<dt>%s</dt><dd>%s</dd>" % (html.escape(k), html.escape(v)) for k, v in facts)))
+
+
+def _planned_words(planned, home_leg, order):
+    """The planned route beside the distance driven: the stops' part (what a patrol drives), the way
+    home apart (a patrol ends at its last stop); tasks planned before the home leg was kept say so."""
+    if planned is None:
+        return "not measured (%s order)" % order
+    if home_leg is None:
+        return "%.1f m (%s order, from the robot through every stop and home)" % (planned, order)
+    return ("%.1f m (%s order, from the robot through every stop; driving home from the last stop would "
+            "add %.1f m, which a patrol does not drive)" % (planned - home_leg, order, home_leg))
 
 
 def _calm_words(rows):

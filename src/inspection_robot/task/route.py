@@ -15,8 +15,9 @@ MAX_ROUTE_POINTS = 2000   # points of a planned route drawn by a client (task_co
 
 def plan_route(task, start_xy, end_xy, path_length):
     """Order ``task.stops`` (when its order is shortest) and set ``task.planned_length_m``: the length
-    from ``start_xy`` (the robot) through every stop to ``end_xy`` (home). CommandError names the
-    two places with no path between them."""
+    from ``start_xy`` (the robot) through every stop to ``end_xy`` (home), and ``task.home_leg_m``:
+    its last leg, which a patrol does not drive (it ends at its last stop), so a report compares the
+    distance driven with the rest. CommandError names the two places with no path between them."""
     points = [tuple(start_xy)] + [(stop["x"], stop["y"]) for stop in task.stops] + [tuple(end_xy)]
     names = ["the robot"] + ["stop '%s'" % stop["name"] for stop in task.stops] + ["the home pose"]
     lengths = {}
@@ -34,8 +35,10 @@ def plan_route(task, start_xy, end_xy, path_length):
         order, length, _planned = order_points(points, measure)
         task.stops = [task.stops[i - 1] for i in order[1:-1]]
     else:
+        order = list(range(len(points)))
         length = sum(measure(i, i + 1) for i in range(len(points) - 1))
     task.planned_length_m = round(length, 2)
+    task.home_leg_m = round(measure(order[-2], order[-1]), 2)
     return task
 
 

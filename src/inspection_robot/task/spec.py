@@ -38,24 +38,26 @@ class Task(object):
     """A checked task. ``stops``: [{"name", "x", "y", "yaw", "precision", "presets": [
     {"preset", "directory", "targets", "alarms", "foreign"}]}] (the stored, resolved form)."""
 
-    def __init__(self, task_id, priority, retries, stops, order=ORDER_GIVEN, planned_length_m=None):
+    def __init__(self, task_id, priority, retries, stops, order=ORDER_GIVEN, planned_length_m=None,
+                 home_leg_m=None):
         self.task_id = task_id
         self.priority = priority
         self.retries = retries
         self.stops = stops
         self.order = order
         self.planned_length_m = planned_length_m  # the route's planned length (task/route.py), None until planned
+        self.home_leg_m = home_leg_m   # its last leg, the last stop to home, which a patrol does not drive
 
     def to_dict(self):
         return {"id": self.task_id, "priority": self.priority, "retries": self.retries, "order": self.order,
-                "planned_length_m": self.planned_length_m, "stops": self.stops}
+                "planned_length_m": self.planned_length_m, "home_leg_m": self.home_leg_m, "stops": self.stops}
 
     @classmethod
     def from_dict(cls, d):
         """The stored form back (already checked at submission; tasks stored before ``order`` existed
         were given in order and not measured)."""
         return cls(d["id"], d["priority"], d["retries"], d["stops"], d.get("order", ORDER_GIVEN),
-                   d.get("planned_length_m"))
+                   d.get("planned_length_m"), d.get("home_leg_m"))
 
     def preset_keys(self):
         """Every (stop index, preset index), in patrol order (0-based)."""
