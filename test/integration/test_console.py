@@ -529,6 +529,9 @@ class ConsoleTest(unittest.TestCase):
         self.page.click(".review-item[data-id='%d'] .review-confirm" % confirmed)
         self.wait_page(item % confirmed + " === null", "the confirmed reading leaving the queue")
         self.assertEqual(self.task_control("review_queue", {"task_id": task_id}), [])
+        if not self.task_control("review_queue", {}):   # an empty queue says so instead of showing nothing
+            self.wait_page("document.getElementById('review-list').textContent.includes('Nothing to review')",
+                           "the empty queue's words")
         got = dict((r["id"], r) for r in self.task_control("query_results", {"task_id": task_id}))
         self.assertEqual((got[corrected]["value"], got[corrected]["review_value"], got[corrected]["review_alarm"],
                           got[corrected]["review_by"]), (1.3, 0.85, "normal", "console_operator"))

@@ -94,6 +94,12 @@ function renderReview(rows) {
     item.append(figure, text);
     fresh.appendChild(item);
   }
+  if (!rows.length) {
+    const empty = document.createElement('p');
+    empty.className = 'hint';
+    empty.textContent = 'Nothing to review: every doubted reading has been confirmed or corrected.';
+    fresh.appendChild(empty);
+  }
   list.parentNode.replaceChild(fresh, list);
 }
 
