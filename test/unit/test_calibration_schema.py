@@ -13,7 +13,8 @@ GOOD = {"name": "oil", "digits": 2, "normal": [0.2, 1.4], "start_angle": -135.0,
         "colour": "green", "on_reference": "target_0_on.png", "off_reference": "target_0_off.png",
         "open_reference": "a.png", "closed_reference": "b.png",
         "thermal_box": [5.0, 5.0, 30.5, 5.0, 30.5, 30.0, 5.0, 30.0], "phase": "B", "device": "T1 bay 3",
-        "equipment_class": "breaker", "emissivity": 0.9}
+        "equipment_class": "breaker", "emissivity": 0.9, "digit_count": 4, "polarity": "dark", "slant": -6.0,
+        "fill": 0.75, "decimals": 1, "contrast": 77.5}
 
 
 @pytest.mark.parametrize("key", sorted(k for k, f in schema.FIELDS.items() if f.stored))
@@ -80,7 +81,7 @@ def test_file_text_is_refused_by_name(key, text, reason):
 def test_keys_belong_to_their_kind():
     with pytest.raises(schema.SchemaError) as err:
         schema.check_params("thermal", {"thermal_box": GOOD["thermal_box"], "unit": "degC"})
-    assert "key 'unit' does not apply to a thermal target (pointer only)" in str(err.value)
+    assert "key 'unit' does not apply to a thermal target (pointer|digital only)" in str(err.value)
     with pytest.raises(schema.SchemaError) as err:
         schema.check_params("switch", {"open_reference": "a.png"})
     assert "missing key(s) closed_reference" in str(err.value)

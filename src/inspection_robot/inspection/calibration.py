@@ -19,6 +19,8 @@ from inspection_robot.files import write_atomic, write_json_atomic
 from inspection_robot.inspection import calibration_schema as schema
 from inspection_robot.inspection.preset import (TARGET_KINDS, PresetError, Target, load_info, write_calibration,
                                                 zoom_picture_name)
+from inspection_robot.inspection.digital import learn_display, parse_shown, read_display
+from inspection_robot.inspection.geometry import quad_inside
 from inspection_robot.inspection.lamp import lamp_patch
 from inspection_robot.inspection.pointer import PointerReader
 from inspection_robot.inspection.readers import ReadFailed
@@ -73,7 +75,12 @@ def build_targets(preset_dir, specs, optics):
     thermal = any(isinstance(s, dict) and s.get("kind") == "thermal" for s in specs)
     thermal_size = _thermal_size(preset_dir, info) if thermal else None
     targets, patches = [], {}
+    zoom0 = None
     for i, spec in enumerate(specs):
+        if isinstance(spec, dict) and spec.get("kind") == "digital" and "shown" in spec:
+            if zoom0 is None:
+                zoom0 = cv2.imread(os.path.join(preset_dir, zoom_picture_name(0)), cv2.IMREAD_COLOR)
+            spec = _learned_display(spec, i, zoom0, width, height)
         try:
             kind, box, name, params, pictures = schema.check_spec(spec, i, width, height, thermal_size)
         except schema.SchemaError as err:
@@ -97,6 +104,36 @@ def build_targets(preset_dir, specs, optics):
     except DiagnosisError as err:
         raise PresetError("thermal phases: %s" % err)
     return info, targets, patches
+
+
+def _learned_display(spec, index, image, width, height):
+    """A digital target spec whose ``shown`` (the text the display shows in zoom0.jpg) is replaced by
+    the display model learned from the picture (inspection.digital.learn_display), after checking
+    that the model reads the picture back as that text. PresetError names what failed."""
+    spec = dict(spec)
+    shown = spec.pop("shown")
+    try:
+        schema.check_value("shown", shown)
+        box = np.reshape(schema.check_value("box", spec.get("box")), (4, 2))
+    except schema.SchemaError as err:
+        raise PresetError("target %d (digital): %s" % (index, err))
+    if image is None:
+        raise PresetError("target %d (digital): zoom0.jpg missing or unreadable: a display is learned from it" % index)
+    if not quad_inside(box, width, height):
+        raise PresetError("target %d (digital): box lies outside the %dx%d picture" % (index, width, height))
+    try:
+        model = learn_display(image, box, shown)
+        back = read_display(image, box, model)
+    except ReadFailed as err:
+        raise PresetError("target %d (digital): %s" % (index, err))
+    expected = parse_shown(shown)[2]
+    if back.detail.get("reason") or abs(back.value - expected) > 1e-9:
+        raise PresetError("target %d (digital): the learned display reads '%s' on the calibration picture, not "
+                          "'%s'%s" % (index, back.detail["text"], shown,
+                                      ": " + back.detail["reason"] if back.detail.get("reason") else ""))
+    spec.update(digit_count=model.digit_count, polarity=model.polarity, slant=model.slant_deg, fill=model.fill,
+                decimals=model.decimals, contrast=model.contrast)
+    return spec
 
 
 def _check_reference(preset_dir, index, kind, state, name):

@@ -29,13 +29,14 @@ import re
 
 import numpy as np
 
+from inspection_robot.inspection.digital import MAX_DIGITS as MAX_DISPLAY_DIGITS, POLARITIES, parse_shown
 from inspection_robot.inspection.gauge import GaugeScale
 from inspection_robot.inspection.geometry import quad_inside, quad_is_convex
 from inspection_robot.inspection.lamp import LAMP_COLOURS
 from inspection_robot.inspection.needle import POINTER_COLOURS
 from inspection_robot.thermal.diagnosis import DEFAULT_RULES, PHASE_CHOICES
 
-TARGET_KINDS = ("pointer", "lamp", "switch", "thermal")
+TARGET_KINDS = ("pointer", "lamp", "switch", "thermal", "digital")
 MAX_ABS_VALUE = 1e9          # a reading (start/end value, scale_table and marks values, normal band)
 MAX_ANGLE_DEG = 360.0
 MAX_PICTURE_PX = 100000.0    # a thermal box's coordinates when the thermal picture's size is unknown
@@ -172,6 +173,23 @@ def _digits(value, key):
     return int(out)
 
 
+def _whole(value, key, low, high):
+    """A whole number in [low, high] (2.0 from the INI is 2)."""
+    out = number(value, key, low, high)
+    if out != int(out):
+        raise SchemaError("%s must be a whole number in [%d, %d], got %r" % (key, low, high, out))
+    return int(out)
+
+
+def _shown(value, key):
+    """The text a display shows (inspection.digital.parse_shown's rules)."""
+    try:
+        parse_shown(value)
+    except ValueError as err:
+        raise SchemaError("%s: %s" % (key, err))
+    return value
+
+
 def _band(value, key):
     low, high = _numbers(value, 2, key)
     if low > high:
@@ -224,12 +242,12 @@ FIELDS = {
     "box": Field(None, _quad, "numbers", stored=False),
     "name": Field(None, _text),
     "normal": Field(None, _band, "numbers"),
-    "digits": Field(("pointer", "thermal"), _digits, "number"),
+    "digits": Field(("pointer", "thermal", "digital"), _digits, "number"),
     "start_angle": Field(("pointer",), _angle, "number"),
     "end_angle": Field(("pointer",), _angle, "number"),
     "start_value": Field(("pointer",), number, "number"),
     "end_value": Field(("pointer",), number, "number"),
-    "unit": Field(("pointer",), _text),
+    "unit": Field(("pointer", "digital"), _text),
     "centre": Field(("pointer",), _fractions, "numbers"),
     "radius": Field(("pointer",), lambda v, k: number(v, k, 0.0, 1.5, low_open=True), "number"),
     "aspect": Field(("pointer",), lambda v, k: number(v, k, 0.05, 20.0), "number"),
@@ -252,9 +270,19 @@ FIELDS = {
     "device": Field(("thermal",), _text),
     "equipment_class": Field(("thermal",), _choice(tuple(DEFAULT_RULES), optional=True)),
     "emissivity": Field(("thermal",), lambda v, k: number(v, k, MIN_EMISSIVITY, 1.0), "number"),
+    # a seven-segment display (inspection.digital): "shown" (what it shows at calibration) is learned
+    # into the rest when the calibration is built
+    "shown": Field(("digital",), _shown, stored=False),
+    "digit_count": Field(("digital",), lambda v, k: _whole(v, k, 1, MAX_DISPLAY_DIGITS), "number"),
+    "polarity": Field(("digital",), _choice(POLARITIES)),
+    "slant": Field(("digital",), lambda v, k: number(v, k, -20.0, 20.0), "number"),
+    "fill": Field(("digital",), lambda v, k: number(v, k, 0.3, 1.0), "number"),
+    "decimals": Field(("digital",), lambda v, k: _whole(v, k, 0, MAX_DISPLAY_DIGITS - 1), "number"),
+    "contrast": Field(("digital",), lambda v, k: number(v, k, 0.0, 255.0), "number"),
 }
 REQUIRED = {"pointer": ("start_angle", "end_angle", "start_value", "end_value"), "lamp": ("colour",),
-            "switch": ("open_reference", "closed_reference"), "thermal": ("thermal_box",)}
+            "switch": ("open_reference", "closed_reference"), "thermal": ("thermal_box",),
+            "digital": ("digit_count", "polarity", "slant", "fill", "decimals", "contrast")}
 PICTURE_STATES = {"lamp": ("on", "off"), "switch": ("open", "closed")}
 # written to the INI even when empty or defaulted (the file's long-standing layout)
 ALWAYS_WRITTEN = ("centre", "radius", "aspect", "start_angle", "end_angle", "start_value", "end_value", "unit",
@@ -309,6 +337,8 @@ def check_params(kind, params, thermal_size=None):
     elif kind == "lamp" and ("on_reference" in out) != ("off_reference" in out):
         raise SchemaError("a lamp needs both on_reference and off_reference (or on_picture and off_picture), "
                           "or neither")
+    elif kind == "digital" and out["decimals"] >= out["digit_count"]:
+        raise SchemaError("decimals %d must be fewer than digit_count %d" % (out["decimals"], out["digit_count"]))
     elif kind == "thermal":
         if out.get("device") and not out.get("phase"):
             raise SchemaError("device '%s' needs a phase (%s)" % (out["device"], "|".join(PHASE_CHOICES)))
@@ -349,6 +379,8 @@ def display_decimals(kind, params):
         return int(params["digits"])
     if kind == "thermal":
         return THERMAL_DECIMALS
+    if kind == "digital":
+        return int(params["decimals"])
     if kind != "pointer":
         return 0
     division = _smallest_gap([m[0] for m in params.get("marks") or ()], 2)

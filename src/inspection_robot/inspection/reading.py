@@ -18,6 +18,7 @@ import numpy as np
 from inspection_robot.lazy import lazy_import
 from inspection_robot.files import PUBLIC_FILE_MODE, FileError, confine_path, write_atomic
 from inspection_robot.command import CommandError
+from inspection_robot.inspection.digital import display_model, read_display
 from inspection_robot.inspection.foreign import detect_foreign
 from inspection_robot.inspection.geometry import quad_inside, quad_is_convex, quad_overlap, quads_from_flat, \
     rectify, transform_quad
@@ -39,6 +40,7 @@ ReadOutcome = namedtuple("ReadOutcome", "scale possibility picture_path foreign_
 
 RESULT_UNCERTAIN = "uncertain"
 MIN_FACE_SIMILARITY = 0.2   # below: the box does not show the calibrated gauge
+DOUBTING_KINDS = ("pointer", "digital")   # readers whose detail may carry a "reason" to doubt the value
 
 
 def result_text(outcome, success):
@@ -200,7 +202,7 @@ class ScaleReader(object):
                 draw_quad = quad
             outcome.scale.append(float(reading.value))
             outcome.possibility.append(round(float(reading.confidence), 1))
-            why = reading.detail.get("reason", "") if target.kind == "pointer" else ""
+            why = reading.detail.get("reason", "") if target.kind in DOUBTING_KINDS else ""
             outcome.uncertain.append(why)
             # a needle on its stop pin reads the scale's end: the picture says so (pointer.py, step 4)
             stop = (reading.detail or {}).get("stop", "").split(" (")[0] if target.kind == "pointer" else ""
@@ -229,6 +231,8 @@ class ScaleReader(object):
         if target.kind == "pointer":
             self._check_same_gauge(preset, target, image, quad)
             return read_pointer(self.pointer, target, image, quad)
+        if target.kind == "digital":
+            return read_display(image, quad, display_model(p))
         if target.kind == "lamp":
             refs = None
             if p.get("on_reference"):

@@ -46,8 +46,8 @@ def alarm_state(value, band, uncertain=False):
 
 
 def target_unit(kind, unit=""):
-    """The unit of a target's readings: a pointer's calibrated ``unit``, ``C`` (degrees Celsius,
+    """The unit of a target's readings: a pointer's or a display's calibrated ``unit``, ``C`` (degrees Celsius,
     the spec's temperature unit) for thermal targets, "" for lamps and switches (state codes)."""
     if kind == "thermal":
         return THERMAL_UNIT
-    return unit if kind == "pointer" else ""
+    return unit if kind in ("pointer", "digital") else ""

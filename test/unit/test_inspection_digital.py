@@ -1,0 +1,145 @@
+"""inspection.digital: seven-segment displays learned from one picture and its typed value, then
+read; doubtful digits named, glare and a dark display refused, the calibration refused when the
+picture does not show the typed text; uploaded through calibration_control and read as read_scale
+reads. Synthetic displays (render_display) with noise, slant, both polarities and a moved
+decimal point; real photographs are the bench's (issue #42)."""
+import json
+
+import cv2
+import numpy as np
+import pytest
+
+from inspection_robot.camera.optics import ZoomOptics
+from inspection_robot.files import write_atomic
+from inspection_robot.inspection.calibration_commands import CalibrationCommands
+from inspection_robot.inspection.digital import display_model, learn_display, parse_shown, read_display, \
+    render_display
+from inspection_robot.inspection.preset import PresetInfo, load_preset
+from inspection_robot.inspection.readers import ReadFailed
+from inspection_robot.inspection.reading import ScaleReader
+
+W, H = 240, 80
+QUAD = [(80, 60), (80 + W - 1, 60), (80 + W - 1, 60 + H - 1), (80, 60 + H - 1)]
+
+
+def scene(text, polarity="lit", slant=0.0, noise=4.0, seed=0):
+    """A 640 x 360 picture with the display at QUAD on a grey panel, sensor noise on top."""
+    picture = np.full((360, 640, 3), 128, np.uint8)
+    picture[60:60 + H, 80:80 + W] = render_display(text, W, H, polarity=polarity, slant_deg=slant)
+    noisy = picture + np.random.RandomState(seed).normal(0.0, noise, picture.shape)
+    return np.clip(noisy, 0, 255).astype(np.uint8)
+
+
+@pytest.mark.parametrize("polarity,slant", [("lit", 0.0), ("lit", 8.0), ("dark", 0.0), ("dark", -6.0)])
+def test_learned_from_one_value_then_every_value_reads(polarity, slant):
+    model = learn_display(scene("23.5", polarity, slant), QUAD, "23.5")
+    assert (model.digit_count, model.polarity, model.decimals) == (3, polarity, 1)
+    assert abs(model.slant_deg - slant) <= 4.0
+    for seed, text in enumerate(("18.7", "-4.2", " 7.0", "88.8", "00.1", "99.9", "10.0")):
+        reading = read_display(scene(text, polarity, slant, seed=seed + 1), QUAD, model)
+        assert reading.value == pytest.approx(parse_shown(text)[2]) and "reason" not in reading.detail, \
+            (text, reading)
+        assert reading.confidence >= 50.0 and reading.detail["text"] == text
+
+
+def test_a_half_lit_segment_makes_the_digit_uncertain_and_names_the_candidates():
+    model = learn_display(scene("23.5"), QUAD, "23.5")
+    picture = scene("88.8", seed=5)
+    middle = 80 + int(W / 3 * 1.5)
+    cv2.line(picture, (middle - 20, 60 + H // 2), (middle + 20, 60 + H // 2), (45, 45, 140), 9)   # g at half
+    reading = read_display(picture, QUAD, model)
+    assert reading.detail["reason"] == "digit 2: 8|0" and reading.confidence <= 40.0
+    assert reading.detail["digits"][1]["candidates"] == ["8", "0"]
+
+
+def test_glare_over_a_digit_and_a_dark_display_are_refused_not_read():
+    model = learn_display(scene("23.5"), QUAD, "23.5")
+    glare = scene("88.8", seed=5)
+    cv2.ellipse(glare, (80 + 40, 60 + 40), (36, 34), 0, 0, 360, (250, 250, 250), -1)
+    with pytest.raises(ReadFailed, match=r"digit 1: its face is \d+ grey levels brighter than the others' \(glare\?\)"):
+        read_display(cv2.GaussianBlur(glare, (9, 9), 0), QUAD, model)
+    dark = scene("88.8")
+    dark[60:60 + H, 80:80 + W] = 20
+    with pytest.raises(ReadFailed, match="no lit segment stands out in the display box"):
+        read_display(dark, QUAD, model)
+
+
+def test_a_decimal_point_seen_elsewhere_makes_the_reading_uncertain():
+    model = learn_display(scene("23.5"), QUAD, "23.5")
+    reading = read_display(scene("2.35"), QUAD, model)
+    assert reading.detail["reason"] == "decimal point after digit 1, calibrated after digit 2"
+
+
+def test_learning_refuses_a_picture_that_does_not_show_the_typed_text():
+    with pytest.raises(ReadFailed, match="the picture does not show '23.5' in the box as seven segments"):
+        learn_display(scene("88.8"), QUAD, "23.5")
+    blank = np.full((360, 640, 3), 128, np.uint8)
+    with pytest.raises(ReadFailed, match="does not show '123'"):
+        learn_display(blank, QUAD, "123")
+
+
+@pytest.mark.parametrize("text,reason", [("", "the value shown must be the display's text"),
+                                         ("1.2.3", "one decimal point"), ("12.", "one decimal point"),
+                                         ("12a", "is not what a seven-segment display shows"),
+                                         ("--1", "is not what a seven-segment display shows"),
+                                         ("1234567890123", "more than 12 digits")])
+def test_typed_values_a_display_cannot_show_are_refused(text, reason):
+    with pytest.raises(ValueError, match=reason):
+        parse_shown(text)
+
+
+def test_parse_shown_keeps_blanks_minus_and_places():
+    assert parse_shown("  42") == ([" ", " ", "4", "2"], 0, 42.0)
+    assert parse_shown("-0.12") == (["-", "0", "1", "2"], 2, -0.12)
+
+
+# --- through calibration_control and the reader of read_scale ------------------------------------------
+@pytest.fixture
+def display_preset(tmp_path):
+    root = tmp_path / "data"
+    preset = root / "presets" / "d1" / "20260101_120000"
+    preset.mkdir(parents=True)
+    info = PresetInfo("d1", "visible", False, "20260101_120000", 10.0, -5.0, 1.0, 0x4000, (1.0, 2.0, 0.5),
+                      [1.0], 640, 360)
+    write_atomic(str(preset / "preset.ini"), info.to_ini())
+    cv2.imwrite(str(preset / "zoom0.jpg"), scene("23.5", slant=6.0), [cv2.IMWRITE_JPEG_QUALITY, 92])
+    optics = ZoomOptics([[1.0, 59.8], [2.0, 31.6]], 640, 360)
+    return CalibrationCommands(str(root), ["presets"], ["presets"], optics), root, preset
+
+
+def upload(commands, targets):
+    reply = commands.table.dispatch("upload", json.dumps({"preset": "presets/d1/20260101_120000",
+                                                          "targets": targets}))
+    return reply.ack, reply.data
+
+
+def test_a_display_uploaded_with_its_shown_value_is_learned_stored_and_read(display_preset):
+    commands, root, preset_dir = display_preset
+    box = [float(v) for corner in QUAD for v in corner]
+    ack, data = upload(commands, [{"kind": "digital", "box": box, "name": "oil_temp_display", "unit": "C",
+                                   "shown": "23.5", "normal": [-20, 85]}])
+    assert ack == "success", data
+    (target,) = load_preset(str(preset_dir)).targets
+    assert (target.kind, target.params["digit_count"], target.params["decimals"], target.params["unit"]) == \
+        ("digital", 3, 1, "C")
+    assert "shown" not in target.params and display_model(target.params).polarity == "lit"
+    reader = ScaleReader(str(root), [str(root / "presets")], [str(root)], str(root / "pictures"))
+    reading = reader.read_target(load_preset(str(preset_dir)), target, scene("61.8", slant=6.0, seed=9),
+                                 np.array(QUAD, np.float64))
+    assert reading.value == pytest.approx(61.8) and "reason" not in reading.detail
+
+
+@pytest.mark.parametrize("spec,reason", [
+    # every segment lit, as typed, is brighter than the face: the read-back tells it from what is shown
+    ({"shown": "88.8"}, "target 0 (digital): the learned display reads '23.5' on the calibration picture, not '88.8'"),
+    ({"shown": "1"}, "target 0 (digital): a box 239 x 79 px holds 1 digit(s) 3.03 as wide as tall each"),
+    ({"shown": "2x"}, "target 0 (digital): shown: '2x' is not what a seven-segment display shows"),
+    ({"digit_count": 3}, "missing key(s) polarity, slant, fill, decimals, contrast"),
+    ({"shown": "23.5", "phase": "A"}, "key 'phase' does not apply to a digital target (thermal only)"),
+])
+def test_display_calibrations_that_cannot_hold_are_refused_and_write_nothing(display_preset, spec, reason):
+    commands, _root, preset_dir = display_preset
+    box = [float(v) for corner in QUAD for v in corner]
+    ack, data = upload(commands, [dict(spec, kind="digital", box=box)])
+    assert ack == "failed" and reason in data, data
+    assert not (preset_dir / "preset_calib_info.ini").exists()
