@@ -140,7 +140,14 @@ function applyCalibration(event) {
   }
   const values = {};
   if ($('calib-name').value) values.name = $('calib-name').value;
-  if ($('calib-unit').value && kind === 'pointer') values.unit = $('calib-unit').value;   // a pointer key only
+  if ($('calib-unit').value && (kind === 'pointer' || kind === 'digital')) values.unit = $('calib-unit').value;
+  if (kind === 'digital') {   // the robot learns the display from what it shows now
+    if (!$('calib-expected').value.trim()) {
+      calibMessage('type what the display shows now in "value shown now"', true);
+      return;
+    }
+    values.shown = $('calib-expected').value;
+  }
   if (Object.keys(values).length) steps.push(['set_values', { values }]);
   calibMessage('applying…');
   // One edit after the other, then apply: the first refusal stops the chain with the robot's text.
@@ -151,6 +158,7 @@ function applyCalibration(event) {
       const apply = { preset };
       const shown = $('calib-expected').value;
       if (shown !== '' && kind === 'pointer') {
+        if (!Number.isFinite(Number(shown))) throw new Error('value shown now must be a number for a pointer');
         apply.expected = JSON.parse(lastEdit).draft.map((_t, i) => (i === target ? Number(shown) : null));
       }
       if ($('calib-force').checked) apply.force = true;
