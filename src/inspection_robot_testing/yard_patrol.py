@@ -52,6 +52,8 @@ def alarm_band(world, name):
     face = world.faces.get(name)
     if face is None:
         return None
+    if face.type == "display":
+        return list(face.range)
     if face.type == "gauge":
         greens = [(a, b) for a, b, c in face.zones if c == "green"]
         if greens:
@@ -71,7 +73,7 @@ def expected_value(world, name, value):
     if name in world.hot_spots:
         return float(value)
     face = world.faces[name]
-    if face.type == "gauge":
+    if face.type in ("gauge", "display"):
         return float(value)
     if face.type == "lamp":
         return float(LAMP_CODES[face.color]) if value == "on" else 0.0

@@ -4,8 +4,9 @@ record presets for the world's meters (one thermal), calibrate them with
 ``calibrate_preset --from-world``, change every value through sim/set_world_value, drive away and
 back to a pose 0.3 m / 5 deg off (move_action; the other presets are reached through robot_control's
 sim/inject_fault set_pose), find_both -> read_scale: gauges within 1 % of full scale, lamps and
-switches right, thermal max within 1 degC, no foreign object; then the other lamp/switch states,
-a foreign object dropped and removed, a cancelled find, and an arm trajectory stored with a preset."""
+switches right, a seven-segment display exact, thermal max within 1 degC, no foreign object; then
+the other lamp/switch states, a foreign object dropped and removed, a cancelled find, and an arm
+trajectory stored with a preset."""
 import json
 import math
 import time
@@ -40,12 +41,15 @@ PRESETS = [("cabinet_2", (26.0, 21.4, HALF_PI), 1.45, 3.0, 2.0, False),
            ("breaker_2", (36.0, 14.5, -HALF_PI), 1.45, 3.5, 2.0, False),
            ("breaker_1", (30.0, 14.5, -HALF_PI), 1.9, 3.5, 1.5, True)]
 EXPECTED = {"cabinet_2": {"cabinet_2/ammeter", "cabinet_2/position"},
-            "cabinet_1": {"cabinet_1/ammeter", "cabinet_1/voltmeter", "cabinet_1/lamp_run"},
+            "cabinet_1": {"cabinet_1/ammeter", "cabinet_1/voltmeter", "cabinet_1/lamp_run",
+                          "cabinet_1/temp_controller"},
             "transformer_1": {"transformer_1/oil_temp", "transformer_1/winding_temp", "transformer_1/oil_level"},
             "breaker_2": {"breaker_2/sf6_pressure", "breaker_2/position", "breaker_2/lamp_closed",
                           "breaker_2/lamp_open"},
             "breaker_1": {"breaker_1/sf6_pressure", "breaker_1/position", "breaker_1/lamp_closed",
                           "breaker_1/lamp_open", "breaker_1/terminal"}}
+DISPLAY = "cabinet_1/temp_controller"   # a seven-segment display (sim_world.yaml: 4 digits, 1 decimal)
+DISPLAY_AFTER = "-7.3"                   # what it shows after the change: a minus, a blank leading digit
 GAUGE_FRACTIONS = {"cabinet_2/ammeter": 0.83, "cabinet_1/ammeter": 0.27, "cabinet_1/voltmeter": 0.64,
                    "transformer_1/oil_temp": 0.41, "transformer_1/winding_temp": 0.18, "transformer_1/oil_level": 0.9,
                    "breaker_2/sf6_pressure": 0.33, "breaker_1/sf6_pressure": 0.71}
@@ -199,7 +203,7 @@ class TestInspectionAcceptance(unittest.TestCase):
             if name in GAUGE_FRACTIONS:
                 face_range = self.gauge_ranges[name]
                 out[name] = (float(value), face_range[1] - face_range[0])
-            elif name == HOT_SPOT:
+            elif name in (HOT_SPOT, DISPLAY):
                 out[name] = float(value)
             elif "lamp" in name:
                 out[name] = float(LAMP_CODES[self.lamp_colours[name]]) if value == "on" else 0.0
@@ -232,6 +236,7 @@ class TestInspectionAcceptance(unittest.TestCase):
             elif face.type == "switch":
                 self.call(self.set_value, name, "open" if face.value == "closed" else "closed")
         self.call(self.set_value, HOT_SPOT, "%g" % HOT_C)
+        self.call(self.set_value, DISPLAY, DISPLAY_AFTER)
         # breaker_1 (where the robot stands): drive away and come back 0.3 m to the side, 5 deg turned
         directory, pose = self.presets["breaker_1"]
         self.drive(pose[0] + 1.5, pose[1] + 1.5, pose[2])

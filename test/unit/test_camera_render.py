@@ -131,6 +131,7 @@ def test_thermal_spot_max_min_match_the_world(world):
 @pytest.mark.parametrize("item,value", [
     ("transformer_1/oil_temp", "abc"), ("transformer_1/oil_temp", "141"), ("transformer_1/oil_temp", "nan"),
     ("breaker_1/lamp_open", "blinking"), ("breaker_1/position", "on"), ("busbar_support/joint", "9999"),
+    ("cabinet_1/temp_controller", "151"), ("cabinet_1/temp_controller", "-20.5"), ("cabinet_1/temp_controller", "x"),
     ("no_such/face", "1")])
 def test_bad_world_values_are_refused(world, item, value):
     with pytest.raises(WorldError):
@@ -145,13 +146,24 @@ def test_world_values_round_trip(world):
     assert world.get_value("breaker_1/lamp_open") == "off"
 
 
+def test_a_display_shows_its_value_right_aligned_at_its_places(world):
+    display = world.faces["cabinet_1/temp_controller"]
+    assert display.display_text() == " 36.4"
+    assert world.set_value("cabinet_1/temp_controller", "-7.34") == -7.3 and display.display_text() == " -7.3"
+    assert display.display_text(123.4) == "123.4"
+
+
 def test_malformed_world_descriptions_are_refused():
     base = {"equipment": [{"id": "a", "position": [0, 0, 0], "footprint": [1, 1], "height": 1}]}
     bad_faces = [{"id": "a/g", "equipment": "a", "side": "top", "center": [0, 1], "size": [0.2, 0.2], "type": "lamp"},
                  {"id": "a/g", "equipment": "b", "side": "front", "center": [0, 1], "size": [0.2, 0.2],
                   "type": "lamp", "value": "on"},
                  {"id": "a/g", "equipment": "a", "side": "front", "center": [0, 1], "size": [0.2, 0.2],
-                  "type": "gauge", "range": [5, 1], "value": 2}]
+                  "type": "gauge", "range": [5, 1], "value": 2},
+                 {"id": "a/d", "equipment": "a", "side": "front", "center": [0, 1], "size": [0.2, 0.1],
+                  "type": "display", "digits": 2, "decimals": 2, "range": [0, 9], "value": 1},
+                 {"id": "a/d", "equipment": "a", "side": "front", "center": [0, 1], "size": [0.2, 0.1],
+                  "type": "display", "polarity": "green", "range": [0, 9], "value": 1}]
     for face in bad_faces:
         with pytest.raises(WorldError):
             World(dict(base, faces=[face]))

@@ -9,7 +9,9 @@ import math
 
 import numpy as np
 
+from inspection_robot.inspection.digital import render_display
 from inspection_robot.lazy import lazy_import
+from inspection_robot.sim.world import DISPLAY_WINDOW
 
 cv2 = lazy_import("cv2")   # on first use: a node registers before its ~360 libraries load
 
@@ -52,9 +54,20 @@ def paint_face(face, longest_px):
         paint_gauge(img, face)
     elif face.type == "lamp":
         _paint_lamp(img, face)
+    elif face.type == "display":
+        _paint_display(img, face)
     else:
         _paint_switch(img, face)
     return img
+
+
+def _paint_display(img, face):
+    """A seven-segment display in the face's window (inspection.digital.render_display draws it)."""
+    height, width = img.shape[:2]
+    left, top, right, bottom = DISPLAY_WINDOW
+    x0, y0, x1, y1 = (int(round(left * width)), int(round(top * height)), int(round(right * width)),
+                      int(round(bottom * height)))
+    img[y0:y1, x0:x1] = render_display(face.display_text(), x1 - x0, y1 - y0, polarity=face.polarity, slant_deg=6.0)
 
 
 def paint_gauge(img, face):

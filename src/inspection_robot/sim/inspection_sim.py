@@ -18,6 +18,7 @@ from inspection_robot.inspection.calibration import SelfCheck, calibrate
 from inspection_robot.inspection.preset import PresetError, load_info
 from inspection_robot.camera.optics import focal_for_hfov
 from inspection_robot.sim.render import PinholeCamera, Renderer, ThermalRenderer, ground_truth
+from inspection_robot.sim.world import DISPLAY_WINDOW
 from inspection_robot.thermal.diagnosis import AMBIENT
 
 MIN_BOX_PX = 24.0
@@ -98,6 +99,12 @@ def world_specs(world, head, switch_picture_path=None, hot_spot_box_px=None):
                         aspect=face.quad.width / face.quad.height, start_angle=face.start_angle,
                         end_angle=face.end_angle, start_value=face.range[0], end_value=face.range[1],
                         unit=face.unit)
+        elif face.type == "display":
+            left, top, right, bottom = DISPLAY_WINDOW
+            window = [face.quad.point(u, v) for u, v in ((left, top), (right, top), (right, bottom), (left, bottom))]
+            corners, _depth = camera.project(np.array(window))
+            spec.update(kind="digital", box=np.asarray(corners).reshape(-1).tolist(), shown=face.display_text(),
+                        unit=face.spec.get("unit", ""))
         elif face.type == "lamp" and switch_picture_path is None:
             spec.update(kind="lamp", colour=face.color)
         else:

@@ -15,7 +15,8 @@ import numpy as np
 import yaml
 
 SIDES = ("front", "back", "left", "right")
-FACE_TYPES = ("gauge", "lamp", "switch")
+FACE_TYPES = ("gauge", "lamp", "switch", "display")
+DISPLAY_WINDOW = (0.08, 0.15, 0.92, 0.85)   # a display face's digit window: left, top, right, bottom fractions
 GAUGE_STYLES = ("round_white", "round_black", "panel_arc")
 LAMP_VALUES = ("on", "off")
 LAMP_COLORS = ("red", "green", "yellow", "white", "blue")
@@ -107,7 +108,9 @@ def _side_quad(equipment, side, center, size, standoff):
 
 
 class Face(object):
-    """A gauge, lamp or switch indicator on an equipment side, with its current value."""
+    """A gauge, lamp, switch indicator or seven-segment display on an equipment side, with its
+    current value. A display: ``digits`` cells, ``decimals`` places, ``polarity`` lit|dark,
+    ``range`` [low, high] of its values; its window (DISPLAY_WINDOW of the face) shows display_text()."""
 
     def __init__(self, spec, equipment_by_id):
         self.id = str(spec.get("id", ""))
@@ -127,6 +130,8 @@ class Face(object):
         self.spec = dict(spec)
         if self.type == "gauge":
             self._init_gauge(spec)
+        elif self.type == "display":
+            self._init_display(spec)
         elif self.type == "lamp":
             self.color = str(spec.get("color", "red"))
             if self.color not in LAMP_COLORS:
@@ -155,8 +160,37 @@ class Face(object):
         if any(c not in ZONE_COLORS for _, _, c in self.zones):
             raise WorldError("gauge %s: zone colours must be one of %s" % (self.id, "|".join(ZONE_COLORS)))
 
+    def _init_display(self, spec):
+        try:
+            self.digits = int(spec.get("digits", 4))
+            self.decimals = int(spec.get("decimals", 1))
+            self.polarity = str(spec.get("polarity", "lit"))
+            self.range = tuple(float(v) for v in spec["range"])
+        except (KeyError, TypeError, ValueError) as err:
+            raise WorldError("display %s: %s" % (self.id, err))
+        if not 1 <= self.digits <= 12 or not 0 <= self.decimals < self.digits or self.polarity not in ("lit", "dark"):
+            raise WorldError("display %s: needs 1..12 digits, fewer decimals, polarity lit|dark" % self.id)
+        if len(self.range) != 2 or not self.range[0] < self.range[1]:
+            raise WorldError("display %s: range must be [low, high] with low < high" % self.id)
+
+    def display_text(self, value=None):
+        """What a display shows for ``value`` (default: current): right-aligned, blank leading digits."""
+        value = self.value if value is None else value
+        text = "%.*f" % (self.decimals, value)
+        return " " * (self.digits - len(text.replace(".", ""))) + text
+
     def parse_value(self, value):
         """The canonical value for ``value`` (a string from a service or a YAML scalar)."""
+        if self.type == "display":
+            try:
+                number = round(float(value), self.decimals)
+            except (TypeError, ValueError):
+                raise WorldError("display %s: value must be a number, got '%s'" % (self.id, value))
+            if not math.isfinite(number) or not self.range[0] <= number <= self.range[1] \
+                    or len(("%.*f" % (self.decimals, number)).replace(".", "")) > self.digits:
+                raise WorldError("display %s: value out of range [%g, %g] or wider than %d digits: %s"
+                                 % (self.id, self.range[0], self.range[1], self.digits, value))
+            return number
         if self.type == "gauge":
             try:
                 number = float(value)
