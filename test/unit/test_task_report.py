@@ -261,8 +261,8 @@ def test_the_report_files_carry_the_rounded_text_beside_the_raw_value(tmp_path):
     assert (data["readings"][0]["value"], data["readings"][0]["display"]) == (0.80273, "0.80 MPa")
     assert data["summary"]["distance_driven_m"] == 2.2
     lines = open(paths["report.csv"]).read().splitlines()
-    assert lines[0].endswith(",decimals,grade,diagnosis,ack_by,ack_time,ack_note,display,review_display")
-    assert lines[1].endswith(",2,,,,,,0.80 MPa,")
+    assert lines[0].endswith(",decimals,grade,diagnosis,ack_by,ack_time,ack_note,increment,display,review_display")
+    assert lines[1].endswith(",2,,,,,,,0.80 MPa,")
     page = open(paths["report.html"]).read()
     assert "0.80 MPa" in page and "0.80273" not in page and '<svg class="yard"' in page
 

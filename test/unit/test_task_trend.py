@@ -133,3 +133,35 @@ def test_a_year_of_one_meters_readings_comes_in_bounded_pages(tmp_path):
     assert seen == [1.0e9 + h * 3600.0 for h in range(hours)]   # every reading once, in recording order
     assert pages == 9
     assert peak < 8 * 1024 * 1024   # a page at a time: far below the year's ~17,500 rows held at once
+
+
+def test_a_counter_stores_its_increment_raises_no_trend_and_a_count_that_went_down_is_an_alarm(tmp_path):
+    """Issue #42: an arrester's discharge counter, read every day: the count since the previous reading
+    is stored beside it (and shown in the report); a count that went down is an alarm."""
+    store = ResultStore(str(tmp_path / "r.sqlite"))
+    now = [1.0e9]
+    patrol = Patrol(store, PatrolConfig(1.0, (0.0, 0.0, 0.0), 20.0, 10.0, 1), now[0])
+    patrol.set_mode(0)
+
+    def counter(name):
+        return ResolvedPreset("/presets/" + name, [{"name": "arrester_a", "kind": "digital", "unit": "",
+                                                    "decimals": 0, "counter": True}], {})
+    rows = []
+    for day, value in enumerate([12.0, 12.0, 15.0, 18.0, 21.0, 9.0]):
+        now[0] = 1.0e9 + day * DAY_S
+        preset = {"preset": "p", "alarms": {"arrester_a": [0, 30]}}
+        patrol.submit(parse_task(json.dumps({"id": "c%d" % day, "stops": [
+            {"pose": {"x": 1.0, "y": 1.0, "yaw": 0.0}, "presets": [preset]}]}), counter, lambda x, y: None, 0), now[0])
+        while True:
+            step = patrol.next_step(now[0])
+            if step is None:
+                break
+            detail = Inspection([value], [95.0], ["/pic.jpg"], (1.0, 1.0, 0.0)) if step.kind == STEP_INSPECT else ""
+            patrol.step_done(step, OUTCOME_OK, detail, now[0], now[0] + 1.0)
+        (row,) = store.readings(task_id="c%d" % day)
+        rows.append(row)
+    assert [r["increment"] for r in rows] == [None, 0.0, 3.0, 3.0, 3.0, -12.0]
+    assert [r["alarm"] for r in rows] == ["normal"] * 5 + ["alarm"]   # rising steadily to its limit: no trend
+    assert rows[-1]["reason"].startswith("counter went down from 21 to 9 since its previous reading")
+    paths = write_reports(str(tmp_path / "rep"), store.task("c3"), store.readings(task_id="c3"), [], "/", "v")
+    assert "+3 since the previous reading" in open(paths["report.html"]).read()

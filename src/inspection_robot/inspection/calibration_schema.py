@@ -181,6 +181,12 @@ def _whole(value, key, low, high):
     return int(out)
 
 
+def _flag(value, key):
+    if not isinstance(value, bool):
+        raise SchemaError("%s must be true or false, got %s" % (key, _short(value)))
+    return value
+
+
 def _shown(value, key):
     """The text a display shows (inspection.digital.parse_shown's rules)."""
     try:
@@ -219,6 +225,7 @@ TEXT_FORMS = {
     # name: (to text, from text); an empty text is an absent key (a text key: empty text)
     "text": (lambda v: v, lambda t: t),
     "number": (_num_text, float),
+    "flag": (lambda v: "1" if v else "0", lambda t: {"1": True, "0": False}.get(t.strip(), t)),
     "numbers": (lambda v: ",".join(_num_text(x) for x in np.reshape(v, -1)), lambda t: _split(t, ",")),
     "table": (lambda v: ";".join("%s:%s" % (_num_text(a), _num_text(b)) for a, b in v),
               lambda t: [_split(pair, ":", 2) for pair in t.split(";")]),
@@ -279,6 +286,9 @@ FIELDS = {
     "fill": Field(("digital",), lambda v, k: number(v, k, 0.3, 1.0), "number"),
     "decimals": Field(("digital",), lambda v, k: _whole(v, k, 0, MAX_DISPLAY_DIGITS - 1), "number"),
     "contrast": Field(("digital",), lambda v, k: number(v, k, 0.0, 255.0), "number"),
+    # a counter (discharges of an arrester, breaker operations): its increment since the last patrol is
+    # stored, and a count that went down is an alarm (task.patrol)
+    "counter": Field(("digital",), _flag, "flag"),
 }
 REQUIRED = {"pointer": ("start_angle", "end_angle", "start_value", "end_value"), "lamp": ("colour",),
             "switch": ("open_reference", "closed_reference"), "thermal": ("thermal_box",),

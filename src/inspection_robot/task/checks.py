@@ -47,12 +47,15 @@ def resolve_preset(preset_root, name, data_root=None):
 
 def _target_entry(target):
     """A target as a task stores it: its name, kind, unit, decimals (the resolution its readings are
-    shown with, task.display) and, for a thermal box, the diagnosis keys it has (task.rows)."""
+    shown with, task.display) and, for a thermal box, the diagnosis keys it has (task.rows); a
+    counter says so."""
     entry = {"name": target.name, "kind": target.kind, "unit": target_unit(target.kind, target.params.get("unit", "")),
              "decimals": display_decimals(target.kind, target.params)}
     for key in THERMAL_TASK_KEYS:
         if target.kind == "thermal" and target.params.get(key) not in (None, ""):
             entry[key] = target.params[key]
+    if target.params.get("counter"):
+        entry["counter"] = True   # task.patrol stores its increment and flags a count that went down
     return entry
 
 

@@ -29,9 +29,10 @@ from collections import namedtuple
 from inspection_robot.command import CommandError
 from inspection_robot.interface import MODE_TASK
 from inspection_robot.task.spec import Task
-from inspection_robot.task.states import (ALARM_NORMAL, ALARM_TREND, STATE_CANCELLED, STATE_DONE, STATE_FAILED,
-                                          STATE_IDLE, STATE_PAUSED, STATE_RETURNING_HOME, STATE_RUNNING,
-                                          STATE_SUSPENDED, STATUS_FAILED, STATUS_READ)
+from inspection_robot.task.states import (ALARM_ALARM, ALARM_CHECK, ALARM_NORMAL, ALARM_TREND, STATE_CANCELLED,
+                                          STATE_DONE, STATE_FAILED, STATE_IDLE, STATE_PAUSED, STATE_RETURNING_HOME,
+                                          STATE_RUNNING, STATE_SUSPENDED, STATUS_FAILED, STATUS_READ,
+                                          STATUS_UNCERTAIN)
 from inspection_robot.task.rows import reading_rows, result_summary
 from inspection_robot.task.trend import DEFAULT_TREND, trend_text, trend_warning
 from inspection_robot.thermal.diagnosis import DEFAULT_RULES
@@ -335,11 +336,30 @@ class Patrol(object):
         stop = run.task.stops[stop_index]
         rows = reading_rows(run.task.task_id, stop_index, stop["name"], preset_index, stop["presets"][preset_index],
                             inspection, reason, now, self.config.thermal_rules)
+        targets = stop["presets"][preset_index]["targets"]
         for row in rows:
-            self._mark_trend(row)
+            if row["target"] < len(targets) and targets[row["target"]].get("counter"):
+                self._mark_counter(row)   # a count rises by design: its increment, not its trend, matters
+            else:
+                self._mark_trend(row)
         self.store.add_readings(rows)   # committed before it is announced
         run.done.add((stop_index, preset_index))
         self.last_result = run.last_result = result_summary(rows)
+
+    def _mark_counter(self, row):
+        """A counter's increment since its previous reading; a count that went down (it never should:
+        a replaced counter, a misreading) is an alarm, a ``check`` when the reading is uncertain."""
+        if row["value"] is None:
+            return
+        previous = self.store.meter_values(row["target_name"], row["time"], 1)
+        if not previous:
+            return
+        row["increment"] = row["value"] - previous[0][1]
+        if row["increment"] < 0:
+            row["alarm"] = ALARM_CHECK if row["status"] == STATUS_UNCERTAIN else ALARM_ALARM
+            words = ("counter went down from %g to %g since its previous reading (it never should: replaced, "
+                     "or misread)" % (previous[0][1], row["value"]))
+            row["reason"] = "%s; %s" % (words, row["reason"]) if row["reason"] else words
 
     def _mark_trend(self, row):
         """A normal reading whose meter drifts toward its band becomes a ``trend`` warning (task/trend.py)."""

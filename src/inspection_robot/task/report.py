@@ -329,6 +329,8 @@ def _band(r):
 def _value_cell(r):
     """The robot's value as read (rounded), and the operator's when a review settled it."""
     text = html.escape(r["display"] or "no value")
+    if r.get("increment") is not None:   # a counter: what it counted since its previous reading
+        text += '<div class="why">%+g since the previous reading</div>' % r["increment"]
     if r.get("review_time") is not None:
         text += '<div class="why">reviewed by %s: %s</div>' % (
             html.escape(r["review_by"]), "confirmed" if r["review_value"] == r["value"]
