@@ -53,29 +53,35 @@ def resolve(name):
     return ResolvedPreset("/presets/" + name, [{"name": "oil", "kind": "pointer", "unit": "C"}], {})
 
 
-def test_the_patrol_marks_a_drifting_meter_and_the_store_keeps_its_history(tmp_path):
-    store = ResultStore(str(tmp_path / "r.sqlite"))
-    now = [1.0e9]
-    patrol = Patrol(store, PatrolConfig(1.0, (0.0, 0.0, 0.0), 20.0, 10.0, 1), now[0])
+def daily_patrols(store, values, resolver, target, band, prefix):
+    """One patrol a day of one preset whose one target reads each of ``values``; the rows, in order."""
+    now = 1.0e9
+    patrol = Patrol(store, PatrolConfig(1.0, (0.0, 0.0, 0.0), 20.0, 10.0, 1), now)
     patrol.set_mode(0)
-    assert patrol.config.trend == DEFAULT_TREND
-    alarms = []
-    for day, value in enumerate([70.0, 75.0, 80.0, 85.0, 90.0]):
-        now[0] = 1.0e9 + day * DAY_S
-        patrol.submit(parse_task(json.dumps({"id": "d%d" % day, "stops": [
-            {"pose": {"x": 1.0, "y": 1.0, "yaw": 0.0}, "presets": [{"preset": "p", "alarms": {"oil": [0, 100]}}]}]}),
-            resolve, lambda x, y: None, 0), now[0])
+    rows = []
+    for day, value in enumerate(values):
+        now = 1.0e9 + day * DAY_S
+        preset = {"preset": "p", "alarms": {target: band}}
+        patrol.submit(parse_task(json.dumps({"id": "%s%d" % (prefix, day), "stops": [
+            {"pose": {"x": 1.0, "y": 1.0, "yaw": 0.0}, "presets": [preset]}]}), resolver, lambda x, y: None, 0), now)
         while True:
-            step = patrol.next_step(now[0])
+            step = patrol.next_step(now)
             if step is None:
                 break
             detail = Inspection([value], [90.0], ["/pic.jpg"], (1.0, 1.0, 0.0)) if step.kind == STEP_INSPECT else ""
-            patrol.step_done(step, OUTCOME_OK, detail, now[0], now[0] + 1.0)
-        (row,) = store.readings(task_id="d%d" % day)
-        alarms.append(row["alarm"])
-    assert alarms == ["normal", "normal", "normal", "trend", "trend"]   # 4 readings needed; 85 -> 100 in 3 days
+            patrol.step_done(step, OUTCOME_OK, detail, now, now + 1.0)
+        rows += store.readings(task_id="%s%d" % (prefix, day))
+    return rows, now
+
+
+def test_the_patrol_marks_a_drifting_meter_and_the_store_keeps_its_history(tmp_path):
+    store = ResultStore(str(tmp_path / "r.sqlite"))
+    assert PatrolConfig(1.0, (0.0, 0.0, 0.0), 20.0, 10.0, 1).trend == DEFAULT_TREND
+    rows, now = daily_patrols(store, [70.0, 75.0, 80.0, 85.0, 90.0], resolve, "oil", [0, 100], "d")
+    row = rows[-1]
+    assert [r["alarm"] for r in rows] == ["normal", "normal", "normal", "trend", "trend"]   # 4 needed; 85 -> 100 in 3 d
     assert row["reason"] == "trend: rising 5 C/day, reaches its high limit in 2.0 days"
-    assert [v for _t, v in store.meter_values("oil", now[0] + 10.0, 3)] == [90.0, 85.0, 80.0]   # newest first
+    assert [v for _t, v in store.meter_values("oil", now + 10.0, 3)] == [90.0, 85.0, 80.0]   # newest first
     assert store.meter_values("oil", 1.0e9, 10) == []   # before the first reading
 
 
@@ -139,27 +145,11 @@ def test_a_counter_stores_its_increment_raises_no_trend_and_a_count_that_went_do
     """Issue #42: an arrester's discharge counter, read every day: the count since the previous reading
     is stored beside it (and shown in the report); a count that went down is an alarm."""
     store = ResultStore(str(tmp_path / "r.sqlite"))
-    now = [1.0e9]
-    patrol = Patrol(store, PatrolConfig(1.0, (0.0, 0.0, 0.0), 20.0, 10.0, 1), now[0])
-    patrol.set_mode(0)
 
     def counter(name):
         return ResolvedPreset("/presets/" + name, [{"name": "arrester_a", "kind": "digital", "unit": "",
                                                     "decimals": 0, "counter": True}], {})
-    rows = []
-    for day, value in enumerate([12.0, 12.0, 15.0, 18.0, 21.0, 9.0]):
-        now[0] = 1.0e9 + day * DAY_S
-        preset = {"preset": "p", "alarms": {"arrester_a": [0, 30]}}
-        patrol.submit(parse_task(json.dumps({"id": "c%d" % day, "stops": [
-            {"pose": {"x": 1.0, "y": 1.0, "yaw": 0.0}, "presets": [preset]}]}), counter, lambda x, y: None, 0), now[0])
-        while True:
-            step = patrol.next_step(now[0])
-            if step is None:
-                break
-            detail = Inspection([value], [95.0], ["/pic.jpg"], (1.0, 1.0, 0.0)) if step.kind == STEP_INSPECT else ""
-            patrol.step_done(step, OUTCOME_OK, detail, now[0], now[0] + 1.0)
-        (row,) = store.readings(task_id="c%d" % day)
-        rows.append(row)
+    rows, _now = daily_patrols(store, [12.0, 12.0, 15.0, 18.0, 21.0, 9.0], counter, "arrester_a", [0, 30], "c")
     assert [r["increment"] for r in rows] == [None, 0.0, 3.0, 3.0, 3.0, -12.0]
     assert [r["alarm"] for r in rows] == ["normal"] * 5 + ["alarm"]   # rising steadily to its limit: no trend
     assert rows[-1]["reason"].startswith("counter went down from 21 to 9 since its previous reading")

@@ -23,3 +23,20 @@ test('main.js starts every panel, then the link', () => {
   assert.deepStrictEqual(started.slice().sort(), PANELS.slice().sort());
   for (const panel of PANELS) assert.ok(main.includes("from './" + panel + ".js'"), panel);
 });
+
+test('coalesced: one run in flight, one more after it however often it was asked meanwhile', async () => {
+  const { coalesced } = await import(new URL('ui.js', DIR));
+  let runs = 0;
+  let finish;
+  const go = coalesced(() => { runs += 1; return new Promise((resolve) => { finish = resolve; }); });
+  go(); go(); go(); go();
+  assert.strictEqual(runs, 1);
+  finish();
+  await new Promise((resolve) => setTimeout(resolve, 0));
+  assert.strictEqual(runs, 2);   // the three asks while it ran made one more run
+  finish();
+  await new Promise((resolve) => setTimeout(resolve, 0));
+  assert.strictEqual(runs, 2);
+  go();
+  assert.strictEqual(runs, 3);
+});

@@ -5,10 +5,10 @@
 import { readingText } from './decode.js';
 import { subscribe, control } from './link.js';
 import { refreshTask } from './results.js';
-import { $ } from './ui.js';
+import { $, coalesced } from './ui.js';
 
 const ALARM_LIMIT = 50;
-const alarms = { count: null, querying: false, again: false, audio: null };
+const alarms = { count: null, audio: null };
 
 function alarmMessage(text, failed) {
   $('alarm-result').textContent = text;
@@ -55,23 +55,9 @@ function onTaskStatus(message) {
   queryAlarms();
 }
 
-function queryAlarms() {
-  if (alarms.querying) {
-    alarms.again = true;
-    return;
-  }
-  alarms.querying = true;
-  control('task_control', 'alarms', { limit: ALARM_LIMIT }, true)
-    .then((text) => renderAlarms(JSON.parse(text)))
-    .catch((err) => alarmMessage('alarm list refused: ' + err.message, true))
-    .then(() => {
-      alarms.querying = false;
-      if (alarms.again) {
-        alarms.again = false;
-        queryAlarms();
-      }
-    });
-}
+const queryAlarms = coalesced(() => control('task_control', 'alarms', { limit: ALARM_LIMIT }, true)
+  .then((text) => renderAlarms(JSON.parse(text)))
+  .catch((err) => alarmMessage('alarm list refused: ' + err.message, true)));
 
 /** One row per open alarm: what, where, when, the value and its reason; acknowledge. */
 function renderAlarms(rows) {

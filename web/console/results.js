@@ -3,7 +3,7 @@
 import { readingAlarm, readingText, sortReadings, trendSeries } from './decode.js';
 import { fetchPicture } from './files.js';
 import { control } from './link.js';
-import { $ } from './ui.js';
+import { $, coalesced } from './ui.js';
 
 const MAX_RESULT_ROWS = 200;
 const MAX_RESULT_PICTURES = 30;
@@ -11,7 +11,7 @@ const TREND_DAYS = 90;
 const TREND_COLOURS = { read: '#2e7d32', uncertain: '#e65100', corrected: '#1565c0', alarm: '#c62828',
   check: '#e65100', trend: '#6a1b9a' };
 // ``follow``: the readings follow the running (or last) task until the operator types a task id.
-const results = { follow: true, key: '', querying: false, again: false };
+const results = { follow: true, key: '' };
 
 /** Show ``task``'s readings unless the operator typed another task id; ask again when ``key`` changes. */
 export function followTask(task, key) {
@@ -27,24 +27,13 @@ export function refreshTask(task) {
   if ($('results-task').value.trim() === task) queryResults();
 }
 
-function queryResults() {
+// one more query when this one is back, not one per status
+const queryResults = coalesced(() => {
   const task = $('results-task').value.trim();
-  if (results.querying) {
-    results.again = true;   // one more query when this one is back, not one per status
-    return;
-  }
-  results.querying = true;
-  control('task_control', 'query_results', task ? { task_id: task, limit: 5000 } : { limit: 500 }, true)
+  return control('task_control', 'query_results', task ? { task_id: task, limit: 5000 } : { limit: 500 }, true)
     .then((text) => renderResults(JSON.parse(text)))
-    .catch((err) => { $('results-count').textContent = 'query refused: ' + err.message; })
-    .then(() => {
-      results.querying = false;
-      if (results.again) {
-        results.again = false;
-        queryResults();
-      }
-    });
-}
+    .catch((err) => { $('results-count').textContent = 'query refused: ' + err.message; });
+});
 
 /** Alarms first, then failures, then the rest; newest first within each (bounded to MAX_RESULT_ROWS). */
 function renderResults(rows) {

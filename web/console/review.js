@@ -4,10 +4,10 @@ import { readingText } from './decode.js';
 import { fetchPicture } from './files.js';
 import { control } from './link.js';
 import { refreshTask } from './results.js';
-import { $ } from './ui.js';
+import { $, coalesced } from './ui.js';
 
 const REVIEW_LIMIT = 20;
-const review = { key: null, querying: false, again: false };
+const review = { key: null };
 
 function reviewMessage(text, failed) {
   $('review-result').textContent = text;
@@ -21,23 +21,9 @@ export function reviewOnChange(key) {
   queryReview();
 }
 
-function queryReview() {
-  if (review.querying) {
-    review.again = true;
-    return;
-  }
-  review.querying = true;
-  control('task_control', 'review_queue', { limit: REVIEW_LIMIT }, true)
-    .then((text) => renderReview(JSON.parse(text)))
-    .catch((err) => reviewMessage('review queue refused: ' + err.message, true))
-    .then(() => {
-      review.querying = false;
-      if (review.again) {
-        review.again = false;
-        queryReview();
-      }
-    });
-}
+const queryReview = coalesced(() => control('task_control', 'review_queue', { limit: REVIEW_LIMIT }, true)
+  .then((text) => renderReview(JSON.parse(text)))
+  .catch((err) => reviewMessage('review queue refused: ' + err.message, true)));
 
 /** One item per reading: its annotated picture, the robot's value and reason, confirm / correct. */
 function renderReview(rows) {

@@ -4,9 +4,9 @@
 import { control, subscribe } from './link.js';
 import { loadRoutine, ROUTINES_CHANGED } from './planner.js';
 import { scheduleRequest, scheduleText, WEEKDAYS, whenText } from './planning.js';
-import { $ } from './ui.js';
+import { $, coalesced } from './ui.js';
 
-const schedules = { key: null, querying: false, again: false };
+const schedules = { key: null };
 
 function message(text, failed) {
   $('schedule-result').textContent = text;
@@ -14,26 +14,13 @@ function message(text, failed) {
 }
 
 /** routine_list and schedule_list again (one query in flight, one more queued at most). */
-export function refreshRoutines() {
-  if (schedules.querying) {
-    schedules.again = true;
-    return;
-  }
-  schedules.querying = true;
-  Promise.all([control('task_control', 'routine_list', '', true), control('task_control', 'schedule_list', '', true)])
-    .then(([routines, rows]) => {
-      renderRoutines(JSON.parse(routines));
-      renderSchedules(JSON.parse(rows));
-    })
-    .catch((err) => message('routines and schedules refused: ' + err.message, true))
-    .then(() => {
-      schedules.querying = false;
-      if (schedules.again) {
-        schedules.again = false;
-        refreshRoutines();
-      }
-    });
-}
+export const refreshRoutines = coalesced(() => Promise.all([control('task_control', 'routine_list', '', true),
+  control('task_control', 'schedule_list', '', true)])
+  .then(([routines, rows]) => {
+    renderRoutines(JSON.parse(routines));
+    renderSchedules(JSON.parse(rows));
+  })
+  .catch((err) => message('routines and schedules refused: ' + err.message, true)));
 
 function button(text, onClick) {
   const b = document.createElement('button');

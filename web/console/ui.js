@@ -34,3 +34,24 @@ export function canvasPoint(canvas, event) {
   const rect = canvas.getBoundingClientRect();
   return [(event.clientX - rect.left) * canvas.width / rect.width, (event.clientY - rect.top) * canvas.height / rect.height];
 }
+
+/** ``run`` (a function returning a promise) made safe to call on every status: one run in flight,
+    and one more after it when it was asked for meanwhile, never a pile of them. */
+export function coalesced(run) {
+  const state = { running: false, again: false };
+  const go = () => {
+    if (state.running) {
+      state.again = true;
+      return;
+    }
+    state.running = true;
+    run().catch(() => {}).then(() => {
+      state.running = false;
+      if (state.again) {
+        state.again = false;
+        go();
+      }
+    });
+  };
+  return go;
+}
