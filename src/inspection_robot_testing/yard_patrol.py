@@ -178,10 +178,15 @@ class PatrolClient(object):
         """Wait until rosapi lists every service in ``names`` (nodes start in any order)."""
         wanted = set("/" + n.lstrip("/") for n in names)
         deadline = time.monotonic() + timeout
+        missing = wanted
         while True:
-            missing = wanted - set(self.ros.get_services())
-            if not missing:
-                return
+            try:
+                missing = wanted - set(self.ros.get_services())
+            except self.roslibpy.core.RosTimeoutError:   # rosapi slower than roslibpy's 3 s: ask again
+                pass
+            else:
+                if not missing:
+                    return
             if time.monotonic() > deadline:
                 raise RuntimeError("services %s not available after %.0f s" % (", ".join(sorted(missing)), timeout))
             time.sleep(1.0)   # the bridge offers no way to wait for a service: ask rosapi again

@@ -20,7 +20,7 @@ from sensor_msgs.msg import Joy
 
 from inspection_robot.files import write_atomic
 from inspection_robot.inspection.preset import CALIB_INI, PresetInfo, load_preset
-from rostest_helpers import wait_for
+from rostest_helpers import rosapi_names, wait_for
 
 PRESET = "presets/p1/20260101_120000"
 BOX = [800, 400, 1100, 400, 1100, 700, 800, 700]
@@ -56,7 +56,7 @@ class FilesLinkTest(unittest.TestCase):
         # joystick_reader's part, on the robot's side (a backend may not publish /joy: the backend surface)
         cls.joy = rospy.Publisher("/joy", Joy, queue_size=10)
         for name in ("/file_control", "/calibration_control"):
-            wait_for(lambda: name in cls.ros.get_services(), 30.0, name)
+            wait_for(lambda: name in rosapi_names(cls.ros.get_services), 30.0, name)
 
     @classmethod
     def _on_mode_ack(cls, msg):

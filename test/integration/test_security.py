@@ -45,7 +45,7 @@ from inspection_robot_testing.bridge_client import CLOSED, RawClient
 from inspection_robot.files import write_atomic
 from inspection_robot.inspection.preset import PresetInfo
 from inspection_robot.msg import RobotStatus
-from rostest_helpers import Latest, wait_for
+from rostest_helpers import Latest, rosapi_names, wait_for
 
 TOKEN = "secsuite-token"
 PRESET = "presets/sec_p1/20260101_120000"
@@ -159,7 +159,7 @@ class SecurityTest(unittest.TestCase):
         services = ("/camera_control", "/infrared_control", "/arm_control", "/file_control", "/calibration_control",
                     "/task_control")
         for name in services:
-            wait_for(lambda: name in cls.ros.get_services(), 60.0, name)
+            wait_for(lambda: name in rosapi_names(cls.ros.get_services), 60.0, name)
         cls.service = dict((name, roslibpy.Service(cls.ros, name, "inspection_robot/ControlService"))
                            for name in services)
         cls.nodes = cls._node_pids()

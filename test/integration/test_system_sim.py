@@ -24,7 +24,7 @@ import rospy
 import rostest
 from geometry_msgs.msg import PoseWithCovarianceStamped
 
-from rostest_helpers import Latest, wait_for
+from rostest_helpers import Latest, rosapi_names, wait_for
 
 _SPEC = importlib.util.spec_from_file_location("runtime_graph", os.path.join(
     os.path.dirname(os.path.abspath(__file__)), "..", "..", "scripts", "runtime_graph.py"))
@@ -66,7 +66,7 @@ class SystemSimTest(unittest.TestCase):
         # every node starts at once on a shared machine: the backend waits until the services it
         # calls are offered (a camera node rendering its world can take many seconds to start)
         for name in ("/terrace_control", "/camera_control", "/infrared_control"):
-            wait_for(lambda: name in cls.ros.get_services(), 120.0, "service " + name)
+            wait_for(lambda: name in rosapi_names(cls.ros.get_services), 120.0, "service " + name)
         cls.true_pose = Latest("/sim/true_pose", PoseWithCovarianceStamped)
         cls.status = []
         cls.robot_status = roslibpy.Topic(cls.ros, "/robot_status", "inspection_robot/RobotStatus")
