@@ -22,6 +22,11 @@ from inspection_robot.bridge import cbor
 CLOSED = object()
 
 
+# how long a test waits for a frame it expects: a bound for a lost one, not a speed limit (a loaded CI
+# machine took over 5 s to close a refused connection); waits for silence pass their own short timeout
+REPLY_WAIT_S = 30.0
+
+
 class RawClient(object):
     """Connects to ``url`` (ws:// or wss://); frames are read with :meth:`recv`. ``headers``: extra
     handshake headers (an ``Origin`` to act as a browser page); ``source_ip``: the local address to
@@ -95,11 +100,11 @@ class RawClient(object):
         except tornado.websocket.WebSocketClosedError:
             pass
 
-    def recv(self, timeout=5.0):
+    def recv(self, timeout=REPLY_WAIT_S):
         """The next frame (str or bytes), CLOSED when the server closed; queue.Empty on timeout."""
         return self.frames.get(timeout=timeout)
 
-    def recv_message(self, predicate=lambda m: True, timeout=5.0):
+    def recv_message(self, predicate=lambda m: True, timeout=REPLY_WAIT_S):
         """The next decoded message (JSON or CBOR) satisfying ``predicate``; others are skipped."""
         import time
         deadline = time.monotonic() + timeout
