@@ -24,7 +24,7 @@ import tornado.ioloop
 from bridge_fakes import FakeBackend
 from inspection_robot.bridge import cbor
 from inspection_robot.bridge.access import Authenticator, FailureLimiter
-from inspection_robot_testing.bridge_client import CLOSED, RawClient, SocketClient
+from inspection_robot_testing.bridge_client import CLOSED, REPLY_WAIT_S, RawClient, SocketClient
 from inspection_robot.bridge.protocol import Session, SessionConfig
 from inspection_robot.bridge.session_topics import Outgoing
 from inspection_robot.bridge.compat_tornado import ws_frame
@@ -107,7 +107,7 @@ class LiveServer(object):
         self.loop.add_callback(self.loop.stop)
         self.thread.join(3)
 
-    def wait_count(self, n, timeout=5.0):
+    def wait_count(self, n, timeout=REPLY_WAIT_S):
         deadline = time.monotonic() + timeout
         while not (self.counts and self.counts[-1] == n):
             if time.monotonic() > deadline:
@@ -199,7 +199,7 @@ def run_on_loop(server, fn):
     return done.result(5)
 
 
-def wait_until(condition, timeout=5.0):
+def wait_until(condition, timeout=REPLY_WAIT_S):
     deadline = time.monotonic() + timeout
     while not condition():
         assert time.monotonic() < deadline, "condition not met in %.1f s" % timeout
@@ -226,7 +226,7 @@ def test_a_client_that_never_reads_is_bounded_told_and_disconnected():
         for first in range(0, n, 100):  # 30 MB in 30 slices; the socket takes what it can between them
             run_on_loop(server, lambda: flood(first))
         assert max(held) <= budget  # bounded
-        wait_until(lambda: server.server.closed_over_budget == 1, 5.0)
+        wait_until(lambda: server.server.closed_over_budget == 1)
         seqs, warnings, close = [], [], None
         for opcode, payload in client.frames():
             if opcode == 0x8:
@@ -493,7 +493,7 @@ def test_a_departed_clients_memory_is_collected_without_waiting_for_pythons_coll
         sock.sendall(struct.pack("!BBQ", 0x82, 0x80 | 127, 5000000) + b"mask" + b"\0" * 4000000)
         sock.close()
         server.wait_count(0)
-        wait_until(lambda: handler() is None, 5.0)
+        wait_until(lambda: handler() is None)
     finally:
         gc.enable()
         server.stop()
@@ -571,7 +571,7 @@ def test_at_the_file_descriptor_limit_connections_are_refused_without_a_busy_loo
             except ConnectionResetError:
                 refused += 1
         assert refused >= 30
-        wait_until(lambda: "at its file-descriptor limit" in log.read_text(), 5.0)
+        wait_until(lambda: "at its file-descriptor limit" in log.read_text())
         before = cpu_seconds(proc.pid)
         time.sleep(1.0)   # a busy accept loop would burn most of this second
         assert cpu_seconds(proc.pid) - before < 0.3

@@ -28,7 +28,7 @@ def pty_head():
     os.close(slave)
 
 
-def read_frame(master, timeout=1.0):
+def read_frame(master, timeout=10.0):   # a bound for lost bytes, not a speed limit
     data = b""
     while len(data) < 7:
         ready, _, _ = select.select([master], [], [], timeout)
