@@ -26,7 +26,7 @@ def site(tmp_path):
 
 
 def get(url):
-    with urllib.request.urlopen(url, timeout=5) as response:
+    with urllib.request.urlopen(url, timeout=30) as response:
         return response.status, response.headers, response.read()
 
 

@@ -222,7 +222,7 @@ def test_radiometric_png_round_trip(tmp_path):
 def test_isapi_driver_against_the_fake_camera():
     fake = FakeIsapiCamera(user="admin", password="pw").start()
     try:
-        driver = IsapiCamera(fake.url, "admin", "pw", timeout=1.0)
+        driver = IsapiCamera(fake.url, "admin", "pw", timeout=10.0)
         driver.set_zoom(12.5)
         assert driver.get_zoom() == 12.5
         driver.set_exposure_mode("manual")
@@ -230,7 +230,7 @@ def test_isapi_driver_against_the_fake_camera():
         assert (driver.get_exposure_mode(), driver.get_iris()) == ("manual", 1600)
         assert fake.challenges >= 1
         with pytest.raises(CameraError, match="401"):
-            IsapiCamera(fake.url, "admin", "wrong", timeout=1.0).get_zoom()
+            IsapiCamera(fake.url, "admin", "wrong", timeout=10.0).get_zoom()
         fake.picture_endpoint = False
         assert driver.capture_jpeg() == fake.picture
         assert driver.grab_frame(160).shape[1] == 160
@@ -273,7 +273,7 @@ def test_snapshot_fallback_does_not_depend_on_the_port_number():
     fake = _fake_on_a_port_containing_401()
     try:
         fake.picture_endpoint = False
-        assert IsapiCamera(fake.url, "admin", "pw", timeout=1.0).capture_jpeg() == fake.picture
+        assert IsapiCamera(fake.url, "admin", "pw", timeout=10.0).capture_jpeg() == fake.picture
         assert any("/onvif-http/snapshot" in path for _, path, _ in fake.requests)
     finally:
         fake.stop()

@@ -63,7 +63,7 @@ def subscriber_header(topic="/chatter", md5sum=String._md5sum, type_name="std_ms
 
 def connect(publisher, header=None):
     """A raw TCPROS subscriber: (socket, the publisher's reply header)."""
-    sock = socket.create_connection(("127.0.0.1", publisher.port), timeout=5)
+    sock = socket.create_connection(("127.0.0.1", publisher.port), timeout=30)
     sock.sendall(encode_header(header or subscriber_header()))
     return sock, read_header(sock)
 
