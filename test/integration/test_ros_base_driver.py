@@ -160,7 +160,10 @@ class RosBaseTest(unittest.TestCase):
                     % (name, percentile(values, 0.5) * 1000, max(values) * 1000, len(values)))
             rospy.loginfo(line)
             print(line)
-        # the last trial's steady speed (the last message may already be slowing down once the drive ended)
+        # the base's steady speed: the drive above ends once robot_odom passes 0.29 m/s, which can come
+        # before the base reports its full speed (a fresh-clone run saw 0.288): keep commanding until
+        # it does (a condition; 10 s is a bound for a base that never gets there)
+        self.drive(10.0, lambda: self.odom.last.twist.twist.linear.x >= 0.298)
         odom = max(m.twist.twist.linear.x for t, m in list(self.odom.messages) if t >= t0)
         self.assertAlmostEqual(odom, 0.303, delta=0.005)  # 0.3 m/s read 1 % long by the base's odometry
         self.base_at_rest()
