@@ -8,7 +8,7 @@ and every later query show it. ``alarms`` lists open alarms newest first (or the
 acknowledge: refused with its state named.
 """
 from inspection_robot.command import CommandError, parse_json
-from inspection_robot.task.review import MAX_REVIEWER_CHARS, parse_query
+from inspection_robot.task.review import parse_query, person
 from inspection_robot.task.states import ALARM_ALARM, ALARM_CHECK
 from inspection_robot.task.store import StoreError
 
@@ -35,11 +35,10 @@ def parse_acknowledge(data):
     row_id, by, note = request["id"], request["by"], request.get("note", "")
     if isinstance(row_id, bool) or not isinstance(row_id, int) or row_id < 1:
         raise CommandError("id must be a reading's id (a positive integer)")
-    if not isinstance(by, str) or not by.strip() or len(by) > MAX_REVIEWER_CHARS or not by.isprintable():
-        raise CommandError("by must be the operator's name: 1-%d printable characters" % MAX_REVIEWER_CHARS)
+    by = person(by, "operator")
     if not isinstance(note, str) or len(note) > MAX_NOTE_CHARS or not note.replace("\n", " ").isprintable():
         raise CommandError("note must be text of at most %d printable characters" % MAX_NOTE_CHARS)
-    return row_id, by.strip(), note.strip()
+    return row_id, by, note.strip()
 
 
 def stated_alarm(row):

@@ -55,9 +55,15 @@ def parse_review(data):
         raise CommandError("id must be a reading's id (a positive integer)")
     if value is not None and not _is_number(value):
         raise CommandError("value must be a number (the true reading) or null (the robot's value confirmed)")
+    return row_id, None if value is None else float(value), person(by, "reviewer")
+
+
+def person(by, role):
+    """``by`` stripped, when it names a person (1-MAX_REVIEWER_CHARS printable characters): who
+    reviewed or acknowledged a reading; CommandError naming the ``role`` otherwise."""
     if not isinstance(by, str) or not by.strip() or len(by) > MAX_REVIEWER_CHARS or not by.isprintable():
-        raise CommandError("by must be the reviewer's name: 1-%d printable characters" % MAX_REVIEWER_CHARS)
-    return row_id, None if value is None else float(value), by.strip()
+        raise CommandError("by must be the %s's name: 1-%d printable characters" % (role, MAX_REVIEWER_CHARS))
+    return by.strip()
 
 
 def roi_numbers(text):
