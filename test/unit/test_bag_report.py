@@ -44,10 +44,10 @@ def test_report_of_the_fixture(tmp_path, capsys):
     assert code == 0, err
     for needle in ("duration: 0:00:40", "distance: 13.6 m", "max speed 0.80 m/s", "battery 80 % -> 79 %",
                    "modes: task 30 s, server 10 s", "goals: 1", "stops: 3", "readings: 5 (1 alarm, 1 failed)",
-                   "backend: read_scale = 0.42 (no band)",
+                   "backend: read_scale = 0.42 (no limits)",
                    "fixture_patrol stop 1: transformer_1/oil_temp = 118.2 C (alarm)",
                    "fixture_patrol stop 1: cabinet_1/ammeter = 231.5 A (normal)",
-                   "fixture_patrol stop 1: cabinet_1/lamp_run = 2 (no band)",
+                   "fixture_patrol stop 1: cabinet_1/lamp_run = 2 (no limits)",
                    "fixture_patrol stop 1: bay_1/switch_2 = failed (find_scale ended with 1: meter not found)",
                    "tasks: 1\n  fixture_patrol done",
                    "alarms: 3", "reading alarm: transformer_1/oil_temp 118.2 C", "soft e-stop",

@@ -14,7 +14,7 @@ GOOD = {"name": "oil", "digits": 2, "normal": [0.2, 1.4], "start_angle": -135.0,
         "open_reference": "a.png", "closed_reference": "b.png",
         "thermal_box": [5.0, 5.0, 30.5, 5.0, 30.5, 30.0, 5.0, 30.0], "phase": "B", "device": "T1 bay 3",
         "equipment_class": "breaker", "emissivity": 0.9, "digit_count": 4, "polarity": "dark", "slant": -6.0,
-        "fill": 0.75, "decimals": 1, "contrast": 77.5, "counter": True}
+        "fill": 0.75, "decimals": 1, "contrast": 77.5, "counter": True, "alarm_band": [0.0, 1.6]}
 
 
 @pytest.mark.parametrize("key", sorted(k for k, f in schema.FIELDS.items() if f.stored))
@@ -103,3 +103,18 @@ def test_a_thermal_device_needs_a_phase():
         schema.check_params("pointer", {"start_angle": 0, "end_angle": 90, "start_value": 0, "end_value": 1,
                                         "phase": "A"})
     assert "key 'phase' does not apply to a pointer target (thermal only)" in str(err.value)
+
+
+@pytest.mark.parametrize("limits, reason", [
+    ({"normal": [0, 10], "alarm_band": [1, 12]}, "alarm band [1, 12] must contain the normal band [0, 10]"),
+    ({"alarm_band": [0, 12]}, "alarm_band needs a normal band inside it (normal [low, high])"),
+    ({"normal": [0, 10], "alarm_band": [0, float("nan")]}, "alarm_band must be a finite number, got nan"),
+    ({"normal": [0, 10], "alarm_band": [12, 0]}, "alarm_band must be [low, high], low 12 is above high 0"),
+])
+def test_an_alarm_band_contains_the_normal_band(limits, reason):
+    box = [5.0, 5.0, 30.5, 5.0, 30.5, 30.0, 5.0, 30.0]
+    with pytest.raises(schema.SchemaError) as err:
+        schema.check_params("thermal", dict(limits, thermal_box=box))
+    assert reason in str(err.value)
+    good = schema.check_params("thermal", {"thermal_box": box, "normal": [0, 70], "alarm_band": [-20, 90]})
+    assert (good["normal"], good["alarm_band"]) == ([0.0, 70.0], [-20.0, 90.0])

@@ -167,7 +167,7 @@ def test_run_summary_of_a_made_up_run():
     assert [(round(a.t, 1), a.text) for a in s.alarms] == [(6.0, "3-D obstacle"), (9.0, "soft e-stop"),
                                                            (11.0, OFFLINE_ALARM)]
     assert [(g.t, g.x, g.y) for g in s.goals] == [(-1.0, 5.0, 0.0)]   # sent 1 s before the first status
-    assert [reading_text(r) for r in s.readings] == ["backend: read_scale = 0.5, 1.25 (no band)"]
+    assert [reading_text(r) for r in s.readings] == ["backend: read_scale = 0.5, 1.25 (no limits)"]
     assert s.readings[0].x == pytest.approx(2.0)
     assert [f.text for f in s.faults] == ["control_ack failed: unknown command 'x'",
                                           "move_action ended with 3: obstacle"]

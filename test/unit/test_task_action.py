@@ -70,7 +70,7 @@ def test_results_map_each_end_state_with_counts_and_report(env):  # noqa: F811
     assert (end, ret_code) == (END_SUCCEEDED, "0")
     assert json.loads(data) == {"task_id": "good", "state": "done", "reason": "",
                                 "counts": {"readings": 3, "read": 3, "uncertain": 0, "needs_review": 0, "failed": 0,
-                                           "alarms": 1, "checks": 0, "trends": 0},
+                                           "alarms": 1, "checks": 0, "warnings": 0, "trends": 0},
                                 "duration_s": 9.0, "report": "/r/good/report.html"}
     patrol.submit(task("bad", stops=1, retries=0), clock())
     run_step(patrol, clock, OUTCOME_FAILED)

@@ -125,3 +125,18 @@ def test_the_count_follows_another_process_within_its_max_age(store, tmp_path):
     assert open_alarms.count() == 3
     clock[0] = 10.5
     assert open_alarms.count() == 2
+
+
+def test_a_warning_between_the_bands_is_stored_listed_and_acknowledged(tmp_path):
+    s = ResultStore(str(tmp_path / "w.sqlite"))
+    preset = dict(PRESET, alarms={"oil": {"normal": [0.0, 85.0], "alarm": [-10.0, 95.0]}, "sf6": [0.4, 0.8]})
+    s.add_readings(reading_rows("t3", 0, "s1", 0, preset, Inspection([90.0, 0.5, 320.0], [90.0] * 3, ["", "", ""],
+                                                                     (0.0, 0.0, 0.0)), "", 100.0))
+    oil, sf6, amps = s.readings(task_id="t3")
+    assert (oil["alarm"], oil["low"], oil["high"], oil["alarm_low"], oil["alarm_high"]) == (
+        "warning", 0.0, 85.0, -10.0, 95.0)
+    assert (sf6["alarm"], sf6["alarm_low"], amps["alarm"], amps["low"]) == ("normal", None, "none", None)
+    assert ids(s.alarm_rows(ALARM_STATES)) == [("t3", "oil")]
+    acknowledge(s, json.dumps({"id": oil["id"], "by": "li"}), 120.0)
+    assert s.alarm_rows(ALARM_STATES) == []
+    s.close()

@@ -390,7 +390,7 @@ def test_reports_have_every_reading_and_highlight_alarms(env, tmp_path):
     with open(paths["report.json"]) as f:
         data = json.load(f)
     assert data["summary"]["counts"] == {"readings": 3, "read": 3, "uncertain": 0, "needs_review": 0, "failed": 0,
-                                         "alarms": 1, "checks": 0, "trends": 0}
+                                         "alarms": 1, "checks": 0, "warnings": 0, "trends": 0}
     assert data["summary"]["software_version"] == "v1.2-3-gabcdef0"
     with open(paths["report.html"]) as f:
         page = f.read()

@@ -207,23 +207,26 @@ def test_the_summary_counts_each_kind_of_attention_and_the_distance_driven():
     rows = [reading(0), reading(0, alarm="alarm", value=0.9, target=1), reading(1, status="uncertain"),
             reading(1, status="uncertain", alarm="check", value=0.95, target=1),
             reading(2, status="failed", alarm="failed"), reading(2, alarm="trend", target=1),
-            reading(3, status="uncertain", review=0.55)]
+            reading(3, status="uncertain", review=0.55), dict(reading(3, alarm="warning", value=0.85, target=1),
+                                                              alarm_low=0.1, alarm_high=0.9)]
     task = {"task_id": "t1", "priority": "routine", "state": "done", "reason": "", "submitted": 10.0, "ended": 130.0,
             "spec": {"stops": [{"name": "s%d" % i, "x": float(i), "y": 0.0} for i in range(5)],
                      "planned_length_m": 12.34}}
     info = summary(task, rows, [], [(0.0, 0.0, 0.0, 0.0), (1.0, 3.0, 4.0, 0.0), (2.0, 3.0, 10.0, 0.0)])
-    assert info["counts"] == {"readings": 7, "read": 3, "uncertain": 3, "needs_review": 2, "failed": 1, "alarms": 1,
-                              "checks": 1, "trends": 1}
+    assert info["counts"] == {"readings": 8, "read": 4, "uncertain": 3, "needs_review": 2, "failed": 1, "alarms": 1,
+                              "checks": 1, "warnings": 1, "trends": 1}
     assert info["thermal_defects"] == {"general": 0, "serious": 0, "critical": 0}
     assert (info["distance_driven_m"], info["planned_length_m"], info["duration_s"]) == (11.0, 12.34, 120.0)
-    assert [reading_state(r) for r in rows] == ["normal", "alarm", "review", "check", "failed", "trend", "normal"]
+    assert [reading_state(r) for r in rows] == ["normal", "alarm", "review", "check", "failed", "trend", "normal",
+                                                "warning"]
     assert [worst_state([r for r in rows if r["stop"] == i]) for i in range(5)] == [
-        "alarm", "check", "failed", "normal", "not read"]
+        "alarm", "check", "failed", "warning", "not read"]
     shown = [dict(client_row(r, "/d"), link="", history=[]) for r in rows]
     page = render_html(info, shown, yard_svg(None, [], task["spec"]["stops"], shown), task["spec"]["stops"])
-    attention = page[page.index("Needs attention (5)"):page.index("<h2>Yard map</h2>")]
-    order = [attention.index('<tr class="%s">' % s) for s in ("alarm", "check", "failed", "review", "trend")]
+    attention = page[page.index("Needs attention (6)"):page.index("<h2>Yard map</h2>")]
+    order = [attention.index('<tr class="%s">' % s) for s in ("alarm", "check", "warning", "failed", "review", "trend")]
     assert order == sorted(order)
+    assert "0.2 .. 0.8 MPa; alarm outside 0.1 .. 0.9 MPa" in attention and "<b>1</b>warnings" in page
     assert "0.90 MPa" in attention and "11.0 m" in page and "12.3 m" in page and "2 min 00 s" in page
     stops = page[page.index("<h2>Stops</h2>"):]
     assert stops.index("1 s0") < stops.index("2 s1") < stops.index("5 s4") and "no readings" in stops
@@ -261,8 +264,9 @@ def test_the_report_files_carry_the_rounded_text_beside_the_raw_value(tmp_path):
     assert (data["readings"][0]["value"], data["readings"][0]["display"]) == (0.80273, "0.80 MPa")
     assert data["summary"]["distance_driven_m"] == 2.2
     lines = open(paths["report.csv"]).read().splitlines()
-    assert lines[0].endswith(",decimals,grade,diagnosis,ack_by,ack_time,ack_note,increment,display,review_display")
-    assert lines[1].endswith(",2,,,,,,,0.80 MPa,")
+    assert lines[0].endswith(",decimals,grade,diagnosis,ack_by,ack_time,ack_note,increment,alarm_low,alarm_high,"
+                             "display,review_display")
+    assert lines[1].endswith(",2,,,,,,,,,0.80 MPa,")
     page = open(paths["report.html"]).read()
     assert "0.80 MPa" in page and "0.80273" not in page and '<svg class="yard"' in page
 

@@ -131,8 +131,9 @@ def test_an_old_store_opens_with_the_new_columns_and_its_rows_intact(tmp_path):
     again = ResultStore(path)                                  # a second open changes nothing
     assert len(again.readings()) == 1
     columns = [r[1] for r in sqlite3.connect(path).execute("PRAGMA table_info(readings)")]
-    assert columns[-13:] == ["source_picture", "roi", "review_value", "review_alarm", "review_by", "review_time",
-                             "decimals", "grade", "diagnosis", "ack_by", "ack_time", "ack_note", "increment"]
+    assert columns[-15:] == ["source_picture", "roi", "review_value", "review_alarm", "review_by", "review_time",
+                             "decimals", "grade", "diagnosis", "ack_by", "ack_time", "ack_note", "increment",
+                             "alarm_low", "alarm_high"]
 
 
 def uncertain_store(env, value=0.97):

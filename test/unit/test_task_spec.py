@@ -4,7 +4,8 @@ import json
 import pytest
 
 from inspection_robot.command import CommandError
-from inspection_robot.task.spec import ResolvedPreset, check_task_id, parse_task
+from inspection_robot.task.spec import ResolvedPreset, check_task_id, parse_task, split_limits
+from inspection_robot.task.states import alarm_state
 from inspection_robot.task.store import ResultStore
 
 TARGETS = [{"name": "cab/ammeter", "kind": "pointer", "unit": "A"}]
@@ -28,6 +29,12 @@ def good(**changes):
     return task
 
 
+def limits(value):
+    """A task whose one preset gives ``value`` as the limits of cab/ammeter."""
+    return good(stops=[{"pose": {"x": 1, "y": 2, "yaw": 0},
+                        "presets": [{"preset": "cab", "alarms": {"cab/ammeter": value}}]}])
+
+
 def parse(obj, known=()):
     return parse_task(obj if isinstance(obj, str) else json.dumps(obj), resolve, reachable, 2, known)
 
@@ -41,6 +48,30 @@ def test_a_good_task_is_resolved_with_bands_from_the_task_over_the_preset():
     short = parse(good(stops=[{"pose": {"x": 1, "y": 2, "yaw": 0}, "presets": ["cab"]}]))
     assert short.stops[0]["presets"][0]["alarms"] == {"cab/ammeter": [0.0, 500.0]}
     assert short.stops[0]["name"] == "stop_1"
+
+
+def test_limits_carry_an_alarm_band_around_the_normal_one():
+    preset = parse(limits({"normal": [10, 400], "alarm": [0, 450]})).stops[0]["presets"][0]
+    assert preset["alarms"] == {"cab/ammeter": {"normal": [10.0, 400.0], "alarm": [0.0, 450.0]}}
+    assert split_limits(preset["alarms"]["cab/ammeter"]) == ([10.0, 400.0], [0.0, 450.0])
+    assert split_limits([1.0, 2.0]) == ([1.0, 2.0], None) and split_limits(None) == (None, None)
+    equal = parse(limits({"normal": [10, 400], "alarm": [10, 400]})).stops[0]["presets"][0]["alarms"]
+    assert equal == {"cab/ammeter": {"normal": [10.0, 400.0], "alarm": [10.0, 400.0]}}   # no warning zone
+    assert parse(limits({"normal": [1, 2]})).stops[0]["presets"][0]["alarms"] == {"cab/ammeter": {"normal": [1.0, 2.0]}}
+
+
+@pytest.mark.parametrize("value, band, alarm_band, uncertain, state", [
+    (5.0, [0, 10], None, False, "normal"),
+    (11.0, [0, 10], None, False, "alarm"),
+    (11.0, [0, 10], [-5, 12], False, "warning"),
+    (-5.0, [0, 10], [-5, 12], False, "warning"),
+    (12.5, [0, 10], [-5, 12], False, "alarm"),
+    (11.0, [0, 10], [-5, 12], True, "check"),
+    (5.0, None, None, False, "none"),
+    (None, [0, 10], [-5, 12], False, "failed"),
+])
+def test_alarm_state_has_a_warning_zone_between_the_bands(value, band, alarm_band, uncertain, state):
+    assert alarm_state(value, band, uncertain, alarm_band) == state
 
 
 @pytest.mark.parametrize("task, reason", [
@@ -69,6 +100,15 @@ def test_a_good_task_is_resolved_with_bands_from_the_task_over_the_preset():
      "low 5 is above high 1"),
     (good(stops=[{"pose": {"x": 1, "y": 2, "yaw": 0}, "presets": [{"preset": "cab", "foreign": "yes"}]}]),
      "foreign must be true or false"),
+    (limits({"normal": [0, 10], "alarm": [2, 12]}),
+     "alarm band [2, 12] must contain the normal band [0, 10] (a warning lies between them)"),
+    (limits({"alarm": [0, 12]}), "missing normal (the band the value should be in)"),
+    (limits({"normal": [0, 10], "warn": [0, 12]}), "unknown key(s) warn (allowed: normal, alarm)"),
+    (limits({"normal": [0, 10], "alarm": [12, -1]}), "alarm of cab/ammeter alarm: low 12 is above high -1"),
+    (limits([0, "10"]), "alarm of cab/ammeter high must be a number"),
+    (limits(7), "alarm of cab/ammeter must be [low, high], got 7"),
+    (json.dumps(good()).replace("[10, 400]", "[NaN, 400]"), "must be a finite number, got NaN"),
+    (json.dumps(good()).replace("[10, 400]", "[10, Infinity]"), "must be a finite number, got Infinity"),
 ])
 def test_malformed_tasks_are_refused_with_the_reason(task, reason):
     with pytest.raises(CommandError) as err:

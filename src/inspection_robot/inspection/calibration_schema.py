@@ -203,6 +203,15 @@ def _band(value, key):
     return [low, high]
 
 
+def nested_bands_fault(normal, alarm):
+    """Why an alarm band [low, high] cannot go with a normal band (it must contain it: a warning lies
+    between them), or "" when it can. The one rule for calibrations and task limits (task.spec)."""
+    if alarm[0] > normal[0] or alarm[1] < normal[1]:
+        return ("alarm band [%g, %g] must contain the normal band [%g, %g] (a warning lies between them)"
+                % (alarm[0], alarm[1], normal[0], normal[1]))
+    return ""
+
+
 def _kind(value, key):
     if value not in TARGET_KINDS:
         raise SchemaError("unknown target kind %s (one of %s)" % (_short(value), "|".join(TARGET_KINDS)))
@@ -249,6 +258,7 @@ FIELDS = {
     "box": Field(None, _quad, "numbers", stored=False),
     "name": Field(None, _text),
     "normal": Field(None, _band, "numbers"),
+    "alarm_band": Field(None, _band, "numbers"),   # around normal: between them a warning (task.states)
     "digits": Field(("pointer", "thermal", "digital"), _digits, "number"),
     "start_angle": Field(("pointer",), _angle, "number"),
     "end_angle": Field(("pointer",), _angle, "number"),
@@ -336,6 +346,12 @@ def check_params(kind, params, thermal_size=None):
         if key not in allowed:
             raise _refuse_key(kind, key)
         out[key] = check_value(key, value)
+    if "alarm_band" in out:
+        if "normal" not in out:
+            raise SchemaError("alarm_band needs a normal band inside it (normal [low, high])")
+        fault = nested_bands_fault(out["normal"], out["alarm_band"])
+        if fault:
+            raise SchemaError(fault)
     missing = [key for key in REQUIRED[kind] if key not in out]
     if missing:
         raise SchemaError("missing key(s) %s (a %s target needs %s)"

@@ -34,8 +34,8 @@ from inspection_robot.interface import (ACK_FAILED, BATTERY_HIGH_TEMP, BATTERY_L
                                         SENSOR_CAMERA_ALARM, SENSOR_THERMAL_ALARM, STOP_FRONT_COLLISION,
                                         STOP_LEFT_FALL, STOP_OBSTACLE, STOP_RIGHT_FALL)
 from inspection_robot.status.merge import STALE_NAV_STATUS
-from inspection_robot.task.states import (ALARM_ALARM, ALARM_CHECK, ALARM_NONE, STATE_FAILED, STATUS_FAILED,
-                                          STATUS_READ, STATUS_UNCERTAIN)
+from inspection_robot.task.states import (ALARM_ALARM, ALARM_CHECK, ALARM_NONE, ALARM_WARNING, STATE_FAILED,
+                                          STATUS_FAILED, STATUS_READ, STATUS_UNCERTAIN)
 
 # (robot_status field, bit, alarm name): each rising edge is one alarm.
 ALARM_BITS = (
@@ -66,8 +66,8 @@ OFFLINE_ALARM = "backend link lost (offline_warn)"
 Event = collections.namedtuple("Event", "t x y text")
 # One meter reading: ``task`` the task id ("" for a backend's read_scale), ``value`` None when it failed.
 Reading = collections.namedtuple("Reading", "t x y task stop target value unit alarm status reason")
-READING_ALARMS = (ALARM_ALARM, ALARM_CHECK)   # a value outside its band (an uncertain one: check)
-ALARM_TEXT = {"none": "no band"}
+READING_ALARMS = (ALARM_ALARM, ALARM_CHECK, ALARM_WARNING)   # outside its band (uncertain: check; warning zone)
+ALARM_TEXT = {"none": "no limits"}
 Stop = collections.namedtuple("Stop", "t x y duration")
 
 

@@ -1,18 +1,18 @@
 """Alarms an operator sees and acknowledges, without ROS.
 
 An open alarm is a reading whose stated alarm (the reviewed value's once reviewed, as the report
-states it) is ``alarm`` or ``check`` and that nobody acknowledged yet. Acknowledging records who,
-when and an optional note on the reading itself (the store's ``ack_*`` columns), once: the report
-and every later query show it. ``alarms`` lists open alarms newest first (or the acknowledged ones);
+states it) is ``alarm``, ``check`` or ``warning`` (outside the normal band, inside the alarm band)
+and that nobody acknowledged yet. Acknowledging records who, when and an optional note on the
+reading itself (the store's ``ack_*`` columns), once: the report and every later query show it. ``alarms`` lists open alarms newest first (or the acknowledged ones);
 ``acknowledge`` settles one. A trend warning, a failed reading or a normal one is not an alarm to
 acknowledge: refused with its state named.
 """
 from inspection_robot.command import CommandError, parse_json
 from inspection_robot.task.review import parse_query, person
-from inspection_robot.task.states import ALARM_ALARM, ALARM_CHECK
+from inspection_robot.task.states import ALARM_ALARM, ALARM_CHECK, ALARM_WARNING
 from inspection_robot.task.store import StoreError
 
-ALARM_STATES = (ALARM_ALARM, ALARM_CHECK)
+ALARM_STATES = (ALARM_ALARM, ALARM_CHECK, ALARM_WARNING)   # what an operator acknowledges
 ALARMS_KEYS = ("task_id", "limit", "acknowledged")
 ACK_KEYS = ("id", "by", "note")
 MAX_NOTE_CHARS = 500

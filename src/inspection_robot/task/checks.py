@@ -39,10 +39,17 @@ def resolve_preset(preset_root, name, data_root=None):
     except PresetError as err:
         raise CommandError("unknown preset directory '%s': %s" % (name, err))
     targets = [_target_entry(t) for t in preset.targets]
-    # a preset's own alarm bands: ``normal = low,high`` in a target's section, read and checked
+    # a preset's own limits: ``normal = low,high`` (and ``alarm_band``) in a target's section, read and checked
     # with the rest of the calibration (inspection.calibration_schema)
-    bands = dict((t.name, list(t.params["normal"])) for t in preset.targets if t.params.get("normal"))
-    return ResolvedPreset(path, targets, bands)
+    return ResolvedPreset(path, targets, dict((t.name, _limits(t.params)) for t in preset.targets
+                                              if t.params.get("normal")))
+
+
+def _limits(params):
+    """A calibrated target's limits in a task's form (task.spec.parse_limits)."""
+    if params.get("alarm_band"):
+        return {"normal": list(params["normal"]), "alarm": list(params["alarm_band"])}
+    return list(params["normal"])
 
 
 def _target_entry(target):

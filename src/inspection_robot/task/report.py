@@ -33,7 +33,7 @@ from inspection_robot.nav.gridmap import OCC_OCCUPIED, OCC_UNKNOWN
 from inspection_robot.task.alarms import stated_alarm
 from inspection_robot.task.client_view import client_row
 from inspection_robot.task.states import (ALARM_ALARM, ALARM_CHECK, ALARM_FAILED, ALARM_NONE, ALARM_NORMAL,
-                                          ALARM_TREND, STATUS_FAILED, STATUS_READ, STATUS_UNCERTAIN)
+                                          ALARM_TREND, ALARM_WARNING, STATUS_FAILED, STATUS_READ, STATUS_UNCERTAIN)
 from inspection_robot.task.store import READING_COLUMNS
 from inspection_robot.task.track import path_length
 from inspection_robot.thermal.diagnosis import GRADES
@@ -44,13 +44,14 @@ CSV_COLUMNS = READING_COLUMNS + ("display", "review_display")
 # nobody reviewed yet (review), a trend warning; a stop is coloured by its worst reading
 STATE_REVIEW = "review"
 STATE_NOT_READ = "not read"
-STATE_ORDER = (ALARM_ALARM, ALARM_CHECK, ALARM_FAILED, STATE_REVIEW, ALARM_TREND, ALARM_NORMAL, ALARM_NONE)
+STATE_ORDER = (ALARM_ALARM, ALARM_CHECK, ALARM_WARNING, ALARM_FAILED, STATE_REVIEW, ALARM_TREND, ALARM_NORMAL,
+               ALARM_NONE)
 STATE_RANK = dict((state, i) for i, state in enumerate(STATE_ORDER))
-ATTENTION_STATES = (ALARM_ALARM, ALARM_CHECK, ALARM_FAILED, STATE_REVIEW, ALARM_TREND)
-STATE_COLOURS = {ALARM_ALARM: "#c62828", ALARM_CHECK: "#ef6c00", ALARM_FAILED: "#616161", STATE_REVIEW: "#6a1b9a",
+ATTENTION_STATES = (ALARM_ALARM, ALARM_CHECK, ALARM_WARNING, ALARM_FAILED, STATE_REVIEW, ALARM_TREND)
+STATE_COLOURS = {ALARM_ALARM: "#c62828", ALARM_CHECK: "#ef6c00", ALARM_WARNING: "#b8860b", ALARM_FAILED: "#616161", STATE_REVIEW: "#6a1b9a",
                  ALARM_TREND: "#f9a825", ALARM_NORMAL: "#2e7d32", ALARM_NONE: "#1565c0", STATE_NOT_READ: "#bdbdbd"}
 # a state in the operator's words where its code does not say it (the others read as their code)
-STATE_WORDS = {STATE_REVIEW: "needs review", ALARM_NONE: "no band", STATE_NOT_READ: "not read"}
+STATE_WORDS = {STATE_REVIEW: "needs review", ALARM_NONE: "no limits", STATE_NOT_READ: "not read"}
 MAP_CELLS = 240   # the yard map's longer side at most this many cells (coarser cells: any occupied wins)
 
 
@@ -92,7 +93,7 @@ def summary(task_row, readings, steps, path=None):
               "needs_review": sum(1 for r in readings if needs_review(r)),
               "failed": sum(1 for r in readings if r["status"] == STATUS_FAILED),
               "alarms": states.count(ALARM_ALARM), "checks": states.count(ALARM_CHECK),
-              "trends": states.count(ALARM_TREND)}
+              "warnings": states.count(ALARM_WARNING), "trends": states.count(ALARM_TREND)}
     ended = task_row["ended"]
     return {"task_id": task_row["task_id"], "priority": task_row["priority"], "state": task_row["state"],
             "reason": task_row["reason"], "submitted": task_row["submitted"], "ended": ended,
@@ -321,9 +322,14 @@ def _badge(state):
 
 
 def _band(r):
+    """A reading's limits in words: its normal band, and the alarm band around it when it has one."""
     if r["low"] is None:
-        return ""
-    return "%g .. %g%s" % (r["low"], r["high"], " " + r["unit"] if r["unit"] else "")
+        return "no limits"
+    unit = " " + r["unit"] if r["unit"] else ""
+    text = "%g .. %g%s" % (r["low"], r["high"], unit)
+    if r.get("alarm_low") is not None:
+        text += "; alarm outside %g .. %g%s" % (r["alarm_low"], r["alarm_high"], unit)
+    return text
 
 
 def _value_cell(r):
@@ -342,6 +348,7 @@ def _summary_part(info, rows):
     counts = info["counts"]
     tiles = [("readings", counts["readings"], False), ("read", counts["read"], False),
              ("alarms", counts["alarms"], counts["alarms"] > 0), ("checks", counts["checks"], counts["checks"] > 0),
+             ("warnings", counts["warnings"], counts["warnings"] > 0),
              ("failed", counts["failed"], counts["failed"] > 0),
              ("need review", counts["needs_review"], counts["needs_review"] > 0),
              ("trends", counts["trends"], counts["trends"] > 0)]
@@ -406,7 +413,7 @@ def _attention_part(rows):
             '<col style="width:13%%"><col style="width:19%%"><col style="width:11%%"><col style="width:11%%">'
             '<col style="width:24%%"><col style="width:13%%"></colgroup>'
             '<tr><th>state</th><th>stop</th><th>target</th>'
-            '<th>value</th><th>normal band</th><th>reason</th><th>picture</th></tr>%s</table></section>'
+            '<th>value</th><th>limits</th><th>reason</th><th>picture</th></tr>%s</table></section>'
             % (len(urgent), hint, "".join(body)))
 
 

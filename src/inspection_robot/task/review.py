@@ -100,10 +100,11 @@ def review(store, folder, data, now):
         raise CommandError("reading %d was already reviewed by %s" % (row_id, row["review_by"]))
     true_value = row["value"] if value is None else value
     band = None if row["low"] is None else (row["low"], row["high"])
+    alarm_band = None if row["alarm_low"] is None else (row["alarm_low"], row["alarm_high"])
     path = correction_path(folder, row)
     write_json_atomic(path, correction_record(row, true_value, by, now))   # FileError is a CommandError
     try:
-        settled = store.set_review(row_id, true_value, alarm_state(true_value, band), by, now)
+        settled = store.set_review(row_id, true_value, alarm_state(true_value, band, alarm_band=alarm_band), by, now)
     except StoreError:
         os.unlink(path)
         raise

@@ -10,6 +10,7 @@ import json
 import math
 
 from inspection_robot.task.display import row_display
+from inspection_robot.task.spec import split_limits
 from inspection_robot.task.states import (ALARM_ALARM, ALARM_CHECK, STATUS_FAILED, STATUS_READ, STATUS_UNCERTAIN,
                                           alarm_state, target_unit)
 from inspection_robot.thermal.diagnosis import (DEFAULT_CLASS, DEFAULT_RULES, DiagnosisError, GRADE_NONE, diagnose,
@@ -123,17 +124,20 @@ def _round(value):
     return None if value is None else round(float(value), 2)
 
 
-def _row(task_id, stop_index, stop_name, preset_index, preset, target, name, kind, value, unit, band, confidence,
+def _row(task_id, stop_index, stop_name, preset_index, preset, target, name, kind, value, unit, limits, confidence,
          picture, pose, now, reason, uncertain=False, source=None, decimals=None):
-    """``source``: {"picture": the picture read, "roi": its box (8 numbers)} or None; ``decimals``:
-    the target's resolution (task.display; None for tasks stored before targets carried it)."""
+    """``limits``: the target's (task.spec.parse_limits) or None; ``source``: {"picture": the picture
+    read, "roi": its box (8 numbers)} or None; ``decimals``: the target's resolution (task.display;
+    None for tasks stored before targets carried it)."""
+    normal, alarm = split_limits(limits)
     if value is not None and not math.isfinite(value):
         value, reason, uncertain = None, "reading is not a finite number", False
     status = STATUS_FAILED if value is None else STATUS_UNCERTAIN if uncertain else STATUS_READ
     return {"task_id": task_id, "stop": stop_index, "stop_name": stop_name, "preset_index": preset_index,
             "preset": preset["directory"], "target": target, "target_name": name, "kind": kind,
-            "status": status, "value": value, "unit": unit, "alarm": alarm_state(value, band, uncertain),
-            "low": band[0] if band else None, "high": band[1] if band else None,
+            "status": status, "value": value, "unit": unit, "alarm": alarm_state(value, normal, uncertain, alarm),
+            "low": normal[0] if normal else None, "high": normal[1] if normal else None,
+            "alarm_low": alarm[0] if alarm else None, "alarm_high": alarm[1] if alarm else None,
             "confidence": confidence, "picture": picture, "x": pose[0], "y": pose[1], "yaw": pose[2], "time": now,
             "reason": reason, "source_picture": source["picture"] if source else "",
             "roi": ",".join("%.1f" % v for v in source["roi"]) if source else "", "decimals": decimals,

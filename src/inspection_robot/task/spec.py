@@ -11,6 +11,7 @@ import re
 from collections import namedtuple
 
 from inspection_robot.command import CommandError, parse_json, refuse_unknown_keys
+from inspection_robot.inspection.calibration_schema import nested_bands_fault
 
 PRIORITY_ROUTINE = "routine"
 PRIORITY_SPECIAL = "special"
@@ -28,9 +29,10 @@ ORDER_SHORTEST = "shortest"  # task_manager orders them by the planner's path le
 ORDERS = (ORDER_GIVEN, ORDER_SHORTEST)
 STOP_KEYS = ("name", "pose", "precision", "presets")
 PRESET_KEYS = ("preset", "alarms", "foreign")
+LIMIT_KEYS = ("normal", "alarm")   # a target's limits as an object (parse_limits)
 
 # What resolve_preset answers: the preset directory (absolute) and its calibrated targets, in
-# calibration order, as [{"name", "kind", "unit"}] plus the preset's own alarm bands {name: [lo, hi]}.
+# calibration order, as [{"name", "kind", "unit"}] plus the preset's own limits {name: limits} (parse_limits).
 ResolvedPreset = namedtuple("ResolvedPreset", "directory targets alarms")
 
 
@@ -127,6 +129,34 @@ def parse_band(value, what):
     return [low, high]
 
 
+def parse_limits(value, what):
+    """A target's limits: its normal band [low, high] (outside it: alarm), or
+    {"normal": [low, high], "alarm": [low, high]} (outside normal: warning; outside alarm: alarm),
+    the alarm band containing the normal one. Returned in the form given, checked."""
+    if not isinstance(value, dict):
+        return parse_band(value, what)
+    refuse_unknown_keys(value, what, LIMIT_KEYS)
+    if "normal" not in value:
+        raise CommandError("%s: missing normal (the band the value should be in)" % what)
+    normal = parse_band(value["normal"], what + " normal")
+    if "alarm" not in value:
+        return {"normal": normal}
+    alarm = parse_band(value["alarm"], what + " alarm")
+    fault = nested_bands_fault(normal, alarm)
+    if fault:
+        raise CommandError("%s: %s" % (what, fault))
+    return {"normal": normal, "alarm": alarm}
+
+
+def split_limits(limits):
+    """(normal band or None, alarm band or None) of a stored target's limits (parse_limits' forms)."""
+    if limits is None:
+        return None, None
+    if isinstance(limits, dict):
+        return limits.get("normal"), limits.get("alarm")
+    return limits, None
+
+
 def parse_task(data, resolve_preset, reachable, default_retries, known_ids=(), default_id=None):
     """Parse and check the JSON text ``data``; returns a Task or raises CommandError. ``default_id``:
     the id of a task given without one (plan, routines), else the id is required."""
@@ -196,12 +226,13 @@ def _parse_preset(entry, what, resolve_preset):
     alarms = dict(resolved.alarms)
     given = entry.get("alarms", {})
     if not isinstance(given, dict):
-        raise CommandError("%s: alarms must be an object {target name: [low, high]}" % what)
+        raise CommandError("%s: alarms must be an object {target name: [low, high] or "
+                           "{\"normal\": [low, high], \"alarm\": [low, high]}}" % what)
     names = [t["name"] for t in resolved.targets]
     for target, band in given.items():
         if target not in names:
             raise CommandError("%s: alarm for unknown target '%s' of preset '%s' (targets: %s)"
                                % (what, target, name, ", ".join(names)))
-        alarms[target] = parse_band(band, "%s alarm of %s" % (what, target))
+        alarms[target] = parse_limits(band, "%s alarm of %s" % (what, target))
     return {"preset": name, "directory": resolved.directory, "targets": list(resolved.targets),
             "alarms": alarms, "foreign": foreign}

@@ -24,25 +24,32 @@ STATUS_FAILED = "failed"         # no value
 READING_STATUSES = (STATUS_READ, STATUS_UNCERTAIN, STATUS_FAILED)
 
 # --- alarm states (readings.alarm, readings.review_alarm) --------------------------------------
-ALARM_ALARM = "alarm"     # a value outside its band
+ALARM_ALARM = "alarm"     # a value outside its band (outside its alarm band when it has one)
 ALARM_CHECK = "check"     # an uncertain value outside its band: go and look, never silence
+ALARM_WARNING = "warning"  # outside the normal band, inside the alarm band around it
 ALARM_FAILED = "failed"   # no reading
 ALARM_TREND = "trend"     # inside its band but drifting toward it, to cross within days (task/trend.py)
 ALARM_NORMAL = "normal"
 ALARM_NONE = "none"       # no band for this target
-ALARM_ORDER = (ALARM_ALARM, ALARM_CHECK, ALARM_FAILED, ALARM_TREND, ALARM_NORMAL, ALARM_NONE)   # most urgent first
+ALARM_ORDER = (ALARM_ALARM, ALARM_CHECK, ALARM_WARNING, ALARM_FAILED, ALARM_TREND, ALARM_NORMAL,
+               ALARM_NONE)   # most urgent first
 
 
-def alarm_state(value, band, uncertain=False):
-    """The alarm of ``value`` against ``band`` [low, high] (None: no band); ``uncertain`` values
-    outside the band are ``check``, not ``alarm``."""
+def alarm_state(value, band, uncertain=False, alarm_band=None):
+    """The alarm of ``value`` against its normal ``band`` [low, high] (None: no band) and the optional
+    ``alarm_band`` around it: outside the normal band but inside the alarm band is ``warning``, outside
+    both ``alarm``; ``uncertain`` values outside the normal band are ``check`` (go and look)."""
     if value is None:
         return ALARM_FAILED
     if band is None:
         return ALARM_NONE
     if band[0] <= value <= band[1]:
         return ALARM_NORMAL
-    return ALARM_CHECK if uncertain else ALARM_ALARM
+    if uncertain:
+        return ALARM_CHECK
+    if alarm_band is not None and alarm_band[0] <= value <= alarm_band[1]:
+        return ALARM_WARNING
+    return ALARM_ALARM
 
 
 def target_unit(kind, unit=""):

@@ -61,13 +61,14 @@ CREATE TABLE IF NOT EXISTS poses (
 # robot's own when confirmed, its alarm, who, when); the decimal places the value is shown with
 # (its meter's resolution when read, task.display; null in older rows); a thermal phase's defect grade
 # and its device's diagnosis (JSON, task.rows); an operator's acknowledgement of the row's alarm
-# (task.alarms: who, when, a note); a counter's increment since its previous reading (task.patrol)
+# (task.alarms: who, when, a note); a counter's increment since its previous reading (task.patrol); the
+# alarm band around the normal one (low, high), between which a value is a warning (task.spec.parse_limits)
 ADDED_COLUMNS = (("source_picture", "TEXT NOT NULL DEFAULT ''"), ("roi", "TEXT NOT NULL DEFAULT ''"),
                  ("review_value", "REAL"), ("review_alarm", "TEXT NOT NULL DEFAULT ''"),
                  ("review_by", "TEXT NOT NULL DEFAULT ''"), ("review_time", "REAL"), ("decimals", "INTEGER"),
                  ("grade", "TEXT NOT NULL DEFAULT ''"), ("diagnosis", "TEXT NOT NULL DEFAULT ''"),
                  ("ack_by", "TEXT NOT NULL DEFAULT ''"), ("ack_time", "REAL"), ("ack_note", "TEXT NOT NULL DEFAULT ''"),
-                 ("increment", "REAL"))
+                 ("increment", "REAL"), ("alarm_low", "REAL"), ("alarm_high", "REAL"))
 INDEXES = """
 CREATE INDEX IF NOT EXISTS readings_time ON readings (time);
 CREATE INDEX IF NOT EXISTS readings_review ON readings (status, review_time);
@@ -81,7 +82,8 @@ READING_COLUMNS = ("id", "task_id", "stop", "stop_name", "preset_index", "preset
 WRITTEN_COLUMNS = tuple(c for c in READING_COLUMNS[1:] if not c.startswith(("review_", "ack_")))
 # a row's alarm as the report states it (task.report.reading_state): the reviewed value's once reviewed
 STATED_ALARM_SQL = "(CASE WHEN review_time IS NOT NULL AND review_alarm != '' THEN review_alarm ELSE alarm END)"
-OPTIONAL_COLUMNS = {"decimals": None, "grade": "", "diagnosis": "", "increment": None}   # a row may leave out
+OPTIONAL_COLUMNS = {"decimals": None, "grade": "", "diagnosis": "", "increment": None, "alarm_low": None,
+                    "alarm_high": None}   # a row may leave out
 STEP_COLUMNS = ("task_id", "stop", "preset_index", "kind", "outcome", "started", "ended", "reason")
 EXPORTS_KEPT = 10   # snapshots kept in tasks/exports/ (the oldest removed beyond)
 
