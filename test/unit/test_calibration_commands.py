@@ -211,6 +211,11 @@ def with_pointer(**change):
     (with_pointer(start_value=1.6), "start_value and end_value must differ"),
     (with_pointer(unit="MPa\n[target_1]"), "unit must be at most 200 characters without control characters"),
     (with_pointer(normal=[2, 1]), "normal must be [low, high], low 2 is above high 1"),
+    (with_pointer(normal=[0, 1], alarm_band=[0.5, 1.5]),
+     "alarm band [0.5, 1.5] must contain the normal band [0, 1] (a warning lies between them)"),
+    (with_pointer(alarm_band=[0, 1.5]), "alarm_band needs a normal band inside it"),
+    (with_pointer(normal=[0, 1], alarm_band=[float("nan"), 1.5]), "targets[0].alarm_band[0] must be a finite number, got NaN"),
+    (with_pointer(normal=[0, 1], alarm_band=[2, -1]), "alarm_band must be [low, high], low 2 is above high -1"),
     (with_pointer(pointer_colour="purple"), "pointer_colour must be one of dark|light|red|black|white"),
     ([{"kind": "thermal", "box": BOX, "thermal_box": [5, 5, 30, 5, 30, float("nan"), 5, 30]}],
      "targets[0].thermal_box[5] must be a finite number, got NaN"),
@@ -341,6 +346,24 @@ def test_get_then_upload_round_trips(robot):
     ack, out = call(commands, "upload", targets=targets)
     assert ack == "success" and out["kinds"] == ["pointer", "switch"]
     assert call(commands, "get")[1]["targets"] == targets
+
+
+def test_limits_set_by_upload_reach_a_task(robot):
+    """The console's limits editor: get, the limits changed, upload; a task then judges by them."""
+    from inspection_robot.task.checks import resolve_preset
+    commands, root = robot
+    calibrated(robot)
+    targets = call(commands, "get")[1]["targets"]
+    targets[0].update(normal=[0.2, 1.2], alarm_band=[0.1, 1.4])
+    targets[1].update(normal=[1, 1])   # the switch should be closed
+    assert call(commands, "upload", targets=targets)[0] == "success"
+    got = call(commands, "get")[1]["targets"]
+    assert (got[0]["normal"], got[0]["alarm_band"], got[1]["normal"]) == ([0.2, 1.2], [0.1, 1.4], [1.0, 1.0])
+    resolved = resolve_preset(str(root / "presets"), PRESET, str(root))
+    assert resolved.alarms == {got[0]["name"]: {"normal": [0.2, 1.2], "alarm": [0.1, 1.4]}, got[1]["name"]: [1.0, 1.0]}
+    del targets[0]["normal"], targets[0]["alarm_band"]   # limits removed by leaving the keys out
+    assert call(commands, "upload", targets=targets)[0] == "success"
+    assert "normal" not in call(commands, "get")[1]["targets"][0]
 
 
 def test_the_tool_refuses_a_bad_yaml_by_name_and_writes_nothing(robot, capsys):

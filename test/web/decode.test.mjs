@@ -78,7 +78,7 @@ test('a reviewed reading states and sorts by its reviewed alarm, as the report d
 test('a reading in words', () => {
   assert.strictEqual(readingText({ status: 'read', value: 0.78845570687, unit: 'MPa', low: 0, high: 1.6 }),
     '0.7885 MPa [0, 1.6]');
-  assert.strictEqual(readingText({ status: 'read', value: 2, unit: '', low: null, high: null }), '2');
+  assert.strictEqual(readingText({ status: 'read', value: 2, unit: '', low: null, high: null }), '2 no limits');
   assert.strictEqual(readingText({ status: 'failed', value: null, reason: 'find_scale failed' }),
     'failed: find_scale failed');
   const doubted = { status: 'uncertain', value: 0.97, unit: 'MPa', low: 0.2, high: 0.8, reason: 'glare', review_time: null };

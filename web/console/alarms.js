@@ -1,10 +1,10 @@
-/* Open alarms: readings of any patrol whose alarm is ``alarm`` or ``check`` and nobody acknowledged
+/* Open alarms: readings of any patrol whose alarm is ``alarm``, ``check`` or ``warning`` and nobody acknowledged
    (task_control alarms), newest first, each acknowledged by a named operator with an optional note
    (task_control acknowledge). task_status ``open_alarms`` drives the header's banner; a count that
    grows sounds a short tone (Web Audio: nothing to download) and lists the alarms again. */
-import { readingText } from './decode.js';
-import { subscribe, control } from './link.js';
-import { refreshTask } from './results.js';
+import { alarmWords, readingText } from './decode.js';
+import { control } from './link.js';
+import * as store from './state.js';
 import { $, coalesced } from './ui.js';
 
 const ALARM_LIMIT = 50;
@@ -36,13 +36,8 @@ function chime() {
   }
 }
 
-function onTaskStatus(message) {
-  let count;
-  try {
-    count = JSON.parse(message.data).open_alarms;
-  } catch (err) {
-    return;   // patrol.js reports an unreadable task_status
-  }
+function onTaskStatus(status) {
+  const count = status.open_alarms;
   if (typeof count !== 'number' || count === alarms.count) return;
   const grew = alarms.count !== null && count > alarms.count;
   alarms.count = count;
@@ -67,7 +62,7 @@ function renderAlarms(rows) {
     const tr = fresh.insertRow();
     tr.className = r.alarm;
     tr.dataset.id = r.id;
-    tr.insertCell().textContent = r.grade ? r.alarm + ' (' + r.grade + ' defect)' : r.alarm;
+    tr.insertCell().textContent = alarmWords(r.alarm) + (r.grade ? ' (' + r.grade + ' defect)' : '');
     tr.insertCell().textContent = r.target_name || r.kind + ' ' + r.target;
     tr.insertCell().textContent = readingText(r) + (r.reason && r.status !== 'uncertain' ? ' · ' + r.reason : '');
     tr.insertCell().textContent = r.task_id + ' · ' + (r.stop_name || 'stop ' + (r.stop + 1));
@@ -99,7 +94,7 @@ function acknowledge(row, button) {
       alarmMessage('alarm of ' + done.target_name + ' acknowledged by ' + done.ack_by);
       $('alarm-note').value = '';
       queryAlarms();
-      refreshTask(row.task_id);
+      store.emit('readings-changed', row.task_id);
     })
     .catch((err) => {
       alarmMessage('acknowledge refused: ' + err.message, true);
@@ -112,5 +107,5 @@ export function init() {
     (e) => Number(e.dataset.id)) };
   $('alarm-refresh').addEventListener('click', queryAlarms);
   $('alarm-banner').addEventListener('click', () => $('alarm-panel').scrollIntoView());
-  subscribe('task_status', 'inspection_robot/GeneralTopic', { queue_length: 1 }, onTaskStatus);
+  store.on('task', onTaskStatus);
 }

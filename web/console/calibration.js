@@ -4,6 +4,7 @@
 import { boxQuad, needleAngle, selfCheckText } from './decode.js';
 import { fetchPicture, listFolder, loadImage } from './files.js';
 import { control, publish, subscribe } from './link.js';
+import * as store from './state.js';
 import { $, canvasPoint, log } from './ui.js';
 
 const PRESETS_FOLDER = 'presets';
@@ -28,10 +29,12 @@ function loadCalibration(preset) {
   calib.image = null;
   calib.box = calib.zero = calib.full = null;
   calibMessage('loading ' + preset + '…');
+  store.set('preset', null);
   return control('calibration_control', 'get', { preset }).then((text) => {
     const answer = JSON.parse(text);
     calib.targets = answer.targets;
     $('calib-preset').value = answer.preset;
+    store.set('preset', { preset: answer.preset, targets: answer.targets });   // the limits panel's
     return fetchPicture(answer.preset + '/zoom0.jpg').then(loadImage).then((image) => {
       calib.image = image;
       calib.preset = answer.preset;
@@ -171,6 +174,7 @@ function applyCalibration(event) {
         (checks.length ? '; ' + checks.join('; ') : ''));
       return control('calibration_control', 'get', { preset }).then((got) => {
         calib.targets = JSON.parse(got).targets;
+        store.set('preset', { preset, targets: calib.targets });
         drawCalib();
       });
     })

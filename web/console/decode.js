@@ -125,25 +125,48 @@ export function boxQuad(box) {
   return [x0, y0, x1, y0, x1, y1, x0, y1].map((v) => Math.round(v * 10) / 10);
 }
 
+/** The task a task_status is about (the running one, else the last ended; '' for none) and a key that
+    changes when its progress or state does: what the readings and the review queue follow. */
+export function statusTask(status) {
+  const task = status.task_id || (status.last_ended && status.last_ended.task_id) || '';
+  return { task, key: task + '|' + status.done + '|' + status.state };
+}
+
 // task_manager's alarm states, most urgent first (src/inspection_robot/task/states.py ALARM_ORDER)
-const ALARM_ORDER = { alarm: 0, check: 1, failed: 2, trend: 3, normal: 4, none: 5 };
+const ALARM_ORDER = { alarm: 0, check: 1, warning: 2, failed: 3, trend: 4, normal: 5, none: 6 };
+// an alarm state in the operator's words where its code does not say it
+const ALARM_WORDS = { none: 'no limits', check: 'check (uncertain, outside its band)' };
+
+/** An alarm state in words: "none" is "no limits" (a reading without limits is never "normal"). */
+export function alarmWords(state) {
+  return ALARM_WORDS[state] || state;
+}
 /** A reading's alarm as the report states it: the reviewed value's once an operator reviewed it. */
 export function readingAlarm(row) {
   return row.review_time !== null && row.review_time !== undefined && row.review_alarm ? row.review_alarm : row.alarm;
 }
 
-const alarmRank = (row) => (readingAlarm(row) in ALARM_ORDER ? ALARM_ORDER[readingAlarm(row)] : 5);
+const alarmRank = (row) => (readingAlarm(row) in ALARM_ORDER ? ALARM_ORDER[readingAlarm(row)] : ALARM_ORDER.none);
 
 /** query_results rows, alarms and checks first, then failures, then the rest; newest first within each. */
 export function sortReadings(rows) {
   return rows.slice().sort((a, b) => alarmRank(a) - alarmRank(b) || b.time - a.time);
 }
 
+/** A reading's limits in words: "[0, 1]", with its alarm band "[0, 1] (alarm outside [-1, 2])", or
+    "no limits". */
+export function limitsText(row) {
+  if (row.low === null || row.low === undefined) return 'no limits';
+  const alarm = row.alarm_low !== null && row.alarm_low !== undefined
+    ? ' (alarm outside [' + row.alarm_low + ', ' + row.alarm_high + '])' : '';
+  return '[' + row.low + ', ' + row.high + ']' + alarm;
+}
+
 /** A reading's value in words: "0.788 MPa [0, 1]", "failed: <reason>", an uncertain one
     "0.97 MPa [0.2, 0.8] uncertain: <reason>" and a reviewed one "... reviewed by li: 0.62 MPa". */
 export function readingText(row) {
   if (row.status === 'failed' || row.value === null) return 'failed: ' + row.reason;
-  const band = row.low !== null && row.low !== undefined ? ' [' + row.low + ', ' + row.high + ']' : '';
+  const band = ' ' + limitsText(row);
   // the robot's text (rounded to the meter's resolution, with unit) when the row carries it
   const number = (value) => Number(value.toPrecision(4)) + (row.unit ? ' ' + row.unit : '');
   let text = (row.display || number(row.value)) + band;

@@ -2,7 +2,7 @@
    hold-to-move teleop (buttons and keys) that sends one explicit stop when the last key goes. */
 import { MODES } from './decode.js';
 import { command, onClose, publish, session } from './link.js';
-import { state } from './state.js';
+import * as store from './state.js';
 import { $, holdButton, log, typing } from './ui.js';
 
 const DRIVE_PERIOD_MS = 100;        // move_cmd repeat while a drive key is held (robot cmd_timeout 0.5 s)
@@ -17,7 +17,7 @@ let driveTimer = null;
 let wheelControl = 0;
 
 function heartbeat() {
-  if (state.connected && $('heartbeat').checked) {
+  if (store.get('connected') && $('heartbeat').checked) {
     publish('server_status', 'inspection_robot/GeneralTopic', { data: 'console', trans_id: session() });
   }
 }
@@ -73,7 +73,7 @@ export function stopDriving() {
   markHeld();
   if (driveTimer) clearInterval(driveTimer);
   driveTimer = null;
-  if (wasDriving && state.connected) publishMove(0, 0);
+  if (wasDriving && store.get('connected')) publishMove(0, 0);
 }
 
 function markHeld() {
@@ -87,7 +87,10 @@ function acquire() {
   const started = Date.now();
   // the robot has this connection's own heartbeat when robot_status names its session (an older
   // connection's heartbeat could still expire after the grant and take the robot offline)
-  const ours = () => state.status && !state.status.offline_warn && state.status.trans_id === session();
+  const ours = () => {
+    const status = store.get('status');
+    return status && !status.offline_warn && status.trans_id === session();
+  };
   const tryAcquire = () => {
     if (!ours() && Date.now() - started < ACQUIRE_WAIT_MS) {
       setTimeout(tryAcquire, 200);
@@ -95,8 +98,9 @@ function acquire() {
     }
     publish('mode_cmd', 'inspection_robot/GeneralCmd', { cmd: 'acquire', data: 'server', trans_id: session() });
     setTimeout(() => {
-      if (!state.status || state.status.mode !== 1) log('acquire: control not granted yet (mode '
-        + (state.status ? MODES[state.status.mode] : '?') + ')', true);
+      const status = store.get('status');
+      if (!status || status.mode !== 1) log('acquire: control not granted yet (mode '
+        + (status ? MODES[status.mode] : '?') + ')', true);
     }, 1500);
   };
   tryAcquire();

@@ -1,15 +1,15 @@
 /* The head and camera: held pan/tilt and lens buttons (stop on release), angles, light and wiper, and
    the head's angle from terrace_state. */
 import { command, onClose, subscribe } from './link.js';
-import { state } from './state.js';
+import * as store from './state.js';
 import { $, holdButton } from './ui.js';
 
 let headMoving = false;
 let lensMoving = false;
 
 function stopHead() {
-  if (headMoving && state.connected) command('terrace_cmd', 'terrace_stop');
-  if (lensMoving && state.connected) command('camera_cmd', 'camera_stop');
+  if (headMoving && store.get('connected')) command('terrace_cmd', 'terrace_stop');
+  if (lensMoving && store.get('connected')) command('camera_cmd', 'camera_stop');
   headMoving = lensMoving = false;
 }
 

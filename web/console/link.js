@@ -3,7 +3,7 @@
    ("server") with the names, types and strings of docs/interface.md. Panels register their
    subscriptions here; the link makes them again on every (re)connection, after authenticating. */
 import { authFields } from './auth.js';
-import { state } from './state.js';
+import * as store from './state.js';
 import { $, log } from './ui.js';
 
 const SENDER = 'server';
@@ -119,7 +119,7 @@ function connect() {
   let opened = false;
   ros.on('connection', () => {
     opened = true;
-    state.connected = true;
+    store.set('connected', true);
     setLink('connected', true);
     log('connected to ' + url);
   });
@@ -131,7 +131,7 @@ function connect() {
   });
   ros.on('error', () => setLink('link error', false));
   ros.on('close', () => {
-    state.connected = false;
+    store.set('connected', false);
     closeHandlers.forEach((handler) => handler());
     setLink(opened ? 'disconnected: reconnecting…' : 'no link: retrying…', false);
     if (opened) log('link to the robot lost; reconnecting', true);

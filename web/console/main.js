@@ -1,14 +1,17 @@
 /* The operator console's entry point (index.html loads it as a module, no build step): each panel wires
    its part of the page and registers its subscriptions, then the link connects. One module per panel:
    status, drive (heartbeat, e-stop, teleop), head, images, map (goals, obstacles), planner (patrol
-   planner; its arithmetic in planning.js), schedules (routines, schedules), calibration (presets),
-   patrol, results (readings, trends), review, alarms (open alarms, acknowledge, the header's banner); link (roslib, auth, commands) and decoding
-   (decode.js, auth.js) apart; shared helpers in ui.js, shared state in state.js. */
+   planner; its arithmetic in planning.js), schedules (routines, schedules), calibration (presets), limits
+   (a preset's bands; their checks in bands.js), patrol, results (readings, trends), review, alarms (open
+   alarms, acknowledge, the header's banner); link (roslib, auth, commands) and decoding (decode.js,
+   auth.js) apart; shared helpers in ui.js. Panels never call each other: what more than one reads, and
+   the news they give each other, go through the store (state.js). */
 import * as alarms from './alarms.js';
 import * as calibration from './calibration.js';
 import * as drive from './drive.js';
 import * as head from './head.js';
 import * as images from './images.js';
+import * as limits from './limits.js';
 import { start } from './link.js';
 import * as map from './map.js';
 import * as patrol from './patrol.js';
@@ -18,8 +21,8 @@ import * as review from './review.js';
 import * as schedules from './schedules.js';
 import * as status from './status.js';
 
-for (const panel of [status, drive, head, images, map, planner, schedules, calibration, patrol, results, review,
-  alarms]) {
+for (const panel of [status, drive, head, images, map, planner, schedules, calibration, limits, patrol, results,
+  review, alarms]) {
   panel.init();
 }
 start();

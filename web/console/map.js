@@ -1,7 +1,7 @@
 /* The map panel: the occupancy map, the robot's pose and move_base's plan; goals sent with move_action;
    virtual obstacles drawn, edited and deleted (virtual_obstacle_cmd). Wheel zooms, right-drag pans. */
 import { actionClient, command, header, nextTransId, onAck, subscribe } from './link.js';
-import { state } from './state.js';
+import * as store from './state.js';
 import { $, canvasPoint, log, typing } from './ui.js';
 
 const view = { scale: 0, ox: 0, oy: 0 };   // screen = (world - origin) * scale, y up
@@ -116,7 +116,7 @@ function renderMap() {
     ctx.arc(gx, gy, 7, 0, 2 * Math.PI);
     ctx.stroke();
   }
-  const s = state.status;
+  const s = store.get('status');
   if (s && s.position && s.position.length >= 2) {
     const [rx, ry] = toScreen(s.position);
     ctx.save();
@@ -305,6 +305,7 @@ function sendGoal(world, yaw) {
 export function init() {
   // For the browser tests: the map transform and the page's obstacle list.
   window.consoleMap = { toScreen, ready: () => map.info !== null, obstacleCount: () => map.obstacles.length };
+  store.on('status', drawMap);   // the robot's pose
   $('tool-goal').addEventListener('click', () => setTool('goal'));
   $('tool-draw').addEventListener('click', () => setTool('draw'));
   $('tool-edit').addEventListener('click', () => setTool('edit'));

@@ -2,8 +2,7 @@
    return home, and the latched task_status in words with a progress bar. */
 import { control, subscribe } from './link.js';
 import { taskId } from './planning.js';
-import { followTask } from './results.js';
-import { reviewOnChange } from './review.js';
+import * as store from './state.js';
 import { $, log } from './ui.js';
 
 const patrol = { status: null, frame: 0 };
@@ -15,7 +14,7 @@ function exampleTask() {
 }
 
 /** A task_control command with its outcome on the panel; resolves true when the robot took it. */
-export function patrolCommand(cmd, data) {
+function patrolCommand(cmd, data) {
   $('patrol-result').textContent = cmd + '…';
   $('patrol-result').className = '';
   return control('task_control', cmd, data).then(() => {
@@ -35,6 +34,7 @@ function onTaskStatus(msg) {
     log('task_status unreadable: ' + err, true);
     return;
   }
+  store.set('task', patrol.status);   // the readings, the review queue and the alarms follow it
   if (!patrol.frame) patrol.frame = requestAnimationFrame(renderPatrol);
 }
 
@@ -56,11 +56,6 @@ function renderPatrol() {
   $('patrol-state').className = s.holds && s.holds.length ? 'error' : '';
   $('patrol-progress').max = Math.max(1, s.total || 0);
   $('patrol-progress').value = s.done || 0;
-  // The running (or last) task's readings; the review queue may have grown with a preset recorded.
-  const task = s.task_id || (s.last_ended && s.last_ended.task_id) || '';
-  const key = task + '|' + s.done + '|' + s.state;
-  followTask(task, key);
-  reviewOnChange(key);
 }
 
 export function init() {
@@ -76,5 +71,6 @@ export function init() {
   $('patrol-resume').addEventListener('click', () => patrolCommand('resume', ''));
   $('patrol-cancel').addEventListener('click', () => patrolCommand('cancel', ''));
   $('patrol-home').addEventListener('click', () => patrolCommand('return_home', ''));
+  store.on('submit-task', (request) => patrolCommand(request.cmd, request.data));   // the planner's
   subscribe('task_status', 'inspection_robot/GeneralTopic', { queue_length: 1 }, onTaskStatus);
 }

@@ -5,7 +5,7 @@
 import { listFolder } from './files.js';
 import { control, subscribe } from './link.js';
 import { addLayer, addTool, drawMap } from './map.js';
-import { patrolCommand } from './patrol.js';
+import * as store from './state.js';
 import { addPresets, buildTask, catalogEntry, entriesAt, removePreset, routeText, routineName, searchCatalog,
   stopsOfTask, taskId } from './planning.js';
 import { $ } from './ui.js';
@@ -14,7 +14,6 @@ const PRESETS_FOLDER = 'presets';
 const LOAD_PARALLEL = 4;    // calibration_control gets in flight while the list loads
 const LIST_SHOWN = 100;     // catalog rows shown at once (the search narrows it)
 // Told to the schedules panel (which lists the routines) when one is saved.
-export const ROUTINES_CHANGED = 'console:routines-changed';
 const planner = { catalog: [], loading: null, asked: false, stops: [], route: null, drawn: null };
 
 /** Every preset id's newest recording with its stop pose and meters (file_control list, then
@@ -161,7 +160,7 @@ function startPatrol() {
     routeMessage(err.message, true);
     return;
   }
-  patrolCommand('submit', JSON.stringify(data));
+  store.emit('submit-task', { cmd: 'submit', data: JSON.stringify(data) });
 }
 
 function saveRoutine() {
@@ -174,12 +173,12 @@ function saveRoutine() {
   }
   control('task_control', 'routine_save', data).then(() => {
     routeMessage('routine ' + data.name + ' saved');
-    document.dispatchEvent(new CustomEvent(ROUTINES_CHANGED));
+    store.emit('routines-changed');
   }).catch((err) => routeMessage('routine refused: ' + err.message, true));
 }
 
-/** A saved routine's stops into the planner (from the schedules panel). */
-export function loadRoutine(routine) {
+/** A saved routine's stops into the planner (news from the schedules panel). */
+function loadRoutine(routine) {
   setStops(stopsOfTask(routine.task), 'routine ' + routine.name + ' loaded');
   $('routine-name').value = routine.name;
   if (routine.task.order) $('planner-order').value = routine.task.order;
@@ -241,6 +240,7 @@ export function init() {
     togglePick();
   });
   $('planner-plan').addEventListener('click', planRoute);
+  store.on('load-routine', loadRoutine);
   $('planner-start').addEventListener('click', startPatrol);
   $('planner-clear').addEventListener('click', () => setStops([]));
   $('routine-save').addEventListener('click', saveRoutine);

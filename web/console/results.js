@@ -1,8 +1,9 @@
 /* Readings and trends: a task's readings (task_control query_results), alarms first, with their
    annotated pictures; a click on a meter draws its last 90 days against its normal band. */
-import { readingAlarm, readingText, sortReadings, trendSeries } from './decode.js';
+import { alarmWords, readingAlarm, readingText, sortReadings, statusTask, trendSeries } from './decode.js';
 import { fetchPicture } from './files.js';
 import { control } from './link.js';
+import * as store from './state.js';
 import { $, coalesced } from './ui.js';
 
 const MAX_RESULT_ROWS = 200;
@@ -13,8 +14,10 @@ const TREND_COLOURS = { read: '#2e7d32', uncertain: '#e65100', corrected: '#1565
 // ``follow``: the readings follow the running (or last) task until the operator types a task id.
 const results = { follow: true, key: '' };
 
-/** Show ``task``'s readings unless the operator typed another task id; ask again when ``key`` changes. */
-export function followTask(task, key) {
+/** The running (or last) task's readings unless the operator typed another task id; asked again when
+    its progress or state changed. */
+function followTask(status) {
+  const { task, key } = statusTask(status);
   if (task && results.follow) $('results-task').value = task;
   if (task && results.follow && key !== results.key) {
     results.key = key;
@@ -23,7 +26,7 @@ export function followTask(task, key) {
 }
 
 /** Ask again when the readings shown are ``task``'s (a review changed one of them). */
-export function refreshTask(task) {
+function refreshTask(task) {
   if ($('results-task').value.trim() === task) queryResults();
 }
 
@@ -46,9 +49,9 @@ function renderResults(rows) {
   shown.forEach((r, i) => {
     const tr = fresh.insertRow();
     const state = readingAlarm(r);
-    tr.className = state === 'alarm' || state === 'check' ? state : r.status === 'failed' ? 'failed' : '';
+    tr.className = ['alarm', 'check', 'warning'].includes(state) ? state : r.status === 'failed' ? 'failed' : '';
     const alarm = tr.insertCell();   // a thermal defect names its grade; the rule and temperatures on hover
-    alarm.textContent = r.grade ? state + ' (' + r.grade + ' defect)' : state;
+    alarm.textContent = alarmWords(state) + (r.grade ? ' (' + r.grade + ' defect)' : '');
     if (r.reason) alarm.title = r.reason;
     const target = tr.insertCell();
     target.textContent = r.target_name || r.kind + ' ' + r.target;
@@ -133,4 +136,6 @@ function drawTrend(canvas, target, unit, rows) {
 export function init() {
   $('results-refresh').addEventListener('click', queryResults);
   $('results-task').addEventListener('input', () => { results.follow = $('results-task').value.trim() === ''; });
+  store.on('task', followTask);
+  store.on('readings-changed', refreshTask);
 }

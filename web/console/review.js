@@ -1,9 +1,9 @@
 /* Needs review: readings the robot doubts (task_control review_queue) with their annotated picture,
    confirmed or corrected by a named reviewer (task_control review). */
-import { readingText } from './decode.js';
+import { readingText, statusTask } from './decode.js';
 import { fetchPicture } from './files.js';
 import { control } from './link.js';
-import { refreshTask } from './results.js';
+import * as store from './state.js';
 import { $, coalesced } from './ui.js';
 
 const REVIEW_LIMIT = 20;
@@ -14,8 +14,10 @@ function reviewMessage(text, failed) {
   $('review-result').className = failed ? 'error' : '';
 }
 
-/** Ask for the queue again when ``key`` (task, done, state) changed: a preset recorded may have grown it. */
-export function reviewOnChange(key) {
+/** Ask for the queue again when the task, its progress or its state changed: a preset recorded may have
+    grown it. */
+function reviewOnChange(status) {
+  const { key } = statusTask(status);
   if (key === review.key) return;
   review.key = key;
   queryReview();
@@ -108,7 +110,7 @@ function settle(row, value, item) {
       reviewMessage('reading ' + done.id + ' (' + done.target_name + '): '
         + (value === null ? 'confirmed' : 'corrected to ' + done.review_value) + ' by ' + done.review_by);
       queryReview();
-      refreshTask(row.task_id);
+      store.emit('readings-changed', row.task_id);
     })
     .catch((err) => {
       reviewMessage('review refused: ' + err.message, true);
@@ -119,4 +121,5 @@ function settle(row, value, item) {
 export function init() {
   window.consoleReview = { ids: () => Array.from(document.querySelectorAll('.review-item'), (e) => Number(e.dataset.id)) };
   $('review-refresh').addEventListener('click', queryReview);
+  store.on('task', reviewOnChange);
 }

@@ -2,7 +2,7 @@
    routine_delete, "load" puts one back into the planner) and the schedules that run them by
    themselves (schedule_set / schedule_list / schedule_delete): when, next run, last run, missed runs. */
 import { control, subscribe } from './link.js';
-import { loadRoutine, ROUTINES_CHANGED } from './planner.js';
+import * as store from './state.js';
 import { scheduleRequest, scheduleText, WEEKDAYS, whenText } from './planning.js';
 import { $, coalesced } from './ui.js';
 
@@ -46,7 +46,7 @@ function renderRoutines(routines) {
     tr.insertCell().textContent = routine.name;
     tr.insertCell().textContent = String(routine.task.stops.length);
     tr.insertCell().textContent = whenText(routine.saved, now);
-    tr.insertCell().append(button('load', () => loadRoutine(routine)),
+    tr.insertCell().append(button('load', () => store.emit('load-routine', routine)),
       button('delete', () => act('routine_delete', routine.name, 'routine ' + routine.name + ' deleted')));
   }
   const table = $('routines');
@@ -132,6 +132,6 @@ export function init() {
   }
   $('schedule-form').addEventListener('submit', saveSchedule);
   $('schedule-refresh').addEventListener('click', refreshRoutines);
-  document.addEventListener(ROUTINES_CHANGED, refreshRoutines);
+  store.on('routines-changed', refreshRoutines);
   subscribe('task_status', 'inspection_robot/GeneralTopic', { queue_length: 1 }, onTaskStatus);
 }

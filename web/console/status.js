@@ -1,22 +1,21 @@
 /* The status panel: robot_status in words (decode.js), the mode pill and the alarm line. */
 import { decodeStatus, MODES } from './decode.js';
 import { subscribe } from './link.js';
-import { drawMap } from './map.js';
-import { state } from './state.js';
+import * as store from './state.js';
 import { $ } from './ui.js';
 
 const rows = {};   // one table row per (name, index), kept across updates: a 10 Hz refresh must not grow the DOM
 let frame = 0;
 
 function onStatus(msg) {
-  state.status = msg;
+  store.set('status', msg);   // the map redraws the robot on it
   if (!frame) frame = requestAnimationFrame(render);
 }
 
 /** At most once per animation frame, whatever the rate: the newest status only. */
 function render() {
   frame = 0;
-  const msg = state.status;
+  const msg = store.get('status');
   window.consoleStats.status += 1;
   const decoded = decodeStatus(msg);
   $('mode').textContent = 'mode: ' + MODES[msg.mode];
@@ -41,7 +40,6 @@ function render() {
     const [name, n] = key.split('#');
     if (Number(n) > (seen[name] || 0)) rows[key].hidden = true;
   });
-  drawMap();   // the robot's pose on the map
 }
 
 export function init() {
