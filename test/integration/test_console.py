@@ -429,6 +429,23 @@ class ConsoleTest(unittest.TestCase):
         pose = self.status.wait(lambda m: True, 5.0, "robot_status")
         task_id = "console_%d" % int(time.time() * 1000)
         preset = os.path.relpath(self.calibrated_preset, os.path.dirname(os.path.dirname(self.calibrated_preset)))
+        # The operator sets the gauge's limits on the page: a normal band it reads outside of, an alarm
+        # band around that (a bad band refused first, nothing saved).
+        calibrated = self.calibration("presets/" + preset)
+        self.set_limits("presets/" + preset, "abc", "200", "", "")
+        self.wait_page("document.getElementById('limits-result').textContent.includes("
+                       "'normal band low must be a number, got \"abc\" (nothing saved)')", "the bad band refused")
+        self.set_limits("presets/" + preset, "100", "200", "150", "250")
+        self.wait_page("document.getElementById('limits-result').textContent.includes('alarm band [150, 250] must "
+                       "contain the normal band [100, 200]')", "the alarm band that does not contain the normal one")
+        self.assertEqual(self.calibration("presets/" + preset)["targets"], calibrated["targets"])
+        self.set_limits("presets/" + preset, "100", "200", "50", "250")
+        self.wait_page("document.getElementById('limits-result').textContent.startsWith('limits saved')",
+                       "the limits saved")
+        (gauge,) = self.calibration("presets/" + preset)["targets"]
+        self.assertEqual((gauge["normal"], gauge["alarm_band"]), ([100.0, 200.0], [50.0, 250.0]))
+        self.page.locator("#limits-table").screenshot(path=os.path.join(SCREENS, "limits.png"))
+        open_before = self.page.evaluate("window.consoleAlarms.count")
         task = {"id": task_id, "retries": 0, "stops": [
             {"name": "here", "pose": {"x": pose.position[0], "y": pose.position[1], "yaw": pose.orientation},
              "presets": [preset]},
@@ -451,6 +468,18 @@ class ConsoleTest(unittest.TestCase):
         reply = control_proxy("/task_control", 10.0)(
             sender="test_console", cmd="query_results", data=json.dumps({"task_id": task_id}))
         (row,) = json.loads(reply.data)
+        self.assertEqual((row["alarm"], row["low"], row["high"], row["alarm_low"], row["alarm_high"]),
+                         ("alarm", 100.0, 200.0, 50.0, 250.0))
+        # The patrol's alarm: the banner within that reading, acknowledged on the page by a named operator.
+        self.wait_page("!document.getElementById('alarm-banner').hidden && window.consoleAlarms.count > %d"
+                       % (open_before or 0), "the banner of the patrol's alarm")
+        self.wait_page("window.consoleAlarms.ids().includes(%d)" % row["id"], "the alarm listed")
+        self.page.fill("#alarm-by", "console_operator")
+        self.page.fill("#alarm-note", "gauge checked on site")
+        self.page.click("#alarm-list tr[data-id='%d'] .alarm-ack" % row["id"])
+        self.wait_page("!window.consoleAlarms.ids().includes(%d)" % row["id"], "the alarm acknowledged")
+        acknowledged = self.task_control("query_results", {"task_id": task_id})[0]
+        self.assertEqual((acknowledged["ack_by"], acknowledged["ack_note"]), ("console_operator", "gauge checked on site"))
         self.wait_page("document.querySelector('#results tbody').textContent.includes('console_gauge')",
                        "the reading in the history")
         if row["picture"]:
@@ -465,12 +494,40 @@ class ConsoleTest(unittest.TestCase):
             sender="test_console", cmd="query_results", data=json.dumps({"target": "console_gauge"})).data)
         self.assertGreaterEqual(len(history), 1)
         self.page.click("#results td.trend-link >> text=console_gauge")
-        self.wait_page("document.getElementById('trend').dataset.points === '%d'"
-                       % len([r for r in history if r["value"] is not None]), "the meter's trend drawn")
+        points = len([r for r in history if r["value"] is not None])
+        self.wait_page("document.getElementById('trend').dataset.points === '%d'" % points, "the meter's trend drawn")
+        self.wait_page("document.querySelector('#trend .uplot canvas') !== null", "the chart (uPlot) on the page")
+        # the legend names the meter and its bands; CSV export has a line per reading
+        legend = self.page.inner_text("#trend .u-legend")
+        self.assertIn("console_gauge", legend)
+        self.assertIn("console_gauge normal high", legend)
+        csv = self.page.evaluate("window.consoleTrends.csv()").strip().split("\n")
+        self.assertEqual(len(csv), 1 + points)
+        self.assertTrue(csv[0].startswith("time_utc,time,target,value,unit,status,alarm,low,high"))
+        # hovering the chart shows a value in the legend
+        box = self.page.locator("#trend .u-over").bounding_box()
+        self.page.mouse.move(box["x"] + box["width"] - 3, box["y"] + box["height"] / 2)
+        self.wait_page("Array.from(document.querySelectorAll('#trend .u-legend .u-value')).some("
+                       "(e) => e.textContent.includes('MPa'))", "a value under the cursor")
+        self.page.select_option("#trend-range", "7")   # the last week only: the 14 days of history halve
+        self.wait_page("Number(document.getElementById('trend').dataset.points) < %d" % points, "the week's trend")
         self.page.locator("#trend").screenshot(path=os.path.join(SCREENS, "trend.png"))
         self.page.click("#patrol-cancel")
         self.task(lambda s: (s.get("last_ended") or {}).get("task_id") == task_id
                   and s["last_ended"]["state"] == "cancelled", "the patrol cancelled by the page")
+        # The report of the cancelled patrol names who acknowledged the alarm, and when.
+        report = os.path.join(rospy.get_param("/data_root"), "tasks", "reports", task_id, "report.html")
+        wait_for(lambda: os.path.isfile(report), 20.0, "the patrol's report")
+        with open(report) as f:
+            page = f.read()
+        self.assertIn("acknowledged by console_operator, %s" % time.strftime(
+            "%Y-%m-%d %H:%M:%S", time.localtime(acknowledged["ack_time"])), page)
+        self.assertIn("100 .. 200 MPa; alarm outside 50 .. 250 MPa", page)
+        # The limits cleared on the page again (every field empty): the later tests read without limits.
+        self.set_limits("presets/" + preset, "", "", "", "")
+        self.wait_page("document.getElementById('limits-result').textContent.startsWith('limits saved')",
+                       "the limits cleared")
+        self.assertNotIn("normal", self.calibration("presets/" + preset)["targets"][0])
         # A refusal shows the robot's own text: task ids are never reused.
         self.page.fill("#patrol-task", json.dumps(task))
         self.page.click("#patrol-form button[type=submit]")
@@ -718,6 +775,18 @@ class ConsoleTest(unittest.TestCase):
                                  "", now - (len(values) - day) * 86400)
         self.assertEqual(store.add_readings(rows), len(values))
         store.close()
+
+    def set_limits(self, preset, low, high, alarm_low, alarm_high):
+        """The calibration editor's preset loaded (once), its one target's four limit fields typed, saved."""
+        if self.page.evaluate("window.consoleCalib.preset()") != preset:
+            self.page.fill("#calib-preset", preset)
+            self.page.click("#calib-load")
+            self.wait_page("document.querySelector('#limits-table tr[data-index=\"0\"]') !== null",
+                           "the preset's limits in the editor")
+        self.page.evaluate("document.getElementById('limits-result').textContent = ''")
+        for name, value in (("low", low), ("high", high), ("alarm-low", alarm_low), ("alarm-high", alarm_high)):
+            self.page.fill("#limits-table tr[data-index='0'] .limit-" + name, value)
+        self.page.click("#limits-save")
 
     def task_control(self, cmd, query):
         """task_control over ROS (not through the page): the JSON of a successful reply."""

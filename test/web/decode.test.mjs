@@ -4,7 +4,7 @@ import assert from 'node:assert';
 import test from 'node:test';
 
 import { bits, boxQuad, byteArray, decodeStatus, needleAngle, newestOnly, readingAlarm, readingText, selfCheckText,
-  sortReadings, trendSeries } from '../../web/console/decode.js';
+  sortReadings } from '../../web/console/decode.js';
 
 const quiet = {
   offline_warn: 0, mode: 0, velocity_x: 0, velocity_yaw: 0, position: [1.5, -2.25], orientation: Math.PI / 2,
@@ -104,18 +104,6 @@ test('a calibration self-check in words', () => {
     'the robot reads 3.5 (40 %) (two pointers)');
   assert.strictEqual(selfCheckText({ read: null, confidence: null, expected: 1, apart_fs_pct: null, reason: 'no needle' }),
     'the robot cannot read it: no needle');
-});
-
-test('a meter\'s trend: oldest first, corrected values and warnings marked, band inside the range', () => {
-  const row = (time, value, extra) => Object.assign({ time, value, status: 'read', alarm: 'normal', low: 0, high: 1,
-    review_value: null }, extra);
-  const s = trendSeries([row(30, 0.9, { alarm: 'trend' }), row(10, 0.5), row(20, 0.4, { status: 'uncertain',
-    review_value: 0.45 }), row(25, null, { status: 'failed', alarm: 'failed' }), row(28, 1.3, { alarm: 'alarm' })]);
-  assert.deepStrictEqual(s.points.map((p) => [p.t, p.v, p.kind]),
-    [[10, 0.5, 'read'], [20, 0.45, 'corrected'], [28, 1.3, 'alarm'], [30, 0.9, 'trend']]);
-  assert.deepStrictEqual(s.band, [0, 1]);
-  assert.ok(s.range[0] < 0 && s.range[1] > 1.3);
-  assert.deepStrictEqual(trendSeries([]).points, []);
 });
 
 test('newestOnly: one decode at a time; frames arriving meanwhile leave only the newest waiting', async () => {

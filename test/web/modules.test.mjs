@@ -6,7 +6,7 @@ import test from 'node:test';
 
 const DIR = new URL('../../web/console/', import.meta.url);
 const PANELS = ['status', 'drive', 'head', 'images', 'map', 'planner', 'schedules', 'calibration', 'limits', 'patrol',
-  'results', 'review', 'alarms'];
+  'results', 'trends', 'review', 'alarms'];
 
 test('every module but main imports in node; panels export init', async () => {
   const modules = readdirSync(DIR).filter((name) => name.endsWith('.js') && name !== 'main.js');

@@ -178,28 +178,6 @@ export function readingText(row) {
   return text;
 }
 
-/* A meter's history for its trend chart: [{t, v, kind}] oldest first (kind: read, uncertain,
-   corrected (an operator's value), alarm, check, trend), the value axis [lo, hi] covering values
-   and band with a margin, and the newest band. Rows as query_results gives them. */
-export function trendSeries(rows) {
-  const points = [];
-  let band = null;
-  rows.filter((r) => r.value !== null || (r.review_value !== null && r.review_value !== undefined))
-    .sort((a, b) => a.time - b.time).forEach((r) => {
-      const corrected = r.review_value !== null && r.review_value !== undefined;
-      const kind = corrected ? 'corrected' : ['alarm', 'check', 'trend'].includes(r.alarm) ? r.alarm
-        : r.status === 'uncertain' ? 'uncertain' : 'read';
-      points.push({ t: r.time, v: corrected ? r.review_value : r.value, kind });
-      if (r.low !== null && r.low !== undefined) band = [r.low, r.high];
-    });
-  const values = points.map((p) => p.v).concat(band || []);
-  let lo = Math.min.apply(null, values);
-  let hi = Math.max.apply(null, values);
-  if (!isFinite(lo)) { lo = 0; hi = 1; }
-  const margin = (hi - lo) * 0.1 || Math.abs(hi) * 0.1 || 1;
-  return { points, band, range: [lo - margin, hi + margin] };
-}
-
 /* One calibration self-check entry (calibration_control apply/upload) in words. */
 export function selfCheckText(check) {
   if (check.read === null) return 'the robot cannot read it: ' + check.reason;

@@ -2,7 +2,8 @@
    its part of the page and registers its subscriptions, then the link connects. One module per panel:
    status, drive (heartbeat, e-stop, teleop), head, images, map (goals, obstacles), planner (patrol
    planner; its arithmetic in planning.js), schedules (routines, schedules), calibration (presets), limits
-   (a preset's bands; their checks in bands.js), patrol, results (readings, trends), review, alarms (open
+   (a preset's bands; their checks in bands.js), patrol, results (readings), trends (the chart;
+   its data in trend_data.js), review, alarms (open
    alarms, acknowledge, the header's banner); link (roslib, auth, commands) and decoding (decode.js,
    auth.js) apart; shared helpers in ui.js. Panels never call each other: what more than one reads, and
    the news they give each other, go through the store (state.js). */
@@ -20,9 +21,10 @@ import * as results from './results.js';
 import * as review from './review.js';
 import * as schedules from './schedules.js';
 import * as status from './status.js';
+import * as trends from './trends.js';
 
 for (const panel of [status, drive, head, images, map, planner, schedules, calibration, limits, patrol, results,
-  review, alarms]) {
+  trends, review, alarms]) {
   panel.init();
 }
 start();

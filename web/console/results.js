@@ -1,6 +1,6 @@
-/* Readings and trends: a task's readings (task_control query_results), alarms first, with their
-   annotated pictures; a click on a meter draws its last 90 days against its normal band. */
-import { alarmWords, readingAlarm, readingText, sortReadings, statusTask, trendSeries } from './decode.js';
+/* Readings: a task's readings (task_control query_results), alarms first, with their annotated
+   pictures; a click on a meter adds it to the trend chart (news 'trend-meter' to trends.js). */
+import { alarmWords, readingAlarm, readingText, sortReadings, statusTask } from './decode.js';
 import { fetchPicture } from './files.js';
 import { control } from './link.js';
 import * as store from './state.js';
@@ -8,9 +8,6 @@ import { $, coalesced } from './ui.js';
 
 const MAX_RESULT_ROWS = 200;
 const MAX_RESULT_PICTURES = 30;
-const TREND_DAYS = 90;
-const TREND_COLOURS = { read: '#2e7d32', uncertain: '#e65100', corrected: '#1565c0', alarm: '#c62828',
-  check: '#e65100', trend: '#6a1b9a' };
 // ``follow``: the readings follow the running (or last) task until the operator types a task id.
 const results = { follow: true, key: '' };
 
@@ -57,8 +54,8 @@ function renderResults(rows) {
     target.textContent = r.target_name || r.kind + ' ' + r.target;
     if (r.target_name) {
       target.className = 'trend-link';
-      target.title = 'show this meter\'s trend';
-      target.addEventListener('click', () => showTrend(r.target_name, r.unit));
+      target.title = 'add this meter to the trend chart';
+      target.addEventListener('click', () => store.emit('trend-meter', { target: r.target_name, unit: r.unit }));
     }
     tr.insertCell().textContent = readingText(r);
     tr.insertCell().textContent = r.stop_name || String(r.stop + 1);
@@ -75,62 +72,6 @@ function renderResults(rows) {
     }
   });
   body.parentNode.replaceChild(fresh, body);
-}
-
-function showTrend(target, unit) {
-  $('trend-meter').textContent = target + ' (loading…)';
-  const since = Date.now() / 1000 - TREND_DAYS * 86400;
-  control('task_control', 'query_results', { target, from: since, limit: 5000 }, true)
-    .then((text) => drawTrend($('trend'), target, unit, JSON.parse(text)))
-    .catch((err) => { $('trend-meter').textContent = target + ': query refused: ' + err.message; });
-}
-
-function drawTrend(canvas, target, unit, rows) {
-  const series = trendSeries(rows);
-  const ctx = canvas.getContext('2d');
-  const w = canvas.width;
-  const h = canvas.height;
-  const pad = 36;
-  ctx.fillStyle = '#fff';
-  ctx.fillRect(0, 0, w, h);
-  const times = series.points.map((p) => p.t);
-  const t0 = Math.min.apply(null, times.length ? times : [0]);
-  const t1 = Math.max.apply(null, times.length ? times : [1]);
-  const x = (t) => pad + (t1 > t0 ? (t - t0) / (t1 - t0) : 0.5) * (w - 2 * pad);
-  const [lo, hi] = series.range;
-  const y = (v) => h - pad - (v - lo) / (hi - lo) * (h - 2 * pad);
-  if (series.band) {   // the normal band, shaded
-    ctx.fillStyle = 'rgba(46, 125, 50, 0.12)';
-    ctx.fillRect(pad, y(series.band[1]), w - 2 * pad, y(series.band[0]) - y(series.band[1]));
-  }
-  ctx.strokeStyle = '#999';
-  ctx.strokeRect(pad, pad, w - 2 * pad, h - 2 * pad);
-  ctx.fillStyle = '#333';
-  ctx.font = '11px sans-serif';
-  ctx.fillText(hi.toPrecision(4) + (unit ? ' ' + unit : ''), 2, pad);
-  ctx.fillText(lo.toPrecision(4), 2, h - pad);
-  if (times.length) {
-    ctx.fillText(new Date(t0 * 1000).toLocaleDateString(), pad, h - 8);
-    ctx.fillText(new Date(t1 * 1000).toLocaleDateString(), w - pad - 70, h - 8);
-  }
-  ctx.strokeStyle = '#777';
-  ctx.beginPath();
-  series.points.forEach((p, i) => (i ? ctx.lineTo(x(p.t), y(p.v)) : ctx.moveTo(x(p.t), y(p.v))));
-  ctx.stroke();
-  series.points.forEach((p) => {
-    ctx.fillStyle = TREND_COLOURS[p.kind] || '#333';
-    ctx.beginPath();
-    ctx.arc(x(p.t), y(p.v), 3.5, 0, 2 * Math.PI);
-    ctx.fill();
-    if (p.kind === 'trend') {
-      ctx.strokeStyle = TREND_COLOURS.trend;
-      ctx.beginPath();
-      ctx.arc(x(p.t), y(p.v), 7, 0, 2 * Math.PI);
-      ctx.stroke();
-    }
-  });
-  canvas.dataset.points = String(series.points.length);
-  $('trend-meter').textContent = target + ': ' + series.points.length + ' reading(s) in ' + TREND_DAYS + ' days';
 }
 
 export function init() {

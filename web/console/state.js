@@ -12,6 +12,7 @@ export const KEYS = {
   'load-routine': 'news: the operator asked to load this saved routine into the planner',
   'submit-task': 'news: {cmd, data} a panel asks the patrol panel to send to task_control',
   preset: 'the preset open in the calibration editor: {preset, targets} as calibration_control get answers',
+  'trend-meter': 'news: {target, unit} the operator asked to add this meter to the trend chart',
 };
 
 const values = { connected: false, status: null, task: null, preset: null };

@@ -2,16 +2,20 @@
 
 The page (web/console/) talks to the robot only through the websocket on the same port, like any
 backend; these routes hand out files and nothing else (no robot data, no secrets), so they need no
-authentication. Front-end libraries (roslib.js) come from the npm registry at setup time and are
-served from ``vendor_dir``: the page needs no internet.
+authentication. Front-end libraries (roslib.js, uPlot) come from the npm registry at setup time
+(web/package.json) and are served from ``vendor_dir`` (web/node_modules): the page needs no internet.
 """
 import json
 import os
+import re
 
 import tornado.web
 
 CONSOLE_PATH = "/console/"
-VENDOR_FILES = ("roslib.min.js",)
+# /console/vendor/<name>: the library files the page loads, each from its package in vendor_dir (nothing
+# else of node_modules is served)
+VENDOR_FILES = {"roslib.min.js": "roslib/build/roslib.min.js", "uPlot.esm.js": "uplot/dist/uPlot.esm.js",
+                "uPlot.min.css": "uplot/dist/uPlot.min.css"}
 # The page's scripts are ES modules: a browser runs one only with a JavaScript MIME type (and nosniff
 # forbids guessing), so it is named here rather than left to the host's mime.types.
 JAVASCRIPT = "text/javascript"
@@ -43,17 +47,20 @@ class _ConsoleConfig(tornado.web.RequestHandler):
 
 def missing_files(console_dir, vendor_dir):
     """Paths the console needs that are not there (empty when it can be served)."""
-    wanted = [os.path.join(console_dir, "index.html")] + [os.path.join(vendor_dir, name) for name in VENDOR_FILES]
+    wanted = [os.path.join(console_dir, "index.html")] + [os.path.join(vendor_dir, path)
+                                                           for path in VENDOR_FILES.values()]
     return [path for path in wanted if not os.path.isfile(path)]
 
 
 def console_routes(console_dir, vendor_dir, auth_required):
-    """Tornado rules: /console -> /console/, config.json, /console/vendor/<lib> from vendor_dir, the rest
-    from console_dir."""
-    vendor = "|".join(name.replace(".", r"\.") for name in VENDOR_FILES)
+    """Tornado rules: /console -> /console/, config.json, /console/vendor/<name> of VENDOR_FILES from
+    vendor_dir, the rest from console_dir."""
+    vendor = [(r"/console/vendor/(%s)" % re.escape(name), _StaticFiles,
+               {"path": os.path.dirname(os.path.join(vendor_dir, path))})
+              for name, path in sorted(VENDOR_FILES.items())]   # each name is its file's own
     return [
         (r"/console", tornado.web.RedirectHandler, {"url": CONSOLE_PATH}),
         (r"/console/config\.json", _ConsoleConfig, {"config": {"auth_required": bool(auth_required)}}),
-        (r"/console/vendor/(%s)" % vendor, _StaticFiles, {"path": vendor_dir}),
+    ] + vendor + [
         (r"/console/(.*)", _StaticFiles, {"path": console_dir, "default_filename": "index.html"}),
     ]
