@@ -505,8 +505,10 @@ class ConsoleTest(unittest.TestCase):
         self.assertEqual(len(csv), 1 + points)
         self.assertTrue(csv[0].startswith("time_utc,time,target,value,unit,status,alarm,low,high"))
         # hovering the chart shows a value in the legend
-        box = self.page.locator("#trend .u-over").bounding_box()
-        self.page.mouse.move(box["x"] + box["width"] - 3, box["y"] + box["height"] / 2)
+        over = self.page.locator("#trend .u-over")
+        over.scroll_into_view_if_needed()
+        box = over.bounding_box()
+        over.hover(position={"x": box["width"] - 3, "y": box["height"] / 2})   # the newest reading
         self.wait_page("Array.from(document.querySelectorAll('#trend .u-legend .u-value')).some("
                        "(e) => e.textContent.includes('MPa'))", "a value under the cursor")
         self.page.select_option("#trend-range", "7")   # the last week only: the 14 days of history halve

@@ -5,6 +5,7 @@ values with the reader's long reasons, trends, lamps, switches, thermal, foreign
 pictures) must fit a 1280-px window without horizontal scrolling and an A4 page's width when printed,
 show every picture through its relative link, and print to a sane number of A4 pages. The screenshot
 and the PDF go to test_logs/screens/. Skipped only when chromium or Playwright is absent."""
+import glob
 import json
 import math
 import os
@@ -35,9 +36,10 @@ DAY_S = 86400.0
 if not os.access(CHROMIUM, os.X_OK):
     pytest.skip("no %s" % CHROMIUM, allow_module_level=True)
 try:
+    import pypdfium2 as pdfium
     from playwright import sync_api
-except ImportError:   # the Python 3.8 (Noetic) unit-test environment has no Playwright
-    pytest.skip("Playwright is not installed in this Python", allow_module_level=True)
+except ImportError:   # the Python 3.8 (Noetic) unit-test environment has neither
+    pytest.skip("Playwright or pypdfium2 is not installed in this Python", allow_module_level=True)
 
 # per preset id: its targets (name, kind, unit, decimals)
 TARGETS = {
@@ -137,13 +139,20 @@ def patrol_store(root):
             pictures = [os.path.join(root, "pictures", step.preset["preset"].split("/")[-1],
                                      "20261127_08%02d%02d_read_%02d.jpg" % (step.stop, step.preset_index, k))
                         for k in range(len(names))]
-            for path, name in zip(pictures[:1], names):
+            for path, name in zip(pictures, names):   # an annotated copy of the frame per target, as read_scale writes
                 picture(path, name)
-            pictures = pictures[:1] * len(names)   # one annotated picture per preset, as read_scale writes
+            # what read_scale read: the capture (a thermal target: the raw temperature frame), each box in it
+            capture = os.path.join(root, "captures", "%s_20261127_08%02d%02d.jpg" % (
+                step.preset["preset"].split("/")[-1], step.stop, step.preset_index))
+            picture(capture, "capture")
+            sources = [{"picture": capture if t["kind"] != "thermal" else capture[:-4] + "_thermal.tiff",
+                        "roi": [100 + 300 * k, 200, 350 + 300 * k, 200, 350 + 300 * k, 500, 100 + 300 * k, 500]}
+                       for k, t in enumerate(step.preset["targets"])]
             values = [VALUES.get(n, (0.6, 90.0, ""))[0] for n in names]
             foreign = (1, 80.0, pictures[0]) if step.preset.get("foreign") else None
             inspection = Inspection(values, [VALUES.get(n, (0, 90.0, ""))[1] for n in names], pictures,
-                                    (step.x, step.y, step.yaw), foreign, [VALUES.get(n, (0, 0, ""))[2] for n in names])
+                                    (step.x, step.y, step.yaw), foreign, [VALUES.get(n, (0, 0, ""))[2] for n in names],
+                                    sources)
             clock[0] += 12.0
             outcome, detail = "ok", inspection
         elif step.stop == len(YARD_STOPS) - 1:
@@ -209,7 +218,26 @@ def test_the_report_fits_a_1280_px_window_with_every_picture_shown(report, brows
     scroll, client, worst = overflow(page)
     assert scroll <= WINDOW_PX and worst is None, (scroll, client, worst)
     images = page.evaluate("() => Array.from(document.images).map(i => [i.getAttribute('src'), i.naturalWidth])")
-    assert len(images) >= 8 and all(width == 1920 for _src, width in images), images
+    assert all(width == 1920 for _src, width in images), images
+    # one picture per camera view of a preset with every box on it: a visible view per preset (its
+    # capture, boxes numbered in their states' colours), the thermal presets' annotated frames once each
+    views = page.evaluate("""() => Array.from(document.querySelectorAll('.preset')).map(p => [
+        p.querySelectorAll('.pics svg.view').length, p.querySelectorAll('.pics svg.view polygon').length,
+        p.querySelectorAll('.pics img').length, p.querySelectorAll('.values tr').length - 1])""")
+    # [views, boxes, pictures, rows] per preset: cabinet_2 also shows its foreign-object picture, the
+    # unreachable breaker_2 has none
+    assert views == [[1, 2, 0, 2], [1, 1, 0, 1], [1, 4, 0, 4], [1, 3, 0, 3], [1, 1, 1, 2], [1, 1, 0, 1], [1, 1, 0, 1],
+                     [1, 1, 0, 1], [0, 0, 0, 1]], views
+    sizes = page.evaluate("() => Array.from(document.querySelectorAll('svg.view')).map(s => s.getAttribute('viewBox'))")
+    assert set(sizes) == {"0 0 1920 1080"} and len(sizes) == 8, sizes
+    loaded = page.evaluate("""() => Promise.all(Array.from(document.querySelectorAll('svg.view image')).map(i =>
+        new Promise(done => { const probe = new Image(); probe.onload = () => done(probe.naturalWidth);
+                              probe.onerror = () => done(0); probe.src = i.href.baseVal; })))""")
+    assert loaded and all(width == 1920 for width in loaded), loaded
+    # each stop's heading inside its first preset's block (a page break cannot leave it alone), and
+    # target names break only after their separators
+    assert page.locator(".preset > h3").count() == len(YARD_STOPS) and page.locator("article.stop > h3").count() == 0
+    assert page.evaluate("() => document.querySelector('.values td').innerHTML").count("<wbr>") >= 1
     assert page.locator("svg.yard g.stop").count() == len(YARD_STOPS)
     assert page.locator("svg.yard g.stop.alarm").count() == 4 and page.locator("svg.yard g.stop.failed").count() == 1
     text = page.inner_text("body")
@@ -234,4 +262,12 @@ def test_the_report_prints_on_a4_without_cutting_anything(report, browser):
     assert 2 <= pages <= 12, pages   # summary + attention + map + nine presets, not one page per picture
     boxes = re.findall(rb"/MediaBox\s*\[\s*0 0 ([\d.]+) ([\d.]+)\s*\]", pdf)
     assert boxes and all(abs(float(w) - 595.9) < 2 and abs(float(h) - 842.9) < 2 for w, h in boxes), boxes[:3]
+    # every printed page as a picture, to look at (test_logs/screens/report_a4_page_<n>.png)
+    document = pdfium.PdfDocument(pdf)
+    assert len(document) == pages
+    for stale in glob.glob(os.path.join(SCREENS, "report_a4_page_*.png")):   # an earlier, longer report's
+        os.unlink(stale)
+    for n in range(len(document)):
+        bgr = document[n].render(scale=1.0).to_numpy()
+        assert cv2.imwrite(os.path.join(SCREENS, "report_a4_page_%d.png" % (n + 1)), bgr)   # pdfium renders BGR
     page.close()

@@ -4,7 +4,8 @@ import json
 import pytest
 
 from inspection_robot.task.patrol import OUTCOME_OK, STEP_INSPECT, Inspection, Patrol, PatrolConfig
-from inspection_robot.task.report import sparkline, write_reports
+from inspection_robot.task.report import write_reports
+from inspection_robot.task.report_pictures import sparkline
 from inspection_robot.task.spec import ResolvedPreset, Task, parse_task
 from inspection_robot.task.store import ResultStore
 from inspection_robot.task.trend import DAY_S, DEFAULT_TREND, TrendConfig, fit_line, trend_text, trend_warning

@@ -32,6 +32,7 @@ from inspection_robot.files import PUBLIC_FILE_MODE, write_atomic
 from inspection_robot.nav.gridmap import OCC_OCCUPIED, OCC_UNKNOWN
 from inspection_robot.task.alarms import stated_alarm
 from inspection_robot.task.client_view import client_row
+from inspection_robot.task.report_pictures import preset_figures, sparkline
 from inspection_robot.task.states import (ALARM_ALARM, ALARM_CHECK, ALARM_FAILED, ALARM_NONE, ALARM_NORMAL,
                                           ALARM_TREND, ALARM_WARNING, STATUS_FAILED, STATUS_READ, STATUS_UNCERTAIN)
 from inspection_robot.task.store import READING_COLUMNS
@@ -130,7 +131,8 @@ def write_reports(folder, task_row, readings, steps, data_root, software_version
                   history=(history or {}).get(row["target_name"], []))
              for row, shown in zip(readings, shown_rows)]
     yard = yard_svg(grid, path or [], task_row["spec"]["stops"], links)
-    write_atomic(paths["report.html"], render_html(info, links, yard, task_row["spec"]["stops"]),
+    figures = _figures(lambda picture: picture_link(picture, folder, data_root), data_root)
+    write_atomic(paths["report.html"], render_html(info, links, yard, task_row["spec"]["stops"], figures),
                  mode=PUBLIC_FILE_MODE)
     return paths
 
@@ -148,28 +150,6 @@ def picture_link(picture, folder, data_root):
 def preset_label(directory):
     """``<preset_id>/<stamp>`` of a preset directory."""
     return "/".join(directory.rstrip("/").split("/")[-2:])
-
-
-SPARK_W, SPARK_H = 90, 24
-
-
-def sparkline(points, band=None):
-    """A small inline SVG of a meter's recent values (oldest first), its band's limits dashed; ""
-    for fewer than two points."""
-    if len(points) < 2:
-        return ""
-    values = [v for _t, v in points] + [b for b in (band or ()) if b is not None]
-    lo, hi = min(values), max(values)
-    span = (hi - lo) or 1.0
-    t0, t1 = points[0][0], points[-1][0]
-
-    def xy(t, v):
-        return (2 + (t - t0) / ((t1 - t0) or 1.0) * (SPARK_W - 4), SPARK_H - 2 - (v - lo) / span * (SPARK_H - 4))
-    lines = "".join('<line x1="0" y1="%.1f" x2="%d" y2="%.1f" stroke="#c62828" stroke-dasharray="2,2"/>'
-                    % (xy(t0, b)[1], SPARK_W, xy(t0, b)[1]) for b in (band or ()) if b is not None)
-    path = " ".join("%.1f,%.1f" % xy(t, v) for t, v in points)
-    return ('<svg class="trend" width="%d" height="%d" viewBox="0 0 %d %d">%s<polyline fill="none" stroke="#1565c0" '
-            'points="%s"/></svg>' % (SPARK_W, SPARK_H, SPARK_W, SPARK_H, lines, path))
 
 
 # --- the yard map -----------------------------------------------------------------------------
@@ -267,7 +247,7 @@ def yard_svg(grid, path, stops, readings):
 # --- the page -----------------------------------------------------------------------------------
 CSS = """
 *{box-sizing:border-box}
-body{font-family:sans-serif;font-size:14px;margin:0 auto;padding:8px 16px;max-width:1240px;overflow-wrap:anywhere;
+body{font-family:sans-serif;font-size:14px;margin:0 auto;padding:8px 16px;max-width:1240px;overflow-wrap:break-word;
      color:#212121}
 h1{font-size:22px;margin:4px 0} h2{font-size:18px;margin:18px 0 6px;border-bottom:2px solid #ccc}
 h3{font-size:15px;margin:10px 0 4px} p{margin:4px 0}
@@ -287,7 +267,9 @@ svg.yard{flex:1 1 480px;max-width:100%;max-height:520px}
 ul.legend{list-style:none;padding:0;margin:0;flex:0 0 auto} ul.legend li{margin:2px 0}
 .dot{display:inline-block;width:12px;height:12px;border-radius:6px;margin-right:6px;vertical-align:middle}
 .preset{display:flex;flex-wrap:wrap;gap:10px;border:1px solid #ddd;padding:6px;margin:6px 0}
-.pics{flex:1 1 300px;max-width:45%;min-width:0} .pics img{width:100%;height:auto;display:block;margin-bottom:4px}
+.preset>h3{flex:1 0 100%;margin:0}
+.pics{flex:1 1 260px;max-width:38%;min-width:0}
+.pics img,.pics svg.view{width:100%;height:auto;display:block;margin-bottom:4px}
 .values{flex:1 1 360px;min-width:0}
 svg.trend{display:block;max-width:100%}
 @page{size:A4;margin:12mm}
@@ -404,9 +386,9 @@ def _attention_part(rows):
                  html.escape(r["link"]), html.escape(r["target_name"])) if r.get("link") else "")
         body.append('<tr class="%s"><td>%s</td><td>%d %s</td><td>%s<div class="why">%s</div></td><td class="value">%s'
                     '</td><td>%s</td><td>%s</td><td>%s</td></tr>'
-                    % (html.escape(state), _badge(state), r["stop"] + 1, html.escape(r["stop_name"]),
-                       html.escape(r["target_name"]), html.escape(r["kind"]), _value_cell(r), html.escape(_band(r)),
-                       html.escape(r["reason"]) + _acknowledged(r), thumb))
+                    % (html.escape(state), _badge(state), r["stop"] + 1, _breakable(r["stop_name"]),
+                       _breakable(r["target_name"]), html.escape(r["kind"]), _value_cell(r), html.escape(_band(r)),
+                       _breakable(r["reason"]) + _acknowledged(r), thumb))
     hint = ("<p>Most urgent first. Uncertain values are confirmed or corrected with task_control "
             "<code>review</code> or the console's review queue.</p>")
     return ('<section class="attention"><h2>Needs attention (%d)</h2>%s<table><colgroup><col style="width:9%%">'
@@ -437,32 +419,33 @@ def _map_part(yard):
             '</section>' % (yard, legend))
 
 
-def _preset_part(rows):
+def _breakable(name):
+    """A target name escaped, with line-break chances after its separators only (never mid-word)."""
+    return html.escape(name).replace("/", "/<wbr>").replace("_", "_<wbr>")
+
+
+def _preset_part(rows, heading, figures):
+    """One preset: ``heading`` (the stop's, for its first preset: kept on the page with it), its
+    pictures (``figures(rows)``, task.report_pictures) beside its readings' table."""
     first = rows[0]
-    pictures = []
-    for r in rows:
-        if r.get("link") and r["link"] not in pictures:
-            pictures.append(r["link"])
-    pics = "".join('<a href="%s"><img src="%s" alt="%s"></a>' % (html.escape(p), html.escape(p),
-                                                                 html.escape(preset_label(first["preset"])))
-                   for p in pictures) or '<p class="why">no picture</p>'
     body = []
-    for r in rows:
+    for number, r in enumerate(rows, 1):
         state = reading_state(r)
         trend = sparkline(r.get("history") or [], (r["low"], r["high"]) if r["low"] is not None else None)
-        body.append('<tr class="%s"><td>%s<div class="why">%s%s</div></td><td class="value">%s</td><td>%s</td>'
+        body.append('<tr class="%s"><td>%d %s<div class="why">%s%s</div></td><td class="value">%s%s</td>'
                     '<td>%s</td><td>%s<div class="why">%s</div></td></tr>'
-                    % (html.escape(state), html.escape(r["target_name"]), html.escape(r["kind"]),
+                    % (html.escape(state), number, _breakable(r["target_name"]), html.escape(r["kind"]),
                        "" if r["confidence"] is None else ", confidence %.0f" % r["confidence"], _value_cell(r), trend,
-                       html.escape(_band(r)), _badge(state), html.escape(r["reason"])))
-    return ('<div class="preset"><div class="pics">%s</div><div class="values"><p class="why">preset %s, %s</p>'
-            '<table><colgroup><col style="width:24%%"><col style="width:20%%"><col style="width:22%%">'
-            '<col style="width:14%%"><col style="width:20%%"></colgroup><tr><th>target</th><th>value</th><th>trend</th>'
-            '<th>band</th><th>state</th></tr>%s</table></div></div>'
-            % (pics, html.escape(preset_label(first["preset"])), html.escape(_when(first["time"])), "".join(body)))
+                       html.escape(_band(r)), _badge(state), _breakable(r["reason"])))
+    return ('<div class="preset">%s<div class="pics">%s</div><div class="values"><p class="why">preset %s, %s</p>'
+            '<table><colgroup><col style="width:33%%"><col style="width:23%%"><col style="width:18%%">'
+            '<col style="width:26%%"></colgroup><tr><th>target</th><th>value, trend</th>'
+            '<th>limits</th><th>state</th></tr>%s</table></div></div>'
+            % (heading, figures(rows), html.escape(preset_label(first["preset"])), html.escape(_when(first["time"])),
+               "".join(body)))
 
 
-def _stops_part(rows, stops):
+def _stops_part(rows, stops, figures):
     by_stop = {}
     for r in rows:
         by_stop.setdefault(r["stop"], {}).setdefault(r["preset_index"], []).append(r)
@@ -471,17 +454,23 @@ def _stops_part(rows, stops):
         presets = by_stop.get(i, {})
         name = stops[i]["name"] if i < len(stops) else next(iter(presets.values()))[0]["stop_name"]
         state = worst_state([r for p in presets.values() for r in p])
-        parts.append('<article class="stop" id="stop-%d"><h3>%d %s %s</h3>%s</article>'
-                     % (i + 1, i + 1, html.escape(name), _badge(state),
-                        "".join(_preset_part(sorted(presets[j], key=lambda r: r["target"])) for j in sorted(presets))
-                        or '<p class="why">no readings</p>'))
+        heading = '<h3>%d %s %s</h3>' % (i + 1, _breakable(name), _badge(state))
+        parts.append('<article class="stop" id="stop-%d">%s</article>'
+                     % (i + 1, "".join(_preset_part(sorted(presets[j], key=lambda r: r["target"]),
+                                                    heading if k == 0 else "", figures)
+                                       for k, j in enumerate(sorted(presets)))
+                        or heading + '<p class="why">no readings</p>'))
     return '<section class="stops"><h2>Stops</h2>%s</section>' % "".join(parts)
 
 
-def render_html(info, readings, yard="", stops=()):
+def render_html(info, readings, yard="", stops=(), figures=None):
     """The report page of a task: ``info`` its summary, ``readings`` client rows with ``link`` (the
     picture's href) and ``history``, ``yard`` the map's SVG (yard_svg; "" for none), ``stops`` the
-    task's stops (a stop without readings is listed as such)."""
+    task's stops (a stop without readings is listed as such), ``figures(rows)`` a preset's pictures
+    (None: each annotated picture once, by its ``link``)."""
+    if figures is None:
+        links = dict((r["picture"], r["link"]) for r in readings if r.get("link"))
+        figures = _figures(links.get, "")
     return ('<!DOCTYPE html>\n<html lang="en"><head><meta charset="utf-8">'
             '<meta name="viewport" content="width=device-width, initial-scale=1">'
             '<title>Patrol report %(id)s</title><style>%(css)s</style></head><body>\n'
@@ -490,4 +479,10 @@ def render_html(info, readings, yard="", stops=()):
             % {"id": html.escape(info["task_id"]), "css": CSS,
                "version": html.escape(str(info.get("software_version"))),
                "summary": _summary_part(info, readings), "attention": _attention_part(readings),
-               "map": _map_part(yard), "stops": _stops_part(readings, stops)})
+               "map": _map_part(yard), "stops": _stops_part(readings, stops, figures)})
+
+
+def _figures(link_of, data_root):
+    """A preset's pictures with its boxes in their states' colours (task.report_pictures)."""
+    return lambda rows: preset_figures(rows, lambda p: link_of(p) or "", lambda r: STATE_COLOURS[reading_state(r)],
+                                       data_root)
