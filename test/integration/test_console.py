@@ -479,7 +479,8 @@ class ConsoleTest(unittest.TestCase):
         self.page.click("#alarm-list tr[data-id='%d'] .alarm-ack" % row["id"])
         self.wait_page("!window.consoleAlarms.ids().includes(%d)" % row["id"], "the alarm acknowledged")
         acknowledged = self.task_control("query_results", {"task_id": task_id})[0]
-        self.assertEqual((acknowledged["ack_by"], acknowledged["ack_note"]), ("console_operator", "gauge checked on site"))
+        self.assertEqual((acknowledged["ack_by"], acknowledged["ack_note"]),
+                         ("console_operator", "gauge checked on site"))
         self.wait_page("document.querySelector('#results tbody').textContent.includes('console_gauge')",
                        "the reading in the history")
         if row["picture"]:

@@ -49,7 +49,7 @@ def test_page_vendor_library_and_config_served_and_websocket_still_answers(site)
     assert get(base + "/console/vendor/uPlot.esm.js")[2] == b"/* uplot/dist/uPlot.esm.js */"
     assert get(base + "/console/vendor/uPlot.esm.js")[1]["Content-Type"].startswith("text/javascript")
     assert get(base + "/console/vendor/uPlot.min.css")[1]["Content-Type"].startswith("text/css")
-    assert json.loads(get(base + "/console/config.json")[2]) == {"auth_required": True}
+    assert json.loads(get(base + "/console/config.json")[2]) == {"auth_required": True, "language": "zh-CN"}
     for module in ("main.js", "link.js", "decode.js"):   # a module script runs only with a JavaScript MIME type
         headers = get(base + "/console/" + module)[1]
         assert headers["Content-Type"].startswith("text/javascript") and headers["X-Content-Type-Options"] == "nosniff"

@@ -13,7 +13,7 @@ FENCE = re.compile(r"^\s*(```|~~~)")
 INLINE_CODE = re.compile(r"(`+)(?:(?!\1).)+?\1")
 README_TASKS = {
     "run a patrol": "docs/operator.md#running-a-patrol",
-    "set an alarm limit": "docs/operator.md#alarm-limits-normal-bands",
+    "set an alarm limit": "docs/operator.md#alarm-limits-normal-and-alarm-bands",
     "write a backend": "docs/interface.md#clients-and-examples",
     "wire a real base": "docs/deployment.md#wiring-a-base-with-a-ros-driver-driver-ros",
 }

@@ -241,7 +241,7 @@ def test_the_report_fits_a_1280_px_window_with_every_picture_shown(report, brows
     assert page.locator("svg.yard g.stop").count() == len(YARD_STOPS)
     assert page.locator("svg.yard g.stop.alarm").count() == 4 and page.locator("svg.yard g.stop.failed").count() == 1
     text = page.inner_text("body")
-    assert "0.80 MPa" in text and "0.80273" not in text and "93 C" in text and "lit green" in text
+    assert "0.80 MPa" in text and "0.80273" not in text and "93 °C" in text and "lit green" in text
     assert "serious thermal defects" in text and "serious defect (connector): dt 84 % >= 80 %" in text
     assert text.index("Summary") < text.index("Needs attention (8)") < text.index("Yard map") < text.index("Stops")
     page.close()

@@ -211,7 +211,7 @@ def test_report_lists_readings_needing_review_first_with_reason_and_picture(env,
     run_step(patrol, clock, value=1.0)                         # p_lamp read
     readings = store.readings(task_id="t1")
     links = [dict(client_row(r, "/"), link=picture_link(r["picture"], str(tmp_path / "rep"), "/")) for r in readings]
-    page = render_html(summary(store.task("t1"), readings, []), links)
+    page = render_html(summary(store.task("t1"), readings, []), links).replace("<wbr>", "")   # break chances
     review_at = page.index("<h2>Needs attention (1)</h2>")
     assert review_at < page.index("<h2>Stops</h2>")
     assert review_at < page.index(REASON) < page.index("<h2>Stops</h2>")

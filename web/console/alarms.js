@@ -2,6 +2,7 @@
    (task_control alarms), newest first, each acknowledged by a named operator with an optional note
    (task_control acknowledge). task_status ``open_alarms`` drives the header's banner; a count that
    grows sounds a short tone (Web Audio: nothing to download) and lists the alarms again. */
+import { t, timeText } from './i18n.js';
 import { alarmWords, readingText } from './decode.js';
 import { control } from './link.js';
 import * as store from './state.js';
@@ -32,7 +33,7 @@ function chime() {
     });
     window.consoleAlarms.chimes += 1;
   } catch (err) {
-    alarmMessage('no sound: ' + err.message, false);
+    alarmMessage(t('no sound') + ': ' + err.message, false);
   }
 }
 
@@ -44,7 +45,7 @@ function onTaskStatus(status) {
   window.consoleAlarms.count = count;
   const banner = $('alarm-banner');
   banner.hidden = count === 0;
-  banner.textContent = count + ' open alarm' + (count === 1 ? '' : 's');
+  banner.textContent = t(count === 1 ? '{n} open alarm' : '{n} open alarms', { n: count });
   $('alarm-count').textContent = count ? '(' + count + ')' : '';
   if (grew) chime();
   queryAlarms();
@@ -52,7 +53,7 @@ function onTaskStatus(status) {
 
 const queryAlarms = coalesced(() => control('task_control', 'alarms', { limit: ALARM_LIMIT }, true)
   .then((text) => renderAlarms(JSON.parse(text)))
-  .catch((err) => alarmMessage('alarm list refused: ' + err.message, true)));
+  .catch((err) => alarmMessage(t('alarm list refused') + ': ' + err.message, true)));
 
 /** One row per open alarm: what, where, when, the value and its reason; acknowledge. */
 function renderAlarms(rows) {
@@ -62,27 +63,27 @@ function renderAlarms(rows) {
     const tr = fresh.insertRow();
     tr.className = r.alarm;
     tr.dataset.id = r.id;
-    tr.insertCell().textContent = alarmWords(r.alarm) + (r.grade ? ' (' + r.grade + ' defect)' : '');
+    tr.insertCell().textContent = alarmWords(r.alarm) + (r.grade ? ' (' + t('{grade} defect', { grade: t(r.grade) }) + ')' : '');
     tr.insertCell().textContent = r.target_name || r.kind + ' ' + r.target;
     tr.insertCell().textContent = readingText(r) + (r.reason && r.status !== 'uncertain' ? ' · ' + r.reason : '');
-    tr.insertCell().textContent = r.task_id + ' · ' + (r.stop_name || 'stop ' + (r.stop + 1));
-    tr.insertCell().textContent = new Date(r.time * 1000).toLocaleString();
+    tr.insertCell().textContent = r.task_id + ' · ' + (r.stop_name || t('stop {i}', { i: r.stop + 1 }));
+    tr.insertCell().textContent = timeText(r.time);
     const cell = tr.insertCell();
     const button = document.createElement('button');
     button.type = 'button';
     button.className = 'alarm-ack';
-    button.textContent = 'acknowledge';
+    button.textContent = t('acknowledge');
     button.addEventListener('click', () => acknowledge(r, button));
     cell.appendChild(button);
   }
-  if (!rows.length) fresh.insertRow().insertCell().textContent = 'No open alarm.';
+  if (!rows.length) fresh.insertRow().insertCell().textContent = t('No open alarm.');
   body.parentNode.replaceChild(fresh, body);
 }
 
 function acknowledge(row, button) {
   const by = $('alarm-by').value.trim();
   if (!by) {
-    alarmMessage('type your name in "operator" first', true);
+    alarmMessage(t('type your name in "operator" first'), true);
     $('alarm-by').focus();
     return;
   }
@@ -91,13 +92,13 @@ function acknowledge(row, button) {
   control('task_control', 'acknowledge', note ? { id: row.id, by, note } : { id: row.id, by })
     .then((text) => {
       const done = JSON.parse(text);
-      alarmMessage('alarm of ' + done.target_name + ' acknowledged by ' + done.ack_by);
+      alarmMessage(t('alarm of {target} acknowledged by {name}', { target: done.target_name, name: done.ack_by }));
       $('alarm-note').value = '';
       queryAlarms();
       store.emit('readings-changed', row.task_id);
     })
     .catch((err) => {
-      alarmMessage('acknowledge refused: ' + err.message, true);
+      alarmMessage(t('acknowledge refused') + ': ' + err.message, true);
       button.disabled = false;
     });
 }

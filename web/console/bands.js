@@ -3,6 +3,7 @@
    them: four number fields for a value, the expected state for a lamp or a switch. No DOM: the limits
    panel (limits.js) draws, this checks, and node tests it. The robot checks again (one schema,
    inspection/calibration_schema.py); these checks only answer before a round trip. */
+import { t } from './i18n.js';
 
 // read_scale's state codes (docs/interface.md, read_scale_ack ``scale``): lamps 0 off, 1.. their colour
 export const LAMP_COLOURS = ['red', 'green', 'yellow', 'blue', 'white'];
@@ -15,9 +16,9 @@ export function statesKind(kind) {
 
 /** The expected states a target may be given: [[words, code]]. */
 export function stateChoices(target) {
-  if (target.kind === 'switch') return SWITCH_STATES;
+  if (target.kind === 'switch') return SWITCH_STATES.map(([words, code]) => [t(words), code]);
   const code = LAMP_COLOURS.indexOf(target.colour) + 1;
-  return [['off', 0]].concat(code > 0 ? [['on (' + target.colour + ')', code]] : []);
+  return [[t('off'), 0]].concat(code > 0 ? [[t('on ({colour})', { colour: t(target.colour) }), code]] : []);
 }
 
 /** The editor's fields of a calibrated target: {low, high, alarmLow, alarmHigh} as text ('' when
@@ -32,16 +33,20 @@ export function limitFields(target) {
 
 function number(text, what) {
   const value = Number(text);
-  if (text.trim() === '' || !Number.isFinite(value)) throw new Error(what + ' must be a number, got "' + text + '"');
+  if (text.trim() === '' || !Number.isFinite(value)) {
+    throw new Error(t('{what} must be a number, got "{text}"', { what: t(what), text }));
+  }
   return value;
 }
 
 function band(lowText, highText, what) {
   if (lowText.trim() === '' && highText.trim() === '') return null;
-  if (lowText.trim() === '' || highText.trim() === '') throw new Error(what + ' needs both its low and its high');
+  if (lowText.trim() === '' || highText.trim() === '') {
+    throw new Error(t('{what} needs both its low and its high', { what: t(what) }));
+  }
   const low = number(lowText, what + ' low');
   const high = number(highText, what + ' high');
-  if (low > high) throw new Error(what + ': low ' + low + ' is above high ' + high);
+  if (low > high) throw new Error(t('{what}: low {low} is above high {high}', { what: t(what), low, high }));
   return [low, high];
 }
 
@@ -56,9 +61,10 @@ export function limitKeys(target, fields) {
   }
   const normal = band(fields.low, fields.high, 'normal band');
   const alarm = band(fields.alarmLow, fields.alarmHigh, 'alarm band');
-  if (alarm && !normal) throw new Error('an alarm band needs a normal band inside it');
+  if (alarm && !normal) throw new Error(t('an alarm band needs a normal band inside it'));
   if (alarm && (alarm[0] > normal[0] || alarm[1] < normal[1])) {
-    throw new Error('alarm band [' + alarm.join(', ') + '] must contain the normal band [' + normal.join(', ') + ']');
+    throw new Error(t('alarm band [{alarm}] must contain the normal band [{normal}]',
+      { alarm: alarm.join(', '), normal: normal.join(', ') }));
   }
   return { normal, alarm_band: alarm };
 }

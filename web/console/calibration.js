@@ -1,6 +1,7 @@
 /* Presets and the calibration editor: recording a preset here (preset_scale_cmd), loading a preset's
    zoom0.jpg, drawing the meter box and the needle's zero and full-scale points on it, and applying the
    calibration through calibration_control (the robot checks it by reading the picture itself). */
+import { t } from './i18n.js';
 import { boxQuad, needleAngle, selfCheckText } from './decode.js';
 import { fetchPicture, listFolder, loadImage } from './files.js';
 import { control, publish, subscribe } from './link.js';
@@ -18,7 +19,7 @@ function calibMessage(text, failed) {
 
 function onPresetAck(msg) {
   const ok = msg.result === 'success';
-  $('preset-result').textContent = ok ? 'recorded: ' + msg.directory : 'failed: ' + msg.directory;
+  $('preset-result').textContent = t(ok ? 'recorded' : 'failed') + ': ' + msg.directory;
   $('preset-result').className = ok ? '' : 'error';
   log('preset_scale_ack #' + msg.trans_id + ' ' + msg.result + ': ' + msg.directory, !ok);
   if (ok) loadCalibration(msg.directory);   // the calibration editor opens the new recording
@@ -28,7 +29,7 @@ function loadCalibration(preset) {
   calib.preset = '';
   calib.image = null;
   calib.box = calib.zero = calib.full = null;
-  calibMessage('loading ' + preset + '…');
+  calibMessage(t('loading {preset}…', { preset }));
   store.set('preset', null);
   return control('calibration_control', 'get', { preset }).then((text) => {
     const answer = JSON.parse(text);
@@ -41,12 +42,12 @@ function loadCalibration(preset) {
       const canvas = $('calib-picture');
       canvas.width = image.width;
       canvas.height = image.height;
-      calibMessage(answer.preset + ': ' + (answer.calibrated ? answer.targets.length + ' target(s) calibrated'
-        : 'not calibrated') + ', draft of ' + answer.draft.length + ' target(s)');
+      calibMessage(answer.preset + ': ' + (answer.calibrated ? t('{n} target(s) calibrated', { n: answer.targets.length })
+        : t('not calibrated')) + ', ' + t('draft of {n} target(s)', { n: answer.draft.length }));
       drawCalib();
     });
   }).catch((err) => {
-    calibMessage('cannot load ' + preset + ': ' + err.message, true);
+    calibMessage(t('cannot load {preset}', { preset }) + ': ' + err.message, true);
     drawCalib();   // no stale picture under a failed load
   });
 }
@@ -84,9 +85,9 @@ function renderCalib() {
       ctx.moveTo(c[0], c[1]);
       ctx.lineTo(p[0], p[1]);
       ctx.stroke();
-      parts.push(name + ' ' + needleAngle(calib.box, p).toFixed(1) + '°');
+      parts.push(t(name) + ' ' + needleAngle(calib.box, p).toFixed(1) + '°');
     }
-    parts.unshift('box ' + Math.round(x1 - x0) + '×' + Math.round(y1 - y0) + ' px');
+    parts.unshift(t('box') + ' ' + Math.round(x1 - x0) + '×' + Math.round(y1 - y0) + ' px');
   }
   $('calib-geometry').textContent = parts.join(', ');
 }
@@ -111,7 +112,7 @@ function chooseRecorded() {
   // The newest recording of that preset id (recordings are named YYYYMMDD_HHMMSS).
   listFolder(folder).then((answer) => {
     const dirs = answer.entries.filter((e) => e.type === 'dir');
-    if (!dirs.length) throw new Error('no recording in ' + folder);
+    if (!dirs.length) throw new Error(t('no recording in {folder}', { folder }));
     return loadCalibration(folder + '/' + dirs[dirs.length - 1].name);
   }).catch((err) => calibMessage(err.message, true));
 }
@@ -119,11 +120,11 @@ function chooseRecorded() {
 function applyCalibration(event) {
   event.preventDefault();
   if (!calib.preset) {
-    calibMessage('load a preset first', true);
+    calibMessage(t('load a preset first'), true);
     return;
   }
   if (!calib.box || calib.box[2] - calib.box[0] < 4 || calib.box[3] - calib.box[1] < 4) {
-    calibMessage('draw the meter box on the picture first', true);
+    calibMessage(t('draw the meter box on the picture first'), true);
     return;
   }
   const kind = $('calib-kind').value;
@@ -133,7 +134,7 @@ function applyCalibration(event) {
   const steps = [['mark_box', { box: boxQuad(calib.box) }], ['set_meter_type', { kind }]];
   if (kind === 'pointer') {
     if (!calib.zero || !calib.full) {
-      calibMessage('click the needle\'s zero and full-scale points first', true);
+      calibMessage(t('click the needle\'s zero and full-scale points first'), true);
       return;
     }
     const angle = (p) => Math.round(needleAngle(calib.box, p) * 10) / 10;
@@ -146,13 +147,13 @@ function applyCalibration(event) {
   if ($('calib-unit').value && (kind === 'pointer' || kind === 'digital')) values.unit = $('calib-unit').value;
   if (kind === 'digital') {   // the robot learns the display from what it shows now
     if (!$('calib-expected').value.trim()) {
-      calibMessage('type what the display shows now in "value shown now"', true);
+      calibMessage(t('type what the display shows now in "value shown now"'), true);
       return;
     }
     values.shown = $('calib-expected').value;
   }
   if (Object.keys(values).length) steps.push(['set_values', { values }]);
-  calibMessage('applying…');
+  calibMessage(t('applying…'));
   // One edit after the other, then apply: the first refusal stops the chain with the robot's text.
   steps.reduce((chain, [cmd, fields]) => chain.then(() => control('calibration_control', cmd,
     Object.assign({ preset, target }, fields))), Promise.resolve())
@@ -161,7 +162,7 @@ function applyCalibration(event) {
       const apply = { preset };
       const shown = $('calib-expected').value;
       if (shown !== '' && kind === 'pointer') {
-        if (!Number.isFinite(Number(shown))) throw new Error('value shown now must be a number for a pointer');
+        if (!Number.isFinite(Number(shown))) throw new Error(t('value shown now must be a number for a pointer'));
         apply.expected = JSON.parse(lastEdit).draft.map((_t, i) => (i === target ? Number(shown) : null));
       }
       if ($('calib-force').checked) apply.force = true;
@@ -170,7 +171,7 @@ function applyCalibration(event) {
     .then((text) => {
       const answer = JSON.parse(text);
       const checks = (answer.self_check || []).filter((c) => c.target === target).map(selfCheckText);
-      calibMessage('applied: ' + answer.targets + ' target(s) (' + answer.kinds.join(', ') + ')' +
+      calibMessage(t('applied') + ': ' + t('{n} target(s)', { n: answer.targets }) + ' (' + answer.kinds.map((k) => t(k)).join(', ') + ')' +
         (checks.length ? '; ' + checks.join('; ') : ''));
       return control('calibration_control', 'get', { preset }).then((got) => {
         calib.targets = JSON.parse(got).targets;
@@ -178,7 +179,7 @@ function applyCalibration(event) {
         drawCalib();
       });
     })
-    .catch((err) => calibMessage('refused: ' + err.message, true));
+    .catch((err) => calibMessage(t('refused') + ': ' + err.message, true));
 }
 
 export function init() {
@@ -189,7 +190,7 @@ export function init() {
     event.preventDefault();
     publish('preset_scale_cmd', 'inspection_robot/PresetScaleCmd',
       { preset_id: $('preset-id').value, infrared: $('preset-infrared').checked, type: '', extra_data: '' });
-    $('preset-result').textContent = 'recording…';
+    $('preset-result').textContent = t('recording…');
   });
   $('calib-tool-box').addEventListener('click', () => setCalibTool('box'));
   $('calib-tool-zero').addEventListener('click', () => setCalibTool('zero'));

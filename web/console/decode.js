@@ -1,6 +1,7 @@
 /* robot_status decoded into words: the spec's bit tables (docs/interface.md, "Heartbeat and status",
    "Motion and safety"), and the calibration editor's and the history's arithmetic, kept apart from the
-   page so node's test runner checks them without a browser. */
+   page so node's test runner checks them without a browser. Words go through the catalogue (i18n.js). */
+import { t, unitText } from './i18n.js';
 
 export const MODES = ['task', 'backend remote control', 'joystick'];
 
@@ -23,6 +24,12 @@ export const BITS = {
   nav_status: [[0, 'off-track', true], [1, 'localization lost', true], [2, '3D obstacle', true]],
   sensor_status: [[0, 'visible camera alarm', true], [1, 'thermal imager alarm', true]],
 };
+
+// robot_status fields in the operator's words
+const FIELD_WORDS = { mode: 'mode', 'backend link': 'backend link', pose: 'pose', speed: 'speed', battery: 'battery',
+  battery_status: 'battery state', wheel_status: 'wheels', light_status: 'lights and e-stops',
+  stop_status: 'stop sensors', circuit_status: 'circuits', nav_status: 'navigation', sensor_status: 'sensors',
+  motors: 'motors', temperatures: 'temperatures' };
 
 const MOTORS = ['LF servo', 'RF servo', 'RR servo', 'LR servo', 'LF stepper', 'RF stepper', 'RR stepper',
   'LR stepper'];
@@ -72,27 +79,29 @@ function motorFaults(motorStatus) {
   const faults = [];
   byteArray(motorStatus).forEach((value, i) => {
     const servo = i < 4;
-    if (value & 1) faults.push(MOTORS[i] + (servo ? ' disconnected' : ' error'));
-    if (servo && (value >> 4) & 1) faults.push(MOTORS[i] + ' fault');
+    if (value & 1) faults.push(t(servo ? '{motor} disconnected' : '{motor} error', { motor: t(MOTORS[i]) }));
+    if (servo && (value >> 4) & 1) faults.push(t('{motor} fault', { motor: t(MOTORS[i]) }));
   });
   return faults;
 }
 
-/** Everything the status panel shows, in words: {mode, offline, rows: [{name, text, alarm}], alarms}. */
+/** Everything the status panel shows, in words: {mode, offline, rows: [{name (the field), label (its
+    words), text, alarm}], alarms}. */
 export function decodeStatus(msg) {
   const rows = [];
   const alarms = [];
   const add = (name, text, alarm) => {
-    rows.push({ name, text, alarm: !!alarm });
-    if (alarm) alarms.push(name + ': ' + text);
+    const label = t(FIELD_WORDS[name] || name);
+    rows.push({ name, label, text, alarm: !!alarm });
+    if (alarm) alarms.push(label + ': ' + text);
   };
-  add('mode', MODES[msg.mode] !== undefined ? MODES[msg.mode] : 'unknown (' + msg.mode + ')', false);
-  add('backend link', msg.offline_warn ? 'OFFLINE (no server heartbeat)' : 'online', msg.offline_warn);
+  add('mode', MODES[msg.mode] !== undefined ? t(MODES[msg.mode]) : t('unknown ({mode})', { mode: msg.mode }), false);
+  add('backend link', msg.offline_warn ? t('OFFLINE (no server heartbeat)') : t('online'), msg.offline_warn);
   const pos = msg.position || [];
   add('pose', pos.length >= 2
-    ? 'x ' + pos[0].toFixed(2) + ' m, y ' + pos[1].toFixed(2) + ' m, yaw '
+    ? 'x ' + pos[0].toFixed(2) + ' m, y ' + pos[1].toFixed(2) + ' m, ' + t('yaw') + ' '
       + (msg.orientation * 180 / Math.PI).toFixed(1) + '°'
-    : 'unknown', false);
+    : t('unknown'), false);
   add('speed', (msg.velocity_x).toFixed(2) + ' m/s, ' + (msg.velocity_yaw).toFixed(2) + ' rad/s', false);
   add('battery', msg.battery_quantity + ' %, ' + (msg.battery_voltage / 10).toFixed(1) + ' V, '
     + (msg.battery_current / 10).toFixed(1) + ' A', msg.battery_quantity <= 10);
@@ -100,15 +109,15 @@ export function decodeStatus(msg) {
     'nav_status', 'sensor_status']) {
     const set = bits(field, msg[field] || 0);
     if (!set.length) {
-      add(field, 'none', false);
+      add(field, t('none'), false);
     }
-    for (const bit of set) add(field, bit.words, bit.alarm);
+    for (const bit of set) add(field, t(bit.words), bit.alarm);
   }
   const motors = motorFaults(msg.motor_status);
-  add('motors', motors.length ? motors.join(', ') : 'ok', motors.length > 0);
-  const temps = (msg.temperature || []).map((t, i) => (t === -1000 ? null : TEMPERATURES[i] + ' '
-    + (t / 10).toFixed(1) + ' °C')).filter((t) => t);
-  add('temperatures', temps.length ? temps.join(', ') : 'not sampled', false);
+  add('motors', motors.length ? motors.join(', ') : t('ok'), motors.length > 0);
+  const temps = (msg.temperature || []).map((tenths, i) => (tenths === -1000 ? null : t(TEMPERATURES[i]) + ' '
+    + (tenths / 10).toFixed(1) + ' °C')).filter((text) => text);
+  add('temperatures', temps.length ? temps.join(', ') : t('not sampled'), false);
   return { mode: msg.mode, offline: !!msg.offline_warn, rows, alarms };
 }
 
@@ -135,11 +144,12 @@ export function statusTask(status) {
 // task_manager's alarm states, most urgent first (src/inspection_robot/task/states.py ALARM_ORDER)
 const ALARM_ORDER = { alarm: 0, check: 1, warning: 2, failed: 3, trend: 4, normal: 5, none: 6 };
 // an alarm state in the operator's words where its code does not say it
-const ALARM_WORDS = { none: 'no limits', check: 'check (uncertain, outside its band)' };
+const ALARM_WORDS = { none: 'no limits', check: 'check (uncertain, outside its band)', alarm: 'alarm',
+  warning: 'warning', failed: 'failed', trend: 'trend', normal: 'normal' };
 
 /** An alarm state in words: "none" is "no limits" (a reading without limits is never "normal"). */
 export function alarmWords(state) {
-  return ALARM_WORDS[state] || state;
+  return t(ALARM_WORDS[state] || state);
 }
 /** A reading's alarm as the report states it: the reviewed value's once an operator reviewed it. */
 export function readingAlarm(row) {
@@ -156,33 +166,45 @@ export function sortReadings(rows) {
 /** A reading's limits in words: "[0, 1]", with its alarm band "[0, 1] (alarm outside [-1, 2])", or
     "no limits". */
 export function limitsText(row) {
-  if (row.low === null || row.low === undefined) return 'no limits';
+  if (row.low === null || row.low === undefined) return t('no limits');
   const alarm = row.alarm_low !== null && row.alarm_low !== undefined
-    ? ' (alarm outside [' + row.alarm_low + ', ' + row.alarm_high + '])' : '';
+    ? ' ' + t('(alarm outside [{low}, {high}])', { low: row.alarm_low, high: row.alarm_high }) : '';
   return '[' + row.low + ', ' + row.high + ']' + alarm;
 }
 
 /** A reading's value in words: "0.788 MPa [0, 1]", "failed: <reason>", an uncertain one
     "0.97 MPa [0.2, 0.8] uncertain: <reason>" and a reviewed one "... reviewed by li: 0.62 MPa". */
 export function readingText(row) {
-  if (row.status === 'failed' || row.value === null) return 'failed: ' + row.reason;
+  if (row.status === 'failed' || row.value === null) return t('failed') + ': ' + row.reason;
   const band = ' ' + limitsText(row);
   // the robot's text (rounded to the meter's resolution, with unit) when the row carries it
-  const number = (value) => Number(value.toPrecision(4)) + (row.unit ? ' ' + row.unit : '');
-  let text = (row.display || number(row.value)) + band;
-  if (row.status === 'uncertain') text += ' uncertain: ' + row.reason;
+  const number = (value) => Number(value.toPrecision(4)) + (row.unit ? ' ' + unitText(row.unit) : '');
+  let text = (row.display ? displayText(row.display, row) : number(row.value)) + band;
+  if (row.status === 'uncertain') text += ' ' + t('uncertain') + ': ' + row.reason;
   if (row.review_time !== null && row.review_time !== undefined) {
-    text += ' · reviewed by ' + row.review_by + ': '
-      + (row.review_value === row.value ? 'confirmed' : (row.review_display || number(row.review_value)));
+    text += ' · ' + t('reviewed by {name}', { name: row.review_by }) + ': ' + (row.review_value === row.value
+      ? t('confirmed') : (row.review_display ? displayText(row.review_display, row) : number(row.review_value)));
   }
   return text;
 }
 
+/** The robot's ``display`` text (task.display: English words, ``C`` for degrees) for the operator: lamp
+    and switch states and object counts in the page's language, °C. */
+export function displayText(display, row) {
+  if (row.kind === 'lamp' || row.kind === 'switch') return t(display);
+  const objects = /^(\d+) objects?$/.exec(display);
+  if (row.kind === 'foreign' && objects) return t('{n} object(s)', { n: objects[1] });
+  return row.unit === 'C' ? display.replace(/ C$/, ' °C') : display;
+}
+
 /* One calibration self-check entry (calibration_control apply/upload) in words. */
 export function selfCheckText(check) {
-  if (check.read === null) return 'the robot cannot read it: ' + check.reason;
-  let text = 'the robot reads ' + Number(check.read.toPrecision(4)) + ' (' + Math.round(check.confidence) + ' %)';
-  if (check.expected !== null) text += ', you ' + check.expected + ': ' + check.apart_fs_pct + ' % of full scale apart';
+  if (check.read === null) return t('the robot cannot read it') + ': ' + check.reason;
+  let text = t('the robot reads {value} ({confidence} %)', { value: Number(check.read.toPrecision(4)),
+    confidence: Math.round(check.confidence) });
+  if (check.expected !== null) {
+    text += ', ' + t('you {value}: {apart} % of full scale apart', { value: check.expected, apart: check.apart_fs_pct });
+  }
   return text + (check.reason ? ' (' + check.reason + ')' : '');
 }
 

@@ -1,5 +1,6 @@
 /* Driving: the heartbeat (the page acting as the backend), e-stop, taking and releasing control, and
    hold-to-move teleop (buttons and keys) that sends one explicit stop when the last key goes. */
+import { t } from './i18n.js';
 import { MODES } from './decode.js';
 import { command, onClose, publish, session } from './link.js';
 import * as store from './state.js';
@@ -99,8 +100,9 @@ function acquire() {
     publish('mode_cmd', 'inspection_robot/GeneralCmd', { cmd: 'acquire', data: 'server', trans_id: session() });
     setTimeout(() => {
       const status = store.get('status');
-      if (!status || status.mode !== 1) log('acquire: control not granted yet (mode '
-        + (status ? MODES[status.mode] : '?') + ')', true);
+      if (!status || status.mode !== 1) {
+        log(t('acquire: control not granted yet (mode {mode})', { mode: status ? t(MODES[status.mode]) : '?' }), true);
+      }
     }, 1500);
   };
   tryAcquire();

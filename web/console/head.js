@@ -1,5 +1,6 @@
 /* The head and camera: held pan/tilt and lens buttons (stop on release), angles, light and wiper, and
    the head's angle from terrace_state. */
+import { t } from './i18n.js';
 import { command, onClose, subscribe } from './link.js';
 import * as store from './state.js';
 import { $, holdButton } from './ui.js';
@@ -15,7 +16,7 @@ function stopHead() {
 
 function onHead(msg) {
   const deg = (rad) => (rad * 180 / Math.PI).toFixed(2);
-  $('head-angle').textContent = 'now pan ' + deg(msg.position[0]) + '°, tilt ' + deg(msg.position[1]) + '°';
+  $('head-angle').textContent = t('now pan {pan}°, tilt {tilt}°', { pan: deg(msg.position[0]), tilt: deg(msg.position[1]) });
 }
 
 export function init() {

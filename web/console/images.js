@@ -4,6 +4,7 @@
    arrives as bytes (no base64), and queue_length 1, so a slow link gets the newest frame rather than
    a backlog; a frame arriving while the browser still decodes the previous one replaces the one
    waiting (decode.newestOnly). */
+import { t } from './i18n.js';
 import { newestOnly } from './decode.js';
 import { publish, subscribe } from './link.js';
 import { $, canvasPoint, log } from './ui.js';
@@ -48,16 +49,16 @@ function jpegView(canvas, marker) {
       window.consoleFrames[canvas.id] += 1;
       const mark = marker();
       if (mark) drawMarker(ctx, mark);
-    }, (err) => log(canvas.id + ': a frame could not be decoded: ' + err, true)));
+    }, (err) => log(canvas.id + ': ' + t('a frame could not be decoded') + ': ' + err, true)));
 }
 
 function onHottest(msg) {
   try {
     hottest = JSON.parse(msg.data);
-    $('thermal-caption').textContent = 'thermal: hottest ' + hottest.temperature.toFixed(1) + ' °C at ('
-      + hottest.x + ', ' + hottest.y + ')';
+    $('thermal-caption').textContent = t('thermal: hottest {temperature} °C at ({x}, {y})',
+      { temperature: hottest.temperature.toFixed(1), x: hottest.x, y: hottest.y });
   } catch (err) {
-    log('thermal/hottest unreadable: ' + err, true);
+    log('thermal/hottest ' + t('unreadable') + ': ' + err, true);
   }
 }
 

@@ -2,6 +2,7 @@
    and the alarm band around it (between them a warning), per lamp or switch its expected state. Saved
    with calibration_control upload of the preset's targets as get answered them, the limits changed:
    one request, checked by the robot like every calibration; a refusal shows the robot's reason. */
+import { t, unitText } from './i18n.js';
 import { limitFields, limitKeys, stateChoices, statesKind, withLimits } from './bands.js';
 import { control } from './link.js';
 import * as store from './state.js';
@@ -15,8 +16,7 @@ function limitsMessage(text, failed) {
 }
 
 function unitOf(target) {
-  if (target.kind === 'thermal') return '°C';
-  return target.unit || '';
+  return unitText(target.kind === 'thermal' ? 'C' : target.unit);
 }
 
 function field(name, value, title) {
@@ -45,22 +45,24 @@ function renderLimits(preset) {
       cell.colSpan = 4;
       const select = document.createElement('select');
       select.className = 'limit-state';
-      select.add(new Option('no limits', ''));
-      for (const [words, code] of stateChoices(target)) select.add(new Option('expected ' + words, String(code)));
+      select.add(new Option(t('no limits'), ''));
+      for (const [words, code] of stateChoices(target)) select.add(new Option(t('expected {state}', { state: words }), String(code)));
       select.value = fields.state;
       cell.appendChild(select);
     } else {
-      tr.insertCell().appendChild(field('low', fields.low, 'normal band: low'));
-      tr.insertCell().appendChild(field('high', fields.high, 'normal band: high'));
-      tr.insertCell().appendChild(field('alarm-low', fields.alarmLow, 'alarm below this (between it and the normal low: warning)'));
-      tr.insertCell().appendChild(field('alarm-high', fields.alarmHigh, 'alarm above this (between it and the normal high: warning)'));
+      tr.insertCell().appendChild(field('low', fields.low, t('normal band: low')));
+      tr.insertCell().appendChild(field('high', fields.high, t('normal band: high')));
+      tr.insertCell().appendChild(field('alarm-low', fields.alarmLow,
+        t('alarm below this (between it and the normal low: warning)')));
+      tr.insertCell().appendChild(field('alarm-high', fields.alarmHigh,
+        t('alarm above this (between it and the normal high: warning)')));
     }
     tr.insertCell().textContent = unitOf(target);
   });
   if (!limits.targets.length) {
     const cell = fresh.insertRow().insertCell();
     cell.colSpan = 6;
-    cell.textContent = limits.preset ? 'This preset has no calibrated target yet.' : 'Load a preset to set its limits.';
+    cell.textContent = t(limits.preset ? 'This preset has no calibrated target yet.' : 'Load a preset to set its limits.');
   }
   $('limits-save').disabled = !limits.targets.length;
   body.parentNode.replaceChild(fresh, body);
@@ -76,7 +78,7 @@ function editedTargets() {
     try {
       return withLimits(target, limitKeys(target, fields));
     } catch (err) {
-      throw new Error((target.name || 'target ' + i) + ': ' + err.message);
+      throw new Error((target.name || t('target') + ' ' + i) + ': ' + err.message);
     }
   });
 }
@@ -86,19 +88,19 @@ function saveLimits() {
   try {
     targets = editedTargets();
   } catch (err) {
-    limitsMessage(err.message + ' (nothing saved)', true);
+    limitsMessage(err.message + ' (' + t('nothing saved') + ')', true);
     return;
   }
   const preset = limits.preset;
-  limitsMessage('saving…');
+  limitsMessage(t('saving…'));
   control('calibration_control', 'upload', { preset, targets })
     .then(() => control('calibration_control', 'get', { preset }))
     .then((text) => {
       const answer = JSON.parse(text);
       store.set('preset', { preset: answer.preset, targets: answer.targets });
-      limitsMessage('limits saved: the next patrol judges its readings by them');
+      limitsMessage(t('limits saved: the next patrol judges its readings by them'));
     })
-    .catch((err) => limitsMessage('refused: ' + err.message + ' (nothing saved)', true));
+    .catch((err) => limitsMessage(t('refused') + ': ' + err.message + ' (' + t('nothing saved') + ')', true));
 }
 
 export function init() {

@@ -2,6 +2,7 @@
    modules: the global ROSLIB), the bridge's challenge authentication, and commands sent as the backend
    ("server") with the names, types and strings of docs/interface.md. Panels register their
    subscriptions here; the link makes them again on every (re)connection, after authenticating. */
+import { t } from './i18n.js';
 import { authFields } from './auth.js';
 import * as store from './state.js';
 import { $, log } from './ui.js';
@@ -99,7 +100,7 @@ export function actionClient(previous, serverName, actionName) {
 
 function setLink(text, up) {
   const element = $('link');
-  element.textContent = text;
+  element.textContent = t(text);
   element.className = 'link ' + (up ? 'up' : 'down');
 }
 
@@ -121,12 +122,12 @@ function connect() {
     opened = true;
     store.set('connected', true);
     setLink('connected', true);
-    log('connected to ' + url);
+    log(t('connected to {url}', { url }));
   });
   ros.on('status', (msg) => {
     log('robot: ' + msg.level + ': ' + msg.msg, msg.level === 'error');
     if (/authentication failed|failed authentications/.test(msg.msg)) {
-      askToken('The robot refused the token (' + msg.msg + ').');
+      askToken(t('The robot refused the token ({reason}).', { reason: msg.msg }));
     }
   });
   ros.on('error', () => setLink('link error', false));
@@ -134,7 +135,7 @@ function connect() {
     store.set('connected', false);
     closeHandlers.forEach((handler) => handler());
     setLink(opened ? 'disconnected: reconnecting…' : 'no link: retrying…', false);
-    if (opened) log('link to the robot lost; reconnecting', true);
+    if (opened) log(t('link to the robot lost; reconnecting'), true);
     setTimeout(connect, RECONNECT_MS);
   });
   ros.connect(url);

@@ -1,5 +1,6 @@
 /* The map panel: the occupancy map, the robot's pose and move_base's plan; goals sent with move_action;
    virtual obstacles drawn, edited and deleted (virtual_obstacle_cmd). Wheel zooms, right-drag pans. */
+import { t } from './i18n.js';
 import { actionClient, command, header, nextTransId, onAck, subscribe } from './link.js';
 import * as store from './state.js';
 import { $, canvasPoint, log, typing } from './ui.js';
@@ -276,7 +277,7 @@ function onObstacleAck(name, msg) {
   try {
     map.obstacles = JSON.parse(msg.data);
   } catch (err) {
-    log('virtual obstacle list unreadable: ' + err, true);
+    log(t('virtual obstacle list unreadable') + ': ' + err, true);
   }
   drawMap();
 }
@@ -298,8 +299,8 @@ function sendGoal(world, yaw) {
   });
   handle.send();
   map.goalHandle = handle;
-  log('goal sent: x ' + world[0].toFixed(2) + ', y ' + world[1].toFixed(2) + ', heading '
-    + (yaw * 180 / Math.PI).toFixed(0) + '°');
+  log(t('goal sent: x {x}, y {y}, heading {heading}°', { x: world[0].toFixed(2), y: world[1].toFixed(2),
+    heading: (yaw * 180 / Math.PI).toFixed(0) }));
 }
 
 export function init() {
@@ -340,7 +341,7 @@ export function init() {
   $('goal-cancel').addEventListener('click', () => {
     if (map.goalHandle) {
       map.goalHandle.cancel();
-      log('goal cancel requested');
+      log(t('goal cancel requested'));
     }
     map.goal = null;
     drawMap();

@@ -1,5 +1,6 @@
 /* The patrol panel: a task submitted to task_manager (task_control submit), pause / resume / cancel /
    return home, and the latched task_status in words with a progress bar. */
+import { t } from './i18n.js';
 import { control, subscribe } from './link.js';
 import { taskId } from './planning.js';
 import * as store from './state.js';
@@ -15,13 +16,13 @@ function exampleTask() {
 
 /** A task_control command with its outcome on the panel; resolves true when the robot took it. */
 function patrolCommand(cmd, data) {
-  $('patrol-result').textContent = cmd + '…';
+  $('patrol-result').textContent = t(cmd) + '…';
   $('patrol-result').className = '';
   return control('task_control', cmd, data).then(() => {
-    $('patrol-result').textContent = cmd + ': done';
+    $('patrol-result').textContent = t(cmd) + ': ' + t('done');
     return true;
   }).catch((err) => {
-    $('patrol-result').textContent = cmd + ' refused: ' + err.message;
+    $('patrol-result').textContent = t('{cmd} refused', { cmd: t(cmd) }) + ': ' + err.message;
     $('patrol-result').className = 'error';
     return false;
   });
@@ -31,7 +32,7 @@ function onTaskStatus(msg) {
   try {
     patrol.status = JSON.parse(msg.data);
   } catch (err) {
-    log('task_status unreadable: ' + err, true);
+    log('task_status ' + t('unreadable') + ': ' + err, true);
     return;
   }
   store.set('task', patrol.status);   // the readings, the review queue and the alarms follow it
@@ -41,16 +42,16 @@ function onTaskStatus(msg) {
 function renderPatrol() {
   patrol.frame = 0;
   const s = patrol.status;
-  const parts = [s.state + (s.task_id ? ': ' + s.task_id + (s.priority ? ' (' + s.priority + ')' : '') : '')];
+  const parts = [t(s.state) + (s.task_id ? ': ' + s.task_id + (s.priority ? ' (' + t(s.priority) + ')' : '') : '')];
   if (s.task_id && s.stops) {
-    parts.push('stop ' + s.stop + ' of ' + s.stops + (s.stop_name ? ' (' + s.stop_name + ')' : ''),
-      'preset ' + s.preset + ' of ' + s.presets, s.done + '/' + s.total + ' presets done',
-      'ETA ' + Math.round(s.eta_s || 0) + ' s');
+    parts.push(t('stop {i} of {n}', { i: s.stop, n: s.stops }) + (s.stop_name ? ' (' + s.stop_name + ')' : ''),
+      t('preset {i} of {n}', { i: s.preset, n: s.presets }), t('{done}/{total} presets done', s),
+      t('ETA {s} s', { s: Math.round(s.eta_s || 0) }));
   }
-  if (s.holds && s.holds.length) parts.push('held: ' + s.holds.join(', '));
-  if (s.suspended) parts.push('suspended: ' + s.suspended);
+  if (s.holds && s.holds.length) parts.push(t('held') + ': ' + s.holds.map((h) => t(h)).join(', '));
+  if (s.suspended) parts.push(t('suspended') + ': ' + s.suspended);
   if (s.reason) parts.push(s.reason);
-  if (s.last_ended) parts.push('last ended: ' + s.last_ended.task_id + ' ' + s.last_ended.state
+  if (s.last_ended) parts.push(t('last ended') + ': ' + s.last_ended.task_id + ' ' + t(s.last_ended.state)
     + (s.last_ended.reason ? ' (' + s.last_ended.reason + ')' : ''));
   $('patrol-state').textContent = parts.join(' · ');
   $('patrol-state').className = s.holds && s.holds.length ? 'error' : '';

@@ -2,6 +2,7 @@
    clicking their stop on the map, grouped into stops (planning.js); "plan route" asks task_manager
    for the order and the path (task_control plan) and draws it on the map; "start patrol" submits the
    task; "save as routine" stores it under a name for the schedules. */
+import { t } from './i18n.js';
 import { listFolder } from './files.js';
 import { control, subscribe } from './link.js';
 import { addLayer, addTool, drawMap } from './map.js';
@@ -21,7 +22,7 @@ const planner = { catalog: [], loading: null, asked: false, stops: [], route: nu
 function loadCatalog() {
   if (planner.loading) return planner.loading;
   planner.asked = true;
-  $('planner-catalog-info').textContent = 'loading the preset list…';
+  $('planner-catalog-info').textContent = t('loading the preset list…');
   planner.loading = listFolder(PRESETS_FOLDER).then((answer) => {
     const ids = answer.entries.filter((e) => e.type === 'dir').map((e) => e.name);
     const entries = [];
@@ -42,13 +43,13 @@ function loadCatalog() {
     return Promise.all(Array.from({ length: LOAD_PARALLEL }, worker)).then(() => {
       planner.catalog = entries;
       const calibrated = entries.filter((e) => e.calibrated).length;
-      $('planner-catalog-info').textContent = entries.length + ' preset(s), ' + calibrated + ' calibrated'
-        + (failures.length ? '; not listed: ' + failures.join('; ') : '');
+      $('planner-catalog-info').textContent = t('{n} preset(s), {calibrated} calibrated', { n: entries.length,
+        calibrated }) + (failures.length ? '; ' + t('not listed') + ': ' + failures.join('; ') : '');
       renderCatalog();
       drawMap();
     });
   }).catch((err) => {
-    $('planner-catalog-info').textContent = 'preset list refused: ' + err.message;
+    $('planner-catalog-info').textContent = t('preset list refused') + ': ' + err.message;
   }).then(() => { planner.loading = null; });
   return planner.loading;
 }
@@ -63,14 +64,14 @@ function renderCatalog() {
     const add = document.createElement('button');
     add.type = 'button';
     add.className = 'planner-add';
-    add.textContent = 'add';
+    add.textContent = t('add');
     add.disabled = !entry.calibrated || !entry.pose;
     add.addEventListener('click', () => pick([entry]));
     const name = document.createElement('b');
     name.textContent = entry.id;
     const meters = document.createElement('span');
     meters.className = 'meters';
-    meters.textContent = (entry.calibrated ? entry.meters.join(', ') || 'no named meter' : 'not calibrated')
+    meters.textContent = (entry.calibrated ? entry.meters.join(', ') || t('no named meter') : t('not calibrated'))
       + (entry.pose ? ' · (' + entry.pose.x.toFixed(1) + ', ' + entry.pose.y.toFixed(1) + ')' : '');
     item.className = add.disabled ? 'disabled' : '';
     item.append(add, name, meters);
@@ -78,7 +79,7 @@ function renderCatalog() {
   }
   if (found.length > LIST_SHOWN) {
     const more = document.createElement('li');
-    more.textContent = (found.length - LIST_SHOWN) + ' more: narrow the search';
+    more.textContent = t('{n} more: narrow the search', { n: found.length - LIST_SHOWN });
     list.appendChild(more);
   }
 }
@@ -93,7 +94,7 @@ function setStops(stops, message) {
 
 function pick(entries) {
   const result = addPresets(planner.stops, entries);
-  setStops(result.stops, result.skipped.length ? 'not added: ' + result.skipped.join('; ') : '');
+  setStops(result.stops, result.skipped.length ? t('not added') + ': ' + result.skipped.join('; ') : '');
 }
 
 function routeMessage(text, failed) {
@@ -105,8 +106,8 @@ function renderStops() {
   const list = $('planner-stops');
   list.textContent = '';
   const presets = planner.stops.reduce((n, s) => n + s.presets.length, 0);
-  $('planner-count').textContent = planner.stops.length ? '(' + planner.stops.length + ' stop(s), ' + presets
-    + ' preset(s))' : '';
+  $('planner-count').textContent = planner.stops.length ? '(' + t('{stops} stop(s), {presets} preset(s)',
+    { stops: planner.stops.length, presets }) + ')' : '';
   for (const stop of planner.stops) {
     const item = document.createElement('li');
     item.dataset.stop = stop.name;
@@ -121,7 +122,7 @@ function renderStops() {
       const remove = document.createElement('button');
       remove.type = 'button';
       remove.textContent = '×';
-      remove.title = 'remove ' + directory;
+      remove.title = t('remove {preset}', { preset: directory });
       remove.addEventListener('click', () => setStops(removePreset(planner.stops, directory)));
       part.appendChild(remove);
       item.appendChild(part);
@@ -142,14 +143,14 @@ function planRoute() {
     routeMessage(err.message, true);
     return;
   }
-  routeMessage('planning…');
+  routeMessage(t('planning…'));
   const asked = planner.stops;
   control('task_control', 'plan', data).then((text) => {
     if (planner.stops !== asked) return;   // changed meanwhile: that answer is not this plan's
     planner.route = JSON.parse(text);
     routeMessage(routeText(planner.route));
     drawMap();
-  }).catch((err) => routeMessage('plan refused: ' + err.message, true));
+  }).catch((err) => routeMessage(t('plan refused') + ': ' + err.message, true));
 }
 
 function startPatrol() {
@@ -172,14 +173,14 @@ function saveRoutine() {
     return;
   }
   control('task_control', 'routine_save', data).then(() => {
-    routeMessage('routine ' + data.name + ' saved');
+    routeMessage(t('routine {name} saved', { name: data.name }));
     store.emit('routines-changed');
-  }).catch((err) => routeMessage('routine refused: ' + err.message, true));
+  }).catch((err) => routeMessage(t('routine refused') + ': ' + err.message, true));
 }
 
 /** A saved routine's stops into the planner (news from the schedules panel). */
 function loadRoutine(routine) {
-  setStops(stopsOfTask(routine.task), 'routine ' + routine.name + ' loaded');
+  setStops(stopsOfTask(routine.task), t('routine {name} loaded', { name: routine.name }));
   $('routine-name').value = routine.name;
   if (routine.task.order) $('planner-order').value = routine.task.order;
   if (routine.task.retries !== undefined) $('planner-retries').value = routine.task.retries;
@@ -233,7 +234,7 @@ export function init() {
   const togglePick = addTool('pick', (world, tolerance) => {
     const entries = entriesAt(planner.catalog, world, tolerance);
     if (entries.length) pick(entries);
-    else routeMessage('no calibrated preset recorded there (grey squares mark them)', true);
+    else routeMessage(t('no calibrated preset recorded there (grey squares mark them)'), true);
   });
   $('tool-pick').addEventListener('click', () => {
     if (!planner.catalog.length) loadCatalog();

@@ -2,6 +2,7 @@
    preset catalog (which preset reads which meters, at which stop pose), picked presets grouped into
    stops, the task JSON task_manager takes (submit, plan, routine_save), the planned route in words,
    and schedules (a form's fields checked, their runs in words). No DOM, no link. */
+import { t } from './i18n.js';
 
 export const STOP_MERGE_M = 0.25;      // presets recorded this close together share a stop
 export const MAX_PRESETS_PER_STOP = 20;   // task_manager's limit per stop
@@ -97,14 +98,14 @@ export function removePreset(stops, directory) {
 /** The task JSON for submit / plan / routine_save. ``options``: {id (omitted for a routine), order
     (shortest|given), retries}. Throws an Error saying what is missing. */
 export function buildTask(stops, options) {
-  if (!stops.length) throw new Error('pick at least one preset or stop first');
+  if (!stops.length) throw new Error(t('pick at least one preset or stop first'));
   const task = {};
   if (options.id) task.id = options.id;
   task.priority = 'routine';
   task.order = options.order || 'shortest';
   if (options.retries !== undefined && options.retries !== '') {
     const retries = Number(options.retries);
-    if (!Number.isInteger(retries) || retries < 0 || retries > 10) throw new Error('retries must be 0 to 10');
+    if (!Number.isInteger(retries) || retries < 0 || retries > 10) throw new Error(t('retries must be 0 to 10'));
     task.retries = retries;
   }
   task.stops = stops.map((s) => ({ name: s.name, pose: { x: s.pose.x, y: s.pose.y, yaw: s.pose.yaw }, precision: 0,
@@ -120,10 +121,10 @@ export function stopsOfTask(task) {
 
 /** task_control plan's answer in words: "123.4 m planned, 3 stops (shortest): a → b → c". */
 export function routeText(answer) {
-  const length = answer.planned_length_m === null || answer.planned_length_m === undefined ? 'unknown length'
-    : answer.planned_length_m.toFixed(1) + ' m planned';
-  return length + ', ' + answer.stops.length + ' stop' + (answer.stops.length === 1 ? '' : 's') + ' (' + answer.order
-    + '): ' + answer.stops.map((s) => s.name).join(' → ');
+  const length = answer.planned_length_m === null || answer.planned_length_m === undefined ? t('unknown length')
+    : t('{m} m planned', { m: answer.planned_length_m.toFixed(1) });
+  return length + ', ' + t(answer.stops.length === 1 ? '{n} stop' : '{n} stops', { n: answer.stops.length })
+    + ' (' + t(answer.order) + '): ' + answer.stops.map((s) => s.name).join(' → ');
 }
 
 const two = (n) => String(n).padStart(2, '0');
@@ -131,9 +132,9 @@ const two = (n) => String(n).padStart(2, '0');
 /** Unix time ``at`` in the page's local time, "Sat 2026-11-28 08:00", with how far from ``now`` (unix s):
     "(in 2 h 5 min)", "(3 d ago)"; "none" for null. */
 export function whenText(at, now) {
-  if (at === null || at === undefined) return 'none';
+  if (at === null || at === undefined) return t('none');
   const d = new Date(at * 1000);
-  const text = DAY_NAMES[d.getDay()] + ' ' + d.getFullYear() + '-' + two(d.getMonth() + 1) + '-' + two(d.getDate())
+  const text = t(DAY_NAMES[d.getDay()]) + ' ' + d.getFullYear() + '-' + two(d.getMonth() + 1) + '-' + two(d.getDate())
     + ' ' + two(d.getHours()) + ':' + two(d.getMinutes());
   return now === undefined ? text : text + ' (' + relative(at - now) + ')';
 }
@@ -146,22 +147,22 @@ function relative(seconds) {
   else if (minutes < 60) span = minutes + ' min';
   else if (s < 2 * 86400) span = Math.floor(minutes / 60) + ' h ' + (minutes % 60) + ' min';
   else span = Math.round(s / 86400) + ' d';
-  return seconds >= 0 ? 'in ' + span : span + ' ago';
+  return t(seconds >= 0 ? 'in {span}' : '{span} ago', { span });
 }
 
 /** schedule_set's JSON from the form's fields {name, routine, time, repeat ('weekdays'|'date'),
     weekdays: [..], date, enabled}; throws an Error with the field's fault. */
 export function scheduleRequest(fields) {
-  if (!SCHEDULE_PATTERN.test(fields.name || '')) throw new Error('schedule name: 1-64 letters, digits, _ or -');
-  if (!fields.routine) throw new Error('choose a saved routine');
-  if (!TIME_PATTERN.test(fields.time || '')) throw new Error('time must be HH:MM (robot local time)');
+  if (!SCHEDULE_PATTERN.test(fields.name || '')) throw new Error(t('schedule name: 1-64 letters, digits, _ or -'));
+  if (!fields.routine) throw new Error(t('choose a saved routine'));
+  if (!TIME_PATTERN.test(fields.time || '')) throw new Error(t('time must be HH:MM (robot local time)'));
   const out = { name: fields.name, routine: fields.routine, time: fields.time };
   if (fields.repeat === 'date') {
-    if (!DATE_PATTERN.test(fields.date || '')) throw new Error('date must be YYYY-MM-DD');
+    if (!DATE_PATTERN.test(fields.date || '')) throw new Error(t('date must be YYYY-MM-DD'));
     out.date = fields.date;
   } else {
     const days = WEEKDAYS.filter((d) => (fields.weekdays || []).includes(d));
-    if (!days.length) throw new Error('tick at least one weekday');
+    if (!days.length) throw new Error(t('tick at least one weekday'));
     out.weekdays = days;
   }
   out.enabled = !!fields.enabled;
@@ -170,17 +171,17 @@ export function scheduleRequest(fields) {
 
 /** A routine name as routine_save takes it, or an Error. */
 export function routineName(name) {
-  if (!NAME_PATTERN.test(name)) throw new Error('routine name: 1-50 letters, digits, _ or -');
+  if (!NAME_PATTERN.test(name)) throw new Error(t('routine name: 1-50 letters, digits, _ or -'));
   return name;
 }
 
 /** One schedule_list row in words: {name, routine, when, enabled, next, last, missed, missedCount}. */
 export function scheduleText(row, now) {
-  const when = row.time + ' ' + (row.date ? 'on ' + row.date
-    : row.weekdays.length === 7 ? 'daily' : row.weekdays.join(' '));
+  const when = row.time + ' ' + (row.date ? t('on {date}', { date: row.date })
+    : row.weekdays.length === 7 ? t('daily') : row.weekdays.map((d) => t(d)).join(' '));
   const last = row.last_run ? whenText(row.last_run.at, now) + ': ' + row.last_run.task_id
-    + (row.last_run.state ? ' ' + row.last_run.state : '') : 'never';
+    + (row.last_run.state ? ' ' + t(row.last_run.state) : '') : t('never');
   const missed = (row.missed || []).map((m) => whenText(m.at) + ': ' + m.reason);
-  return { name: row.name, routine: row.routine, when, enabled: row.enabled ? 'yes' : 'no',
-    next: row.enabled ? whenText(row.next_run, now) : 'disabled', last, missed, missedCount: missed.length };
+  return { name: row.name, routine: row.routine, when, enabled: t(row.enabled ? 'yes' : 'no'),
+    next: row.enabled ? whenText(row.next_run, now) : t('disabled'), last, missed, missedCount: missed.length };
 }

@@ -1,6 +1,7 @@
 /* Needs review: readings the robot doubts (task_control review_queue) with their annotated picture,
    confirmed or corrected by a named reviewer (task_control review). */
-import { readingText, statusTask } from './decode.js';
+import { t, timeText, unitText } from './i18n.js';
+import { displayText, readingText, statusTask } from './decode.js';
 import { fetchPicture } from './files.js';
 import { control } from './link.js';
 import * as store from './state.js';
@@ -25,7 +26,7 @@ function reviewOnChange(status) {
 
 const queryReview = coalesced(() => control('task_control', 'review_queue', { limit: REVIEW_LIMIT }, true)
   .then((text) => renderReview(JSON.parse(text)))
-  .catch((err) => reviewMessage('review queue refused: ' + err.message, true)));
+  .catch((err) => reviewMessage(t('review queue refused') + ': ' + err.message, true)));
 
 /** One item per reading: its annotated picture, the robot's value and reason, confirm / correct. */
 function renderReview(rows) {
@@ -43,19 +44,19 @@ function renderReview(rows) {
       img.alt = r.picture;
       figure.appendChild(img);
       fetchPicture(r.picture).then((url) => { img.src = url; })
-        .catch((err) => { figure.textContent = 'picture: ' + err.message; });
+        .catch((err) => { figure.textContent = t('picture') + ': ' + err.message; });
     } else {
-      figure.textContent = 'no picture';
+      figure.textContent = t('no picture');
     }
     const text = document.createElement('div');
     text.className = 'review-text';
     const what = document.createElement('div');
-    what.textContent = (r.target_name || r.kind + ' ' + r.target) + ' · ' + r.task_id + ' stop ' + (r.stop + 1)
-      + (r.stop_name ? ' (' + r.stop_name + ')' : '') + ' · ' + new Date(r.time * 1000).toLocaleString();
+    what.textContent = (r.target_name || r.kind + ' ' + r.target) + ' · ' + r.task_id + ' '
+      + t('stop {i}', { i: r.stop + 1 }) + (r.stop_name ? ' (' + r.stop_name + ')' : '') + ' · ' + timeText(r.time);
     const value = document.createElement('div');
     value.className = r.alarm === 'check' ? 'check' : '';
-    value.textContent = 'robot: ' + readingText(r) + ' (confidence ' + r.confidence + ')'
-      + (r.alarm === 'check' ? ' · CHECK: outside its band' : '');
+    value.textContent = t('robot') + ': ' + readingText(r) + ' (' + t('confidence {c}', { c: r.confidence }) + ')'
+      + (r.alarm === 'check' ? ' · ' + t('CHECK: outside its band') : '');
     const form = document.createElement('form');
     form.className = 'row';
     const input = document.createElement('input');
@@ -63,15 +64,16 @@ function renderReview(rows) {
     input.step = 'any';
     input.required = true;
     input.className = 'review-value';
-    input.placeholder = 'true value';
+    input.placeholder = t('true value');
     const correct = document.createElement('button');
     correct.type = 'submit';
     correct.className = 'review-correct';
-    correct.textContent = 'correct';
+    correct.textContent = t('correct');
     const confirm = document.createElement('button');
     confirm.type = 'button';
     confirm.className = 'review-confirm';
-    confirm.textContent = 'confirm ' + Number(r.value.toPrecision(4)) + (r.unit ? ' ' + r.unit : '');
+    confirm.textContent = t('confirm {value}', { value: r.display ? displayText(r.display, r)
+      : Number(r.value.toPrecision(4)) + (r.unit ? ' ' + unitText(r.unit) : '') });
     confirm.addEventListener('click', () => settle(r, null, item));
     form.addEventListener('submit', (event) => {
       event.preventDefault();
@@ -85,7 +87,7 @@ function renderReview(rows) {
   if (!rows.length) {
     const empty = document.createElement('p');
     empty.className = 'hint';
-    empty.textContent = 'Nothing to review: every doubted reading has been confirmed or corrected.';
+    empty.textContent = t('Nothing to review: every doubted reading has been confirmed or corrected.');
     fresh.appendChild(empty);
   }
   list.parentNode.replaceChild(fresh, list);
@@ -95,25 +97,26 @@ function renderReview(rows) {
 function settle(row, value, item) {
   const by = $('review-by').value.trim();
   if (!by) {
-    reviewMessage('type your name in "reviewer" first', true);
+    reviewMessage(t('type your name in "reviewer" first'), true);
     $('review-by').focus();
     return;
   }
   if (value !== null && !Number.isFinite(value)) {
-    reviewMessage('the true value must be a number', true);
+    reviewMessage(t('the true value must be a number'), true);
     return;
   }
   item.querySelectorAll('button, input').forEach((e) => { e.disabled = true; });
   control('task_control', 'review', { id: row.id, value, by })
     .then((text) => {
       const done = JSON.parse(text);
-      reviewMessage('reading ' + done.id + ' (' + done.target_name + '): '
-        + (value === null ? 'confirmed' : 'corrected to ' + done.review_value) + ' by ' + done.review_by);
+      reviewMessage(t('reading {id} ({target})', { id: done.id, target: done.target_name }) + ': '
+        + (value === null ? t('confirmed') : t('corrected to {value}', { value: done.review_value })) + ' '
+        + t('by {name}', { name: done.review_by }));
       queryReview();
       store.emit('readings-changed', row.task_id);
     })
     .catch((err) => {
-      reviewMessage('review refused: ' + err.message, true);
+      reviewMessage(t('review refused') + ': ' + err.message, true);
       item.querySelectorAll('button, input').forEach((e) => { e.disabled = false; });
     });
 }

@@ -1,6 +1,7 @@
 /* Routines and schedules: the routines saved with the planner (task_control routine_list /
    routine_delete, "load" puts one back into the planner) and the schedules that run them by
    themselves (schedule_set / schedule_list / schedule_delete): when, next run, last run, missed runs. */
+import { t } from './i18n.js';
 import { control, subscribe } from './link.js';
 import * as store from './state.js';
 import { scheduleRequest, scheduleText, WEEKDAYS, whenText } from './planning.js';
@@ -20,12 +21,12 @@ export const refreshRoutines = coalesced(() => Promise.all([control('task_contro
     renderRoutines(JSON.parse(routines));
     renderSchedules(JSON.parse(rows));
   })
-  .catch((err) => message('routines and schedules refused: ' + err.message, true)));
+  .catch((err) => message(t('routines and schedules refused') + ': ' + err.message, true)));
 
 function button(text, onClick) {
   const b = document.createElement('button');
   b.type = 'button';
-  b.textContent = text;
+  b.textContent = t(text);
   b.addEventListener('click', onClick);
   return b;
 }
@@ -47,7 +48,7 @@ function renderRoutines(routines) {
     tr.insertCell().textContent = String(routine.task.stops.length);
     tr.insertCell().textContent = whenText(routine.saved, now);
     tr.insertCell().append(button('load', () => store.emit('load-routine', routine)),
-      button('delete', () => act('routine_delete', routine.name, 'routine ' + routine.name + ' deleted')));
+      button('delete', () => act('routine_delete', routine.name, t('routine {name} deleted', { name: routine.name }))));
   }
   const table = $('routines');
   table.replaceChild(body, table.tBodies[0]);
@@ -70,13 +71,13 @@ function renderSchedules(rows) {
     }
     const missed = tr.insertCell();
     missed.className = text.missedCount ? 'missed' : '';
-    missed.textContent = text.missedCount ? text.missed.join('; ') : 'none';
+    missed.textContent = text.missedCount ? text.missed.join('; ') : t('none');
     const toggled = Object.assign({}, row, { enabled: !row.enabled });
     ['next_run', 'last_run', 'missed'].forEach((key) => delete toggled[key]);
     tr.insertCell().append(
       button(row.enabled ? 'disable' : 'enable', () => act('schedule_set', toggled,
-        'schedule ' + row.name + (row.enabled ? ' disabled' : ' enabled'))),
-      button('delete', () => act('schedule_delete', row.name, 'schedule ' + row.name + ' deleted')));
+        t(row.enabled ? 'schedule {name} disabled' : 'schedule {name} enabled', { name: row.name }))),
+      button('delete', () => act('schedule_delete', row.name, t('schedule {name} deleted', { name: row.name }))));
   }
   const table = $('schedules');
   table.replaceChild(body, table.tBodies[0]);
@@ -94,12 +95,12 @@ function saveSchedule(event) {
     message(err.message, true);
     return;
   }
-  message('saving…');
+  message(t('saving…'));
   control('task_control', 'schedule_set', data).then((text) => {
     const row = JSON.parse(text);
-    message('schedule ' + row.name + ' saved, next run ' + whenText(row.next_run, Date.now() / 1000));
+    message(t('schedule {name} saved, next run {when}', { name: row.name, when: whenText(row.next_run, Date.now() / 1000) }));
     refreshRoutines();
-  }).catch((err) => message('schedule refused: ' + err.message, true));
+  }).catch((err) => message(t('schedule refused') + ': ' + err.message, true));
 }
 
 /** task_status: a run started or ended, a run missed or the next one changed: list again. */

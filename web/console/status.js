@@ -1,5 +1,6 @@
 /* The status panel: robot_status in words (decode.js), the mode pill and the alarm line. */
 import { decodeStatus, MODES } from './decode.js';
+import { t } from './i18n.js';
 import { subscribe } from './link.js';
 import * as store from './state.js';
 import { $ } from './ui.js';
@@ -18,9 +19,9 @@ function render() {
   const msg = store.get('status');
   window.consoleStats.status += 1;
   const decoded = decodeStatus(msg);
-  $('mode').textContent = 'mode: ' + MODES[msg.mode];
+  $('mode').textContent = t('mode') + ': ' + t(MODES[msg.mode] || '?');
   const alarms = $('alarms');
-  alarms.textContent = decoded.alarms.length ? decoded.alarms.join(' · ') : 'no alarm';
+  alarms.textContent = decoded.alarms.length ? decoded.alarms.join(' · ') : t('no alarm');
   alarms.className = 'alarms' + (decoded.alarms.length ? ' active' : '');
   const body = $('status').tBodies[0];
   const seen = {};
@@ -29,7 +30,7 @@ function render() {
     let tr = rows[key];
     if (!tr) {
       tr = rows[key] = body.insertRow();
-      tr.insertCell().textContent = row.name;
+      tr.insertCell().textContent = row.label;
       tr.insertCell();
     }
     tr.cells[1].textContent = row.text;

@@ -3,6 +3,7 @@
    normal and alarm bands each reading was judged by (so a band drawn is the band of its time), values
    under the cursor in the legend, drag to zoom (double click: all), a time range, and CSV export. A click
    on a meter in the readings table adds it (news 'trend-meter' from results.js). */
+import { t, timeText, unitText } from './i18n.js';
 import { control } from './link.js';
 import * as store from './state.js';
 import { MAX_TREND_METERS, POINT_COLOURS, TREND_RANGES, trendCsv, trendTable } from './trend_data.js';
@@ -33,12 +34,13 @@ function addMeter(meter) {
   const known = trends.meters.find((m) => m.target === meter.target);
   const entry = known || { target: meter.target, unit: meter.unit || '', rows: [] };
   if (!known) trends.meters = trends.meters.concat([entry]).slice(-MAX_TREND_METERS);
-  trendMessage(entry.target + ' (loading…)');
-  query(entry).then(draw).catch((err) => trendMessage(entry.target + ': query refused: ' + err.message, true));
+  trendMessage(entry.target + ' (' + t('loading…') + ')');
+  query(entry).then(draw).catch((err) => trendMessage(entry.target + ': ' + t('query refused') + ': ' + err.message, true));
 }
 
 function reloadAll() {
-  Promise.all(trends.meters.map(query)).then(draw).catch((err) => trendMessage('query refused: ' + err.message, true));
+  Promise.all(trends.meters.map(query)).then(draw)
+    .catch((err) => trendMessage(t('query refused') + ': ' + err.message, true));
 }
 
 /** Coloured dots per reading, by the reading's state (uPlot's draw hook). */
@@ -64,13 +66,13 @@ function draw() {
     const table = trendTable(trends.meters);
     const units = Array.from(new Set(table.series.map((s) => s.unit || '(no unit)')));
     const data = [table.x];
-    const series = [{ value: (u, t) => (t === null ? '' : new Date(t * 1000).toLocaleString([], { hour12: false })) }];
+    const series = [{ label: t('time'), value: (u, x) => (x === null ? '' : timeText(x)) }];
     const bands = [];
     const valueIndex = [];
     table.series.forEach((s, m) => {
       const scale = s.unit || '(no unit)';
       const colour = LINE_COLOURS[m % LINE_COLOURS.length];
-      const unit = s.unit ? ' ' + s.unit : '';
+      const unit = s.unit ? ' ' + unitText(s.unit) : '';
       const fmt = (u, v) => (v === null || v === undefined ? '–' : Number(v.toPrecision(6)) + unit);
       valueIndex.push(data.length);
       data.push(s.values);
@@ -78,7 +80,7 @@ function draw() {
         value: fmt });
       const limit = (label, values, dash) => {
         data.push(values);
-        series.push({ label: s.target + ' ' + label, scale, stroke: colour, width: 1, dash, spanGaps: false,
+        series.push({ label: s.target + ' ' + t(label), scale, stroke: colour, width: 1, dash, spanGaps: false,
           points: { show: false }, value: fmt });
         return data.length - 1;
       };
@@ -88,8 +90,8 @@ function draw() {
       limit('alarm above', s.alarmHigh, [2, 3]);
       limit('alarm below', s.alarmLow, [2, 3]);
     });
-    const axes = [{}].concat(units.map((unit, i) => ({ scale: unit, side: i % 2 ? 1 : 3, label: unit, grid: { show: i === 0 },
-      size: 60 })));
+    const axes = [{}].concat(units.map((unit, i) => ({ scale: unit, side: i % 2 ? 1 : 3,
+      label: unit === '(no unit)' ? t(unit) : unitText(unit), grid: { show: i === 0 }, size: 60 })));
     const scales = { x: { time: true } };
     units.forEach((unit) => { scales[unit] = { auto: true }; });
     const width = Math.max(320, $('trend').clientWidth || 640);
@@ -101,14 +103,14 @@ function draw() {
     const points = table.series.reduce((n, s) => n + s.points, 0);
     $('trend').dataset.points = String(points);
     $('trend').dataset.meters = trends.meters.map((m) => m.target).join(',');
-    trendMessage(trends.meters.length ? trends.meters.map((m) => m.target).join(', ') + ': ' + points
-      + ' reading(s) in ' + trends.days + ' days' : '(click a target above)');
-  }).catch((err) => trendMessage('trend not drawn: ' + err.message, true));
+    trendMessage(trends.meters.length ? trends.meters.map((m) => m.target).join(', ') + ': '
+      + t('{n} reading(s) in {days} days', { n: points, days: trends.days }) : t('(click a target above)'));
+  }).catch((err) => trendMessage(t('trend not drawn') + ': ' + err.message, true));
 }
 
 function exportCsv() {
   if (!trends.meters.length) {
-    trendMessage('add a meter first (click a target above)', true);
+    trendMessage(t('add a meter first (click a target above)'), true);
     return;
   }
   const url = URL.createObjectURL(new Blob([trendCsv(trends.meters)], { type: 'text/csv' }));
@@ -124,7 +126,7 @@ function exportCsv() {
 export function init() {
   window.consoleTrends = { meters: () => trends.meters.map((m) => m.target), csv: () => trendCsv(trends.meters) };
   const range = $('trend-range');
-  for (const [words, days] of Object.entries(TREND_RANGES)) range.add(new Option(words, String(days)));
+  for (const [words, days] of Object.entries(TREND_RANGES)) range.add(new Option(t(words), String(days)));
   range.value = String(trends.days);
   range.addEventListener('change', () => {
     trends.days = Number(range.value);

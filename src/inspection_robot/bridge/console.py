@@ -11,6 +11,8 @@ import re
 
 import tornado.web
 
+from inspection_robot.i18n import DEFAULT_LANGUAGE
+
 CONSOLE_PATH = "/console/"
 # /console/vendor/<name>: the library files the page loads, each from its package in vendor_dir (nothing
 # else of node_modules is served)
@@ -47,20 +49,22 @@ class _ConsoleConfig(tornado.web.RequestHandler):
 
 def missing_files(console_dir, vendor_dir):
     """Paths the console needs that are not there (empty when it can be served)."""
-    wanted = [os.path.join(console_dir, "index.html")] + [os.path.join(vendor_dir, path)
-                                                           for path in VENDOR_FILES.values()]
+    wanted = [os.path.join(console_dir, "index.html")]
+    wanted += [os.path.join(vendor_dir, path) for path in VENDOR_FILES.values()]
     return [path for path in wanted if not os.path.isfile(path)]
 
 
-def console_routes(console_dir, vendor_dir, auth_required):
-    """Tornado rules: /console -> /console/, config.json, /console/vendor/<name> of VENDOR_FILES from
-    vendor_dir, the rest from console_dir."""
+def console_routes(console_dir, vendor_dir, auth_required, language=DEFAULT_LANGUAGE):
+    """Tornado rules: /console -> /console/, config.json (whether to ask for the token; the site's
+    ``language``, the page's default), /console/vendor/<name> of VENDOR_FILES from vendor_dir, the rest
+    from console_dir (strings.json, the words in every language, among them)."""
     vendor = [(r"/console/vendor/(%s)" % re.escape(name), _StaticFiles,
                {"path": os.path.dirname(os.path.join(vendor_dir, path))})
               for name, path in sorted(VENDOR_FILES.items())]   # each name is its file's own
     return [
         (r"/console", tornado.web.RedirectHandler, {"url": CONSOLE_PATH}),
-        (r"/console/config\.json", _ConsoleConfig, {"config": {"auth_required": bool(auth_required)}}),
+        (r"/console/config\.json", _ConsoleConfig,
+         {"config": {"auth_required": bool(auth_required), "language": language}}),
     ] + vendor + [
         (r"/console/(.*)", _StaticFiles, {"path": console_dir, "default_filename": "index.html"}),
     ]

@@ -206,10 +206,9 @@ def _band(value, key):
 def nested_bands_fault(normal, alarm):
     """Why an alarm band [low, high] cannot go with a normal band (it must contain it: a warning lies
     between them), or "" when it can. The one rule for calibrations and task limits (task.spec)."""
-    if alarm[0] > normal[0] or alarm[1] < normal[1]:
-        return ("alarm band [%g, %g] must contain the normal band [%g, %g] (a warning lies between them)"
-                % (alarm[0], alarm[1], normal[0], normal[1]))
-    return ""
+    inside = alarm[0] <= normal[0] and alarm[1] >= normal[1]
+    return "" if inside else ("alarm band [%g, %g] must contain the normal band [%g, %g] (a warning lies between "
+                              "them)" % (alarm[0], alarm[1], normal[0], normal[1]))
 
 
 def _kind(value, key):
@@ -346,12 +345,10 @@ def check_params(kind, params, thermal_size=None):
         if key not in allowed:
             raise _refuse_key(kind, key)
         out[key] = check_value(key, value)
-    if "alarm_band" in out:
-        if "normal" not in out:
-            raise SchemaError("alarm_band needs a normal band inside it (normal [low, high])")
-        fault = nested_bands_fault(out["normal"], out["alarm_band"])
-        if fault:
-            raise SchemaError(fault)
+    fault = "" if "alarm_band" not in out else nested_bands_fault(out["normal"], out["alarm_band"]) \
+        if "normal" in out else "alarm_band needs a normal band inside it (normal [low, high])"
+    if fault:
+        raise SchemaError(fault)
     missing = [key for key in REQUIRED[kind] if key not in out]
     if missing:
         raise SchemaError("missing key(s) %s (a %s target needs %s)"

@@ -37,6 +37,7 @@ from inspection_robot.msg import GeneralAction, GeneralCmd, GeneralGoal, General
 from inspection_robot.nav.goal import move_goal_data
 from inspection_robot.ros.actions import server_unavailable
 from inspection_robot.ros.data_root import data_root
+from inspection_robot.ros.language import voice_language
 from inspection_robot.ros.node import NodeSettings, init_node, site_param
 from inspection_robot.motion.ros_owner_gate import OwnerGate
 from inspection_robot.ros.twin import CommandTwin
@@ -239,7 +240,7 @@ def main():
               float(settings.get("~velocity_yaw")))
     if min(speeds) <= 0:
         raise ValueError("~approach_velocity_x, ~dock_velocity_x and ~velocity_yaw must be positive")
-    language = str(settings.get("~voice_language"))
+    language = voice_language(str(settings.get("~voice_language") or ""))   # "": the site's
     if language not in VOICE_LANGUAGES:
         raise ValueError("~voice_language must be one of %s" % (VOICE_LANGUAGES,))
     rate_hz = float(settings.get("~rate"))

@@ -57,6 +57,7 @@ from inspection_robot.motion.velocity import VelocityLimits
 from inspection_robot.msg import ControlStatus, GeneralAck, GeneralCmd, MoveCmd, ObstacleStatus, RobotStatus, VoiceCmd
 from inspection_robot.motion.ros_chassis import RosChassis
 from inspection_robot.ros.data_root import data_root
+from inspection_robot.ros.language import voice_language
 from inspection_robot.ros.node import NodeSettings, init_node
 from inspection_robot.motion.ros_owner_gate import OwnerGate
 from inspection_robot.ros.twin import CommandTwin, control_response
@@ -309,7 +310,7 @@ def main():
                             float(settings.get("~max_velocity_yaw")),
                             float(settings.get("~refuse_velocity_x")),
                             float(settings.get("~refuse_velocity_yaw")))
-    language = str(settings.get("~voice_language"))
+    language = voice_language(str(settings.get("~voice_language") or ""))   # "": the site's
     if rate_hz <= 0 or status_rate_hz <= 0:
         raise ValueError("~rate and ~status_rate must be positive")
     if obstacle_timeout < 0:

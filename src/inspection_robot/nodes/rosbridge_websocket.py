@@ -50,6 +50,7 @@ from inspection_robot.bridge.server import BridgeServer, LoopPoster, make_ssl_co
 from inspection_robot.bridge.surface import CONSOLE_LINK_PATH, Surface, role_of_path
 from inspection_robot.fixed_settings import FIXED_KEYS, fixed_settings, overridden
 from inspection_robot.interface import BACKEND_ACK_TYPES, BACKEND_TOPIC_TYPES
+from inspection_robot.ros.language import site_language
 from inspection_robot.ros.node import NodeSettings, init_node, renice
 
 NODE = "rosbridge_websocket"
@@ -271,7 +272,8 @@ def main():
         if missing:
             rospy.logerr("bridge: console not served, missing %s (run scripts/setup)", ", ".join(missing))
         else:
-            http_routes = console_routes(params["console_dir"], params["console_vendor_dir"], bool(authenticator))
+            http_routes = console_routes(params["console_dir"], params["console_vendor_dir"], bool(authenticator),
+                                         site_language())
     ssl_context = make_ssl_context(params["certfile"], params["keyfile"]) if params["certfile"] else None
     if params["client_ca"]:
         ssl_context.verify_mode = ssl.CERT_REQUIRED

@@ -28,6 +28,7 @@ from nav_msgs.msg import OccupancyGrid
 
 from inspection_robot.msg import GeneralAction, GeneralTopic, RobotStatus
 from inspection_robot.ros.data_root import data_root
+from inspection_robot.ros.language import site_translator
 from inspection_robot.ros.node import NodeSettings, init_node, site_param
 from inspection_robot.task.ros_goal import ActionGoal
 from inspection_robot.task.ros_steps import StepRunner
@@ -141,7 +142,7 @@ def main():
         msg = GeneralTopic(sender=NODE_NAME, data=text)
         msg.header.stamp = rospy.Time.now()
         status_pub.publish(msg)
-    service = TaskService(ServiceConfig(config, root, preset_root, retries, status_period), store,
+    service = TaskService(ServiceConfig(config, root, preset_root, retries, status_period, site_translator()), store,
                           Scheduler(store, schedule_grace_s, time.time()), reachable,
                           lambda pose: StepRunner(NODE_NAME, velocity[0], velocity[1], timeouts, pose, turn_at_stops),
                           publish_status, lambda level, text: LOGGERS[level]("%s: %s" % (NODE_NAME, text)))

@@ -35,10 +35,13 @@ from inspection_robot.charge.dock import DockError, parse_dock
 from inspection_robot.drivers import DEVICES, PARAM, PARAMS_PARAM, SIM, DriverConfigError, choose
 from inspection_robot.files import read_secret_file
 from inspection_robot.fixed_settings import FIXED_KEYS
+from inspection_robot.i18n import LanguageError, check_language
 from inspection_robot.nav.gridmap import MapError, load_map
 from inspection_robot.nav.pose_adapter import ADAPTER_SETTINGS, MODE_NONE, MODE_TOPIC, MODES, AdapterParams
 
 DATA_ROOT = "data_root"
+LANGUAGE = "language"   # the operator's language: console, report, voice (inspection_robot.i18n)
+TOP_LEVEL = (DATA_ROOT, LANGUAGE)
 SIM_SITE_FILE = "config/sim_site.yaml"
 TEMPLATE = "config/robot.example.yaml"
 
@@ -136,11 +139,11 @@ def _free_form(name):
 def _unknown_keys(site, defaults):
     """Lines for every site key that no node of robot.launch reads."""
     nodes = sorted({name.split("/")[0] for name in defaults if "/" in name})
-    known = set(defaults) | set(REQUIRED) | {DATA_ROOT}
+    known = set(defaults) | set(REQUIRED) | set(TOP_LEVEL)
     problems = []
     for key, value in site.items():
         key = str(key)
-        if key == DATA_ROOT:
+        if key in TOP_LEVEL:
             continue
         if key not in nodes:
             near = difflib.get_close_matches(key, nodes, 1)
@@ -325,6 +328,11 @@ def site_problems(site, defaults, sim_yard_values, data_root_arg="", insecure=Fa
                 if _is_sim_topic(topic):
                     problems.append("%s is %r, a simulator's topic: give the real robot's topic" % (name, topic))
 
+    if LANGUAGE in site:
+        try:
+            check_language(site[LANGUAGE])
+        except LanguageError as err:
+            problems.append("%s (top-level in the site file: the console's, the report's and the voice's)" % err)
     root = str(given.get(DATA_ROOT) or data_root_arg or "")
     if not root:
         problems.append("%s is not set: the robot's state directory (e.g. /var/lib/inspection_robot), "

@@ -3,9 +3,10 @@
 An open alarm is a reading whose stated alarm (the reviewed value's once reviewed, as the report
 states it) is ``alarm``, ``check`` or ``warning`` (outside the normal band, inside the alarm band)
 and that nobody acknowledged yet. Acknowledging records who, when and an optional note on the
-reading itself (the store's ``ack_*`` columns), once: the report and every later query show it. ``alarms`` lists open alarms newest first (or the acknowledged ones);
-``acknowledge`` settles one. A trend warning, a failed reading or a normal one is not an alarm to
-acknowledge: refused with its state named.
+reading itself (the store's ``ack_*`` columns), once: the report and every later query show it.
+``alarms`` lists open alarms newest first (or the acknowledged ones); ``acknowledge`` settles one.
+A trend warning, a failed reading or a normal one is not an alarm to acknowledge: refused with its
+state named.
 """
 from inspection_robot.command import CommandError, parse_json
 from inspection_robot.task.review import parse_query, person

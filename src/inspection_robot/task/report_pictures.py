@@ -79,10 +79,11 @@ def preset_figures(rows, link_of, colour_of, data_root):
             annotated.extend(r["picture"] for r in view["rows"] if r.get("picture") and r["picture"] not in annotated)
             continue
         link = link_of(view["background"])
-        out.append('<a href="%s">%s</a>' % (html.escape(link), _overlay(link, size, view["boxes"],
-                                                                         os.path.basename(view["background"]))))
-    out.extend('<a href="%s"><img src="%s" alt="%s"></a>' % (html.escape(link_of(p)), html.escape(link_of(p)),
-                                                            html.escape(os.path.basename(p))) for p in annotated)
+        overlay = _overlay(link, size, view["boxes"], os.path.basename(view["background"]))
+        out.append('<a href="%s">%s</a>' % (html.escape(link), overlay))
+    for p in annotated:
+        link = html.escape(link_of(p))
+        out.append('<a href="%s"><img src="%s" alt="%s"></a>' % (link, link, html.escape(os.path.basename(p))))
     return "".join(out) or '<p class="why">no picture</p>'
 
 

@@ -10,6 +10,7 @@ import os
 
 from inspection_robot.command import CommandError, no_data
 from inspection_robot.files import root_relative
+from inspection_robot.i18n import ENGLISH
 from inspection_robot.task.alarms import ALARM_STATES, acknowledge, parse_alarms_query
 from inspection_robot.task.client_view import client_row
 from inspection_robot.task.report import write_reports
@@ -26,9 +27,10 @@ REPORT_TREND_POINTS = 20   # a meter's readings up to this task's drawn beside e
 class ResultCommands(object):
     """``lock``: the service's (a review, and the path stored before a report, run under it);
     ``store_path(task_id)``: stores the task's driven path kept so far, so its report draws all of it;
-    ``grid``: the map the reports draw the yard on."""
+    ``grid``: the map the reports draw the yard on; ``translation``: (language, translator) of the
+    reports' words (inspection_robot.i18n)."""
 
-    def __init__(self, store, data_root, grid, lock, store_path, log, clock):
+    def __init__(self, store, data_root, grid, lock, store_path, log, clock, translation=("en", ENGLISH)):
         self._store = store
         self._data_root = data_root
         self.reports_dir = os.path.join(data_root, "tasks", "reports")
@@ -39,6 +41,7 @@ class ResultCommands(object):
         self._store_path = store_path
         self._log = log
         self._clock = clock
+        self._language, self._tr = translation
 
     def handlers(self):
         """task_control's commands of the results side, name -> handler."""
@@ -117,4 +120,4 @@ class ResultCommands(object):
         readings = self._store.readings(task_id=task_id, limit=10 ** 9)
         return write_reports(folder, self._store.task(task_id), readings, self._store.steps(task_id), self._data_root,
                              version(), self._store.meter_histories(readings, REPORT_TREND_POINTS),
-                             self._store.driven_path(task_id), self._grid)
+                             self._store.driven_path(task_id), self._grid, self._tr, self._language)

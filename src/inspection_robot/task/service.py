@@ -38,6 +38,7 @@ import numpy as np
 
 from inspection_robot.command import CommandError, CommandTable, no_data
 from inspection_robot.files import hide_root, root_relative
+from inspection_robot.i18n import ENGLISH
 from inspection_robot.task.action import END_SUCCEEDED, check_goal_type, goal_end, goal_feedback, goal_refused
 from inspection_robot.task.alarms import OpenAlarms
 from inspection_robot.task.checks import resolve_preset
@@ -59,7 +60,9 @@ STEP_TIMINGS = ("find", "read")   # the parts of an inspection the step runner t
 
 # patrol: task.patrol.PatrolConfig; preset_root: presets (absolute); default_retries: a task's
 # retries when it names none; status_period: s, task_status republished at least this often
-ServiceConfig = namedtuple("ServiceConfig", "patrol data_root preset_root default_retries status_period")
+# translation: (language, translator) of the reports (inspection_robot.i18n), English unless given
+ServiceConfig = namedtuple("ServiceConfig", "patrol data_root preset_root default_retries status_period translation",
+                           defaults=(("en", ENGLISH),))
 
 
 class TaskService(object):
@@ -86,7 +89,7 @@ class TaskService(object):
         self._last_status_time = 0.0
         self._goals = {}   # task id -> task_action goal (only tasks submitted as an action)
         self.results = ResultCommands(store, config.data_root, reachable.costmap.grid, self._lock, self._store_paths,
-                                      log, clock)
+                                      log, clock, config.translation)
         self.patrol = Patrol(store, config.patrol, clock(), on_finished=self._on_finished)
         self._runner = runner_factory(lambda: self._pose)
         self._scheduler = scheduler
