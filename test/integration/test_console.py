@@ -797,6 +797,56 @@ class ConsoleTest(unittest.TestCase):
         self.assertEqual(reply.ack, "success", reply.data)
         return json.loads(reply.data)
 
+    # ------------------------------------------------------------------ the operator's language
+    PANELS = ("status-panel", "teleop-panel", "camera-panel", "map-panel", "planner-panel", "schedule-panel",
+              "preset-panel", "patrol-panel", "alarm-panel", "review-panel", "log-panel")
+
+    def test_9e_the_page_in_chinese_and_english_each_panel_shown(self):
+        """The site's language (the simulated yard's: en) first; Chinese chosen in the page stays chosen
+        across a reload; every panel's screenshot in both languages (test_logs/screens/console_<lang>_*)."""
+        self.open_console()
+        self.wait_connected()
+        self.assertEqual(self.page.evaluate("document.documentElement.lang"), "en")
+        self.shoot_panels("en")
+        self.page.select_option("#language", "zh-CN")   # the page reloads in Chinese
+        self.page.wait_for_function("document.documentElement.lang === 'zh-CN'", timeout=20000)
+        self.page.wait_for_function("document.getElementById('link').textContent === '已连接'", timeout=20000)
+        self.page.reload()   # the choice is kept in this browser
+        self.page.wait_for_function("document.getElementById('link').textContent === '已连接'", timeout=20000)
+        self.wait_page("document.querySelector('#status tbody').textContent.includes('电池')", "the status in Chinese")
+        header = self.page.inner_text("header")
+        self.assertIn("巡检机器人", header)
+        self.assertIn("急停", header)
+        for panel, words in (("status-panel", "状态"), ("planner-panel", "规划巡检"),
+                             ("preset-panel", "本预置位的阈值"), ("patrol-panel", "巡检与历史"),
+                             ("alarm-panel", "未确认告警"), ("review-panel", "待复核")):
+            self.assertIn(words, self.page.inner_text("#" + panel), panel)
+        # static words left in English: none but names, units and symbols
+        leftovers = self.page.evaluate("""() => {
+            const out = [];
+            const walker = document.createTreeWalker(document.body, NodeFilter.SHOW_TEXT);
+            while (walker.nextNode()) {
+                const node = walker.currentNode, text = node.nodeValue.trim();
+                const el = node.parentNode;
+                if (!text || !el || el.closest('#log, textarea, script, style, #results, #alarm-list, #schedules, #routines,'
+                    + ' #planner-catalog, #planner-stops, .u-legend, #patrol-task, select#language')) continue;
+                if (/[A-Za-z]{4,}/.test(text) && !/[\u4e00-\u9fff]/.test(text)) out.push(text);
+            }
+            return out; }""")
+        technical = r"^(control_cmd \w+|presets/\S+|[a-z_/]+\.\w+)$"   # command names, paths, file names
+        self.assertEqual([t for t in leftovers if not re.match(technical, t)], [])
+        self.shoot_panels("zh-CN")
+        self.page.select_option("#language", "en")   # back to English for whatever runs next in this browser
+        self.page.wait_for_function("document.documentElement.lang === 'en'", timeout=20000)
+        self.wait_connected()
+
+    def shoot_panels(self, language):
+        os.makedirs(SCREENS, exist_ok=True)
+        for panel in self.PANELS:
+            path = os.path.join(SCREENS, "console_%s_%s.png" % (language, panel))
+            self.page.locator("#" + panel).screenshot(path=path)
+        self.page.screenshot(path=os.path.join(SCREENS, "console_%s_page.png" % language), full_page=True)
+
     # ------------------------------------------------------------------ authentication and a dropped link
     def test_7_token_asked_refused_accepted_and_link_loss_shown(self):
         port = bridge_port("rosbridge_auth")

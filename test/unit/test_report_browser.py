@@ -14,6 +14,7 @@ import re
 import numpy as np
 import pytest
 
+from inspection_robot.i18n import CATALOGUE_FILE, load_catalogue, translator
 from inspection_robot.lazy import lazy_import
 from inspection_robot.nav.gridmap import load_map
 from inspection_robot.task.patrol import STEP_INSPECT, Inspection, Patrol, PatrolConfig
@@ -32,6 +33,7 @@ MAP = os.path.join(PACKAGE, "config", "maps", "substation.yaml")
 WINDOW_PX = 1280
 A4_CONTENT_PX = int((210 - 2 * 12) / 25.4 * 96)   # @page A4 with 12 mm margins, at CSS's 96 px per inch
 DAY_S = 86400.0
+CATALOGUE = load_catalogue(os.path.join(PACKAGE, CATALOGUE_FILE))
 
 if not os.access(CHROMIUM, os.X_OK):
     pytest.skip("no %s" % CHROMIUM, allow_module_level=True)
@@ -179,7 +181,11 @@ def report(tmp_path_factory):
     paths = write_reports(os.path.join(root, "tasks", "reports", task_id), store.task(task_id), readings,
                           store.steps(task_id), root, "v-test", store.meter_histories(readings, 20),
                           store.driven_path(task_id), load_map(MAP))
-    return paths, json.load(open(paths["report.json"]))
+    # the same patrol's report in Chinese, beside it (pictures at the same relative place)
+    chinese = write_reports(os.path.join(root, "tasks", "reports", task_id + "_zh"), store.task(task_id), readings,
+                            store.steps(task_id), root, "v-test", store.meter_histories(readings, 20),
+                            store.driven_path(task_id), load_map(MAP), translator("zh-CN", CATALOGUE), "zh-CN")
+    return paths, json.load(open(paths["report.json"])), chinese
 
 
 @pytest.fixture(scope="module")
@@ -205,7 +211,7 @@ def overflow(page):
 
 
 def test_the_report_fits_a_1280_px_window_with_every_picture_shown(report, browser):
-    paths, data = report
+    paths, data, _chinese = report
     counts = data["summary"]["counts"]
     assert (counts["alarms"], counts["checks"], counts["failed"], counts["needs_review"], counts["trends"]) == \
         (4, 1, 1, 2, 1)   # the fixture holds every kind of attention (alarms: oil, switch, foreign, bushing A)
@@ -247,8 +253,45 @@ def test_the_report_fits_a_1280_px_window_with_every_picture_shown(report, brows
     page.close()
 
 
+def print_pages(page, pdf_path, prefix):
+    """The page printed to an A4 PDF at ``pdf_path``, every page rendered to SCREENS/<prefix><n>.png to look
+    at (pdfium renders BGR); returns the PDF's bytes and its page count."""
+    pdf = page.pdf(path=pdf_path, format="A4", print_background=True, prefer_css_page_size=True)
+    document = pdfium.PdfDocument(pdf)
+    for stale in glob.glob(os.path.join(SCREENS, prefix + "*.png")):   # an earlier, longer report's
+        os.unlink(stale)
+    for n in range(len(document)):
+        assert cv2.imwrite(os.path.join(SCREENS, "%s%d.png" % (prefix, n + 1)), document[n].render(scale=1.0).to_numpy())
+    return pdf, len(document)
+
+
+def test_the_report_in_chinese_fits_and_prints_like_the_english_one(report, browser):
+    paths, _data, chinese = report
+    page = browser.new_page(viewport={"width": WINDOW_PX, "height": 900})
+    page.goto("file://" + chinese["report.html"], wait_until="load")
+    page.screenshot(path=os.path.join(SCREENS, "report_zh_1280.png"), full_page=True)
+    scroll, client, worst = overflow(page)
+    assert scroll <= WINDOW_PX and worst is None, (scroll, client, worst)
+    text = page.inner_text("body")
+    assert page.evaluate("document.documentElement.lang") == "zh-CN"
+    for words in ("巡检报告 yard_20261127_0800", "摘要", "需要关注（8）", "场地地图", "停靠点", "告警", "亮绿灯", "93 °C",
+                  "严重红外缺陷", "0.4 .. 1.2 MPa"):
+        assert words in text, words
+    for english in ("Summary", "Needs attention", "Yard map", "no limits", "needs review", "lit green", "readings",
+                    "check", "objects"):
+        assert english not in text, english
+    assert page.locator("svg.view").count() == 8 and page.locator(".preset > h3").count() == len(YARD_STOPS)
+    page.emulate_media(media="print")
+    page.set_viewport_size({"width": A4_CONTENT_PX, "height": 1000})
+    scroll, client, worst = overflow(page)
+    assert scroll <= A4_CONTENT_PX and worst is None, (scroll, client, worst)
+    _pdf, pages = print_pages(page, os.path.join(SCREENS, "report_zh_a4.pdf"), "report_zh_a4_page_")
+    assert 2 <= pages <= 12, pages
+    page.close()
+
+
 def test_the_report_prints_on_a4_without_cutting_anything(report, browser):
-    paths, _data = report
+    paths, _data, _chinese = report
     page = browser.new_page(viewport={"width": A4_CONTENT_PX, "height": 1000})
     page.emulate_media(media="print")
     page.goto("file://" + paths["report.html"], wait_until="load")
@@ -256,18 +299,11 @@ def test_the_report_prints_on_a4_without_cutting_anything(report, browser):
     page.screenshot(path=os.path.join(SCREENS, "report_print_a4_width.png"), full_page=True)
     assert scroll <= A4_CONTENT_PX and worst is None, (scroll, client, worst)
     pdf_path = os.path.join(SCREENS, "report_a4.pdf")
-    pdf = page.pdf(path=pdf_path, format="A4", print_background=True, prefer_css_page_size=True)
+    pdf, rendered = print_pages(page, pdf_path, "report_a4_page_")   # every page a picture to look at
     pages = len(re.findall(rb"/Type\s*/Page\b(?!s)", pdf))
+    assert rendered == pages
     assert len(pdf) > 20000 and os.path.getsize(pdf_path) == len(pdf)
     assert 2 <= pages <= 12, pages   # summary + attention + map + nine presets, not one page per picture
     boxes = re.findall(rb"/MediaBox\s*\[\s*0 0 ([\d.]+) ([\d.]+)\s*\]", pdf)
     assert boxes and all(abs(float(w) - 595.9) < 2 and abs(float(h) - 842.9) < 2 for w, h in boxes), boxes[:3]
-    # every printed page as a picture, to look at (test_logs/screens/report_a4_page_<n>.png)
-    document = pdfium.PdfDocument(pdf)
-    assert len(document) == pages
-    for stale in glob.glob(os.path.join(SCREENS, "report_a4_page_*.png")):   # an earlier, longer report's
-        os.unlink(stale)
-    for n in range(len(document)):
-        bgr = document[n].render(scale=1.0).to_numpy()
-        assert cv2.imwrite(os.path.join(SCREENS, "report_a4_page_%d.png" % (n + 1)), bgr)   # pdfium renders BGR
     page.close()

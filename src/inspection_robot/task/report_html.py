@@ -85,9 +85,9 @@ def _badge(state, tr):
     return '<span class="state" style="background:%s">%s</span>' % (STATE_COLOURS[state], words)
 
 
-def unit_words(unit):
-    """A unit for people: degrees Celsius as °C (the interface writes ``C``)."""
-    return "°C" if unit == "C" else unit
+def unit_words(unit, tr=ENGLISH):
+    """A unit for people: degrees Celsius as °C (the interface writes ``C``), a count of objects in words."""
+    return "°C" if unit == "C" else tr(unit) if unit == "objects" else unit
 
 
 def display_words(display, row, tr):
@@ -104,7 +104,7 @@ def _band(r, tr):
     """A reading's limits in words: its normal band, and the alarm band around it when it has one."""
     if r["low"] is None:
         return tr("no limits")
-    unit = " " + unit_words(r["unit"]) if r["unit"] else ""
+    unit = " " + unit_words(r["unit"], tr) if r["unit"] else ""
     text = "%g .. %g%s" % (r["low"], r["high"], unit)
     if r.get("alarm_low") is not None:
         text += "; " + tr("alarm outside {band}", band="%g .. %g%s" % (r["alarm_low"], r["alarm_high"], unit))
