@@ -828,8 +828,9 @@ class ConsoleTest(unittest.TestCase):
             while (walker.nextNode()) {
                 const node = walker.currentNode, text = node.nodeValue.trim();
                 const el = node.parentNode;
-                if (!text || !el || el.closest('#log, textarea, script, style, #results, #alarm-list, #schedules, #routines,'
-                    + ' #planner-catalog, #planner-stops, .u-legend, #patrol-task, select#language')) continue;
+                const robotWords = '#log, textarea, script, style, #results, #alarm-list, #schedules, #routines,'
+                    + ' #planner-catalog, #planner-stops, .u-legend, #patrol-task, select#language';
+                if (!text || !el || el.closest(robotWords)) continue;
                 if (/[A-Za-z]{4,}/.test(text) && !/[\u4e00-\u9fff]/.test(text)) out.push(text);
             }
             return out; }""")
