@@ -23,6 +23,7 @@ import time
 from inspection_robot_testing.bridge_client import RawClient
 
 SENDER = "server"
+GRANT_SHOWN_S = 5.0   # robot_status shows a grant at once (published on change); 5 s covers a loaded machine
 
 
 class WsBackend(object):
@@ -109,6 +110,13 @@ def reconnect_trial(url, hold_s, gap_s=0.0, numbered=True, rng=random):
         ack, data = b.acquire()
         if ack != "success":
             return {"kept": False, "why": "B's acquire: %s %s" % (ack, data)}
+        # robot_status and mode_ack travel on two connections: a status published before the grant may
+        # arrive after its ack (seen beside two CPU hogs: mode 0 0.3 s after the grant). Watch from the
+        # first status that shows the grant; one that never comes is a loss.
+        try:
+            b.status(lambda s: s["mode"] == 1 and s["offline_warn"] == 0, GRANT_SHOWN_S)
+        except queue.Empty:
+            return {"kept": False, "why": "B's grant never showed in robot_status within %.0f s" % GRANT_SHOWN_S}
         held = (time.time(), time.time() + hold_s)
         deadline = time.monotonic() + hold_s
         while time.monotonic() < deadline:
