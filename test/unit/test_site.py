@@ -144,6 +144,15 @@ def test_malformed_values_are_refused(site, tmp_path):
     assert len(found) == 6, found
 
 
+@pytest.mark.parametrize("language", ["fr", "zh", "", None, ["zh-CN"]])
+def test_a_language_that_does_not_exist_is_refused(site, language):
+    site["language"] = language
+    assert problems(site) == ["language must be one of zh-CN|en, got %r (top-level in the site file: the console's, "
+                              "the report's and the voice's)" % (language,)]
+    site["language"] = "en"
+    assert problems(site) == []
+
+
 def test_insecure_needs_no_token_and_a_data_root_argument_counts(site):
     del site["rosbridge_websocket"]
     del site["data_root"]

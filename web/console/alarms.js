@@ -4,6 +4,7 @@
    grows sounds a short tone (Web Audio: nothing to download) and lists the alarms again. */
 import { t, timeText } from './i18n.js';
 import { alarmWords, readingText } from './decode.js';
+import { fetchPicture } from './files.js';
 import { control } from './link.js';
 import * as store from './state.js';
 import { $, coalesced } from './ui.js';
@@ -64,11 +65,25 @@ function renderAlarms(rows) {
     tr.className = r.alarm;
     tr.dataset.id = r.id;
     tr.insertCell().textContent = alarmWords(r.alarm) + (r.grade ? ' (' + t('{grade} defect', { grade: t(r.grade) }) + ')' : '');
-    tr.insertCell().textContent = r.target_name || r.kind + ' ' + r.target;
+    const target = tr.insertCell();   // a click puts the meter on the trend chart
+    target.textContent = r.target_name || r.kind + ' ' + r.target;
+    if (r.target_name) {
+      target.className = 'trend-link';
+      target.title = t('add this meter to the trend chart');
+      target.addEventListener('click', () => store.emit('trend-meter', { target: r.target_name, unit: r.unit }));
+    }
     tr.insertCell().textContent = readingText(r) + (r.reason && r.status !== 'uncertain' ? ' · ' + r.reason : '');
     tr.insertCell().textContent = r.task_id + ' · ' + (r.stop_name || t('stop {i}', { i: r.stop + 1 }));
     tr.insertCell().textContent = timeText(r.time);
     const cell = tr.insertCell();
+    if (r.picture) {   // the annotated picture, in a tab of its own
+      const view = document.createElement('button');
+      view.type = 'button';
+      view.className = 'alarm-picture';
+      view.textContent = t('picture');
+      view.addEventListener('click', () => showPicture(r.picture));
+      cell.appendChild(view);
+    }
     const button = document.createElement('button');
     button.type = 'button';
     button.className = 'alarm-ack';
@@ -78,6 +93,14 @@ function renderAlarms(rows) {
   }
   if (!rows.length) fresh.insertRow().insertCell().textContent = t('No open alarm.');
   body.parentNode.replaceChild(fresh, body);
+}
+
+function showPicture(picture) {
+  const tab = window.open('', '_blank');   // opened now, in the click, or the browser blocks it
+  fetchPicture(picture).then((url) => {
+    if (tab) tab.document.body.innerHTML = '<img alt="" style="max-width:100%">';
+    if (tab) tab.document.querySelector('img').src = url;
+  }).catch((err) => alarmMessage(t('picture') + ': ' + err.message, true));
 }
 
 function acknowledge(row, button) {

@@ -72,6 +72,11 @@ function renderResults(rows) {
       cell.textContent = r.picture.split('/').pop();
     }
   });
+  if (!rows.length) {
+    const cell = fresh.insertRow().insertCell();
+    cell.colSpan = 6;
+    cell.textContent = t('No readings of this task yet.');
+  }
   body.parentNode.replaceChild(fresh, body);
 }
 
