@@ -63,6 +63,9 @@ export function rememberLanguage(language) {
   }
 }
 
+/** HTML text as the catalogue keys it: runs of white space (line breaks of the source) as one space. */
+const words = (text) => text.replace(/\s+/g, ' ').trim();
+
 /** Translate the static text of ``root`` (text nodes, title and placeholder), from the English originals
     (kept, so switching back and forth never translates a translation). */
 export function translatePage(root) {
@@ -76,19 +79,19 @@ export function translatePage(root) {
     const original = lang.original.get(node);
     const text = original.trim();
     if (!text) continue;
-    node.nodeValue = original.replace(text, t(text));
+    node.nodeValue = original.replace(text, t(words(text)));
   }
   for (const el of root.querySelectorAll('[title], [placeholder], option')) {
     for (const attribute of ['title', 'placeholder']) {
       if (!el.hasAttribute(attribute)) continue;
       const key = 'i18n' + attribute;
       if (!(key in el.dataset)) el.dataset[key] = el.getAttribute(attribute);
-      el.setAttribute(attribute, t(el.dataset[key]));
+      el.setAttribute(attribute, t(words(el.dataset[key])));
     }
     if (el.tagName === 'OPTION' && !el.closest('[data-dynamic]')) {
       if (!('i18ntext' in el.dataset)) el.dataset.i18ntext = el.textContent;
       if (!el.hasAttribute('value')) el.setAttribute('value', el.dataset.i18ntext);   // the value stays English
-      el.textContent = t(el.dataset.i18ntext);
+      el.textContent = t(words(el.dataset.i18ntext));
     }
   }
   document.documentElement.lang = lang.current;
