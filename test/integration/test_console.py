@@ -839,6 +839,12 @@ class ConsoleTest(unittest.TestCase):
         technical = r"^(control_cmd \w+|presets/\S+|[a-z_/]+\.\w+)$"   # command names, paths, file names
         self.assertEqual([t for t in leftovers if not re.match(technical, t)], [])
         self.shoot_panels("zh-CN")
+        for width in (1280, 1920):   # the operator's screens: no horizontal scrolling, in Chinese too
+            self.page.set_viewport_size({"width": width, "height": 1000})
+            scroll, client = self.page.evaluate("[document.documentElement.scrollWidth, "
+                                                "document.documentElement.clientWidth]")
+            self.assertLessEqual(scroll, client, "the page is wider than a %d-px window" % width)
+            self.page.screenshot(path=os.path.join(SCREENS, "console_zh-CN_%d.png" % width), full_page=True)
         self.page.select_option("#language", "en")   # back to English for whatever runs next in this browser
         self.page.wait_for_function("document.documentElement.lang === 'en'", timeout=20000)
         self.wait_connected()

@@ -35,7 +35,15 @@ function act(cmd, data, done) {
   control('task_control', cmd, data).then(() => {
     message(done);
     refreshRoutines();
-  }).catch((err) => message(cmd + ' refused: ' + err.message, true));
+  }).catch((err) => message(t('{cmd} refused', { cmd }) + ': ' + err.message, true));
+}
+
+/** An empty table's one row saying so. */
+function empty(body, columns, text) {
+  const cell = body.insertRow().insertCell();
+  cell.colSpan = columns;
+  cell.className = 'hint';
+  cell.textContent = text;
 }
 
 function renderRoutines(routines) {
@@ -50,6 +58,7 @@ function renderRoutines(routines) {
     tr.insertCell().append(button('load', () => store.emit('load-routine', routine)),
       button('delete', () => act('routine_delete', routine.name, t('routine {name} deleted', { name: routine.name }))));
   }
+  if (!routines.length) empty(body, 4, t('No saved routine yet: plan a patrol and save it as a routine.'));
   const table = $('routines');
   table.replaceChild(body, table.tBodies[0]);
   const select = $('schedule-routine');
@@ -79,6 +88,7 @@ function renderSchedules(rows) {
         t(row.enabled ? 'schedule {name} disabled' : 'schedule {name} enabled', { name: row.name }))),
       button('delete', () => act('schedule_delete', row.name, t('schedule {name} deleted', { name: row.name }))));
   }
+  if (!rows.length) empty(body, 8, t('No schedule yet: a saved routine runs on the days and at the time you set.'));
   const table = $('schedules');
   table.replaceChild(body, table.tBodies[0]);
 }
@@ -119,7 +129,7 @@ function onTaskStatus(msg) {
 }
 
 export function init() {
-  window.consoleSchedules = { rows: () => Array.from(document.querySelectorAll('#schedules tbody tr'),
+  window.consoleSchedules = { rows: () => Array.from(document.querySelectorAll('#schedules tbody tr[data-schedule]'),
     (tr) => Array.from(tr.cells, (c) => c.textContent)) };
   const days = $('schedule-days');
   for (const day of WEEKDAYS) {
