@@ -261,7 +261,8 @@ def print_pages(page, pdf_path, prefix):
     for stale in glob.glob(os.path.join(SCREENS, prefix + "*.png")):   # an earlier, longer report's
         os.unlink(stale)
     for n in range(len(document)):
-        assert cv2.imwrite(os.path.join(SCREENS, "%s%d.png" % (prefix, n + 1)), document[n].render(scale=1.0).to_numpy())
+        picture = document[n].render(scale=1.0).to_numpy()
+        assert cv2.imwrite(os.path.join(SCREENS, "%s%d.png" % (prefix, n + 1)), picture)
     return pdf, len(document)
 
 
