@@ -148,7 +148,7 @@ class TaskActionTest(unittest.TestCase):
         self.assertEqual((result.ret_code, data["task_id"], data["state"], data["reason"]),
                          ("1", "short", "failed", "every preset failed"))
         self.assertEqual(data["counts"], {"readings": 1, "read": 0, "uncertain": 0, "needs_review": 0, "failed": 1,
-                                          "alarms": 0, "checks": 0, "trends": 0})
+                                          "alarms": 0, "checks": 0, "warnings": 0, "trends": 0})
         self.assertEqual(data["report"], "tasks/reports/short/report.html")   # data-root-relative
         ended = json.loads(self.status.wait(lambda m: json.loads(m.data)["task_id"] == "short"
                                             and json.loads(m.data)["state"] == "failed", 10.0, "short ended").data)
