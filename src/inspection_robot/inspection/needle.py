@@ -28,6 +28,12 @@ POINTER_COLOURS = ("dark", "light", "red", "black", "white")
 WIDENED_SHARE = 0.3
 WIDENED_PX = 0.5
 JOINED_PX = 0.5
+# A radius shows the needle when the face SIDE_GAP (of the dial radius) beyond its edges, each side, is no farther from
+# the dial's colour than SIDE_RATIO of the needle itself, and the needle at least MIN_NEEDLE_DIST (Lab)
+# from it (NeedleFinder.visible_share). Chosen on the real set's tuning part (bench/real_set.py).
+SIDE_GAP = 0.08     # of the dial radius: beyond a needle's shadow, within an object that hides it
+SIDE_RATIO = 0.5
+MIN_NEEDLE_DIST = 8.0
 
 # The radial profiles along the rays from the calibrated pivot (NeedleFinder.profile), their median
 # over the radius (``full``, its median ``base``), the pointer candidates and each ray's distance
@@ -221,6 +227,28 @@ class NeedleFinder(object):
         near = np.arange(max(0, index - int(8.0 / self.step_deg)),
                          min(len(prof.angles), index + int(8.0 / self.step_deg) + 1))
         return int(near[np.argmax(prof.off_dial[near] * (prof.full[near] > prof.base))])
+
+    def visible_share(self, face, prof, line, width_px, gap=SIDE_GAP, ratio=SIDE_RATIO):
+        """The share of the needle's length that is visibly a needle: along its fitted ``line`` (point,
+        outward unit direction), at each of the profile's radii, the face just beside it (half its
+        width ``width_px`` plus ``gap`` of the dial radius, each side, across the line) has the dial's colour (the
+        median over the sweep at that radius: no farther from it than ``ratio`` of the needle
+        itself). Where an object hides the needle, or the "needle" is an object's edge, one side or
+        both are not the dial."""
+        dial = np.median(prof.samples, axis=0)
+        point, direction = np.asarray(line[0], float), np.asarray(line[1], float)
+        q = point - np.asarray(face.centre, float)
+        b = float(np.dot(q, direction))
+        r = self.radii * face.rad
+        t = -b + np.sqrt(np.maximum(b * b - (float(np.dot(q, q)) - r * r), 0.0))
+        on = np.asarray(face.centre, float)[None] + q[None] + t[:, None] * direction[None]
+        normal = np.array([-direction[1], direction[0]]) * (width_px / 2.0 + gap * face.rad)
+        points = np.concatenate([on, on + normal, on - normal]).astype(np.float32)
+        lab = cv2.remap(face.lab, points[:, :1], points[:, 1:], cv2.INTER_LINEAR,
+                        borderMode=cv2.BORDER_REPLICATE).reshape(3, len(r), 3).astype(np.float32)
+        off_dial = np.sqrt(((lab - dial[None]) ** 2).sum(axis=2))
+        needle, beside = off_dial[0], np.maximum(off_dial[1], off_dial[2])
+        return float(((beside < ratio * needle) & (needle > MIN_NEEDLE_DIST)).mean())
 
     def needle_width(self, prof, i, rad):
         """The needle's width (px): its angular extent above half its height at each radius."""

@@ -31,6 +31,7 @@ from inspection_robot.inspection.needle_confidence import CLEAR_CONTRAST, UNCERT
 from inspection_robot.inspection.readers import Reading, clip_confidence
 
 BAND_AGREE_PCT_FS = 2.0   # the outer band's value within this of the inner band's: the same needle
+HIDDEN_BELOW = 0.5        # a needle visible along less of its length (NeedleFinder.visible_share) is uncertain
 
 
 class PointerReader(object):
@@ -96,6 +97,13 @@ class PointerReader(object):
                        "outer_line_miss": float(abs(np.dot(np.asarray(face.centre) - lines[2][0], normal))) / face.rad,
                        "pivot": (float(foot[0]) / (width - 1), float(foot[1]) / (height - 1)),
                        "box_inside": round(face.inside, 3)})
+        visible = finder.visible_share(face, prof, lines[0], detail["needle_width"] * face.rad)
+        detail["needle_visible"] = round(visible, 3)
+        if visible < HIDDEN_BELOW:
+            # an object over the needle, or an object's edge taken for it: never a confident value
+            confidence = min(confidence, self.uncertain_below * visible / HIDDEN_BELOW)
+            hidden = "needle hidden: %.0f %% of its length not visible" % (100.0 * (1.0 - visible))
+            reason = "%s; %s" % (hidden, reason) if reason else hidden
         if confidence < self.uncertain_below and not reason:
             reason = weak_reason(face.bgr, contrast, disagreement)
         detail["reason"] = reason

@@ -1,0 +1,67 @@
+"""A needle hidden by an object is never read confidently (issue #40, "seeing what is not there"):
+the simulated yard's dials painted frontally, a bird's nest (sim.faces.paint_foreign) over the
+needle's outer part; before, some of these read confidently wrong (the oil thermometer 114.7 C for
+76 C at confidence 96, its hidden needle taken for the nest's edge). The clean dials still read
+confidently, their needle seen along its whole length."""
+import os
+
+import numpy as np
+import pytest
+
+from inspection_robot.inspection.gauge import GaugeScale
+from inspection_robot.inspection.pointer import HIDDEN_BELOW, PointerReader
+from inspection_robot.sim.faces import paint_face, paint_foreign
+from inspection_robot.sim.world import World
+
+ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..")
+FACES = ("transformer_1/winding_temp", "transformer_1/oil_temp", "cabinet_1/voltmeter", "cabinet_1/ammeter")
+
+
+@pytest.fixture(scope="module")
+def world():
+    return World.load(os.path.join(ROOT, "config", "sim_world.yaml"))
+
+
+def read(face, value, cover):
+    """The face at ``value`` painted at 400 px, a nest of ``cover`` dial radii's half-side centred on the
+    needle at 0.6 of its radius (0: none), read with its calibration; (reading, scale)."""
+    low, high = face.range
+    face.set_value(value)
+    image = paint_face(face, 400)
+    h, w = image.shape[:2]
+    fx, fy, radius_m = face.dial_layout()
+    if cover:
+        angle = np.radians(face.needle_angle_deg(value))
+        r = radius_m * w / face.quad.width
+        x, y = fx * w + 0.6 * r * np.sin(angle), fy * h - 0.6 * r * np.cos(angle)
+        half = int(cover * r)
+        x0, y0 = int(x) - half, int(y) - half
+        nest = paint_foreign(7, 2 * half, 2 * half)
+        rows, cols = slice(max(0, y0), min(h, y0 + 2 * half)), slice(max(0, x0), min(w, x0 + 2 * half))
+        image[rows, cols] = nest[rows.start - y0:rows.stop - y0, cols.start - x0:cols.stop - x0]
+    quad = np.array([[-0.5, -0.5], [w - 0.5, -0.5], [w - 0.5, h - 0.5], [-0.5, h - 0.5]])
+    scale = GaugeScale(face.start_angle, face.end_angle, low, high)
+    reading = PointerReader().read(image, quad, scale, (fx, fy), radius_m / face.quad.width,
+                                   face.quad.width / face.quad.height)
+    return reading, scale
+
+
+@pytest.mark.parametrize("face_id", FACES)
+def test_a_hidden_needle_is_uncertain_with_the_reason_and_a_clear_one_is_not(world, face_id):
+    face = world.faces[face_id]
+    state = face.value
+    low, high = face.range
+    try:
+        for share in (0.1, 0.5, 0.9):
+            value = low + share * (high - low)
+            clean, scale = read(face, value, 0.0)
+            assert scale.error_percent_fs(clean.value, value) < 1.0 and clean.confidence >= 80, clean
+            assert clean.detail["needle_visible"] >= 0.75 and "hidden" not in clean.detail["reason"], clean
+            for cover in (0.35, 0.6):
+                hidden, _ = read(face, value, cover)
+                assert hidden.confidence < 50, (value, cover, hidden)
+                assert hidden.detail["needle_visible"] < HIDDEN_BELOW, (value, cover, hidden.detail)
+                assert "needle hidden: " in hidden.detail["reason"] and "% of its length not visible" in \
+                    hidden.detail["reason"], hidden.detail["reason"]
+    finally:
+        face.set_value(state)
