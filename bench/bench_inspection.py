@@ -66,6 +66,9 @@ CENTRE_OFF = float(os.environ.get("BENCH_REAL_CENTRE_OFF", "0"))
 # onto its labelled pivot and radius (a finder that is never wrong, to tell finder from reader errors)
 BOX_SOURCE = os.environ.get("BENCH_REAL_BOX", "find")
 FIND_DETECTOR = os.environ.get("BENCH_REAL_DETECTOR", "orb")    # config/find_scale.yaml's default
+# the needle model learned at calibration from the calibration photo's labelled value, as an operator
+# types the value the meter shows (calibration.SelfCheck); 0: the line fit alone (calibrations before #40)
+NEEDLE_MODEL = os.environ.get("BENCH_REAL_NEEDLE_MODEL", "1") != "0"
 
 
 def synthetic_case(rng, locator, reader):
@@ -229,10 +232,12 @@ def label_spec(label, width, height):
     return spec
 
 
-def real_photo_preset(root, label, picture, optics_for):
-    """A one-picture preset of ``picture`` calibrated from ``label``; returns its directory."""
+def real_photo_preset(root, label, picture, optics_for, shown=None):
+    """A one-picture preset of ``picture`` calibrated from ``label``; returns its directory. ``shown``:
+    the value the picture shows, typed at calibration (the needle model is learned from it); None:
+    learned from the reader's own confident reading, as without a typed value."""
     from inspection_robot.files import write_atomic
-    from inspection_robot.inspection.calibration import calibrate
+    from inspection_robot.inspection.calibration import SelfCheck, calibrate
     from inspection_robot.inspection.preset import PresetDirWriter, PresetInfo
     image = cv2.imread(picture)
     height, width = image.shape[:2]
@@ -241,7 +246,8 @@ def real_photo_preset(root, label, picture, optics_for):
         info = PresetInfo(label["id"], "visible", False, "20260101_000000", 0.0, 0.0, 1.0, 0x4000,
                           (0.0, 0.0, 0.0), [1.0], width, height)
         write_atomic(writer.file("preset.ini"), info.to_ini())
-        calibrate(writer.path, [label_spec(label, width, height)], optics_for(width, height))
+        check = SelfCheck([shown], force=True) if NEEDLE_MODEL else None
+        calibrate(writer.path, [label_spec(label, width, height)], optics_for(width, height), check=check)
         return writer.commit()
 
 
@@ -280,8 +286,10 @@ def real_cases(photo_dir, tmp):
         row = {"id": label["id"], "negative": negative, "role": role, "failed": "", "find_failed": "",
                "part": real_set.part_of(doc, label), "repo": label["repo"], "seen": seen[label["repo"]],
                "dial": real_set.dial_of(label), "categories": real_set.categories_of(label)}
+        # the value shown is typed for a calibration photo that is not the one read (on the same
+        # photo, the model would know the answer: the reader's own reading teaches it there)
         preset_dir = real_photo_preset(tmp, dict(calibration, id=label["id"]), found[calibration["id"]],
-                                       S.linear_optics)
+                                       S.linear_optics, calibration.get("truth") if role == "cross" else None)
         preset = load_preset(preset_dir)
         quad = preset.targets[0].boxes[0]
         t0 = time.perf_counter()

@@ -25,10 +25,11 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 LABELS = os.path.join(ROOT, "bench", "data", "real_gauges.json")
 PARTS = ("tuning", "test")
 MAX_DIAL_SHARE = 0.05
-# the categories issue #26 asks figures for: name -> tags that put a photo in it (any of them)
+# the categories issues #26 and #40 ask figures for: name -> tags that put a photo in it (any of them)
 CATEGORIES = collections.OrderedDict([
     ("scale_end", ("at_scale_end",)),
     ("drag_pointer", ("drag_pointer",)),
+    ("counterweight_tail", ("needle_tail", "broad_tail")),
     ("off_centre_pivot", ("off_centre_pivot",)),
     ("reversed_or_nonlinear", ("reversed_scale", "nonlinear")),
     ("oblique", ("oblique",)),

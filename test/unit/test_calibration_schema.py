@@ -11,7 +11,7 @@ GOOD = {"name": "oil", "digits": 2, "normal": [0.2, 1.4], "start_angle": -135.0,
         "scale_table": [[0.0, -135.0], [0.8, 0.0], [1.6, 135.0]],
         "marks": [[0.0, 0.18, 0.82], [1.6, 0.82, 0.82]], "pointer_colour": "dark", "ignore_colour": "red",
         "colour": "green", "on_reference": "target_0_on.png", "off_reference": "target_0_off.png",
-        "open_reference": "a.png", "closed_reference": "b.png",
+        "open_reference": "a.png", "closed_reference": "b.png", "needle_reference": "target_0_needle.png",
         "thermal_box": [5.0, 5.0, 30.5, 5.0, 30.5, 30.0, 5.0, 30.0], "phase": "B", "device": "T1 bay 3",
         "equipment_class": "breaker", "emissivity": 0.9, "digit_count": 4, "polarity": "dark", "slant": -6.0,
         "fill": 0.75, "decimals": 1, "contrast": 77.5, "counter": True, "alarm_band": [0.0, 1.6]}

@@ -2,7 +2,9 @@
 the simulated yard's dials painted frontally, a bird's nest (sim.faces.paint_foreign) over the
 needle's outer part; before, some of these read confidently wrong (the oil thermometer 114.7 C for
 76 C at confidence 96, its hidden needle taken for the nest's edge). The clean dials still read
-confidently, their needle seen along its whole length."""
+confidently, their needle seen along its whole length. Read as a patrol reads them: with the needle
+model learned at calibration (the oil thermometer's drag pointer stays in view when its needle is
+hidden: the line fit takes the drag pointer, the model says it is not this meter's needle)."""
 import os
 
 import numpy as np
@@ -22,9 +24,10 @@ def world():
     return World.load(os.path.join(ROOT, "config", "sim_world.yaml"))
 
 
-def read(face, value, cover):
+def read(face, value, cover, model=None):
     """The face at ``value`` painted at 400 px, a nest of ``cover`` dial radii's half-side centred on the
-    needle at 0.6 of its radius (0: none), read with its calibration; (reading, scale)."""
+    needle at 0.6 of its radius (0: none), read with its calibration and needle ``model``; (reading,
+    scale). ``model`` "learn": learns it there (the calibration picture) and returns it as the reading."""
     low, high = face.range
     face.set_value(value)
     image = paint_face(face, 400)
@@ -41,9 +44,10 @@ def read(face, value, cover):
         image[rows, cols] = nest[rows.start - y0:rows.stop - y0, cols.start - x0:cols.stop - x0]
     quad = np.array([[-0.5, -0.5], [w - 0.5, -0.5], [w - 0.5, h - 0.5], [-0.5, h - 0.5]])
     scale = GaugeScale(face.start_angle, face.end_angle, low, high)
-    reading = PointerReader().read(image, quad, scale, (fx, fy), radius_m / face.quad.width,
-                                   face.quad.width / face.quad.height)
-    return reading, scale
+    dial = ((fx, fy), radius_m / face.quad.width, face.quad.width / face.quad.height)
+    if model == "learn":
+        return PointerReader().learn(image, quad, scale, value, *dial), scale
+    return PointerReader().read(image, quad, scale, *dial, model=model), scale
 
 
 @pytest.mark.parametrize("face_id", FACES)
@@ -52,14 +56,19 @@ def test_a_hidden_needle_is_uncertain_with_the_reason_and_a_clear_one_is_not(wor
     state = face.value
     low, high = face.range
     try:
+        model, _ = read(face, low + 0.4 * (high - low), 0.0, "learn")     # calibrated as a patrol reads it
         for share in (0.1, 0.5, 0.9):
             value = low + share * (high - low)
-            clean, scale = read(face, value, 0.0)
+            clean, scale = read(face, value, 0.0, model)
             assert scale.error_percent_fs(clean.value, value) < 1.0 and clean.confidence >= 80, clean
             assert clean.detail["needle_visible"] >= 0.75 and "hidden" not in clean.detail["reason"], clean
             for cover in (0.35, 0.6):
-                hidden, _ = read(face, value, cover)
+                hidden, _ = read(face, value, cover, model)
                 assert hidden.confidence < 50, (value, cover, hidden)
+                if face.drag is not None:
+                    # the drag pointer is in plain view: the line fit takes it, the needle model does not
+                    assert "this meter's needle " in hidden.detail["reason"], (value, cover, hidden.detail)
+                    continue
                 assert hidden.detail["needle_visible"] < HIDDEN_BELOW, (value, cover, hidden.detail)
                 assert "needle hidden: " in hidden.detail["reason"] and "% of its length not visible" in \
                     hidden.detail["reason"], hidden.detail["reason"]

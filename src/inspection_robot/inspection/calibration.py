@@ -22,10 +22,10 @@ from inspection_robot.inspection.preset import (TARGET_KINDS, PresetError, Targe
 from inspection_robot.inspection.digital import learn_display, parse_shown, read_display
 from inspection_robot.inspection.geometry import quad_inside
 from inspection_robot.inspection.lamp import lamp_patch
-from inspection_robot.inspection.pointer import PointerReader
+from inspection_robot.inspection.pointer import GENERIC, PointerReader
 from inspection_robot.inspection.readers import ReadFailed
 from inspection_robot.inspection.switch import switch_patch
-from inspection_robot.inspection.reading import decode_reference, read_pointer
+from inspection_robot.inspection.reading import decode_reference, learn_pointer, read_pointer
 from inspection_robot.thermal.diagnosis import DiagnosisError, thermal_groups
 
 cv2 = lazy_import("cv2")   # on first use: a node registers before its ~360 libraries load
@@ -92,7 +92,7 @@ def build_targets(preset_dir, specs, optics):
                 raise PresetError("target %d: %s_picture missing or unreadable: %s" % (i, state, picture))
             patches[params[state + "_reference"]] = switch_patch(image, box) if kind == "switch" \
                 else lamp_patch(image, box)
-        for state in ("on", "off", "open", "closed"):
+        for state in ("on", "off", "open", "closed", "needle"):
             reference = params.get(state + "_reference")
             if state not in pictures and reference:
                 _check_reference(preset_dir, i, kind, state, reference)
@@ -165,7 +165,7 @@ def calibrate(preset_dir, specs, optics, draft=None, check=None):
     info, targets, patches = build_targets(preset_dir, specs, optics)
     if check is not None:
         check(preset_dir, targets)
-    encoded = {}
+    encoded = dict(check.patches) if check is not None else {}   # the needle models it learned
     for name, patch in sorted(patches.items()):
         ok, data = cv2.imencode(".png", patch)
         if not ok:
@@ -186,11 +186,19 @@ SELF_CHECK_FS = 0.02   # the reader may differ from the operator's expected valu
 
 class SelfCheck(object):
     """Reads every pointer target on the calibration picture (zoom0.jpg) as soon as its calibration
-    is built, before it is written: the operator sees what the reader makes of the meter they just
-    calibrated, beside the value they see (``results``). With ``expected`` (one value or None per
-    target, calibration order) a reading more than SELF_CHECK_FS of full scale away, or no reading
-    at all, refuses the calibration with the reason, unless ``force``: a wrong scale point, a box
-    on the wrong meter or a pivot the reader cannot use shows at calibration, not in a patrol.
+    is built, before it is written, and learns each pointer's needle model there
+    (inspection.needle_model): the operator sees what the reader makes of the meter they just
+    calibrated, beside the value they see (``results``).
+
+    With ``expected`` (one value or None per target, calibration order) the model is learned from the
+    needle at that value, and the calibration is refused with the reason, unless ``force``, when no
+    needle lies there, when the model cannot tell it from another pointer, or when the reader
+    without a model confidently reads another value (more than SELF_CHECK_FS of full scale away): a
+    wrong scale point, a box on the wrong meter, a pivot the reader cannot use, or the value of a
+    drag or set pointer typed for the live needle's shows at calibration, not in a patrol. Without
+    a value the model is learned from the reader's own confident reading; a target it cannot learn
+    keeps the line fit alone (``needle_model`` in its result says which). ``patches``: the models'
+    PNG files {name: bytes}, written with the calibration.
     """
 
     def __init__(self, expected=None, force=False, reader=None):
@@ -198,6 +206,7 @@ class SelfCheck(object):
         self.force = bool(force)
         self._reader = reader
         self.results = []
+        self.patches = {}
 
     def __call__(self, preset_dir, targets):
         expected = self.expected or [None] * len(targets)
@@ -206,6 +215,8 @@ class SelfCheck(object):
                               % (len(expected), len(targets)))
         picture = os.path.join(preset_dir, zoom_picture_name(0))
         image = cv2.imread(picture, cv2.IMREAD_COLOR) if os.path.isfile(picture) else None
+        if self._reader is None:
+            self._reader = PointerReader()
         problems = []
         for i, (target, value) in enumerate(zip(targets, expected)):
             if target.kind != "pointer":
@@ -215,29 +226,29 @@ class SelfCheck(object):
                 continue
             entry = self._read(i, target, image, value)
             self.results.append(entry)
-            if value is None:
-                continue
-            if entry["read"] is None:
+            if value is not None and entry["read"] is None:
                 problems.append("target %d (%s): the reader cannot read the calibration picture: %s"
                                 % (i, target.name, entry["reason"]))
-            elif entry["apart_fs_pct"] > 100.0 * SELF_CHECK_FS:
+            elif value is not None and entry["apart_fs_pct"] > 100.0 * SELF_CHECK_FS and not entry["reason"]:
                 problems.append("target %d (%s): the reader reads %.4g on the calibration picture, you expect %.4g: "
                                 "%.1f %% of full scale apart (at most %g %%); check the scale points, the box and "
-                                "the pivot" % (i, target.name, entry["read"], value, entry["apart_fs_pct"],
-                                               100.0 * SELF_CHECK_FS))
+                                "the pivot, and that %.4g is the live needle's value, not a drag or set pointer's"
+                                % (i, target.name, entry["read"], value, entry["apart_fs_pct"],
+                                   100.0 * SELF_CHECK_FS, value))
+            problem = self._learn(i, target, image, value, entry)
+            if problem:
+                problems.append("target %d (%s): %s" % (i, target.name, problem))
         if problems and not self.force:
             raise PresetError("; ".join(problems) + " (force: true applies it anyway)")
 
-    def _read(self, index, target, image, expected):
+    def _read(self, index, target, image, expected, model=None):
         entry = {"target": index, "name": target.name, "read": None, "confidence": None, "expected": expected,
-                 "apart_fs_pct": None, "reason": ""}
+                 "apart_fs_pct": None, "reason": "", "needle_model": GENERIC}
         if image is None:
             entry["reason"] = "zoom0.jpg missing or unreadable"
             return entry
-        if self._reader is None:
-            self._reader = PointerReader()
         try:
-            reading = read_pointer(self._reader, target, image, target.boxes[0])
+            reading = read_pointer(self._reader, target, image, target.boxes[0], model)
         except ReadFailed as err:
             entry["reason"] = str(err)
             return entry
@@ -247,6 +258,30 @@ class SelfCheck(object):
             full_scale = abs(target.scale.end_value - target.scale.start_value)
             entry["apart_fs_pct"] = round(100.0 * abs(reading.value - expected) / full_scale, 2)
         return entry
+
+    def _learn(self, index, target, image, expected, entry):
+        """Learns the target's needle model (see the class docstring) and reads the picture again with
+        it, as a patrol will (``entry`` updated); returns why the given value's needle could not be
+        learned, "" otherwise."""
+        value = expected
+        if value is None and entry["read"] is not None and not entry["reason"]:
+            value = entry["read"]          # the reader's own confident reading
+        if value is None or entry["read"] is None:
+            return ""
+        try:
+            model = learn_pointer(self._reader, target, image, target.boxes[0], value)
+        except ReadFailed as err:
+            entry["needle_model"] = "%s; not learned: %s" % (GENERIC, err)
+            return str(err) if expected is not None else ""
+        name = "target_%d_needle.png" % index
+        target.params["needle_reference"] = schema.check_value("needle_reference", name)
+        self.patches[name] = model.encode()
+        generic = dict(entry)
+        entry.update(self._read(index, target, image, expected, model),
+                     needle_model="learned from %s" % ("the value given" if expected is not None
+                                                       else "the reader's own reading"),
+                     line_fit_read=generic["read"])
+        return ""
 
 
 # --- the calibration tool's operations, one target at a time ----------------------------------

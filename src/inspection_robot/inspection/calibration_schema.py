@@ -271,6 +271,7 @@ FIELDS = {
     "marks": Field(("pointer",), _marks, "marks"),
     "pointer_colour": Field(("pointer",), _choice(POINTER_COLOURS, optional=True)),
     "ignore_colour": Field(("pointer",), _choice(POINTER_COLOURS, optional=True)),
+    "needle_reference": Field(("pointer",), _file_name),   # learned at calibration (inspection.needle_model)
     "colour": Field(("lamp",), _choice(LAMP_COLOURS)),
     "on_reference": Field(("lamp",), _file_name),
     "off_reference": Field(("lamp",), _file_name),

@@ -146,7 +146,7 @@ class NeedleFinder(object):
         start = scale.start_angle - (span - scale.sweep) / 2.0
         return start + np.arange(0.0, span, self.step_deg)
 
-    def _samples(self, face_lab, centre, radius, angles, radii):
+    def samples(self, face_lab, centre, radius, angles, radii):
         """Distance of every sample from the LOCAL face colour (mean over +-background_deg at the same
         radius): smooth glare, shading and tinted light cancel, a narrow needle stands out.
         Returns (dist angles x radii, samples, background); ``angles`` must be evenly spaced."""
@@ -169,8 +169,8 @@ class NeedleFinder(object):
 
     def profile(self, face, angles):
         """The radial profiles along the rays and their pointer candidates (NeedleProfile)."""
-        dist, samples, background = self._samples(face.lab, face.centre, face.rad, angles, self.radii)
-        reach_dist = self._samples(face.lab, face.centre, face.rad, angles, self.reach_radii)[0]
+        dist, samples, background = self.samples(face.lab, face.centre, face.rad, angles, self.radii)
+        reach_dist = self.samples(face.lab, face.centre, face.rad, angles, self.reach_radii)[0]
         full = np.median(dist, axis=1)
         candidates, base = self._candidates(full)
         # distance from the dial's own colour (median over the sweep at each radius): a pointer
@@ -221,11 +221,11 @@ class NeedleFinder(object):
             pool = [d for d in pool if not matches_colour(d["colour"], ignore_colour)] or pool
         return sorted(pool, key=lambda d: -d["score"])
 
-    def needle_index(self, prof, index):
-        """Centre on the needle itself: of the peaks within +-8 deg of ``index``, the one farthest
-        from the dial's colour (a fringe beside the needle can win the profile)."""
-        near = np.arange(max(0, index - int(8.0 / self.step_deg)),
-                         min(len(prof.angles), index + int(8.0 / self.step_deg) + 1))
+    def needle_index(self, prof, index, window_deg=8.0):
+        """Centre on the needle itself: of the peaks within +-``window_deg`` of ``index``, the one
+        farthest from the dial's colour (a fringe beside the needle can win the profile)."""
+        near = np.arange(max(0, index - int(window_deg / self.step_deg)),
+                         min(len(prof.angles), index + int(window_deg / self.step_deg) + 1))
         return int(near[np.argmax(prof.off_dial[near] * (prof.full[near] > prof.base))])
 
     def visible_share(self, face, prof, line, width_px, gap=SIDE_GAP, ratio=SIDE_RATIO):

@@ -26,12 +26,17 @@ import numpy as np
 
 from inspection_robot.inspection.dial_frame import dial_from_marks, dial_outside
 from inspection_robot.inspection.needle import ANGLE_STEP_DEG, GAUGE_SIZE, NeedleFinder, meets_circle
+from inspection_robot.inspection import needle_model
 from inspection_robot.inspection.needle_confidence import CLEAR_CONTRAST, UNCERTAIN_BELOW, agreement, \
     needle_confidence, rival, weak_reason
-from inspection_robot.inspection.readers import Reading, clip_confidence
+from inspection_robot.inspection.readers import ReadFailed, Reading, clip_confidence
 
 BAND_AGREE_PCT_FS = 2.0   # the outer band's value within this of the inner band's: the same needle
 HIDDEN_BELOW = 0.5        # a needle visible along less of its length (NeedleFinder.visible_share) is uncertain
+NEAR_DEG = 3.0            # the line fitted at the needle model's angle: the pointer within this of it
+LEARN_PCT_FS = 5.0        # calibration: the needle learned lies within this of the value typed
+GENERIC = ("generic: the calibration has no needle model (apply it again with the value the meter shows "
+           "to learn this meter's needle)")
 
 
 class PointerReader(object):
@@ -49,7 +54,7 @@ class PointerReader(object):
                                            (outer_band[1] - 0.05, outer_band[1] + 0.05))
 
     def needle_angle(self, image, quad, centre=(0.5, 0.5), radius=0.45, aspect=1.0, scale=None,
-                     pointer_colour="", ignore_colour="", finder=None):
+                     pointer_colour="", ignore_colour="", finder=None, near=None):
         """Needle angle (deg clockwise from up, about the calibrated centre) in the face's frontal
         view, a confidence and a detail dict (``reason``: why the confidence is low, "" when it is
         not). ``finder``: the band to search (the inner one by default).
@@ -57,7 +62,8 @@ class PointerReader(object):
         From the calibration: ``centre`` (pivot as fractions of the box width, height), ``radius``
         (dial radius as a fraction of the box width), ``aspect`` (physical width / height of the
         box, so the frontal view is not stretched), ``scale`` (the search covers its sweep plus
-        the margin; None: all around), colour hints.
+        the margin; None: all around), colour hints. ``near`` (angle, window, deg): the pointer within
+        the window of the angle (the needle model's, the calibration's value), not the best-ranked one.
         """
         finder = finder or self.inner_band
         face = finder.face(image, quad, centre, radius, aspect)
@@ -68,8 +74,17 @@ class PointerReader(object):
             return None, 0.0, detail
         described = finder.describe(prof)
         pool = finder.ranked(described, pointer_colour, ignore_colour)
+        if near is None:
+            i = finder.needle_index(prof, pool[0]["index"])
+        else:
+            gap = np.abs((prof.angles - near[0] + 180.0) % 360.0 - 180.0)
+            i = finder.needle_index(prof, int(np.argmin(gap)), window_deg=near[1])
+            if prof.full[i] <= prof.base:
+                detail.update(reason="no pointer within %.3g deg of %.1f deg" % (near[1], near[0]), angle=None,
+                              contrast_ratio=0.0)
+                return None, 0.0, detail
+            pool = sorted(pool, key=lambda d: abs(d["index"] - i))
         chosen = pool[0]
-        i = finder.needle_index(prof, chosen["index"])
         lines = finder.needle_lines(prof, face, i)
         if lines is None:
             detail.update(reason="needle not found (no continuous needle along the radius)", angle=None,
@@ -110,11 +125,12 @@ class PointerReader(object):
         return angle, clip_confidence(confidence), detail
 
     def read(self, image, quad, scale, centre=(0.5, 0.5), radius=0.45, aspect=1.0, pointer_colour="",
-             ignore_colour="", marks=None):
+             ignore_colour="", marks=None, model=None):
         """Reading of a pointer gauge; detail["reason"] is non-empty when the reading is uncertain.
         Raises ReadFailed when no reading is possible. ``marks`` [(value, u, v)] (the scale marks'
         positions as fractions of the box): when they fit an ellipse well, the dial is read in the
-        frontal frame they give (dial_from_marks)."""
+        frontal frame they give (dial_from_marks). ``model``: this meter's NeedleModel, the second
+        opinion (``_second_opinion``); None reads with the line fit alone and says so."""
         frame = dial_from_marks(quad, centre, radius, aspect, marks) if marks else None
         if frame is not None:
             quad, scale, centre, radius, aspect = frame.quad, frame.scale, frame.centre, frame.radius, frame.aspect
@@ -123,7 +139,82 @@ class PointerReader(object):
             reading.detail["frame"] = dict(frame.detail, source="marks")
         elif marks:
             reading.detail["frame"] = {"source": "calibration"}
+        if model is None:
+            reading.detail["needle_model"] = GENERIC
+        else:
+            reading = self._second_opinion(reading, model, image, quad, scale, centre, radius, aspect,
+                                           pointer_colour, ignore_colour)
         return self._outside(reading, image, quad, scale, centre, radius, aspect)
+
+    def learn(self, image, quad, scale, value, centre=(0.5, 0.5), radius=0.45, aspect=1.0, pointer_colour="",
+              ignore_colour="", marks=None):
+        """This meter's NeedleModel, learned from a picture showing ``value`` (calibration: the value
+        the operator reads on the meter). ReadFailed with the reason when no needle lies at that value
+        (within ``agree_pct_fs``) or when the model cannot tell it from another pointer of the dial."""
+        frame = dial_from_marks(quad, centre, radius, aspect, marks) if marks else None
+        if frame is not None:
+            quad, scale, centre, radius, aspect = frame.quad, frame.scale, frame.centre, frame.radius, frame.aspect
+        finder = self.inner_band
+        window = max(NEAR_DEG, LEARN_PCT_FS / 100.0 * scale.sweep)
+        angle, _confidence, detail = self.needle_angle(image, quad, centre, radius, aspect, scale, pointer_colour,
+                                                       ignore_colour, near=(scale.angle(value), window))
+        if angle is None or detail["contrast_ratio"] < CLEAR_CONTRAST:
+            raise ReadFailed("no needle at %.4g: %s" % (value, detail["reason"] or "nothing there stands out of the "
+                                                                                   "face"))
+        apart, agree = agreement(scale.value(angle), value, scale.full_scale, LEARN_PCT_FS)
+        if not agree:
+            raise ReadFailed("no needle at %.4g: the pointer nearest it reads %.4g (%.1f %% FS apart)"
+                             % (value, scale.value(angle), apart))
+        face = finder.face(image, quad, centre, radius, aspect)
+        model = needle_model.learn(finder, face, angle)
+        found = needle_model.match(finder, face, model, finder.search_angles(scale))
+        if found.rival > needle_model.RIVAL_MATCH * found.score:
+            raise ReadFailed("the needle at %.4g cannot be told from the pointer-like line at %.4g (match %.2f "
+                             "against %.2f)" % (value, scale.value(found.rival_angle), found.score, found.rival))
+        return model
+
+    def _second_opinion(self, reading, model, image, quad, scale, centre, radius, aspect, pointer_colour,
+                        ignore_colour):
+        """The line fit's reading checked against this meter's needle model (needle_model.match):
+        - the model does not recognise its needle: uncertain, "this meter's needle not recognised";
+        - they agree within ``agree_pct_fs``: the line fit's reading (the finer of the two); a rival
+          pointer the model tells apart no longer lowers its confidence;
+        - they disagree: the line fitted at the model's angle (this meter's needle), uncertain
+          with both values."""
+        finder = self.inner_band
+        detail = reading.detail
+        face = finder.face(image, quad, centre, radius, aspect)
+        found = needle_model.match(finder, face, model, finder.search_angles(scale))
+        detail.update(needle_model="learned", model_match=round(found.score, 3), model_angle=found.angle,
+                      model_rival=round(found.rival, 3))
+        if found.angle is None or found.score < needle_model.MIN_MATCH:
+            why = "this meter's needle not recognised (match %.2f, at least %.2f)" % (
+                found.score, needle_model.MIN_MATCH)
+            return _doubted(reading, why, self.uncertain_below * max(found.score, 0.0) / needle_model.MIN_MATCH)
+        model_value = scale.value(found.angle)
+        if math.isfinite(reading.value):
+            apart, agree = agreement(reading.value, model_value, scale.full_scale, self.agree_pct_fs)
+            if agree:
+                return _without_rival(reading, found)
+        angle, confidence, refit = self.needle_angle(image, quad, centre, radius, aspect, scale, pointer_colour,
+                                                     ignore_colour, near=(found.angle, NEAR_DEG))
+        value = scale.value(angle) if angle is not None else model_value
+        refit.update((k, v) for k, v in detail.items() if k.startswith("model_") or k in ("needle_model", "frame"))
+        if not math.isfinite(reading.value):
+            why = "the line fit found no needle; this meter's needle model reads %.4g" % value
+            return _doubted(Reading(value, confidence, refit), why, self.uncertain_below * 0.5)
+        apart, same = agreement(reading.value, value, scale.full_scale, self.agree_pct_fs)
+        if same:        # the line fit's own pointer, the model's angle a little off it
+            return _without_rival(reading, found)
+        why = "this meter's needle reads %.4g, the strongest line %.4g (%.1f %% FS apart)" % (
+            value, reading.value, apart)
+        cap = self.uncertain_below * min(1.0, self.agree_pct_fs / max(apart, 1e-9)) * 0.99
+        if not needle_model.decisive(found):
+            # the model itself hesitates between two pointers: the line fit's value, flagged
+            detail["model_value"] = value
+            return _doubted(reading, why + " (the model's match is not decisive)", cap)
+        refit["line_fit_value"] = reading.value
+        return _doubted(Reading(value, confidence, refit), why, cap)
 
     def _outside(self, reading, image, quad, scale, centre, radius, aspect):
         """The reading of a box partly outside the picture: as it is when the dial's pivot and
@@ -179,3 +270,27 @@ class PointerReader(object):
             detail["stop"] = ("needle at rest below the first mark (%.1f deg before it)" % under if under < over
                               else "needle past the last mark (%.1f deg beyond it)" % over)
         return Reading(scale.value(angle), confidence, detail)
+
+
+def _doubted(reading, why, cap):
+    """``reading`` with its confidence at most ``cap`` and ``why`` first among its reasons."""
+    own = reading.detail.get("reason", "")
+    reading.detail["reason"] = "%s; %s" % (why, own) if own else why
+    return Reading(reading.value, clip_confidence(min(reading.confidence, cap)), reading.detail)
+
+
+def _without_rival(reading, found):
+    """A reading the needle model confirms: when its confidence was lowered only for a rival pointer
+    (needle_confidence.rival) and the model's own rival match is clearly below its match, the
+    rival's share is given back (the model knows which of the two is this meter's needle)."""
+    margin = reading.detail.get("candidate_margin", 1.0)
+    reason = reading.detail.get("reason", "")
+    if margin >= 1.0 or not reason.startswith("two pointers") or ";" in reason \
+            or not needle_model.decisive(found):
+        return reading
+    confidence = reading.confidence / max(margin, 0.05)
+    if confidence < UNCERTAIN_BELOW:
+        return reading      # weak for another reason too: the rival stays named
+    reading.detail["reason"] = ""
+    reading.detail["rival_settled_by_model"] = True
+    return Reading(reading.value, clip_confidence(confidence), reading.detail)

@@ -184,7 +184,8 @@ class Target(object):
     box), start/end angle (deg clockwise from up) and value, unit, scale_table [(value, angle)],
     marks [(value, u, v)] (the scale marks' positions as fractions of the box: the reader fits
     their ellipse to undo an oblique view and find the pivot, see dial_frame.dial_from_marks),
-    pointer_colour, ignore_colour. Lamp: colour, optional on_reference and off_reference (patch
+    pointer_colour, ignore_colour, needle_reference (the needle model's file, learned at
+    calibration: inspection.needle_model). Lamp: colour, optional on_reference and off_reference (patch
     file names). Switch: open_reference, closed_reference (patch file names in the preset
     directory). Thermal: thermal_box (4x2 in the thermal picture). Any kind: normal [low, high].
     """
@@ -263,7 +264,8 @@ def write_calibration(preset_dir, targets, info):
     write_atomic(os.path.join(preset_dir, CALIB_INI), _ini_text(c))
 
 
-REFERENCE_KEYS = ("on_reference", "off_reference", "open_reference", "closed_reference")   # patch file names
+# files a calibration names: reference patches, and a pointer's needle model (inspection.needle_model)
+REFERENCE_KEYS = ("on_reference", "off_reference", "open_reference", "closed_reference", "needle_reference")
 # loads of a preset an upload may overtake in a row before load_preset gives up: uploads back to back
 # (test_calibration_commands' upload storm) overtook a load 5 times in a row once in 5,479 loads beside
 # the suites under Noetic's Python; 20 in a row needs an upload faster than every load 20 times

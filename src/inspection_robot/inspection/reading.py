@@ -27,6 +27,7 @@ from inspection_robot.inspection.looks import combine_looks
 from inspection_robot.inspection.preset import PresetError, load_preset, zoom_picture_name
 from inspection_robot.inspection.lamp import read_lamp
 from inspection_robot.inspection.needle import check_face
+from inspection_robot.inspection.needle_model import NeedleModel
 from inspection_robot.inspection.pointer import PointerReader
 from inspection_robot.inspection.readers import Reading, ReadFailed
 from inspection_robot.inspection.switch import face_similarity, read_switch
@@ -230,7 +231,7 @@ class ScaleReader(object):
         p = target.params
         if target.kind == "pointer":
             self._check_same_gauge(preset, target, image, quad)
-            return read_pointer(self.pointer, target, image, quad)
+            return read_pointer(self.pointer, target, image, quad, self._needle_model(preset, p))
         if target.kind == "digital":
             return read_display(image, quad, display_model(p))
         if target.kind == "lamp":
@@ -255,6 +256,17 @@ class ScaleReader(object):
         if similarity < MIN_FACE_SIMILARITY:
             raise ReadFailed("the box does not show the calibrated gauge (similarity %.2f to the preset's "
                              "picture, %.2f needed)" % (similarity, MIN_FACE_SIMILARITY))
+
+    def _needle_model(self, preset, params):
+        """The target's NeedleModel, None when its calibration has none; a model named but missing or
+        corrupt fails the request (never a silent fall back to the line fit alone)."""
+        name = params.get("needle_reference")
+        if not name:
+            return None
+        model = NeedleModel.decode(preset.reference(name), self.pointer.inner_band.step_deg)
+        if model is None:
+            raise ReadError("needle model missing or corrupt: %s (calibrate the preset again)" % preset.file(name))
+        return model
 
     @staticmethod
     def _reference_patch(preset, name, kind):
@@ -334,13 +346,21 @@ def _pictures_per_box(files, targets, thermal_ids):
     return first, [s if t.kind == "pointer" else "" for t, s in zip(targets, second)]
 
 
-def read_pointer(reader, target, image, quad):
-    """A pointer target's Reading in ``image`` at ``quad`` with the calibration's dial parameters
-    (ReadFailed when there is no needle to read)."""
+def read_pointer(reader, target, image, quad, model=None):
+    """A pointer target's Reading in ``image`` at ``quad`` with the calibration's dial parameters and
+    this meter's needle model (None: the line fit alone); ReadFailed when there is no needle to read."""
     p = target.params
     return reader.read(image, quad, target.scale, p.get("centre", (0.5, 0.5)), p.get("radius", 0.45),
                        p.get("aspect", 1.0), p.get("pointer_colour", ""), p.get("ignore_colour", ""),
-                       p.get("marks") or None)
+                       p.get("marks") or None, model)
+
+
+def learn_pointer(reader, target, image, quad, value):
+    """This pointer target's NeedleModel from ``image`` showing ``value`` (ReadFailed: why not)."""
+    p = target.params
+    return reader.learn(image, quad, target.scale, value, p.get("centre", (0.5, 0.5)), p.get("radius", 0.45),
+                        p.get("aspect", 1.0), p.get("pointer_colour", ""), p.get("ignore_colour", ""),
+                        p.get("marks") or None)
 
 
 def _equipment_region(region, points, shape):

@@ -130,12 +130,17 @@ def paint_gauge(img, face):
         uy = cy + radius * (0.45 if face.style != "panel_arc" else -0.35)
         cv2.putText(img, face.unit, (int(cx - tw / 2.0), int(uy + th / 2.0)), font, font_scale * 1.2, ink,
                     max(1, int(round(font_scale * 2))), cv2.LINE_AA)
-    # needle: a tapered polygon from a short tail through the pivot to the tip
+    drag = getattr(face, "drag", None)
+    if drag is not None:        # a thin red drag pointer, under the live needle
+        theta = math.radians(face.needle_angle_deg(drag))
+        _line(img, (cx, cy), (cx + math.sin(theta) * radius * 0.9, cy - math.cos(theta) * radius * 0.9),
+              (30, 30, 210), max(1.0, radius * 0.018))
+    # needle: a tapered polygon from its tail through the pivot to the tip
     theta = math.radians(face.needle_angle_deg())
     sx, sy = math.sin(theta), -math.cos(theta)
     nx, ny = -sy, sx
     length = face.needle_length_m() * px_per_m
-    tail = radius * 0.15
+    tail = radius * getattr(face, "tail", 0.15)
     half_base = max(1.5, radius * 0.035)
     needle_colour = (30, 30, 200) if dark_dial else (20, 20, 20)
     if dark_dial:
@@ -146,6 +151,8 @@ def paint_gauge(img, face):
                      _pt(cx - sx * tail + nx * half_base, cy - sy * tail + ny * half_base),
                      _pt(cx - sx * tail - nx * half_base, cy - sy * tail - ny * half_base)], np.int32)
     cv2.fillConvexPoly(img, poly, needle_colour, cv2.LINE_AA, SUBPIXEL_SHIFT)
+    if tail > radius * 0.25:    # a counterweight: a disc near the tail's end
+        _circle(img, (cx - sx * tail * 0.85, cy - sy * tail * 0.85), radius * 0.08, needle_colour)
     _circle(img, (cx, cy), max(2.0, radius * 0.07), (50, 50, 50))
 
 

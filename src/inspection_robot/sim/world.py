@@ -149,8 +149,14 @@ class Face(object):
             self.minor_ticks = int(spec.get("minor_ticks", 4))
             self.unit = str(spec.get("unit", ""))
             self.zones = [(float(a), float(b), str(c)) for a, b, c in spec.get("zones", [])]
+            # a red drag (max) pointer left at this value beside the live needle; None: none
+            self.drag = float(spec["drag"]) if spec.get("drag") is not None else None
+            # the needle's counterweight tail beyond the pivot, in dial radii (a disc at its end over 0.25)
+            self.tail = float(spec.get("tail", 0.15))
         except (KeyError, TypeError, ValueError) as err:
             raise WorldError("gauge %s: %s" % (self.id, err))
+        if self.drag is not None and not self.range[0] <= self.drag <= self.range[1] or not 0.0 <= self.tail <= 0.7:
+            raise WorldError("gauge %s: drag must lie in the range, tail in 0..0.7 dial radii" % self.id)
         if self.style not in GAUGE_STYLES:
             raise WorldError("gauge %s: style must be one of %s" % (self.id, "|".join(GAUGE_STYLES)))
         if len(self.range) != 2 or not self.range[0] < self.range[1]:
