@@ -344,7 +344,18 @@ class Renderer(object):
             noise = cv2.resize(field[oy:oy + half[0], ox:ox + half[1]], (img.shape[1], img.shape[0]),
                                interpolation=cv2.INTER_NEAREST)
             img = cv2.add(img, noise, dtype=cv2.CV_8U)
-        return img
+        return _infrared(img) if self.world.light.value == "night" else img
+
+
+def _infrared(img):
+    """The picture a camera takes at night by its own infrared illuminator: grey (no colour), its
+    light falling off from the middle of the view, dimmer and flatter than by day."""
+    grey = cv2.cvtColor(img, cv2.COLOR_BGR2GRAY).astype(np.float32)
+    h, w = grey.shape
+    y, x = np.mgrid[0:h, 0:w].astype(np.float32)
+    r2 = ((x - w / 2.0) / (w / 2.0)) ** 2 + ((y - h / 2.0) / (h / 2.0)) ** 2
+    lit = 20.0 + 0.7 * grey * (1.0 - 0.3 * np.clip(r2 / 2.0, 0.0, 1.0))
+    return cv2.cvtColor(np.clip(lit, 0, 255).astype(np.uint8), cv2.COLOR_GRAY2BGR)
 
 
 def _draw(img, camera, quad, texture):

@@ -25,6 +25,7 @@ ZONE_COLORS = ("red", "green", "yellow")
 HOT_SPOT_RANGE_C = (-40.0, 600.0)
 FACE_STANDOFF_M = 0.005  # faces sit this far in front of their side so they never z-fight with it
 FOREIGN_PREFIX = "foreign/"
+LIGHT_ID = "light"          # day | night: at night the camera sees by its infrared illuminator (grey)
 FOREIGN_STANDOFF_M = 0.08  # a foreign object hangs this far in front of the side it is dropped on
 FOREIGN_MAX_SIZE_M = 2.0
 
@@ -339,6 +340,24 @@ class ForeignObject(object):
         return self.quad is not None
 
 
+class Light(object):
+    """The yard's light, ``day`` or ``night`` (sim/set_world_value light night): at night the visible
+    camera switches to its infrared mode, a grey picture lit by its own illuminator (sim.render)."""
+
+    id = LIGHT_ID
+    type = "light"
+
+    def __init__(self, value="day"):
+        self.value = None
+        self.set_value(value)
+
+    def set_value(self, value):
+        if value not in ("day", "night"):
+            raise WorldError("light must be day or night, got '%s'" % (value,))
+        self.value = value
+        return value
+
+
 class World(object):
     """The yard: equipment, faces, hot spots, thermal surface temperatures, robot start."""
 
@@ -371,6 +390,7 @@ class World(object):
         except (TypeError, ValueError, AttributeError) as err:
             raise WorldError("world thermal: %s" % err)
         self.foreign = {}
+        self.light = Light(spec.get(LIGHT_ID, "day"))
         self.hot_spots = {}
         for item in thermal.get("hot_spots", []) or []:
             spot = HotSpot(item, self.equipment)
@@ -397,7 +417,10 @@ class World(object):
         return self.equipment_c.get(equipment_id, self.ambient_c)
 
     def item(self, item_id):
-        """A face, hot spot or foreign object; a foreign object id (``foreign/<name>``) is created on first use."""
+        """A face, hot spot, foreign object or the light; a foreign object id (``foreign/<name>``) is created
+        on first use."""
+        if item_id == LIGHT_ID:
+            return self.light
         item = self.faces.get(item_id) or self.hot_spots.get(item_id) or self.foreign.get(item_id)
         if item is None and str(item_id).startswith(FOREIGN_PREFIX) and len(str(item_id)) > len(FOREIGN_PREFIX):
             item = self.foreign[item_id] = ForeignObject(str(item_id), self.equipment)
@@ -417,6 +440,7 @@ class World(object):
         result = {fid: f.value for fid, f in self.faces.items()}
         result.update({sid: s.value for sid, s in self.hot_spots.items()})
         result.update({oid: o.value for oid, o in self.foreign.items()})
+        result[LIGHT_ID] = self.light.value
         return result
 
     def apply_values(self, values):
