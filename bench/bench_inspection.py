@@ -258,10 +258,32 @@ def _label_box(calibration, live, box):
     return (np.asarray(box, float) - calibration["pivot"]) * scale + live["pivot"]
 
 
-def real_cases(photo_dir, tmp):
+def occluded_copy(label, picture, path, cover=0.35):
+    """``picture`` with a bird's nest (sim.faces.paint_foreign) over its needle's outer half (centred
+    at 0.6 of the labelled radius along the labelled value's angle, ``cover`` radii each side),
+    written to ``path``: a synthetic occluder on a real photo (reported apart from the real figures)."""
+    from inspection_robot.inspection.gauge import GaugeScale
+    from inspection_robot.sim.faces import paint_foreign
+    image = cv2.imread(picture)
+    (px, py), r = label["pivot"], float(label["radius"])
+    table = [(float(v), math.degrees(math.atan2(x - px, -(y - py))) % 360.0) for v, x, y in label["marks"]]
+    scale = GaugeScale(table[0][1], table[-1][1], table[0][0], table[-1][0], table)
+    a = math.radians(scale.angle(label["truth"]))
+    x, y, half = px + 0.6 * r * math.sin(a), py - 0.6 * r * math.cos(a), max(2, int(cover * r))
+    x0, y0 = int(x) - half, int(y) - half
+    nest = paint_foreign(len(label["id"]), 2 * half, 2 * half)
+    h, w = image.shape[:2]
+    rows, cols = slice(max(0, y0), min(h, y0 + 2 * half)), slice(max(0, x0), min(w, x0 + 2 * half))
+    image[rows, cols] = nest[rows.start - y0:rows.stop - y0, cols.start - x0:cols.stop - x0]
+    cv2.imwrite(path, image)
+    return path
+
+
+def real_cases(photo_dir, tmp, occlude=False):
     """Score every scored photo present in ``photo_dir`` by its protocol (real_set.plan); returns the
     result dicts. "cross": the dial's calibration photo makes the preset, the box is located in this
-    photo by feature matching (the finder's Locator), then read; "same": the photo is both."""
+    photo by feature matching (the finder's Locator), then read; "same": the photo is both.
+    ``occlude``: every photo read (not the calibration) gets a nest over its needle (occluded_copy)."""
     from inspection_robot.inspection.geometry import flat_from_quads
     from inspection_robot.inspection.preset import load_preset
     from inspection_robot.inspection.reading import ReadError, ScaleReader
@@ -283,6 +305,10 @@ def real_cases(photo_dir, tmp):
         calibration = by_id[label["calibration_of"]] if negative else real_set.calibration_photo(doc, label)
         if calibration["id"] not in found:
             continue
+        if occlude:
+            if negative or "truth" not in label:
+                continue
+            picture = occluded_copy(label, picture, os.path.join(tmp, "occluded_%s.png" % label["id"]))
         row = {"id": label["id"], "negative": negative, "role": role, "failed": "", "find_failed": "",
                "part": real_set.part_of(doc, label), "repo": label["repo"], "seen": seen[label["repo"]],
                "dial": real_set.dial_of(label), "categories": real_set.categories_of(label)}
@@ -445,6 +471,11 @@ def main():
         tmp = tempfile.mkdtemp(prefix="bench_inspection_real_")
         try:
             report_real(*real_cases(photo_dir, tmp))
+            if os.environ.get("BENCH_REAL_OCCLUDED", "1") != "0":
+                rows = real_cases(photo_dir, tmp, occlude=True)[1]
+                for part in real_set.PARTS:
+                    print(json.dumps(_accuracy("inspection_real_%s_synthetic_occluder" % part,
+                                               [r for r in rows if r["part"] == part])))
         finally:
             shutil.rmtree(tmp, ignore_errors=True)
     else:

@@ -181,6 +181,24 @@ def test_needle_on_its_stop_pin_reads_the_scale_end_and_says_so():
     assert "stop" not in inside.detail and drawn.error_percent_fs(inside.value, 1.6) < 1.0, inside
 
 
+def test_a_needle_on_its_stop_is_believed_only_when_seen_along_most_of_its_length():
+    """Off the scale is accepted from a needle visibly there (issue #40.3): the same needle past the
+    last mark seen along 60 % of its length (an object over the rest: under STOP_VISIBLE, above
+    HIDDEN_BELOW) is uncertain with the reason; inside the scale 60 % would pass."""
+    rng = np.random.default_rng(14)
+    drawn = GaugeScale(225, 135, 0.0, 1.6)
+    image, quad = _scene(S.draw_gauge_face(drawn, 1.6, 300), rng)
+    reader = PointerReader()
+    for band in (reader.inner_band, reader.outer_band):
+        band.visible_share = lambda *args, **kwargs: 0.6
+    reading = reader.read(image, quad, GaugeScale(225, 128, 0.0, 1.6))
+    assert reading.value == 1.6 and reading.confidence < 50, reading
+    assert reading.detail["reason"].startswith("needle past the last mark (") and \
+        reading.detail["reason"].endswith(", only 60 % of its length visible"), reading.detail["reason"]
+    inside = reader.read(image, quad, drawn)
+    assert "stop" not in inside.detail and inside.confidence >= 50 and inside.detail["reason"] == "", inside
+
+
 @pytest.mark.parametrize("picture,reason", [(np.full((300, 300, 3), 128, np.uint8), "blank"),
                                             (np.full((300, 300, 3), 255, np.uint8), "overexposed"),
                                             (np.full((300, 300, 3), 2, np.uint8), "underexposed")])

@@ -33,6 +33,7 @@ from inspection_robot.inspection.readers import ReadFailed, Reading, clip_confid
 
 BAND_AGREE_PCT_FS = 2.0   # the outer band's value within this of the inner band's: the same needle
 HIDDEN_BELOW = 0.5        # a needle visible along less of its length (NeedleFinder.visible_share) is uncertain
+STOP_VISIBLE = 0.75       # a needle read on its stop (off the scale) is seen along at least this share
 NEAR_DEG = 3.0            # the line fitted at the needle model's angle: the pointer within this of it
 LEARN_PCT_FS = 5.0        # calibration: the needle learned lies within this of the value typed
 GENERIC = ("generic: the calibration has no needle model (apply it again with the value the meter shows "
@@ -269,6 +270,11 @@ class PointerReader(object):
             under = 360.0 - scale.offset(angle)
             detail["stop"] = ("needle at rest below the first mark (%.1f deg before it)" % under if under < over
                               else "needle past the last mark (%.1f deg beyond it)" % over)
+            seen = detail.get("needle_visible", 1.0)
+            if seen < STOP_VISIBLE:
+                # a value off the scale only from a needle visibly there, on its stop
+                why = "%s, only %.0f %% of its length visible" % (detail["stop"], 100.0 * seen)
+                return _doubted(Reading(scale.value(angle), confidence, detail), why, self.uncertain_below * 0.99)
         return Reading(scale.value(angle), confidence, detail)
 
 

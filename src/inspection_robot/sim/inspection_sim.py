@@ -99,6 +99,8 @@ def world_specs(world, head, switch_picture_path=None, hot_spot_box_px=None):
                         aspect=face.quad.width / face.quad.height, start_angle=face.start_angle,
                         end_angle=face.end_angle, start_value=face.range[0], end_value=face.range[1],
                         unit=face.unit)
+            if face.drag is not None:
+                spec["ignore_colour"] = "red"     # the operator marks the red drag pointer as one to leave alone
         elif face.type == "display":
             left, top, right, bottom = DISPLAY_WINDOW
             window = [face.quad.point(u, v) for u, v in ((left, top), (right, top), (right, bottom), (left, bottom))]
