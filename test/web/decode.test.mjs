@@ -104,6 +104,11 @@ test('a calibration self-check in words', () => {
     'the robot reads 3.5 (40 %) (two pointers)');
   assert.strictEqual(selfCheckText({ read: null, confidence: null, expected: 1, apart_fs_pct: null, reason: 'no needle' }),
     'the robot cannot read it: no needle');
+  assert.strictEqual(selfCheckText({ read: 0.6, confidence: 95, expected: 0.6, apart_fs_pct: 0, reason: '',
+    needle_model: 'learned from the value given' }), 'the robot reads 0.6 (95 %), you 0.6: 0 % of full scale apart; '
+    + 'needle model learned');
+  assert.strictEqual(selfCheckText({ read: 0.6, confidence: 95, expected: null, apart_fs_pct: null, reason: '',
+    needle_model: 'generic: the calibration has no needle model' }), 'the robot reads 0.6 (95 %); no needle model');
 });
 
 test('newestOnly: one decode at a time; frames arriving meanwhile leave only the newest waiting', async () => {

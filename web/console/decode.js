@@ -205,6 +205,10 @@ export function selfCheckText(check) {
   if (check.expected !== null) {
     text += ', ' + t('you {value}: {apart} % of full scale apart', { value: check.expected, apart: check.apart_fs_pct });
   }
-  return text + (check.reason ? ' (' + check.reason + ')' : '');
+  text += check.reason ? ' (' + check.reason + ')' : '';
+  if (check.needle_model) {   // learned at calibration (docs/interface.md, read_scale: "This meter's needle")
+    text += '; ' + (check.needle_model.startsWith('learned') ? t('needle model learned') : t('no needle model'));
+  }
+  return text;
 }
 
