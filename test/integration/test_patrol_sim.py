@@ -8,7 +8,8 @@ value in the world (transformer_1/oil_temp 118 C, red zone), refuse malformed ta
 moves, run the routine patrol with a backend take-over and release, a task_manager kill and
 respawn, a low battery that sends the robot to its dock to charge and back, and a special task
 that pre-empts it (a bird's nest over a voltmeter's needle meanwhile: that reading uncertain, in the
-review queue, not an alarm); then every gauge within 0.5 % of full scale of the world's truth (the
+review queue, not an alarm; an operation counter counts 3 more: the special task's report prints
+the increment); then every gauge within 0.5 % of full scale of the world's truth (the
 oil thermometer beside its drag pointer, the manometer with its counterweight), lamps and switches exact, the hot spots within 1 C, the alarm where the world is out
 of band and nowhere else, the serious thermal defect on the hot bushing phase (row grade, report),
 no reading lost or duplicated, the report files present.
@@ -38,6 +39,7 @@ from rostest_helpers import Latest, wait_for
 
 OUT_OF_BAND = ("transformer_1/oil_temp", "118")   # beside its drag pointer at 125 C (sim_world.yaml)
 OCCLUDED = "cabinet_1/voltmeter"   # a bird's nest over its needle during the special task: a review, not an alarm
+COUNTER = "cabinet_1/operation_counter"   # counts 3 operations between the routine's reading and the special's
 HOT_PHASE = "transformer_1/bushing_a"   # sim_world.yaml: phases A/B/C 78, 48, 47 C, ambient plate 25 C
 SPECIAL_STOPS = [s for s in YARD_STOPS if s[0] == "cabinet_1"]
 ENDED = ("done", "cancelled", "failed")
@@ -116,9 +118,10 @@ class PatrolSimTest(unittest.TestCase):
         v += (0.5 - fy) * h + 0.6 * radius * math.cos(angle)
         return "%s,%s,%.3f,%.3f,%.3f,%.3f" % (face.equipment.id, face.side, u, v, 0.7 * radius, 0.7 * radius)
 
-    def check_rows(self, rows, task, targets, occluded=()):
+    def check_rows(self, rows, task, targets, occluded=(), truths=None):
         """Every reading right: within GAUGE_LIMIT_PCT_FS, exact, the alarms where the world is out of
-        band; an ``occluded`` meter's reading uncertain with the reason, in review, never an alarm."""
+        band; an ``occluded`` meter's reading uncertain with the reason, in review, never an alarm.
+        ``truths``: {name: value} the world held when the task read it (it changed since)."""
         expected = [(i, j, k) for i, stop in enumerate(task["stops"]) for j, p in enumerate(stop["presets"])
                     for k in range(len(targets[self.preset_ids[p["preset"]]]))]
         keys = [(r["stop"], r["preset_index"], r["target"]) for r in rows]
@@ -133,7 +136,8 @@ class PatrolSimTest(unittest.TestCase):
                 self.assertNotEqual(row["alarm"], "alarm", what)
                 continue
             self.assertEqual(row["status"], "read", what)
-            truth = self.truth(name)
+            truth = (truths or {}).get(name, None)
+            truth = self.truth(name) if truth is None else truth
             if name in self.world.hot_spots:
                 self.assertLess(abs(value - truth), 1.0, what)
             elif self.world.faces[name].type == "gauge":
@@ -206,6 +210,8 @@ class PatrolSimTest(unittest.TestCase):
         # a special task pre-empts the routine after its current preset; the routine then resumes
         self.status_where(lambda s: s["done"] >= 5, 400.0, "5 presets done")
         client.must("sim/set_world_value", "foreign/nest", self.nest_over(OCCLUDED))
+        counted = int(float(client.must("sim/get_world_value", COUNTER)))
+        client.must("sim/set_world_value", COUNTER, str(counted + 3))
         client.submit(special)
         pre = self.status_where(lambda s: s["task_id"] == special["id"] and s["suspended"] == routine["id"],
                                 120.0, "special task running, routine suspended")
@@ -219,8 +225,12 @@ class PatrolSimTest(unittest.TestCase):
 
         # every reading right, none lost or duplicated; the routine did not start again
         rows = client.results(routine["id"])
-        self.check_rows(rows, routine, targets)
-        self.check_rows(client.results(special["id"]), special, targets, occluded=(OCCLUDED,))
+        self.check_rows(rows, routine, targets, truths={COUNTER: counted})
+        special_rows = client.results(special["id"])
+        self.check_rows(special_rows, special, targets, occluded=(OCCLUDED,))
+        # the counter: the routine's reading is its first, the special's counts the 3 operations since
+        self.assertEqual([r["increment"] for r in rows if r["target_name"] == COUNTER], [None], rows)
+        self.assertEqual([r["increment"] for r in special_rows if r["target_name"] == COUNTER], [3.0], special_rows)
         queue = json.loads(client.must("task_control", "review_queue", json.dumps({"task_id": special["id"]})))
         self.assertEqual([r["target_name"] for r in queue], [OCCLUDED], queue)
         special_end = max(r["time"] for r in client.results(special["id"]))
@@ -235,6 +245,9 @@ class PatrolSimTest(unittest.TestCase):
             page = f.read()
         self.assertIn('<tr class="alarm">', page)
         self.assertIn('<b>1</b>serious thermal defects', page)
+        with open(os.path.join(self.data_root, json.loads(client.must("task_control", "report", special["id"]))[
+                "report.html"])) as f:
+            self.assertIn("+3 since the previous reading", f.read())     # the counter's increment, printed
         with open(os.path.join(self.data_root, paths["report.json"])) as f:
             report = json.load(f)
         summary = report["summary"]   # the path recorded across the take-over, the kill and the charge cycle

@@ -107,6 +107,8 @@ def world_specs(world, head, switch_picture_path=None, hot_spot_box_px=None):
             corners, _depth = camera.project(np.array(window))
             spec.update(kind="digital", box=np.asarray(corners).reshape(-1).tolist(), shown=face.display_text(),
                         unit=face.spec.get("unit", ""))
+            if face.spec.get("counter"):
+                spec["counter"] = True
         elif face.type == "lamp" and switch_picture_path is None:
             spec.update(kind="lamp", colour=face.color)
         else:
