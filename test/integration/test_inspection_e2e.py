@@ -42,7 +42,7 @@ PRESETS = [("cabinet_2", (26.0, 21.4, HALF_PI), 1.45, 3.0, 2.0, False),
            ("breaker_1", (30.0, 14.5, -HALF_PI), 1.9, 3.5, 1.5, True)]
 EXPECTED = {"cabinet_2": {"cabinet_2/ammeter", "cabinet_2/position"},
             "cabinet_1": {"cabinet_1/ammeter", "cabinet_1/voltmeter", "cabinet_1/lamp_run",
-                          "cabinet_1/temp_controller"},
+                          "cabinet_1/temp_controller", "cabinet_1/operation_counter"},
             "transformer_1": {"transformer_1/oil_temp", "transformer_1/winding_temp", "transformer_1/oil_level"},
             "breaker_2": {"breaker_2/sf6_pressure", "breaker_2/position", "breaker_2/lamp_closed",
                           "breaker_2/lamp_open"},
