@@ -50,6 +50,7 @@ EXPECTED = {"cabinet_2": {"cabinet_2/ammeter", "cabinet_2/position"},
                           "breaker_1/lamp_open", "breaker_1/terminal"}}
 DISPLAY = "cabinet_1/temp_controller"   # a seven-segment display (sim_world.yaml: 4 digits, 1 decimal)
 DISPLAY_AFTER = "-7.3"                   # what it shows after the change: a minus, a blank leading digit
+COUNTER = "cabinet_1/operation_counter"  # a dark seven-segment counter
 GAUGE_FRACTIONS = {"cabinet_2/ammeter": 0.83, "cabinet_1/ammeter": 0.27, "cabinet_1/voltmeter": 0.64,
                    "transformer_1/oil_temp": 0.41, "transformer_1/winding_temp": 0.18, "transformer_1/oil_level": 0.9,
                    "breaker_2/sf6_pressure": 0.33, "breaker_1/sf6_pressure": 0.71}
@@ -203,7 +204,7 @@ class TestInspectionAcceptance(unittest.TestCase):
             if name in GAUGE_FRACTIONS:
                 face_range = self.gauge_ranges[name]
                 out[name] = (float(value), face_range[1] - face_range[0])
-            elif name in (HOT_SPOT, DISPLAY):
+            elif name in (HOT_SPOT, DISPLAY, COUNTER):
                 out[name] = float(value)
             elif "lamp" in name:
                 out[name] = float(LAMP_CODES[self.lamp_colours[name]]) if value == "on" else 0.0
