@@ -16,7 +16,11 @@ Steps, each measured on the real set's tuning part (bench/real_set.py; docs/deve
    pin, within the search margin) reads as the scale's start or end, said in
    ``detail["stop"]``;
 5. the dial partly outside the picture: read as it is when its pivot and scale arc are inside,
-   uncertain (confidence scaled by the share seen) otherwise.
+   uncertain (confidence scaled by the share seen) otherwise;
+6. with this meter's needle model (needle_model, learned at calibration: ``learn``), the line fit's
+   reading checked against the model's match (``_second_opinion``): a disagreement is uncertain
+   with both values. A needle hidden along half its length, or read off the scale without being
+   seen along STOP_VISIBLE of it, is uncertain whatever the model says.
 Dropped (no effect on the tuning part, a gross error on unseen meters): the hub search in the
 picture, the re-centring on the needle's line and the hub search along the scale's axis.
 """
@@ -151,7 +155,7 @@ class PointerReader(object):
               ignore_colour="", marks=None):
         """This meter's NeedleModel, learned from a picture showing ``value`` (calibration: the value
         the operator reads on the meter). ReadFailed with the reason when no needle lies at that value
-        (within ``agree_pct_fs``) or when the model cannot tell it from another pointer of the dial."""
+        (within LEARN_PCT_FS) or when the model cannot tell it from another pointer of the dial."""
         frame = dial_from_marks(quad, centre, radius, aspect, marks) if marks else None
         if frame is not None:
             quad, scale, centre, radius, aspect = frame.quad, frame.scale, frame.centre, frame.radius, frame.aspect
