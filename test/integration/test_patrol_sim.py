@@ -9,10 +9,11 @@ moves, run the routine patrol with a backend take-over and release, a task_manag
 respawn, a low battery that sends the robot to its dock to charge and back, and a special task
 that pre-empts it (a bird's nest over a voltmeter's needle meanwhile: that reading uncertain, in the
 review queue, not an alarm; an operation counter counts 3 more: the special task's report prints
-the increment); then every gauge within 0.5 % of full scale of the world's truth (the
-oil thermometer beside its drag pointer, the manometer with its counterweight), lamps and switches exact, the hot spots within 1 C, the alarm where the world is out
-of band and nowhere else, the serious thermal defect on the hot bushing phase (row grade, report),
-no reading lost or duplicated, the report files present.
+the increment); then every gauge within 0.5 % of full scale of the world's truth (the oil
+thermometer beside its drag pointer, the manometer with its counterweight), lamps and switches
+exact, the hot spots within 1 C, the alarm where the world is out of band and nowhere else, the
+serious thermal defect on the hot bushing phase (row grade, report), no reading lost or
+duplicated, the report files present.
 rospy is used only to read the bridge's port, the simulator's true pose, task_manager's pid and
 the data_root folder, and to drain the simulated battery.
 """

@@ -77,8 +77,8 @@ def test_a_preset_recorded_by_day_is_found_and_read_at_night(tmp_path, world):
         for k, name in enumerate(names):
             low, high = world.faces[name].range
             error = 100.0 * abs(out.scale[k] - world.get_value(name)) / (high - low)
-            print("night %s: %.2f for %.2f (%.2f %% FS) %s" % (name, out.scale[k], world.get_value(name), error,
-                                                             out.uncertain[k]))
+            print("night %s: %.2f for %.2f (%.2f %% FS) %s"
+                  % (name, out.scale[k], world.get_value(name), error, out.uncertain[k]))
             assert error < 0.5 or out.uncertain[k], (name, world.get_value(name), out.scale[k])
             confident += not out.uncertain[k]
     assert confident >= 4, "at most 2 of 6 night readings doubted"
