@@ -391,12 +391,12 @@ class ConsoleTest(unittest.TestCase):
         self.assertIn("calibration refused, nothing written: ", self.page.inner_text("#calib-result"))
         self.assertFalse(self.calibration(directory)["calibrated"])
         self.page.select_option("#calib-kind", "pointer")
-        # The operator says the needle shows 100 on a 0-1.6 scale: the robot reads the picture, refuses.
+        # The operator says the needle shows 100 on a 0-1.6 scale: the robot refuses, nothing written.
         self.page.fill("#calib-expected", "100")
         self.page.click("#calib-form button[type=submit]")
         self.wait_page("document.getElementById('calib-result').textContent.startsWith('refused: ')",
                        "the self-check's refusal shown")
-        self.assertIn("of full scale apart (at most 2 %)", self.page.inner_text("#calib-result"))
+        self.assertIn("you expect 100, outside its scale 0 .. 1.6", self.page.inner_text("#calib-result"))
         self.assertFalse(self.calibration(directory)["calibrated"])
         self.page.fill("#calib-expected", "")
         self.page.click("#calib-form button[type=submit]")

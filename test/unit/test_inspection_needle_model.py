@@ -182,3 +182,9 @@ def test_the_drag_pointers_value_typed_for_the_needles_is_refused_unless_forced(
     with pytest.raises(PresetError, match="not a drag or set pointer's.*force: true"):
         _preset(tmp_path / "a", face, 60.0, SelfCheck([125.0]))
     assert not [name for _, _, names in os.walk(str(tmp_path / "a")) for name in names if name == CALIB_INI]
+
+
+def test_a_value_outside_the_scale_is_refused(world, tmp_path):
+    face = world.faces["transformer_1/oil_temp"]
+    with pytest.raises(PresetError, match=r"you expect 500, outside its scale -20 \.\. 140.*force: true"):
+        _preset(tmp_path / "a", face, 60.0, SelfCheck([500.0]))

@@ -226,6 +226,11 @@ class SelfCheck(object):
                 continue
             entry = self._read(i, target, image, value)
             self.results.append(entry)
+            low, high = sorted((target.scale.start_value, target.scale.end_value))
+            if value is not None and not low <= value <= high:
+                problems.append("target %d (%s): you expect %.4g, outside its scale %.4g .. %.4g"
+                                % (i, target.name, value, target.scale.start_value, target.scale.end_value))
+                continue
             if value is not None and entry["read"] is None:
                 problems.append("target %d (%s): the reader cannot read the calibration picture: %s"
                                 % (i, target.name, entry["reason"]))
