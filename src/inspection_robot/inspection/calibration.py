@@ -281,11 +281,9 @@ class SelfCheck(object):
         name = "target_%d_needle.png" % index
         target.params["needle_reference"] = schema.check_value("needle_reference", name)
         self.patches[name] = model.encode()
-        generic = dict(entry)
-        entry.update(self._read(index, target, image, expected, model),
+        entry.update(self._read(index, target, image, expected, model), line_fit_read=entry["read"],
                      needle_model="learned from %s" % ("the value given" if expected is not None
-                                                       else "the reader's own reading"),
-                     line_fit_read=generic["read"])
+                                                       else "the reader's own reading"))
         return ""
 
 

@@ -59,7 +59,7 @@ class PointerReader(object):
                                            (outer_band[1] - 0.05, outer_band[1] + 0.05))
 
     def needle_angle(self, image, quad, centre=(0.5, 0.5), radius=0.45, aspect=1.0, scale=None,
-                     pointer_colour="", ignore_colour="", finder=None, near=None):
+                     pointer_colour="", ignore_colour="", finder=None, near=None, face=None):
         """Needle angle (deg clockwise from up, about the calibrated centre) in the face's frontal
         view, a confidence and a detail dict (``reason``: why the confidence is low, "" when it is
         not). ``finder``: the band to search (the inner one by default).
@@ -69,9 +69,11 @@ class PointerReader(object):
         box, so the frontal view is not stretched), ``scale`` (the search covers its sweep plus
         the margin; None: all around), colour hints. ``near`` (angle, window, deg): the pointer within
         the window of the angle (the needle model's, the calibration's value), not the best-ranked one.
+        ``face``: the finder's Face of this box when the caller already has it (it is rectified once).
         """
         finder = finder or self.inner_band
-        face = finder.face(image, quad, centre, radius, aspect)
+        if face is None:
+            face = finder.face(image, quad, centre, radius, aspect)
         prof = finder.profile(face, finder.search_angles(scale))
         detail = {"candidates": len(prof.candidates)}
         if not prof.candidates:
@@ -136,10 +138,9 @@ class PointerReader(object):
         positions as fractions of the box): when they fit an ellipse well, the dial is read in the
         frontal frame they give (dial_from_marks). ``model``: this meter's NeedleModel, the second
         opinion (``_second_opinion``); None reads with the line fit alone and says so."""
-        frame = dial_from_marks(quad, centre, radius, aspect, marks) if marks else None
-        if frame is not None:
-            quad, scale, centre, radius, aspect = frame.quad, frame.scale, frame.centre, frame.radius, frame.aspect
-        reading = self._read_bands(image, quad, scale, centre, radius, aspect, pointer_colour, ignore_colour)
+        frame, quad, scale, centre, radius, aspect = _framed(quad, scale, centre, radius, aspect, marks)
+        face = self.inner_band.face(image, quad, centre, radius, aspect)   # the line fit's and the model's
+        reading = self._read_bands(image, quad, scale, centre, radius, aspect, pointer_colour, ignore_colour, face)
         if frame is not None:
             reading.detail["frame"] = dict(frame.detail, source="marks")
         elif marks:
@@ -147,7 +148,7 @@ class PointerReader(object):
         if model is None:
             reading.detail["needle_model"] = GENERIC
         else:
-            reading = self._second_opinion(reading, model, image, quad, scale, centre, radius, aspect,
+            reading = self._second_opinion(reading, model, face, image, quad, scale, centre, radius, aspect,
                                            pointer_colour, ignore_colour)
         return self._outside(reading, image, quad, scale, centre, radius, aspect)
 
@@ -156,13 +157,12 @@ class PointerReader(object):
         """This meter's NeedleModel, learned from a picture showing ``value`` (calibration: the value
         the operator reads on the meter). ReadFailed with the reason when no needle lies at that value
         (within LEARN_PCT_FS) or when the model cannot tell it from another pointer of the dial."""
-        frame = dial_from_marks(quad, centre, radius, aspect, marks) if marks else None
-        if frame is not None:
-            quad, scale, centre, radius, aspect = frame.quad, frame.scale, frame.centre, frame.radius, frame.aspect
+        _frame, quad, scale, centre, radius, aspect = _framed(quad, scale, centre, radius, aspect, marks)
         finder = self.inner_band
+        face = finder.face(image, quad, centre, radius, aspect)
         window = max(NEAR_DEG, LEARN_PCT_FS / 100.0 * scale.sweep)
         angle, _confidence, detail = self.needle_angle(image, quad, centre, radius, aspect, scale, pointer_colour,
-                                                       ignore_colour, near=(scale.angle(value), window))
+                                                       ignore_colour, near=(scale.angle(value), window), face=face)
         if angle is None or detail["contrast_ratio"] < CLEAR_CONTRAST:
             raise ReadFailed("no needle at %.4g: %s" % (value, detail["reason"] or "nothing there stands out of the "
                                                                                    "face"))
@@ -170,7 +170,6 @@ class PointerReader(object):
         if not agree:
             raise ReadFailed("no needle at %.4g: the pointer nearest it reads %.4g (%.1f %% FS apart)"
                              % (value, scale.value(angle), apart))
-        face = finder.face(image, quad, centre, radius, aspect)
         model = needle_model.learn(finder, face, angle)
         found = needle_model.match(finder, face, model, finder.search_angles(scale))
         if found.rival > needle_model.RIVAL_MATCH * found.score:
@@ -178,7 +177,7 @@ class PointerReader(object):
                              "against %.2f)" % (value, scale.value(found.rival_angle), found.score, found.rival))
         return model
 
-    def _second_opinion(self, reading, model, image, quad, scale, centre, radius, aspect, pointer_colour,
+    def _second_opinion(self, reading, model, face, image, quad, scale, centre, radius, aspect, pointer_colour,
                         ignore_colour):
         """The line fit's reading checked against this meter's needle model (needle_model.match):
         - the model does not recognise its needle: uncertain, "this meter's needle not recognised";
@@ -188,7 +187,6 @@ class PointerReader(object):
           with both values."""
         finder = self.inner_band
         detail = reading.detail
-        face = finder.face(image, quad, centre, radius, aspect)
         found = needle_model.match(finder, face, model, finder.search_angles(scale))
         detail.update(needle_model="learned", model_match=round(found.score, 3), model_angle=found.angle,
                       model_rival=round(found.rival, 3))
@@ -202,7 +200,7 @@ class PointerReader(object):
             if agree:
                 return _without_rival(reading, found)
         angle, confidence, refit = self.needle_angle(image, quad, centre, radius, aspect, scale, pointer_colour,
-                                                     ignore_colour, near=(found.angle, NEAR_DEG))
+                                                     ignore_colour, near=(found.angle, NEAR_DEG), face=face)
         value = scale.value(angle) if angle is not None else model_value
         refit.update((k, v) for k, v in detail.items() if k.startswith("model_") or k in ("needle_model", "frame"))
         if not math.isfinite(reading.value):
@@ -236,11 +234,12 @@ class PointerReader(object):
         reading.detail["reason"] = "%s; %s" % (why, own) if own else why
         return Reading(reading.value, clip_confidence(reading.confidence * (1.0 - share)), reading.detail)
 
-    def _read_bands(self, image, quad, scale, centre, radius, aspect, pointer_colour, ignore_colour):
-        """The inner band's reading, or the outer band's when the inner one is uncertain and the
-        outer one confident and not contradicting it (see the module docstring, step 3)."""
+    def _read_bands(self, image, quad, scale, centre, radius, aspect, pointer_colour, ignore_colour, face):
+        """The inner band's reading (on ``face``, the inner band's Face), or the outer band's when the
+        inner one is uncertain and the outer one confident and not contradicting it (see the module
+        docstring, step 3)."""
         inner = self._read_band(self.inner_band, image, quad, scale, centre, radius, aspect, pointer_colour,
-                                ignore_colour)
+                                ignore_colour, face)
         inner.detail["band"] = "inner"
         if inner.confidence >= self.uncertain_below or self.outer_band is None:
             return inner
@@ -262,9 +261,10 @@ class PointerReader(object):
         confidence = inner.confidence * min(1.0, self.agree_pct_fs / apart)
         return Reading(inner.value, clip_confidence(confidence), inner.detail)
 
-    def _read_band(self, finder, image, quad, scale, centre, radius, aspect, pointer_colour, ignore_colour):
+    def _read_band(self, finder, image, quad, scale, centre, radius, aspect, pointer_colour, ignore_colour,
+                   face=None):
         angle, confidence, detail = self.needle_angle(image, quad, centre, radius, aspect, scale, pointer_colour,
-                                                      ignore_colour, finder)
+                                                      ignore_colour, finder, face=face)
         if angle is None:
             return Reading(float("nan"), 0.0, detail)
         if not scale.in_sweep(angle):
@@ -280,6 +280,15 @@ class PointerReader(object):
                 why = "%s, only %.0f %% of its length visible" % (detail["stop"], 100.0 * seen)
                 return _doubted(Reading(scale.value(angle), confidence, detail), why, self.uncertain_below * 0.99)
         return Reading(scale.value(angle), confidence, detail)
+
+
+def _framed(quad, scale, centre, radius, aspect, marks):
+    """(the frontal frame the scale marks give, None when they give none: dial_from_marks; and the
+    dial's quad, scale, centre, radius and aspect to read in)."""
+    frame = dial_from_marks(quad, centre, radius, aspect, marks) if marks else None
+    if frame is None:
+        return None, quad, scale, centre, radius, aspect
+    return frame, frame.quad, frame.scale, frame.centre, frame.radius, frame.aspect
 
 
 def _doubted(reading, why, cap):
