@@ -13,6 +13,7 @@ noise) is seeded: the same seed, view and frame index give the same picture bit 
 
 No rospy here: the inspection team uses ``ground_truth`` and ``Renderer`` on its own.
 """
+import functools
 import math
 import zlib
 
@@ -351,11 +352,18 @@ def _infrared(img):
     """The picture a camera takes at night by its own infrared illuminator: grey (no colour), its
     light falling off from the middle of the view, dimmer and flatter than by day."""
     grey = cv2.cvtColor(img, cv2.COLOR_BGR2GRAY).astype(np.float32)
-    h, w = grey.shape
+    lit = 20.0 + grey * _illuminated(*grey.shape)
+    return cv2.cvtColor(np.clip(lit, 0, 255).astype(np.uint8), cv2.COLOR_GRAY2BGR)
+
+
+@functools.lru_cache(maxsize=4)
+def _illuminated(h, w):
+    """The infrared illuminator's gain over an ``h`` x ``w`` picture (once per picture size)."""
     y, x = np.mgrid[0:h, 0:w].astype(np.float32)
     r2 = ((x - w / 2.0) / (w / 2.0)) ** 2 + ((y - h / 2.0) / (h / 2.0)) ** 2
-    lit = 20.0 + 0.7 * grey * (1.0 - 0.3 * np.clip(r2 / 2.0, 0.0, 1.0))
-    return cv2.cvtColor(np.clip(lit, 0, 255).astype(np.uint8), cv2.COLOR_GRAY2BGR)
+    gain = 0.7 * (1.0 - 0.3 * np.clip(r2 / 2.0, 0.0, 1.0))
+    gain.setflags(write=False)   # shared by every frame of that size
+    return gain
 
 
 def _draw(img, camera, quad, texture):
