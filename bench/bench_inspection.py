@@ -194,6 +194,12 @@ def world_cases(rng, locator, reader, count, tmp):
     return out
 
 
+def mark_angles(label, px, py, sx=1.0, sy=1.0):
+    """The labelled marks' angles (deg clockwise from up) about (``px``, ``py``) in the dial's frontal
+    frame (an ellipse ``sx`` x ``sy`` dial radii seen as a circle)."""
+    return [math.degrees(math.atan2((x - px) / sx, -(y - py) / sy)) % 360.0 for _, x, y in label["marks"]]
+
+
 def label_spec(label, width, height):
     """A calibration target spec (calibration.build_targets' format) from a photo's labels: a box
     1.15 tick radii around the pivot grown to hold every mark (clipped to the picture), the marks'
@@ -216,7 +222,7 @@ def label_spec(label, width, height):
     x0, y0 = max(0.0, min(px - 1.15 * r * sx, min(mx) - pad)), max(0.0, min(py - 1.15 * r * sy, min(my) - pad))
     x1 = min(width - 1.0, max(px + 1.15 * r * sx, max(mx) + pad))
     y1 = min(height - 1.0, max(py + 1.15 * r * sy, max(my) + pad))
-    angles = [math.degrees(math.atan2((x - px) / sx, -(y - py) / sy)) % 360.0 for _, x, y in label["marks"]]
+    angles = mark_angles(label, px, py, sx, sy)
     values = [float(v) for v, _, _ in label["marks"]]
     spec = {"kind": "pointer", "name": label["id"], "box": [x0, y0, x1, y0, x1, y1, x0, y1],
             "centre": ((px - x0) / (x1 - x0), (py - y0) / (y1 - y0)), "radius": r * sx / (x1 - x0),
@@ -263,18 +269,14 @@ def occluded_copy(label, picture, path, cover=0.35):
     at 0.6 of the labelled radius along the labelled value's angle, ``cover`` radii each side),
     written to ``path``: a synthetic occluder on a real photo (reported apart from the real figures)."""
     from inspection_robot.inspection.gauge import GaugeScale
-    from inspection_robot.sim.faces import paint_foreign
+    from inspection_robot_testing.world_views import cover_with_nest
     image = cv2.imread(picture)
     (px, py), r = label["pivot"], float(label["radius"])
-    table = [(float(v), math.degrees(math.atan2(x - px, -(y - py))) % 360.0) for v, x, y in label["marks"]]
+    table = list(zip([float(v) for v, _, _ in label["marks"]], mark_angles(label, px, py)))
     scale = GaugeScale(table[0][1], table[-1][1], table[0][0], table[-1][0], table)
     a = math.radians(scale.angle(label["truth"]))
-    x, y, half = px + 0.6 * r * math.sin(a), py - 0.6 * r * math.cos(a), max(2, int(cover * r))
-    x0, y0 = int(x) - half, int(y) - half
-    nest = paint_foreign(len(label["id"]), 2 * half, 2 * half)
-    h, w = image.shape[:2]
-    rows, cols = slice(max(0, y0), min(h, y0 + 2 * half)), slice(max(0, x0), min(w, x0 + 2 * half))
-    image[rows, cols] = nest[rows.start - y0:rows.stop - y0, cols.start - x0:cols.stop - x0]
+    cover_with_nest(image, px + 0.6 * r * math.sin(a), py - 0.6 * r * math.cos(a), max(2, int(cover * r)),
+                    len(label["id"]))
     cv2.imwrite(path, image)
     return path
 

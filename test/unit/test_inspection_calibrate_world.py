@@ -6,9 +6,7 @@ import os
 import cv2
 import numpy as np
 import pytest
-import yaml
 
-from inspection_robot.camera.optics import ZoomOptics
 from inspection_robot.inspection.calibration_commands import CalibrationCommands
 from inspection_robot.inspection.preset import CALIB_INI, load_preset
 from inspection_robot.inspection.recorder import record_preset
@@ -16,26 +14,23 @@ from inspection_robot.tools.calibrate_preset import run
 from inspection_robot.sim.inspection_sim import RenderedHead
 from inspection_robot.sim.render import Renderer, ThermalRenderer
 from inspection_robot.sim.world import World
+from inspection_robot_testing.world_views import camera_optics, front_pose
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 WORLD = os.path.join(ROOT, "config", "sim_world.yaml")
-OPTICS = os.path.join(ROOT, "config", "camera_optics.yaml")
 WIDTH, HEIGHT = 800, 450
 
 
 def _true_pose(yaw_offset=0.0):
     """3.5 m in front of breaker_1, facing it (plus ``yaw_offset``)."""
-    base, normal, _r, _w = World.load(WORLD).equipment["breaker_1"].side_frame("front")
-    p = base + normal * 3.5
-    return float(p[0]), float(p[1]), math.atan2(-normal[1], -normal[0]) + yaw_offset
+    x, y, yaw = front_pose(World.load(WORLD), "breaker_1", 3.5)
+    return x, y, yaw + yaw_offset
 
 
 def _record(tmp_path, yaw_offset=0.0, localizer_error=(0.0, 0.0, 0.0)):
     """A preset pictured from _true_pose; preset.ini gets that pose plus ``localizer_error`` (what
     preset_scale records: the localizer's pose)."""
-    with open(OPTICS) as f:
-        table = yaml.safe_load(f)["camera_optics"]
-    optics = ZoomOptics(table["zoom_hfov_deg"], WIDTH, HEIGHT)
+    optics = camera_optics(WIDTH, HEIGHT)
     world = World.load(WORLD)
     pose = _true_pose(yaw_offset)
     tilt = math.degrees(math.atan2(1.2 - 1.8, 3.5))
@@ -107,7 +102,7 @@ def test_calibration_checks_itself_against_the_operators_value(tmp_path):
     picture with no gauge to read refused when a value is expected; nothing written when refused."""
     path = _record(tmp_path)
     assert run([path, "--from-world", "--only", "breaker_1/sf6_pressure"]) == 0
-    optics = ZoomOptics(yaml.safe_load(open(OPTICS))["camera_optics"]["zoom_hfov_deg"], WIDTH, HEIGHT)
+    optics = camera_optics(WIDTH, HEIGHT)
     commands = CalibrationCommands(str(tmp_path), ["."], ["."], optics)
     preset = os.path.relpath(path, str(tmp_path))
 
@@ -147,13 +142,9 @@ def test_the_transformer_bushings_calibrate_as_three_phases_and_grade_as_the_wor
     from inspection_robot.inspection.thermal_max import read_thermal_max
     from inspection_robot.task.checks import _target_entry
     from inspection_robot.task.rows import thermal_findings
-    with open(OPTICS) as f:
-        table = yaml.safe_load(f)["camera_optics"]
-    optics = ZoomOptics(table["zoom_hfov_deg"], WIDTH, HEIGHT)
+    optics = camera_optics(WIDTH, HEIGHT)
     world = World.load(WORLD)
-    base, normal, _r, _w = world.equipment["transformer_1"].side_frame("front")
-    p = base + normal * 3.0
-    pose = (float(p[0]), float(p[1]), math.atan2(-normal[1], -normal[0]))
+    pose = front_pose(world, "transformer_1", 3.0)
     tilt = math.degrees(math.atan2(1.2 - 2.95, 3.0))
     head = RenderedHead(Renderer(world, seed=2), optics, pose, 1.2, WIDTH, HEIGHT, ThermalRenderer(world))
     head.set_angles(0.0, tilt)

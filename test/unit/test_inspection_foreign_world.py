@@ -6,18 +6,16 @@ import os
 import cv2
 import numpy as np
 import pytest
-import yaml
 
-from inspection_robot.camera.optics import ZoomOptics
 from inspection_robot.inspection.calibration import calibrate
 from inspection_robot.inspection.finder import Finder
 from inspection_robot.inspection.locate import Locator
 from inspection_robot.inspection.preset import load_preset
 from inspection_robot.inspection.reading import ScaleReader
-from inspection_robot.inspection.recorder import record_preset
-from inspection_robot.sim.inspection_sim import RenderedHead, world_specs
+from inspection_robot.sim.inspection_sim import world_specs
 from inspection_robot.sim.render import PinholeCamera, Renderer, ground_truth
 from inspection_robot.sim.world import World, WorldError
+from inspection_robot_testing.world_views import front_pose, recorded_preset
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 WIDTH, HEIGHT = 800, 450
@@ -27,13 +25,6 @@ NEST = "breaker_1,front,0.22,1.66,0.22,0.16"
 @pytest.fixture()
 def world():
     return World.load(os.path.join(ROOT, "config", "sim_world.yaml"))
-
-
-def _front_of(world, equipment, dist):
-    eq = world.equipment[equipment]
-    base, normal, _right, _w = eq.side_frame("front")
-    p = base + normal * dist
-    return (p[0], p[1], math.atan2(-normal[1], -normal[0]))
 
 
 def test_foreign_object_values_are_validated(world):
@@ -51,7 +42,7 @@ def test_foreign_object_values_are_validated(world):
 
 def test_foreign_object_is_drawn_where_the_ground_truth_says(world):
     renderer = Renderer(world, seed=1, noise_sigma=0.0, lighting_variation=0.0)
-    camera = PinholeCamera.from_pose(_front_of(world, "breaker_1", 3.0), 0.0, math.radians(-8.0), 1.2, 700.0,
+    camera = PinholeCamera.from_pose(front_pose(world, "breaker_1", 3.0), 0.0, math.radians(-8.0), 1.2, 700.0,
                                      WIDTH, HEIGHT)
     before = renderer.render(camera, frame_index=0)
     world.set_value("foreign/nest", NEST)
@@ -69,17 +60,8 @@ def test_foreign_object_is_drawn_where_the_ground_truth_says(world):
 
 
 def test_find_both_then_read_detects_the_foreign_object_only_when_present(tmp_path, world):
-    with open(os.path.join(ROOT, "config", "camera_optics.yaml")) as f:
-        table = yaml.safe_load(f)["camera_optics"]
-    optics = ZoomOptics(table["zoom_hfov_deg"], WIDTH, HEIGHT)
-    pose = _front_of(world, "breaker_1", 3.5)
-    tilt = math.degrees(math.atan2(1.2 - 1.6, 3.5))
-    head = RenderedHead(Renderer(world, seed=3), optics, pose, 1.2, WIDTH, HEIGHT)
-    head.set_angles(0.0, tilt)
-    head.set_zoom(2.0)
-    state = {"pan_deg": 0.0, "tilt_deg": tilt, "zoom": 2.0, "focus_position": 0, "pose": pose}
     presets, pictures = str(tmp_path / "presets"), str(tmp_path / "pictures")
-    path = record_preset(head, presets, "b1", "20260101_000000", state)
+    path, head, optics, pose = recorded_preset(world, presets, "b1", "breaker_1", 3.5, 1.6, 2.0, WIDTH, HEIGHT)
     calibrate(path, world_specs(world, head, switch_picture_path=str(tmp_path / "%s_%s.png")), optics)
     preset = load_preset(path)
     back = (pose[0] + 0.3 * math.sin(pose[2]), pose[1] - 0.3 * math.cos(pose[2]), pose[2] + math.radians(5.0))

@@ -10,10 +10,9 @@ import os
 import numpy as np
 import pytest
 
-from inspection_robot.inspection.gauge import GaugeScale
 from inspection_robot.inspection.pointer import HIDDEN_BELOW, PointerReader
-from inspection_robot.sim.faces import paint_face, paint_foreign
 from inspection_robot.sim.world import World
+from inspection_robot_testing.world_views import cover_with_nest, painted_dial
 
 ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..")
 FACES = ("transformer_1/winding_temp", "transformer_1/oil_temp", "cabinet_1/voltmeter", "cabinet_1/ammeter")
@@ -28,23 +27,14 @@ def read(face, value, cover, model=None):
     """The face at ``value`` painted at 400 px, a nest of ``cover`` dial radii's half-side centred on the
     needle at 0.6 of its radius (0: none), read with its calibration and needle ``model``; (reading,
     scale). ``model`` "learn": learns it there (the calibration picture) and returns it as the reading."""
-    low, high = face.range
-    face.set_value(value)
-    image = paint_face(face, 400)
-    h, w = image.shape[:2]
-    fx, fy, radius_m = face.dial_layout()
+    image, quad, scale, centre, radius, aspect = painted_dial(face, value)
     if cover:
+        h, w = image.shape[:2]
         angle = np.radians(face.needle_angle_deg(value))
-        r = radius_m * w / face.quad.width
-        x, y = fx * w + 0.6 * r * np.sin(angle), fy * h - 0.6 * r * np.cos(angle)
-        half = int(cover * r)
-        x0, y0 = int(x) - half, int(y) - half
-        nest = paint_foreign(7, 2 * half, 2 * half)
-        rows, cols = slice(max(0, y0), min(h, y0 + 2 * half)), slice(max(0, x0), min(w, x0 + 2 * half))
-        image[rows, cols] = nest[rows.start - y0:rows.stop - y0, cols.start - x0:cols.stop - x0]
-    quad = np.array([[-0.5, -0.5], [w - 0.5, -0.5], [w - 0.5, h - 0.5], [-0.5, h - 0.5]])
-    scale = GaugeScale(face.start_angle, face.end_angle, low, high)
-    dial = ((fx, fy), radius_m / face.quad.width, face.quad.width / face.quad.height)
+        r = radius * w
+        cover_with_nest(image, centre[0] * w + 0.6 * r * np.sin(angle), centre[1] * h - 0.6 * r * np.cos(angle),
+                        int(cover * r), seed=7)
+    dial = (centre, radius, aspect)
     if model == "learn":
         return PointerReader().learn(image, quad, scale, value, *dial), scale
     return PointerReader().read(image, quad, scale, *dial, model=model), scale

@@ -12,16 +12,15 @@ import pytest
 
 from inspection_robot.files import write_atomic
 from inspection_robot.inspection.calibration import SelfCheck, calibrate
-from inspection_robot.inspection.gauge import GaugeScale
 from inspection_robot.inspection.needle_model import NeedleModel
 from inspection_robot.inspection.pointer import GENERIC, PointerReader
 from inspection_robot.inspection.preset import CALIB_INI, PresetDirWriter, PresetError, PresetInfo, load_preset
 from inspection_robot.inspection.reading import ReadError, ScaleReader
 from inspection_robot.inspection.readers import ReadFailed
 from inspection_robot.inspection.geometry import flat_from_quads
-from inspection_robot.sim.faces import paint_face
 from inspection_robot.sim.world import World
 from inspection_robot_testing.fixtures import linear_optics
+from inspection_robot_testing.world_views import painted_dial
 
 ROOT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..")
 SHARES = (0.02, 0.1, 0.3, 0.5, 0.7, 0.9, 0.98)
@@ -30,17 +29,6 @@ SHARES = (0.02, 0.1, 0.3, 0.5, 0.7, 0.9, 0.98)
 @pytest.fixture()
 def world():
     return World.load(os.path.join(ROOT, "config", "sim_world.yaml"))
-
-
-def painted(face, value):
-    """(picture, quad, scale, centre, radius, aspect) of ``face`` at ``value``, 400 px, frontal."""
-    face.set_value(value)
-    image = paint_face(face, 400)
-    h, w = image.shape[:2]
-    fx, fy, radius_m = face.dial_layout()
-    quad = np.array([[-0.5, -0.5], [w - 0.5, -0.5], [w - 0.5, h - 0.5], [-0.5, h - 0.5]])
-    return (image, quad, GaugeScale(face.start_angle, face.end_angle, *face.range), (fx, fy),
-            radius_m / face.quad.width, face.quad.width / face.quad.height)
 
 
 def value_at(face, share):
@@ -58,12 +46,12 @@ def test_the_learned_needle_reads_every_value_or_says_it_doubts(world, face_id, 
     face = world.faces[face_id]
     face.drag, face.tail = drag, tail
     reader = PointerReader()
-    image, quad, scale, centre, radius, aspect = painted(face, value_at(face, 0.4))
+    image, quad, scale, centre, radius, aspect = painted_dial(face, value_at(face, 0.4))
     model = reader.learn(image, quad, scale, value_at(face, 0.4), centre, radius, aspect)
     caught = 0
     for share in SHARES:
         value = value_at(face, share)
-        image, quad, scale, centre, radius, aspect = painted(face, value)
+        image, quad, scale, centre, radius, aspect = painted_dial(face, value)
         alone = reader.read(image, quad, scale, centre, radius, aspect)
         both = reader.read(image, quad, scale, centre, radius, aspect, model=model)
         assert both.detail["needle_model"] == "learned" and both.detail["model_match"] > 0.8, both.detail
@@ -78,14 +66,14 @@ def test_the_learned_needle_reads_every_value_or_says_it_doubts(world, face_id, 
 def test_a_drag_pointer_of_the_needles_own_look_is_refused_at_calibration(world):
     face = world.faces["transformer_1/winding_temp"]     # a red needle; a red drag pointer beside it
     face.drag = 120.0
-    image, quad, scale, centre, radius, aspect = painted(face, 60.0)
+    image, quad, scale, centre, radius, aspect = painted_dial(face, 60.0)
     with pytest.raises(ReadFailed, match="cannot be told from the pointer-like line at 120"):
         PointerReader().learn(image, quad, scale, 60.0, centre, radius, aspect)
 
 
 def test_no_needle_at_the_value_typed_is_refused(world):
     face = world.faces["transformer_1/oil_temp"]
-    image, quad, scale, centre, radius, aspect = painted(face, 60.0)
+    image, quad, scale, centre, radius, aspect = painted_dial(face, 60.0)
     with pytest.raises(ReadFailed, match="no needle at 100"):
         PointerReader().learn(image, quad, scale, 100.0, centre, radius, aspect)
 
@@ -95,10 +83,10 @@ def test_a_night_picture_is_read_with_the_model_learned_by_day(world):
     face = world.faces["transformer_1/oil_temp"]
     face.drag = 85.0
     reader = PointerReader()
-    image, quad, scale, centre, radius, aspect = painted(face, 60.0)
+    image, quad, scale, centre, radius, aspect = painted_dial(face, 60.0)
     model = reader.learn(image, quad, scale, 60.0, centre, radius, aspect)
     for value in (0.0, 40.0, 110.0):
-        image, quad, scale, centre, radius, aspect = painted(face, value)
+        image, quad, scale, centre, radius, aspect = painted_dial(face, value)
         grey = cv2.cvtColor(cv2.cvtColor(image, cv2.COLOR_BGR2GRAY), cv2.COLOR_GRAY2BGR)
         reading = reader.read(grey, quad, scale, centre, radius, aspect, model=model)
         assert scale.error_percent_fs(reading.value, value) < 0.5 and reading.detail["model_match"] > 0.8, reading
@@ -107,7 +95,7 @@ def test_a_night_picture_is_read_with_the_model_learned_by_day(world):
 def test_the_model_file_round_trips_and_garbage_is_not_a_model(world):
     face = world.faces["transformer_1/oil_temp"]
     reader = PointerReader()
-    image, quad, scale, centre, radius, aspect = painted(face, 60.0)
+    image, quad, scale, centre, radius, aspect = painted_dial(face, 60.0)
     model = reader.learn(image, quad, scale, 60.0, centre, radius, aspect)
     back = NeedleModel.decode(model.encode(), reader.inner_band.step_deg)
     assert np.abs(back.template - model.template).max() <= 2.0
@@ -118,7 +106,7 @@ def test_the_model_file_round_trips_and_garbage_is_not_a_model(world):
 
 def _preset(root, face, value, check):
     """A one-picture preset of ``face`` at ``value`` calibrated with ``check``; its directory."""
-    image, quad, scale, centre, radius, aspect = painted(face, value)
+    image, quad, scale, centre, radius, aspect = painted_dial(face, value)
     h, w = image.shape[:2]
     with PresetDirWriter(str(root), "dial", "20260101_000000") as writer:
         cv2.imwrite(writer.file("zoom0.jpg"), image, [cv2.IMWRITE_JPEG_QUALITY, 97])
@@ -140,7 +128,7 @@ def test_calibration_learns_the_model_from_the_value_shown_and_the_reader_uses_i
     assert check.results[0]["needle_model"] == "learned from the value given", check.results
     assert "needle_reference = target_0_needle.png" in open(os.path.join(path, CALIB_INI)).read()
     # at rest at 0.02 beside its drag pointer: the line fit alone took the drag pointer
-    image = painted(face, 0.02)[0]
+    image = painted_dial(face, 0.02)[0]
     live = str(tmp_path / "live.png")
     cv2.imwrite(live, image)
     reader = ScaleReader([str(tmp_path)], [str(tmp_path)], str(tmp_path / "results"))

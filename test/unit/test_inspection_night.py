@@ -9,9 +9,7 @@ import os
 import cv2
 import numpy as np
 import pytest
-import yaml
 
-from inspection_robot.camera.optics import ZoomOptics
 from inspection_robot.inspection.calibration import SelfCheck, calibrate
 from inspection_robot.inspection.finder import Finder
 from inspection_robot.inspection.locate import Locator
@@ -19,10 +17,10 @@ from inspection_robot.inspection.preset import load_preset
 from inspection_robot.inspection.needle_model import NeedleModel
 from inspection_robot.inspection.pointer import PointerReader
 from inspection_robot.inspection.reading import ScaleReader, read_pointer
-from inspection_robot.inspection.recorder import record_preset
-from inspection_robot.sim.inspection_sim import RenderedHead, world_specs
+from inspection_robot.sim.inspection_sim import world_specs
 from inspection_robot.sim.render import Renderer
 from inspection_robot.sim.world import World, WorldError
+from inspection_robot_testing.world_views import recorded_preset
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 WIDTH, HEIGHT = 800, 450
@@ -44,19 +42,8 @@ def test_the_light_is_day_or_night(world):
 
 
 def test_a_preset_recorded_by_day_is_found_and_read_at_night(tmp_path, world):
-    with open(os.path.join(ROOT, "config", "camera_optics.yaml")) as f:
-        table = yaml.safe_load(f)["camera_optics"]
-    optics = ZoomOptics(table["zoom_hfov_deg"], WIDTH, HEIGHT)
-    base, normal, _right, _w = world.equipment["transformer_1"].side_frame("front")
-    p = base + normal * 3.5
-    pose = (p[0], p[1], math.atan2(-normal[1], -normal[0]))
-    tilt = math.degrees(math.atan2(1.2 - 1.6, 3.5))   # up is negative
-    head = RenderedHead(Renderer(world, seed=3), optics, pose, 1.2, WIDTH, HEIGHT)
-    head.set_angles(0.0, tilt)
-    head.set_zoom(1.5)
-    state = {"pan_deg": 0.0, "tilt_deg": tilt, "zoom": 1.5, "focus_position": 0, "pose": pose}
     presets, pictures = str(tmp_path / "presets"), str(tmp_path / "pictures")
-    path = record_preset(head, presets, "t1", "20260101_000000", state)
+    path, head, optics, pose = recorded_preset(world, presets, "t1", "transformer_1", 3.5, 1.6, 1.5, WIDTH, HEIGHT)
     specs = [s for s in world_specs(world, head) if s["name"] in GAUGES]
     check = SelfCheck()
     calibrate(path, specs, optics, check=check)
@@ -90,19 +77,8 @@ def test_the_needle_model_reads_across_the_presets_zoom_ladder_by_day_and_night(
     """The SF6 meter recorded at zoom 6 (its ladder 6, 3, 1.5, 1: the pictures find_scale works down),
     its model learned on zoom0 from the value shown; each zoom picture read in its box, by day and at
     night: within 0.5 % FS, confident, the model recognising its needle at every size."""
-    with open(os.path.join(ROOT, "config", "camera_optics.yaml")) as f:
-        table = yaml.safe_load(f)["camera_optics"]
-    width, height = 1280, 720
-    optics = ZoomOptics(table["zoom_hfov_deg"], width, height)
-    base, normal, _right, _w = world.equipment["breaker_1"].side_frame("front")
-    p = base + normal * 3.5
-    pose = (p[0], p[1], math.atan2(-normal[1], -normal[0]))
-    tilt = math.degrees(math.atan2(1.2 - 1.4, 3.5))   # up is negative
-    head = RenderedHead(Renderer(world, seed=3), optics, pose, 1.2, width, height)
-    head.set_angles(0.0, tilt)
-    head.set_zoom(6.0)
-    state = {"pan_deg": 0.0, "tilt_deg": tilt, "zoom": 6.0, "focus_position": 0, "pose": pose}
-    path = record_preset(head, str(tmp_path / "presets"), "b1", "20260101_000000", state)
+    path, head, optics, _pose = recorded_preset(world, str(tmp_path / "presets"), "b1", "breaker_1", 3.5, 1.4, 6.0,
+                                                1280, 720)
     name = "breaker_1/sf6_pressure"
     calibrate(path, [s for s in world_specs(world, head) if s["name"] == name], optics,
               check=SelfCheck([world.get_value(name)]))
