@@ -6,7 +6,7 @@ import { t, unitText } from './i18n.js';
 import { limitFields, limitKeys, stateChoices, statesKind, withLimits } from './bands.js';
 import { control } from './link.js';
 import * as store from './state.js';
-import { $ } from './ui.js';
+import { $, emptyRow } from './ui.js';
 
 const limits = { preset: '', targets: [] };
 
@@ -60,9 +60,7 @@ function renderLimits(preset) {
     tr.insertCell().textContent = unitOf(target);
   });
   if (!limits.targets.length) {
-    const cell = fresh.insertRow().insertCell();
-    cell.colSpan = 6;
-    cell.textContent = t(limits.preset ? 'This preset has no calibrated target yet.' : 'Load a preset to set its limits.');
+    emptyRow(fresh, 6, t(limits.preset ? 'This preset has no calibrated target yet.' : 'Load a preset to set its limits.'));
   }
   $('limits-save').disabled = !limits.targets.length;
   body.parentNode.replaceChild(fresh, body);

@@ -5,7 +5,7 @@ import { alarmWords, readingAlarm, readingText, sortReadings, statusTask } from 
 import { fetchPicture } from './files.js';
 import { control } from './link.js';
 import * as store from './state.js';
-import { $, coalesced } from './ui.js';
+import { $, coalesced, emptyRow } from './ui.js';
 
 const MAX_RESULT_ROWS = 200;
 const MAX_RESULT_PICTURES = 30;
@@ -72,11 +72,7 @@ function renderResults(rows) {
       cell.textContent = r.picture.split('/').pop();
     }
   });
-  if (!rows.length) {
-    const cell = fresh.insertRow().insertCell();
-    cell.colSpan = 6;
-    cell.textContent = t('No readings of this task yet.');
-  }
+  if (!rows.length) emptyRow(fresh, 6, t('No readings of this task yet.'));
   body.parentNode.replaceChild(fresh, body);
 }
 

@@ -5,7 +5,7 @@ import { t } from './i18n.js';
 import { control, subscribe } from './link.js';
 import * as store from './state.js';
 import { scheduleRequest, scheduleText, WEEKDAYS, whenText } from './planning.js';
-import { $, coalesced } from './ui.js';
+import { $, coalesced, emptyRow } from './ui.js';
 
 const schedules = { key: null };
 
@@ -38,12 +38,9 @@ function act(cmd, data, done) {
   }).catch((err) => message(t('{cmd} refused', { cmd }) + ': ' + err.message, true));
 }
 
-/** An empty table's one row saying so. */
+/** An empty table's one row saying so, as a hint. */
 function empty(body, columns, text) {
-  const cell = body.insertRow().insertCell();
-  cell.colSpan = columns;
-  cell.className = 'hint';
-  cell.textContent = text;
+  emptyRow(body, columns, text).className = 'hint';
 }
 
 function renderRoutines(routines) {

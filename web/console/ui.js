@@ -55,3 +55,11 @@ export function coalesced(run) {
   };
   return go;
 }
+
+/** An empty table's one row saying so, across its ``columns``; returns the cell (a caller may style it). */
+export function emptyRow(body, columns, text) {
+  const cell = body.insertRow().insertCell();
+  cell.colSpan = columns;
+  cell.textContent = text;
+  return cell;
+}
