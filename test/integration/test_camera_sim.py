@@ -320,6 +320,18 @@ class CameraSimTest(unittest.TestCase):
         self.assertEqual(self.call("sim/set_world_value", "breaker_1/lamp_open", "on"), ("success", "on"))
         self.ok("sim/set_world_value", "transformer_1/bushing_a", "78")
 
+    def test_a_new_day_warms_the_heating_clamp_in_the_imager(self):
+        u, v = self.thermal_view("busbar_support/clamp_a", distance=3.0)
+        spot = "%d,%d" % (u, v)
+        try:
+            self.assertEqual(self.call("sim/set_world_value", "day", "6"), ("success", "6"))
+            self.assertEqual(self.call("sim/get_world_value", "busbar_support/clamp_a"), ("success", "81.5"))
+            wait_for(lambda: abs(float(self.ok("infrared_control", "get_spot_temperature", spot)) - 81.5) < 0.5, 5.0,
+                     "the clamp's temperature on day 6")
+            self.assertEqual(self.call("sim/set_world_value", "day", "-2")[0], "failed")
+        finally:
+            self.ok("sim/set_world_value", "day", "0")
+
     def test_thermal_bad_input_and_unsupported(self):
         cases = [("get_spot_temperature", "384,0"), ("get_spot_temperature", "-1,5"), ("get_spot_temperature", "a,b"),
                  ("get_spot_temperature", "1,2,3"), ("get_spot_temperature", "1, 2"), ("set_measure_spot", "0,288"),

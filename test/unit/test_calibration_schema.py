@@ -13,8 +13,8 @@ GOOD = {"name": "oil", "digits": 2, "normal": [0.2, 1.4], "start_angle": -135.0,
         "colour": "green", "on_reference": "target_0_on.png", "off_reference": "target_0_off.png",
         "open_reference": "a.png", "closed_reference": "b.png", "needle_reference": "target_0_needle.png",
         "thermal_box": [5.0, 5.0, 30.5, 5.0, 30.5, 30.0, 5.0, 30.0], "phase": "B", "device": "T1 bay 3",
-        "equipment_class": "breaker", "emissivity": 0.9, "digit_count": 4, "polarity": "dark", "slant": -6.0,
-        "fill": 0.75, "decimals": 1, "contrast": 77.5, "counter": True, "alarm_band": [0.0, 1.6]}
+        "equipment_class": "breaker", "emissivity": 0.9, "distance": 12.5, "digit_count": 4, "polarity": "dark",
+        "slant": -6.0, "fill": 0.75, "decimals": 1, "contrast": 77.5, "counter": True, "alarm_band": [0.0, 1.6]}
 
 
 @pytest.mark.parametrize("key", sorted(k for k, f in schema.FIELDS.items() if f.stored))
@@ -58,6 +58,9 @@ def test_a_whole_pointer_round_trips_with_defaults():
     ("emissivity", 0.05, "emissivity must be in [0.1, 1], got 0.05"),
     ("emissivity", 1.2, "emissivity must be in [0.1, 1], got 1.2"),
     ("emissivity", float("nan"), "emissivity must be a finite number"),
+    ("distance", 0.0, "distance must be in (0, 100], got 0.0"),
+    ("distance", 150, "distance must be in (0, 100], got 150.0"),
+    ("distance", "10 m", "distance must be a finite number"),
     ("counter", 1, "counter must be true or false, got 1"),
     ("counter", "yes", "counter must be true or false, got 'yes'"),
 ])

@@ -11,7 +11,7 @@ from inspection_robot.task.rows import reading_rows, thermal_findings
 from inspection_robot.task.states import ALARM_ALARM, ALARM_CHECK, ALARM_NONE, ALARM_NORMAL
 from inspection_robot.thermal.diagnosis import (DEFAULT_RULES, GRADE_CRITICAL, GRADE_GENERAL, GRADE_NONE,
                                                 GRADE_SERIOUS, DiagnosisError, check_rules, diagnose,
-                                                emissivity_corrected, thermal_groups)
+                                                object_temperature, thermal_groups, transmission)
 
 CONNECTOR = DEFAULT_RULES["connector"]      # serious > 80 C or dt >= 80 %, critical > 110 C or dt >= 95 %
 BOXES = {"A": [(10, 10), (40, 10), (40, 40), (10, 40)], "B": [(60, 10), (90, 10), (90, 40), (60, 40)],
@@ -124,11 +124,35 @@ def test_emissivity_correction_inverts_the_grey_body_radiance():
     true, reflected, e = 60.0, 20.0, 0.7
     apparent = (e * (true + k) ** 4 + (1 - e) * (reflected + k) ** 4) ** 0.25 - k
     assert apparent < true
-    assert emissivity_corrected(apparent, e, reflected) == pytest.approx(true, abs=1e-6)
-    assert emissivity_corrected(42.0, 1.0, 20.0) == 42.0
+    assert object_temperature(apparent, e, reflected) == pytest.approx(true, abs=1e-6)
+    assert object_temperature(42.0, 1.0, 20.0) == 42.0
     with pytest.raises(DiagnosisError) as err:
-        emissivity_corrected(-60.0, 0.2, 40.0)
+        object_temperature(-60.0, 0.2, 40.0)
     assert "below what emissivity 0.20 reflects from 40.0 C" in str(err.value)
+
+
+# --- distance -------------------------------------------------------------------------------------
+def test_air_absorbs_more_over_a_longer_and_wetter_path():
+    assert transmission(0.0, 20.0) == 1.0
+    taus = [transmission(d, 20.0) for d in (1.0, 5.0, 10.0, 20.0, 50.0, 100.0)]
+    assert taus == sorted(taus, reverse=True) and 0.9 < taus[-1] < taus[0] < 1.0
+    assert transmission(10.0, 20.0, humidity=90.0) < transmission(10.0, 20.0, humidity=20.0)
+    assert transmission(10.0, 35.0) < transmission(10.0, -10.0)   # warm air holds more water
+    assert 0.96 < transmission(10.0, 20.0) < 0.99                # FLIR's model: ~0.97 at 10 m, 20 C, 50 %
+
+
+def test_distance_correction_inverts_the_path_through_the_air():
+    k = 273.15
+    true, air, e, d = 85.0, 25.0, 0.8, 30.0
+    tau = transmission(d, air)
+    seen = tau * (e * (true + k) ** 4 + (1 - e) * (air + k) ** 4) + (1 - tau) * (air + k) ** 4
+    apparent = seen ** 0.25 - k
+    assert apparent < true - 5.0
+    assert object_temperature(apparent, e, air, d) == pytest.approx(true, abs=1e-6)
+    # a blackbody across the yard reads a little cool, and the correction grows with the distance
+    near, far = object_temperature(80.0, 1.0, 20.0, 5.0), object_temperature(80.0, 1.0, 20.0, 50.0)
+    assert 80.0 < near < far < 85.0
+    assert object_temperature(20.0, 1.0, 20.0, 50.0) == pytest.approx(20.0)   # air as warm as the box: no change
 
 
 # --- groups ---------------------------------------------------------------------------------------
@@ -194,6 +218,16 @@ def test_emissivity_raises_the_stored_value_and_keeps_the_apparent_one():
     rows = rows_for([50.0, 40.0, 20.0], targets=targets)
     assert rows[0]["value"] > 60.0 and rows[1]["value"] == 40.0
     assert json.loads(rows[0]["diagnosis"])["apparent"] == {"A": 50.0, "B": 40.0}
+
+
+def test_distance_raises_the_stored_value_and_without_ambient_is_named_not_applied():
+    targets = [phase_target("clamp_a", "A", device="T1", distance=40.0), phase_target("clamp_b", "B", device="T1"),
+               phase_target("air", "ambient")]
+    rows = rows_for([80.0, 40.0, 20.0], targets=targets)
+    assert 81.0 < rows[0]["value"] < 85.0 and rows[1]["value"] == 40.0
+    findings = thermal_findings(targets[:2], [80.0, 40.0])
+    assert findings[0]["value"] == 80.0
+    assert findings[0]["diagnosis"]["notes"] == ["emissivity and distance of phase A not applied: no ambient reading"]
 
 
 def test_a_phase_not_read_is_named_and_the_others_are_diagnosed():

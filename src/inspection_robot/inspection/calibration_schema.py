@@ -11,7 +11,7 @@ edit and a file are refused for the same reasons in the same words, each naming 
 - a scale_table has at least 2 [value, angle] entries, values strictly monotonic (angles must
   increase along the sweep: checked with the sweep, see pointer_scale);
 - a thermal box's phase is A|B|C|ambient (thermal.diagnosis), its equipment_class one of the
-  graded classes, its emissivity in [MIN_EMISSIVITY, 1];
+  graded classes, its emissivity in [MIN_EMISSIVITY, 1], its distance in (0, MAX_DISTANCE] m;
 - boxes (zoom0 and thermal) are 8 numbers forming a convex TL, TR, BR, BL quad inside their picture;
 - text has no control characters (they would break the INI file) and at most MAX_TEXT characters;
   reference patch names are plain file names in the preset directory;
@@ -34,14 +34,13 @@ from inspection_robot.inspection.gauge import GaugeScale
 from inspection_robot.inspection.geometry import quad_inside, quad_is_convex
 from inspection_robot.inspection.lamp import LAMP_COLOURS
 from inspection_robot.inspection.needle import POINTER_COLOURS
-from inspection_robot.thermal.diagnosis import DEFAULT_RULES, PHASE_CHOICES
+from inspection_robot.thermal.diagnosis import DEFAULT_RULES, MAX_DISTANCE, MIN_EMISSIVITY, PHASE_CHOICES
 
 TARGET_KINDS = ("pointer", "lamp", "switch", "thermal", "digital")
 MAX_ABS_VALUE = 1e9          # a reading (start/end value, scale_table and marks values, normal band)
 MAX_ANGLE_DEG = 360.0
 MAX_PICTURE_PX = 100000.0    # a thermal box's coordinates when the thermal picture's size is unknown
 MAX_TEXT = 200
-MIN_EMISSIVITY = 0.1        # below, a surface's own radiance drowns in its reflection: not measurable
 MAX_DIGITS = 6               # decimal places a reading may be shown with (``digits``)
 MAX_TARGETS = 64             # targets per preset: a meter cabinet in one picture has a dozen or two
 MAX_REQUEST_BYTES = 1 << 20  # bytes of a calibration_control request: 64 richly described targets take ~150 KB
@@ -287,6 +286,7 @@ FIELDS = {
     "device": Field(("thermal",), _text),
     "equipment_class": Field(("thermal",), _choice(tuple(DEFAULT_RULES), optional=True)),
     "emissivity": Field(("thermal",), lambda v, k: number(v, k, MIN_EMISSIVITY, 1.0), "number"),
+    "distance": Field(("thermal",), lambda v, k: number(v, k, 0.0, MAX_DISTANCE, low_open=True), "number"),
     # a seven-segment display (inspection.digital): "shown" (what it shows at calibration) is learned
     # into the rest when the calibration is built
     "shown": Field(("digital",), _shown, stored=False),

@@ -1,6 +1,7 @@
 """sim_world: owner of the simulated yard's run-time values (gauge readings, lamps, switches, hot spots).
 
-Services:    sim/set_world_value (ControlService): cmd = face or hot spot id, data = value
+Services:    sim/set_world_value (ControlService): cmd = face or hot spot id, foreign/<name>, light or day,
+             data = value
              (gauge: number within its range; lamp: on|off; switch: open|closed; hot spot: degC);
              cmd = foreign/<name>: drops a foreign object (data "equipment,side,u,v,w,h", m, a
              plate 8 cm in front of that side; "" removes it);

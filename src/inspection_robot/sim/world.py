@@ -26,6 +26,8 @@ HOT_SPOT_RANGE_C = (-40.0, 600.0)
 FACE_STANDOFF_M = 0.005  # faces sit this far in front of their side so they never z-fight with it
 FOREIGN_PREFIX = "foreign/"
 LIGHT_ID = "light"          # day | night: at night the camera sees by its infrared illuminator (grey)
+DAY_ID = "day"              # days since the world was loaded: a heating hot spot warms by its rate each day
+MAX_DAY = 3650
 FOREIGN_STANDOFF_M = 0.08  # a foreign object hangs this far in front of the side it is dropped on
 FOREIGN_MAX_SIZE_M = 2.0
 
@@ -253,7 +255,8 @@ class HotSpot(object):
 
     ``phase``, ``device``, ``equipment_class`` (optional) go to its calibration as they are
     (thermal diagnosis, checked by the calibration schema); ``phase: ambient`` makes it an ambient
-    reference plate, calibrated with a box inside its core."""
+    reference plate, calibrated with a box inside its core. ``heating`` (K per day, optional): a
+    joint going bad, ``temperature`` on day 0 and that much warmer every day after (World's day)."""
 
     CALIBRATION_KEYS = ("phase", "device", "equipment_class")
 
@@ -275,6 +278,20 @@ class HotSpot(object):
         self.calibration = dict((k, spec[k]) for k in self.CALIBRATION_KEYS if k in spec)
         self.value = None
         self.set_value(spec.get("temperature"))
+        self.day0_c = self.value
+        try:
+            self.heating = float(spec.get("heating", 0.0))
+        except (TypeError, ValueError):
+            raise WorldError("hot spot %s: heating must be K per day, got '%s'" % (self.id, spec.get("heating")))
+        if not math.isfinite(self.heating):
+            raise WorldError("hot spot %s: heating must be finite" % self.id)
+
+    def on_day(self, day):
+        """A heating spot's temperature on ``day`` (within HOT_SPOT_RANGE_C): its value from now on."""
+        if self.heating:
+            low, high = HOT_SPOT_RANGE_C
+            self.value = min(high, max(low, self.day0_c + self.heating * day))
+        return self.value
 
     def parse_value(self, value):
         try:
@@ -358,6 +375,30 @@ class Light(object):
         return value
 
 
+class Day(object):
+    """Days since the world was loaded (sim/set_world_value day 12): every heating hot spot is set
+    to its temperature on that day (a value set on a spot by hand lasts until the day changes)."""
+
+    id = DAY_ID
+    type = "day"
+
+    def __init__(self, spots):
+        self.spots = spots
+        self.value = 0
+
+    def set_value(self, value):
+        try:
+            day = int(str(value))
+        except ValueError:
+            raise WorldError("day must be a whole number of days, got '%s'" % (value,))
+        if not 0 <= day <= MAX_DAY:
+            raise WorldError("day out of range [0, %d]: %s" % (MAX_DAY, value))
+        for spot in self.spots.values():
+            spot.on_day(day)
+        self.value = day
+        return day
+
+
 class World(object):
     """The yard: equipment, faces, hot spots, thermal surface temperatures, robot start."""
 
@@ -397,6 +438,7 @@ class World(object):
             if spot.id in self.faces:
                 raise WorldError("duplicate id %s" % spot.id)
             self._add_unique(self.hot_spots, spot)
+        self.day = Day(self.hot_spots)
 
     @staticmethod
     def _add_unique(table, item):
@@ -417,10 +459,12 @@ class World(object):
         return self.equipment_c.get(equipment_id, self.ambient_c)
 
     def item(self, item_id):
-        """A face, hot spot, foreign object or the light; a foreign object id (``foreign/<name>``) is created
+        """A face, hot spot, foreign object, the light or the day; a foreign object id (``foreign/<name>``) is created
         on first use."""
         if item_id == LIGHT_ID:
             return self.light
+        if item_id == DAY_ID:
+            return self.day
         item = self.faces.get(item_id) or self.hot_spots.get(item_id) or self.foreign.get(item_id)
         if item is None and str(item_id).startswith(FOREIGN_PREFIX) and len(str(item_id)) > len(FOREIGN_PREFIX):
             item = self.foreign[item_id] = ForeignObject(str(item_id), self.equipment)
@@ -441,9 +485,11 @@ class World(object):
         result.update({sid: s.value for sid, s in self.hot_spots.items()})
         result.update({oid: o.value for oid, o in self.foreign.items()})
         result[LIGHT_ID] = self.light.value
+        result[DAY_ID] = self.day.value
         return result
 
     def apply_values(self, values):
-        """Set many values at once (e.g. from the simulator's world_state); unknown ids are errors."""
-        for item_id, value in values.items():
+        """Set many values at once (e.g. from the simulator's world_state); unknown ids are errors. The
+        day first: a heating spot's value given beside it is its value on that day."""
+        for item_id, value in sorted(values.items(), key=lambda item: item[0] != DAY_ID):
             self.set_value(item_id, value)

@@ -16,7 +16,7 @@ from inspection_robot.nav.tour import TourError
 from inspection_robot.task.spec import ResolvedPreset
 from inspection_robot.task.states import target_unit
 
-THERMAL_TASK_KEYS = ("phase", "device", "equipment_class", "emissivity")   # what task.rows diagnoses with
+THERMAL_TASK_KEYS = ("phase", "device", "equipment_class", "emissivity", "distance")   # what task.rows diagnoses with
 
 
 def resolve_preset(preset_root, name, data_root=None):

@@ -14,7 +14,7 @@ from inspection_robot.task.spec import split_limits
 from inspection_robot.task.states import (ALARM_ALARM, ALARM_CHECK, STATUS_FAILED, STATUS_READ, STATUS_UNCERTAIN,
                                           alarm_state, target_unit)
 from inspection_robot.thermal.diagnosis import (DEFAULT_CLASS, DEFAULT_RULES, DiagnosisError, GRADE_NONE, diagnose,
-                                                emissivity_corrected, thermal_groups)
+                                                object_temperature, thermal_groups)
 
 
 def reading_rows(task_id, stop_index, stop_name, preset_index, preset, inspection, reason, now,
@@ -59,8 +59,8 @@ def reading_rows(task_id, stop_index, stop_name, preset_index, preset, inspectio
 
 def thermal_findings(targets, values, rules=DEFAULT_RULES):
     """{target index: finding} for the phase boxes of ``targets`` (the task's resolved targets) read
-    as ``values`` (degC, None: not read). A finding: ``value`` (emissivity-corrected when the box has
-    an emissivity and its device an ambient box), ``grade`` (the hottest phase's only) and
+    as ``values`` (degC, None: not read). A finding: ``value`` (corrected for the box's emissivity
+    and distance when it has them and its device an ambient box), ``grade`` (the hottest phase's only) and
     ``diagnosis`` (what the device's phases, ambient and criteria gave)."""
     thermal = [(k, t.get("phase", ""), t.get("device", "")) for k, t in enumerate(targets)
                if t["kind"] == "thermal"]
@@ -76,14 +76,14 @@ def thermal_findings(targets, values, rules=DEFAULT_RULES):
             if values[k] is None:
                 notes.append("phase %s not read" % phase)
                 continue
-            emissivity = targets[k].get("emissivity")
+            emissivity, distance = targets[k].get("emissivity", 1.0), targets[k].get("distance", 0.0)
             corrected[phase] = values[k]
-            if emissivity is not None and emissivity < 1.0:
+            if emissivity < 1.0 or distance > 0.0:
                 if ambient is None:
-                    notes.append("emissivity of phase %s not applied: no ambient reading" % phase)
+                    notes.append("emissivity and distance of phase %s not applied: no ambient reading" % phase)
                     continue
                 try:
-                    corrected[phase] = emissivity_corrected(values[k], emissivity, ambient)
+                    corrected[phase] = object_temperature(values[k], emissivity, ambient, distance)
                 except DiagnosisError as err:
                     notes.append("phase %s: %s" % (phase, err))
         if not corrected:

@@ -15,6 +15,7 @@ noise), nor without an ambient box; the absolute criteria still are.
 
 Pure: the task service feeds box maxima (task.rows), tests feed matrices' maxima.
 """
+import math
 from collections import OrderedDict, namedtuple
 
 PHASES = ("A", "B", "C")
@@ -85,18 +86,44 @@ def check_rules(overrides):
     return rules
 
 
-def emissivity_corrected(apparent, emissivity, reflected):
-    """The object's temperature (degC) behind an ``apparent`` blackbody-equivalent one (degC) for a
-    grey body of ``emissivity`` reflecting surroundings at ``reflected`` degC (total radiance,
-    Stefan-Boltzmann): e T^4 + (1 - e) Tr^4 = Ta^4. DiagnosisError when the apparent radiance is
-    below what the reflection alone gives (a box that is not the surface it claims)."""
-    if emissivity >= 1.0:
+# Atmospheric transmission of the long-wave band over a path, after the model FLIR cameras record in
+# their files (the coefficients' usual values: ExifTool's FLIR tags AtmosphericTransAlpha1..X): two
+# absorption terms whose strength grows with the square root of the path and of the water vapour.
+ATMOSPHERE_ALPHA = (0.006569, 0.012620)
+ATMOSPHERE_BETA = (-0.002276, -0.006670)
+ATMOSPHERE_X = 1.9
+DEFAULT_HUMIDITY = 50.0     # % relative: the robot does not measure it (20 % or 90 %: 1.2 K apart at 80 C, 20 m)
+MIN_EMISSIVITY = 0.1        # below, a surface's own radiance drowns in its reflection: not measurable
+MAX_DISTANCE = 100.0        # m from the imager: past it a substation box is a few pixels and the model is stretched
+
+
+def transmission(distance, air, humidity=DEFAULT_HUMIDITY):
+    """The share (0..1] of a surface's radiance that crosses ``distance`` m of air at ``air`` degC
+    and ``humidity`` % relative humidity; 1 at 0 m."""
+    if distance <= 0.0:
+        return 1.0
+    vapour = humidity / 100.0 * math.exp(1.5587 + 0.06939 * air - 0.00027816 * air ** 2 + 0.00000068455 * air ** 3)
+    half = math.sqrt(distance / 2.0)   # the path in two halves (the model's optics-window form, no window)
+    x = ATMOSPHERE_X
+    tau = (x * math.exp(-half * (ATMOSPHERE_ALPHA[0] + ATMOSPHERE_BETA[0] * math.sqrt(vapour)))
+           + (1.0 - x) * math.exp(-half * (ATMOSPHERE_ALPHA[1] + ATMOSPHERE_BETA[1] * math.sqrt(vapour))))
+    return min(1.0, max(0.0, tau)) ** 2
+
+
+def object_temperature(apparent, emissivity, ambient, distance=0.0, humidity=DEFAULT_HUMIDITY):
+    """The object's temperature (degC) behind an ``apparent`` blackbody-equivalent one (degC, the
+    imager set to emissivity 1 and no distance) for a grey body of ``emissivity`` at ``distance`` m,
+    its surroundings and the air between at ``ambient`` degC (total radiance, Stefan-Boltzmann):
+    Ta^4 = tau (e T^4 + (1 - e) Tr^4) + (1 - tau) Tatm^4. DiagnosisError when the apparent radiance
+    is below what the reflection and the air alone give (a box that is not the surface it claims)."""
+    tau = transmission(distance, ambient, humidity)
+    if emissivity >= 1.0 and tau >= 1.0:
         return float(apparent)
-    ta, tr = apparent + KELVIN, reflected + KELVIN
-    emitted = ta ** 4 - (1.0 - emissivity) * tr ** 4
+    ta, tr = apparent + KELVIN, ambient + KELVIN
+    emitted = (ta ** 4 - (1.0 - tau) * tr ** 4) / tau - (1.0 - emissivity) * tr ** 4
     if emitted <= 0.0:
         raise DiagnosisError("apparent %.1f C is below what emissivity %.2f reflects from %.1f C"
-                             % (apparent, emissivity, reflected))
+                             % (apparent, emissivity, ambient))
     return (emitted / emissivity) ** 0.25 - KELVIN
 
 
