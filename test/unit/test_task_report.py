@@ -11,6 +11,7 @@ from inspection_robot.inspection import calibration_schema as schema
 from inspection_robot.inspection.preset import PresetError, Target
 from inspection_robot.nav.gridmap import GridMap
 from inspection_robot.task.client_view import client_row
+from inspection_robot.task import display
 from inspection_robot.task.display import reading_text
 from inspection_robot.task.patrol import Inspection
 from inspection_robot.task.rows import reading_rows, result_summary
@@ -41,36 +42,36 @@ def pointer(**params):
 ])
 def test_the_smallest_division_between_marks_gives_the_places(marks, decimals):
     params = pointer(end_value=10.0, marks=[[v, 0.5, 0.5] for v in marks])
-    assert schema.display_decimals("pointer", params) == decimals
+    assert display.display_decimals("pointer", params) == decimals
 
 
 def test_divisions_that_no_decimal_writes_get_one_place_more_than_their_first_digit():
-    assert schema.division_decimals(1.0 / 3.0) == 2
-    assert schema.division_decimals(0.125) == 2
-    assert schema.division_decimals(5.0) == 0 and schema.division_decimals(20.0) == 0
-    assert schema.division_decimals(1e-9) == schema.MAX_DIGITS
+    assert display.division_decimals(1.0 / 3.0) == 2
+    assert display.division_decimals(0.125) == 2
+    assert display.division_decimals(5.0) == 0 and display.division_decimals(20.0) == 0
+    assert display.division_decimals(1e-9) == display.MAX_DIGITS
 
 
 def test_a_scale_without_marks_is_read_to_a_hundredth_of_its_span_and_negative_ranges_count_their_width():
-    assert schema.display_decimals("pointer", pointer()) == 2                        # 0..1.6 -> 0.016
-    assert schema.display_decimals("pointer", pointer(start_value=-0.1, end_value=0.0)) == 3   # vacuum, 0.001
-    assert schema.display_decimals("pointer", pointer(start_value=100.0, end_value=-100.0)) == 0   # falling scale
+    assert display.display_decimals("pointer", pointer()) == 2                        # 0..1.6 -> 0.016
+    assert display.display_decimals("pointer", pointer(start_value=-0.1, end_value=0.0)) == 3   # vacuum, 0.001
+    assert display.display_decimals("pointer", pointer(start_value=100.0, end_value=-100.0)) == 0   # falling scale
     with pytest.raises(schema.SchemaError, match="start_value and end_value must differ"):
         pointer(start_value=1.0, end_value=1.0)   # a zero range is refused with the calibration
 
 
 def test_a_non_linear_scale_counts_its_finest_stretch_and_two_entries_are_only_its_ends():
     table = [[0.0, -135.0], [1.0, -45.0], [1.5, 0.0], [1.75, 45.0], [2.0, 135.0]]   # square-root flow scale
-    assert schema.display_decimals("pointer", pointer(end_value=2.0, scale_table=table)) == 2   # 0.25
+    assert display.display_decimals("pointer", pointer(end_value=2.0, scale_table=table)) == 2   # 0.25
     ends = [[0.0, -135.0], [16.0, 135.0]]
-    assert schema.display_decimals("pointer", pointer(end_value=16.0, scale_table=ends)) == 1   # 16 / 100
+    assert display.display_decimals("pointer", pointer(end_value=16.0, scale_table=ends)) == 1   # 16 / 100
 
 
 def test_digits_overrides_and_is_checked_with_the_rest_of_the_calibration():
     params = pointer(digits=3, marks=[[0.0, 0.1, 0.9], [0.5, 0.5, 0.1]])
-    assert schema.display_decimals("pointer", params) == 3
-    assert schema.display_decimals("thermal", {"digits": 0}) == 0
-    assert schema.display_decimals("thermal", {}) == 1 and schema.display_decimals("lamp", {}) == 0
+    assert display.display_decimals("pointer", params) == 3
+    assert display.display_decimals("thermal", {"digits": 0}) == 0
+    assert display.display_decimals("thermal", {}) == 1 and display.display_decimals("lamp", {}) == 0
     assert schema.from_text("digits", "2") == 2 and schema.to_text("digits", 2) == "2"
     for bad, reason in ((7, r"digits must be in \[0, 6\], got 7"), (1.5, "whole number of decimal places"),
                         (-1, r"digits must be in \[0, 6\]"), ("2", "digits must be a finite number"),

@@ -384,55 +384,6 @@ def pointer_scale(params):
         raise SchemaError("pointer scale: %s" % err)
 
 
-THERMAL_DECIMALS = 1        # a thermal camera's 0.1 degC
-FULL_SCALE_DIVISIONS = 100  # a pointer scale without marks: a hundredth of its span as its division
-
-
-def display_decimals(kind, params):
-    """The decimal places a reading of a target is shown with (its resolution), from checked params.
-
-    ``digits`` wins. A pointer's resolution is the smallest division between its scale's values:
-    the marks' values, else a scale_table's values when it has inner points (a non-linear scale,
-    whose finest stretch counts): the places are those that write that division (0.05 -> 2,
-    0.2 -> 1, 5 -> 0), at most one more than its first significant digit needs (a third: 2) and
-    MAX_DIGITS. A scale with neither: the places of the first significant digit of its span /
-    FULL_SCALE_DIVISIONS (0..1.6 MPa: 0.016 -> 2; 0..100: 0). Thermal: THERMAL_DECIMALS; lamps and
-    switches (state codes) and anything else: 0.
-    """
-    if params.get("digits") is not None:
-        return int(params["digits"])
-    if kind == "thermal":
-        return THERMAL_DECIMALS
-    if kind == "digital":
-        return int(params["decimals"])
-    if kind != "pointer":
-        return 0
-    division = _smallest_gap([m[0] for m in params.get("marks") or ()], 2)
-    if division is None:   # a table of two entries is only the scale's ends
-        division = _smallest_gap([v for v, _a in params.get("scale_table") or ()], 3)
-    if division is None:   # no division known: the places of a hundredth's first significant digit
-        nominal = float("%.9g" % (pointer_scale(params).full_scale / FULL_SCALE_DIVISIONS))
-        return min(MAX_DIGITS, max(0, -int(math.floor(math.log10(nominal)))))
-    return division_decimals(division)
-
-
-def _smallest_gap(values, at_least):
-    """The smallest difference between neighbouring distinct ``values``; None for fewer than ``at_least``."""
-    values = sorted(set(float(v) for v in values))
-    return min(b - a for a, b in zip(values, values[1:])) if len(values) >= at_least else None
-
-
-def division_decimals(division):
-    """The decimal places that write ``division`` (> 0), see display_decimals."""
-    division = float("%.9g" % division)   # 0.3 - 0.2 is 0.09999999999999998: a tenth
-    first = max(0, -int(math.floor(math.log10(division))))   # places of its first significant digit
-    for places in range(first, min(first + 1, MAX_DIGITS) + 1):
-        scaled = division * 10 ** places
-        if abs(scaled - round(scaled)) <= 1e-6 * max(1.0, scaled):
-            return places
-    return min(first + 1, MAX_DIGITS)
-
-
 def check_spec(spec, index, width, height, thermal_size=None):
     """One target spec of an upload or a draft (kind, box, name, the kind's keys, <state>_picture).
 

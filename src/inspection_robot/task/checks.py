@@ -7,12 +7,12 @@ import numpy as np
 
 from inspection_robot.command import CommandError
 from inspection_robot.files import confine_data_path, root_relative
-from inspection_robot.inspection.calibration_schema import display_decimals
 from inspection_robot.inspection.preset import PRESET_INI, PresetError, load_preset
 from inspection_robot.nav.costmap import Costmap
 from inspection_robot.nav.gridmap import MapError, load_map
 from inspection_robot.nav.planner import Planner, PlanningError
 from inspection_robot.nav.tour import TourError
+from inspection_robot.task.display import display_decimals
 from inspection_robot.task.spec import ResolvedPreset
 from inspection_robot.task.states import target_unit
 
