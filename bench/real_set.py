@@ -23,6 +23,8 @@ import os
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 LABELS = os.path.join(ROOT, "bench", "data", "real_gauges.json")
+DISPLAY_LABELS = os.path.join(ROOT, "bench", "data", "real_displays.json")   # displays and counters (issue #42)
+DISPLAY_KINDS = ("lit", "dark", "drum")
 PARTS = ("tuning", "test")
 MAX_DIAL_SHARE = 0.05
 # the categories issues #26 and #40 ask figures for: name -> tags that put a photo in it (any of them)
@@ -58,14 +60,15 @@ def load(path=LABELS):
     return doc
 
 
-def check(doc):
+def _check_sources(doc):
+    """Every source with the rule's part, every photo's id unique and its source, commit, path known."""
     sources = dict((s["repo"], s) for s in doc["sources"])
     for repo, source in sources.items():
         if source.get("part") != split_part(repo):
             raise LabelError("source %s: part %r, the split rule says %r" % (repo, source.get("part"),
                                                                              split_part(repo)))
     seen = set()
-    for photo in doc["photos"] + doc["negatives"]:
+    for photo in doc["photos"] + doc.get("negatives", []):
         pid = photo["id"]
         if pid in seen:
             raise LabelError("photo id %s twice" % pid)
@@ -75,6 +78,10 @@ def check(doc):
         for key in ("commit", "path"):
             if not photo.get(key):
                 raise LabelError("photo %s: no %s" % (pid, key))
+
+
+def check(doc):
+    _check_sources(doc)
     for photo in doc["photos"]:
         pid = photo["id"]
         marks = photo.get("marks") or []
@@ -93,13 +100,38 @@ def check(doc):
     plan(doc)
 
 
-def plan(doc):
+def load_displays(path=DISPLAY_LABELS):
+    """The displays' labels document, checked: sources and ids as for gauges, every photo's kind, the
+    text it shows (digits, a minus, a point, leading blanks), its box [x, y, w, h] when given."""
+    from inspection_robot.inspection.digital import parse_shown
+    with open(path) as f:
+        doc = json.load(f)
+    _check_sources(doc)
+    for photo in doc["photos"]:
+        if photo.get("kind") not in DISPLAY_KINDS or not photo.get("device"):
+            raise LabelError("photo %s: kind one of %s and a device needed" % (photo["id"], "|".join(DISPLAY_KINDS)))
+        try:
+            parse_shown(photo["shown"])
+        except (KeyError, ValueError) as err:
+            raise LabelError("photo %s: %s" % (photo["id"], err))
+        if "box" in photo and (len(photo["box"]) != 4 or min(photo["box"][2:]) <= 0):
+            raise LabelError("photo %s: box must be [x, y, w, h] with w, h > 0" % photo["id"])
+    plan(doc, device_of)
+    return doc
+
+
+def device_of(photo):
+    return photo["device"]
+
+
+def plan(doc, group=dial_of):
     """photo id -> "calibration" (calibrates its dial, not scored), "cross" (read with another photo's
-    calibration) or "same" (its dial's only photo: read with its own), for the scored photos."""
+    calibration) or "same" (its dial's only photo: read with its own), for the scored photos;
+    ``group``: what makes photos one meter (a gauge's dial, a display's device)."""
     dials = collections.OrderedDict()
     for photo in doc["photos"]:
         if not photo.get("excluded"):
-            dials.setdefault(dial_of(photo), []).append(photo)
+            dials.setdefault(group(photo), []).append(photo)
     roles = {}
     for members in dials.values():
         if len(members) == 1:
@@ -107,16 +139,16 @@ def plan(doc):
             continue
         marked = [p for p in members if p.get("calibration")]
         if len(marked) > 1:
-            raise LabelError("dial %s: %d calibration photos" % (dial_of(members[0]), len(marked)))
+            raise LabelError("dial %s: %d calibration photos" % (group(members[0]), len(marked)))
         reference = (marked or members)[0]
         for photo in members:
             roles[photo["id"]] = "calibration" if photo is reference else "cross"
     return roles
 
 
-def calibration_photo(doc, photo):
-    """The photo whose picture and labels calibrate ``photo``'s dial."""
-    members = [p for p in doc["photos"] if not p.get("excluded") and dial_of(p) == dial_of(photo)]
+def calibration_photo(doc, photo, group=dial_of):
+    """The photo whose picture and labels calibrate ``photo``'s dial (``group``, see plan)."""
+    members = [p for p in doc["photos"] if not p.get("excluded") and group(p) == group(photo)]
     marked = [p for p in members if p.get("calibration")]
     return (marked or members)[0]
 

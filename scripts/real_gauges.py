@@ -1,12 +1,15 @@
 #!/usr/bin/env python3
-"""Prepare the real-photo gauge set that bench/bench_inspection.py scores.
+"""Prepare the real-photo sets the benches score: gauges (bench/bench_inspection.py) or displays and
+counters (``--set displays``, bench/bench_displays.py).
 
-The labels (calibration points, true reading by eye, uncertainty, source repository, commit and
-path) are in bench/data/real_gauges.json; the photographs are not in git. This copies each one
-into the cache directory (default ~/.cache/inspection_robot/real_gauges, or $REAL_GAUGES_DIR)
-as <id><ext>, taking it from a local git copy of its repository at the labelled commit:
+The labels (gauges: calibration points, true reading by eye, uncertainty; displays: the text shown,
+the digits' box; both: source repository, commit and path) are in bench/data/real_gauges.json and
+real_displays.json; the photographs are not in git. This copies each one into the cache directory
+(default ~/.cache/inspection_robot/real_gauges or real_displays, or $REAL_GAUGES_DIR /
+$REAL_DISPLAYS_DIR) as <id><ext>, taking it from a local git copy of its repository at the
+labelled commit:
 
-    scripts/real_gauges.py [--mirror DIR ...] [--clone] [--cache DIR]
+    scripts/real_gauges.py [--set gauges|displays] [--mirror DIR ...] [--clone] [--cache DIR]
 
 ``--mirror DIR``: a directory holding repositories as DIR/<owner>+<name>/repo (the layout of the
 code-search mirror) or DIR/<owner>/<name>; ``--clone``: clone missing repositories from GitHub
@@ -23,12 +26,13 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, os.path.join(ROOT, "bench"))
 import real_set  # noqa: E402  (the labels' checks and split)
 
-LABELS = real_set.LABELS
+SETS = {"gauges": (real_set.load, "REAL_GAUGES_DIR", "real_gauges"),
+        "displays": (real_set.load_displays, "REAL_DISPLAYS_DIR", "real_displays")}
 
 
-def default_cache():
-    return os.environ.get("REAL_GAUGES_DIR") or os.path.join(os.path.expanduser("~"), ".cache", "inspection_robot",
-                                                             "real_gauges")
+def default_cache(which="gauges"):
+    _load, variable, name = SETS[which]
+    return os.environ.get(variable) or os.path.join(os.path.expanduser("~"), ".cache", "inspection_robot", name)
 
 
 def _git_dir(mirrors, repo):
@@ -48,11 +52,11 @@ def _clone(cache, repo):
     return target
 
 
-def prepare(cache, mirrors, clone):
-    doc = real_set.load(LABELS)
+def prepare(cache, mirrors, clone, which="gauges"):
+    doc = SETS[which][0]()
     os.makedirs(cache, exist_ok=True)
     ready, missing = 0, []
-    for entry in doc["photos"] + doc["negatives"]:
+    for entry in doc["photos"] + doc.get("negatives", []):
         out = os.path.join(cache, entry["id"] + os.path.splitext(entry["path"])[1].lower())
         if os.path.isfile(out):
             ready += 1
@@ -80,11 +84,14 @@ def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--mirror", action="append", default=[], help="directory of local repository copies")
     parser.add_argument("--clone", action="store_true", help="clone missing repositories from GitHub")
-    parser.add_argument("--cache", default=default_cache(), help="where the photos go")
+    parser.add_argument("--set", default="gauges", choices=sorted(SETS), help="which labelled set")
+    parser.add_argument("--cache", help="where the photos go (default: see above)")
     args = parser.parse_args(argv)
-    ready, missing = prepare(args.cache, args.mirror or ["/work/.mirror"], args.clone)
-    print("%d photos ready in %s" % (ready, args.cache))
-    print(json.dumps(real_set.summary(real_set.load(LABELS))))
+    cache = args.cache or default_cache(args.set)
+    ready, missing = prepare(cache, args.mirror or ["/work/.mirror"], args.clone, args.set)
+    print("%d photos ready in %s" % (ready, cache))
+    if args.set == "gauges":
+        print(json.dumps(real_set.summary(real_set.load())))
     for item in missing:
         print("missing: %s" % item)
     return 0 if ready else 1

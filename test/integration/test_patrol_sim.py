@@ -9,11 +9,11 @@ moves, run the routine patrol with a backend take-over and release, a task_manag
 respawn, a low battery that sends the robot to its dock to charge and back, and a special task
 that pre-empts it (a bird's nest over a voltmeter's needle meanwhile: that reading uncertain, in the
 review queue, not an alarm; an operation counter counts 3 more: the special task's report prints
-the increment); then every gauge within 0.5 % of full scale of the world's truth (the oil
-thermometer beside its drag pointer, the manometer with its counterweight), lamps and switches
-exact, the hot spots within 1 C, the alarm where the world is out of band and nowhere else, the
-serious thermal defect on the hot bushing phase (row grade, report), no reading lost or
-duplicated, the report files present.
+the increment; the arrester's drum counter one more); then every gauge within 0.5 % of full scale
+of the world's truth (the oil thermometer beside its drag pointer, the manometer with its
+counterweight), lamps, switches, displays and counters exact, the hot spots within 1 C, the alarm
+where the world is out of band and nowhere else, the serious thermal defect on the hot bushing
+phase (row grade, report), no reading lost or duplicated, the report files present.
 rospy is used only to read the bridge's port, the simulator's true pose, task_manager's pid and
 the data_root folder, and to drain the simulated battery.
 """
@@ -41,6 +41,7 @@ from rostest_helpers import Latest, wait_for
 OUT_OF_BAND = ("transformer_1/oil_temp", "118")   # beside its drag pointer at 125 C (sim_world.yaml)
 OCCLUDED = "cabinet_1/voltmeter"   # a bird's nest over its needle during the special task: a review, not an alarm
 COUNTER = "cabinet_1/operation_counter"   # counts 3 operations between the routine's reading and the special's
+ARRESTER = "breaker_2/arrester_counter"    # a drum counter: one discharge more during the patrol
 HOT_PHASE = "transformer_1/bushing_a"   # sim_world.yaml: phases A/B/C 78, 48, 47 C, ambient plate 25 C
 SPECIAL_STOPS = [s for s in YARD_STOPS if s[0] == "cabinet_1"]
 ENDED = ("done", "cancelled", "failed")
@@ -213,6 +214,8 @@ class PatrolSimTest(unittest.TestCase):
         client.must("sim/set_world_value", "foreign/nest", self.nest_over(OCCLUDED))
         counted = int(float(client.must("sim/get_world_value", COUNTER)))
         client.must("sim/set_world_value", COUNTER, str(counted + 3))
+        # the arrester discharges once (breaker_2, the routine's last stop, is read after it)
+        client.must("sim/set_world_value", ARRESTER, str(int(float(client.must("sim/get_world_value", ARRESTER))) + 1))
         client.submit(special)
         pre = self.status_where(lambda s: s["task_id"] == special["id"] and s["suspended"] == routine["id"],
                                 120.0, "special task running, routine suspended")

@@ -14,7 +14,8 @@ GOOD = {"name": "oil", "digits": 2, "normal": [0.2, 1.4], "start_angle": -135.0,
         "open_reference": "a.png", "closed_reference": "b.png", "needle_reference": "target_0_needle.png",
         "thermal_box": [5.0, 5.0, 30.5, 5.0, 30.5, 30.0, 5.0, 30.0], "phase": "B", "device": "T1 bay 3",
         "equipment_class": "breaker", "emissivity": 0.9, "distance": 12.5, "digit_count": 4, "polarity": "dark",
-        "slant": -6.0, "fill": 0.75, "decimals": 1, "contrast": 77.5, "counter": True, "alarm_band": [0.0, 1.6]}
+        "slant": -6.0, "fill": 0.75, "style": "drum", "font": "duplex_bold", "glyph": 0.55, "decimals": 1,
+        "contrast": 77.5, "counter": True, "alarm_band": [0.0, 1.6]}
 
 
 @pytest.mark.parametrize("key", sorted(k for k, f in schema.FIELDS.items() if f.stored))

@@ -68,7 +68,7 @@ def test_record_find_read_with_pose_error(tmp_path, yard, face_id, dist, zoom):
     specs = world_specs(world, head, switch_picture_path=str(tmp_path / "%s_%s.png"))
     assert any(s["kind"] == "pointer" for s in specs)
     if face_id.startswith("breaker_2"):
-        assert sorted(s["kind"] for s in specs) == ["lamp", "lamp", "pointer", "switch"]
+        assert sorted(s["kind"] for s in specs) == ["digital", "lamp", "lamp", "pointer", "switch"]   # + a drum
     calibrate(path, specs, optics)
     preset = load_preset(path)
     # values change, the robot comes back 0.3 m / 5 deg off
@@ -81,6 +81,8 @@ def test_record_find_read_with_pose_error(tmp_path, yard, face_id, dist, zoom):
             truth[f.id] = f.set_value("off" if f.value == "on" else "on")
         elif f.type == "switch":
             truth[f.id] = f.set_value("open" if f.value == "closed" else "closed")
+        elif f.type == "display":
+            truth[f.id] = f.set_value(f.value + 5)
     back = (pose[0] + 0.3 * math.sin(pose[2]), pose[1] - 0.3 * math.cos(pose[2]), pose[2] + math.radians(5))
     head.pose = back
     events = []
@@ -107,6 +109,8 @@ def test_record_find_read_with_pose_error(tmp_path, yard, face_id, dist, zoom):
             assert abs(value - truth[f.id]) / (f.range[1] - f.range[0]) * 100 < 1.0, (f.id, value, truth[f.id])
         elif f.type == "lamp":
             assert (value > 0) == (truth[f.id] == "on"), (f.id, value)
+        elif f.type == "display":
+            assert value == truth[f.id], (f.id, value)
         else:
             assert value == (1.0 if truth[f.id] == "closed" else 0.0), (f.id, value)
     assert out.foreign_scale == [0.0], out.foreign_picture_path

@@ -30,6 +30,7 @@ import re
 import numpy as np
 
 from inspection_robot.inspection.digital import MAX_DIGITS as MAX_DISPLAY_DIGITS, POLARITIES, parse_shown
+from inspection_robot.inspection.drum import FONT_NAMES as DRUM_FONTS
 from inspection_robot.inspection.gauge import GaugeScale
 from inspection_robot.inspection.geometry import quad_inside, quad_is_convex
 from inspection_robot.inspection.lamp import LAMP_COLOURS
@@ -37,6 +38,7 @@ from inspection_robot.inspection.needle import POINTER_COLOURS
 from inspection_robot.thermal.diagnosis import DEFAULT_RULES, MAX_DISTANCE, MIN_EMISSIVITY, PHASE_CHOICES
 
 TARGET_KINDS = ("pointer", "lamp", "switch", "thermal", "digital")
+DIGITAL_STYLES = ("segments", "drum")
 MAX_ABS_VALUE = 1e9          # a reading (start/end value, scale_table and marks values, normal band)
 MAX_ANGLE_DEG = 360.0
 MAX_PICTURE_PX = 100000.0    # a thermal box's coordinates when the thermal picture's size is unknown
@@ -299,10 +301,15 @@ FIELDS = {
     # a counter (discharges of an arrester, breaker operations): its increment since the last patrol is
     # stored, and a count that went down is an alarm (task.patrol)
     "counter": Field(("digital",), _flag, "flag"),
+    # a mechanical drum counter (inspection.drum) instead of seven segments: its font and digit height learned
+    "style": Field(("digital",), _choice(DIGITAL_STYLES, optional=True)),
+    "font": Field(("digital",), _choice(DRUM_FONTS)),
+    "glyph": Field(("digital",), lambda v, k: number(v, k, 0.1, 1.0), "number"),
 }
 REQUIRED = {"pointer": ("start_angle", "end_angle", "start_value", "end_value"), "lamp": ("colour",),
             "switch": ("open_reference", "closed_reference"), "thermal": ("thermal_box",),
-            "digital": ("digit_count", "polarity", "slant", "fill", "decimals", "contrast")}
+            "digital": ("digit_count", "polarity", "slant", "fill", "decimals", "contrast"),
+            "drum": ("digit_count", "polarity", "font", "glyph", "decimals", "contrast")}   # a digital style: drum
 PICTURE_STATES = {"lamp": ("on", "off"), "switch": ("open", "closed")}
 # written to the INI even when empty or defaulted (the file's long-standing layout)
 ALWAYS_WRITTEN = ("centre", "radius", "aspect", "start_angle", "end_angle", "start_value", "end_value", "unit",
@@ -350,10 +357,12 @@ def check_params(kind, params, thermal_size=None):
         if "normal" in out else "alarm_band needs a normal band inside it (normal [low, high])"
     if fault:
         raise SchemaError(fault)
-    missing = [key for key in REQUIRED[kind] if key not in out]
+    drum = kind == "digital" and out.get("style") == "drum"
+    required = REQUIRED["drum" if drum else kind]
+    missing = [key for key in required if key not in out]
     if missing:
-        raise SchemaError("missing key(s) %s (a %s target needs %s)"
-                          % (", ".join(missing), kind, ", ".join(REQUIRED[kind])))
+        raise SchemaError("missing key(s) %s (a %s%s target needs %s)"
+                          % (", ".join(missing), kind, " (drum)" if drum else "", ", ".join(required)))
     if kind == "pointer":
         for key, default in POINTER_DEFAULTS.items():
             out.setdefault(key, list(default) if isinstance(default, list) else default)
@@ -361,8 +370,13 @@ def check_params(kind, params, thermal_size=None):
     elif kind == "lamp" and ("on_reference" in out) != ("off_reference" in out):
         raise SchemaError("a lamp needs both on_reference and off_reference (or on_picture and off_picture), "
                           "or neither")
-    elif kind == "digital" and out["decimals"] >= out["digit_count"]:
-        raise SchemaError("decimals %d must be fewer than digit_count %d" % (out["decimals"], out["digit_count"]))
+    elif kind == "digital":
+        if out["decimals"] >= out["digit_count"]:
+            raise SchemaError("decimals %d must be fewer than digit_count %d" % (out["decimals"], out["digit_count"]))
+        other = [k for k in set(REQUIRED["digital"]) ^ set(REQUIRED["drum"]) if k in out and k not in required]
+        if other:
+            raise SchemaError("%s does not apply to a %s display"
+                              % (", ".join(sorted(other)), "drum" if drum else "seven-segment"))
     elif kind == "thermal":
         if out.get("device") and not out.get("phase"):
             raise SchemaError("device '%s' needs a phase (%s)" % (out["device"], "|".join(PHASE_CHOICES)))

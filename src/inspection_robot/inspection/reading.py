@@ -19,6 +19,7 @@ from inspection_robot.lazy import lazy_import
 from inspection_robot.files import PUBLIC_FILE_MODE, FileError, confine_path, write_atomic
 from inspection_robot.command import CommandError
 from inspection_robot.inspection.digital import display_model, read_display
+from inspection_robot.inspection.drum import drum_model, read_drum
 from inspection_robot.inspection.foreign import detect_foreign
 from inspection_robot.inspection.geometry import quad_inside, quad_is_convex, quad_overlap, quads_from_flat, \
     rectify, transform_quad
@@ -232,6 +233,8 @@ class ScaleReader(object):
         if target.kind == "pointer":
             self._check_same_gauge(preset, target, image, quad)
             return read_pointer(self.pointer, target, image, quad, self._needle_model(preset, p))
+        if target.kind == "digital" and p.get("style") == "drum":
+            return read_drum(image, quad, drum_model(p))
         if target.kind == "digital":
             return read_display(image, quad, display_model(p))
         if target.kind == "lamp":

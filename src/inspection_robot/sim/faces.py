@@ -10,6 +10,7 @@ import math
 import numpy as np
 
 from inspection_robot.inspection.digital import render_display
+from inspection_robot.inspection.drum import render_drum
 from inspection_robot.lazy import lazy_import
 from inspection_robot.sim.world import DISPLAY_WINDOW
 
@@ -62,12 +63,18 @@ def paint_face(face, longest_px):
 
 
 def _paint_display(img, face):
-    """A seven-segment display in the face's window (inspection.digital.render_display draws it)."""
+    """A seven-segment display (inspection.digital.render_display) or a drum counter's wheels
+    (inspection.drum.render_drum) in the face's window."""
     height, width = img.shape[:2]
     left, top, right, bottom = DISPLAY_WINDOW
     x0, y0, x1, y1 = (int(round(left * width)), int(round(top * height)), int(round(right * width)),
                       int(round(bottom * height)))
-    img[y0:y1, x0:x1] = render_display(face.display_text(), x1 - x0, y1 - y0, polarity=face.polarity, slant_deg=6.0)
+    if face.style == "drum":
+        wheels = [float(c) for c in face.display_text().replace(".", "")]
+        img[y0:y1, x0:x1] = render_drum(wheels, x1 - x0, y1 - y0, polarity=face.polarity)
+    else:
+        img[y0:y1, x0:x1] = render_display(face.display_text(), x1 - x0, y1 - y0, polarity=face.polarity,
+                                           slant_deg=6.0)
 
 
 def paint_gauge(img, face):

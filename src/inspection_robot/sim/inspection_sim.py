@@ -109,6 +109,8 @@ def world_specs(world, head, switch_picture_path=None, hot_spot_box_px=None):
                         unit=face.spec.get("unit", ""))
             if face.spec.get("counter"):
                 spec["counter"] = True
+            if face.style == "drum":
+                spec["style"] = "drum"
         elif face.type == "lamp" and switch_picture_path is None:
             spec.update(kind="lamp", colour=face.color)
         else:

@@ -174,6 +174,7 @@ class Face(object):
             self.digits = int(spec.get("digits", 4))
             self.decimals = int(spec.get("decimals", 1))
             self.polarity = str(spec.get("polarity", "lit"))
+            self.style = str(spec.get("style", "segments"))   # or drum: printed digits on wheels, leading zeros shown
             self.range = tuple(float(v) for v in spec["range"])
         except (KeyError, TypeError, ValueError) as err:
             raise WorldError("display %s: %s" % (self.id, err))
@@ -181,11 +182,16 @@ class Face(object):
             raise WorldError("display %s: needs 1..12 digits, fewer decimals, polarity lit|dark" % self.id)
         if len(self.range) != 2 or not self.range[0] < self.range[1]:
             raise WorldError("display %s: range must be [low, high] with low < high" % self.id)
+        if self.style not in ("segments", "drum") or (self.style == "drum" and self.range[0] < 0):
+            raise WorldError("display %s: style must be segments or drum (a drum counts from 0)" % self.id)
 
     def display_text(self, value=None):
-        """What a display shows for ``value`` (default: current): right-aligned, blank leading digits."""
+        """What a display shows for ``value`` (default: current): right-aligned, blank leading digits
+        (a drum's wheels show zeros)."""
         value = self.value if value is None else value
         text = "%.*f" % (self.decimals, value)
+        if self.style == "drum":
+            return "0" * (self.digits - len(text.replace(".", ""))) + text
         return " " * (self.digits - len(text.replace(".", ""))) + text
 
     def parse_value(self, value):
@@ -278,13 +284,10 @@ class HotSpot(object):
         self.calibration = dict((k, spec[k]) for k in self.CALIBRATION_KEYS if k in spec)
         self.value = None
         self.set_value(spec.get("temperature"))
-        self.day0_c = self.value
-        try:
-            self.heating = float(spec.get("heating", 0.0))
-        except (TypeError, ValueError):
-            raise WorldError("hot spot %s: heating must be K per day, got '%s'" % (self.id, spec.get("heating")))
-        if not math.isfinite(self.heating):
-            raise WorldError("hot spot %s: heating must be finite" % self.id)
+        self.day0_c, self.heating = self.value, spec.get("heating", 0.0)
+        if isinstance(self.heating, bool) or not isinstance(self.heating, (int, float)) \
+                or not math.isfinite(self.heating):
+            raise WorldError("hot spot %s: heating must be K per day, got '%s'" % (self.id, self.heating))
 
     def on_day(self, day):
         """A heating spot's temperature on ``day`` (within HOT_SPOT_RANGE_C): its value from now on."""

@@ -1,0 +1,136 @@
+"""Drum counters (inspection.drum): learned from a picture and the typed value, read at rest and
+between digits, doubted where a wheel cannot be told, refused when nothing shows; and the simulated
+yard's arrester counter calibrated from the world and read at every count."""
+import numpy as np
+import pytest
+
+from inspection_robot.inspection import calibration_schema as schema
+from inspection_robot.inspection.calibration import calibrate
+from inspection_robot.inspection.drum import ROLLED, drum_model, learn_drum, read_drum, render_drum
+from inspection_robot.inspection.preset import PresetError, load_preset
+from inspection_robot.inspection.readers import ReadFailed
+from inspection_robot.sim.inspection_sim import world_specs
+from inspection_robot.sim.world import World
+from inspection_robot_testing.world_views import recorded_preset
+from inspection_robot_testing.yard_patrol import config_file
+
+QUAD = [[100, 70], [300, 70], [300, 130], [100, 130]]
+
+
+def picture(positions, **style):
+    """A 5-wheel counter at ``positions`` in a grey 400 x 200 picture, in QUAD."""
+    image = np.full((200, 400, 3), 128, np.uint8)
+    image[70:130, 100:300] = render_drum(positions, 200, 60, **style)
+    return image
+
+
+def odometer(value, wheels=5):
+    """Each wheel's position for a count ``value`` (fractional: the last wheel turning, the ones
+    above it turning only while those below pass 9 -> 0)."""
+    positions = [0.0] * wheels
+    positions[-1] = value % 10.0
+    for k in range(wheels - 2, -1, -1):
+        positions[k] = int(value // 10 ** (wheels - 1 - k)) % 10 + max(0.0, positions[k + 1] - 9.0)
+    return positions
+
+
+def shown(positions):
+    """What the counter's convention reads: a wheel between two digits is the lower one, three
+    quarters of the way the next."""
+    return float("".join(str(int(np.floor(p + ROLLED)) % 10) for p in positions))
+
+
+@pytest.mark.parametrize("font,pitch,polarity", [("duplex", 1.5, "lit"), ("complex", 1.3, "dark"),
+                                                 ("triplex", 1.8, "lit")])
+def test_a_turning_counter_is_read_right_or_doubted(font, pitch, polarity):
+    style = dict(font=font, pitch=pitch, polarity=polarity)
+    model = learn_drum(picture([0, 3, 4, 7, 2], **style), QUAD, list("03472"), 0)
+    assert model.polarity == polarity
+    rng = np.random.RandomState(7)
+    confident = 0
+    for value in list(rng.uniform(0, 99999, 40)) + [0.0, 99999.0, 1299.5, 8888.0, 6565.0]:
+        positions = odometer(value)
+        reading = read_drum(picture(positions, **style), QUAD, model)
+        if reading.detail.get("reason"):
+            assert reading.confidence <= 40.0
+            continue
+        confident += 1
+        assert reading.value == shown(positions), (value, positions, reading.detail)
+    assert confident >= 30   # the last wheel is random: a fifth of the time near where the next digit is read
+
+
+def test_a_wheel_half_way_reads_the_lower_digit_and_says_so():
+    model = learn_drum(picture([0, 1, 2, 9, 0]), QUAD, list("01290"), 0)
+    reading = read_drum(picture([0, 1, 2, 9, 3.5]), QUAD, model)
+    assert reading.value == 1293.0 and not reading.detail.get("reason")
+    assert reading.detail["rolled"] == "wheel 5 between 3 and 4, read 3"
+    carry = read_drum(picture(odometer(1299.5)), QUAD, model)   # 1299 -> 1300: three wheels turning together
+    assert carry.value == 1299.0 and not carry.detail.get("reason"), carry.detail
+    assert "wheel 3 between 2 and 3" in carry.detail["rolled"]
+
+
+def test_a_wheel_half_way_above_one_at_rest_is_doubted():
+    model = learn_drum(picture([0, 1, 2, 9, 0]), QUAD, list("01290"), 0)
+    reading = read_drum(picture([0, 1, 2.5, 4, 0]), QUAD, model)
+    assert "wheel 3 half-way while wheel 4 shows 4" in reading.detail["reason"]
+    assert reading.confidence <= 40.0
+
+
+def test_decimals_come_from_the_calibration():
+    model = learn_drum(picture([0, 0, 4, 1, 7]), QUAD, list("00417"), 1)
+    assert read_drum(picture([0, 0, 5, 2, 3]), QUAD, model).value == pytest.approx(52.3)
+
+
+def test_nothing_to_read_and_what_cannot_be_learned_are_refused():
+    model = learn_drum(picture([0, 3, 4, 7, 2]), QUAD, list("03472"), 0)
+    blank = np.full((200, 400, 3), 128, np.uint8)
+    with pytest.raises(ReadFailed) as err:
+        read_drum(blank, QUAD, model)
+    assert "no drum wheel shows a digit" in str(err.value)
+    with pytest.raises(ReadFailed) as err:
+        learn_drum(picture([0, 3, 4, 7, 2]), QUAD, list(" 3472"), 0)
+    assert "type them all" in str(err.value)
+    with pytest.raises(ReadFailed) as err:
+        learn_drum(picture([0, 3, 4, 7, 2]), QUAD, list("58190"), 0)   # not what it shows
+    assert "does not show '58190' on drum wheels" in str(err.value)
+
+
+def test_the_schema_keeps_a_drums_model_apart_from_a_displays():
+    drum = {"digit_count": 3, "polarity": "lit", "decimals": 0, "contrast": 150.0, "style": "drum",
+            "font": "duplex", "glyph": 0.55}
+    assert schema.check_params("digital", drum)["font"] == "duplex"
+    for bad, words in [(dict(drum, slant=0.0), "slant does not apply to a drum display"),
+                       (dict(drum, font="gothic"), "font must be one of"),
+                       (dict((k, v) for k, v in drum.items() if k != "glyph"),
+                        "missing key(s) glyph (a digital (drum)"),
+                       (dict(drum, style="segments"), "missing key(s) slant, fill (a digital target needs")]:
+        with pytest.raises(schema.SchemaError) as err:
+            schema.check_params("digital", bad)
+        assert words in str(err.value)
+
+
+def test_the_yards_arrester_counter_is_read_at_every_count(tmp_path):
+    world = World.load(config_file("sim_world.yaml"))
+    path, head, optics, _pose = recorded_preset(world, str(tmp_path), "b2", "breaker_2", 3.5, 1.45, 2.0, 1280, 720)
+    (spec,) = [s for s in world_specs(world, head) if s["name"] == "breaker_2/arrester_counter"]
+    assert spec["style"] == "drum" and spec["shown"] == "007" and spec["counter"]
+    calibrate(path, [spec], optics)   # as an upload: the model learned from zoom0.jpg and "shown", then stored
+    (target,) = load_preset(path).targets
+    assert sorted(target.params) == ["contrast", "counter", "decimals", "digit_count", "font", "glyph", "polarity",
+                                     "style", "unit"]
+    box, model = np.reshape(spec["box"], (4, 2)), drum_model(target.params)
+    for count in list(range(0, 1000, 53)) + [8, 386, 654, 888, 666, 555, 999]:
+        world.set_value("breaker_2/arrester_counter", count)
+        reading = read_drum(head.capture(None), box, model)
+        assert (reading.value, reading.detail.get("reason")) == (count, None), (count, reading.detail)
+
+
+def test_a_drum_calibration_that_cannot_hold_is_refused(tmp_path):
+    world = World.load(config_file("sim_world.yaml"))
+    path, head, optics, _pose = recorded_preset(world, str(tmp_path), "b2", "breaker_2", 3.5, 1.45, 2.0, 1280, 720)
+    (spec,) = [s for s in world_specs(world, head) if s["name"] == "breaker_2/arrester_counter"]
+    for shown, words in [("0071", "does not show '0071' on drum wheels"), (" 07", "type them all"),
+                         ("2x7", "is not what a seven-segment display shows")]:
+        with pytest.raises(PresetError) as err:
+            calibrate(path, [dict(spec, shown=shown)], optics)
+        assert "target 0 (digital): " in str(err.value) and words in str(err.value)
