@@ -13,7 +13,8 @@ the trim whose learned model separates lit from dark segments best (the operator
 other photo of the device is then read with that model in the box carried over by the labelled
 boxes' change of place and size (``cross``). A device with one photo is not scored (read on its own
 picture it would only check its calibration). $BENCH_DISPLAYS_PART: the parts scored (default
-both). ssocr reads the same rectified crop, told the polarity the calibration learned (its -f/-b), iterative threshold, digits found by itself.
+both). ssocr reads the same rectified crop, told the polarity the calibration learned (its -f/-b),
+iterative threshold, digits found by itself.
 
 Per part and kind: readings, exactly right (the value and not uncertain), right but flagged, wrong
 flagged, wrong not flagged (the figure that must be 0), failed (refused with a reason), devices
