@@ -7,11 +7,11 @@ displays`` into ~/.cache/inspection_robot/real_displays, or $REAL_DISPLAYS_DIR; 
 absent). Split by source (bench/real_set.py); only the test part's figures count.
 
 Protocol, per device (photos of one physical display): the operator calibrates on its first photo,
-typing what it shows, and draws the box tight around the digits: the bench draws it for him by
-trimming the labelled box (or the whole crop) side by side while the calibration takes it, keeping
-the trim whose learned model separates lit from dark segments best (the operator's retries). Every
-other photo of the device is then read with that model in the box carried over by the labelled
-boxes' change of place and size (``cross``). A device with one photo is not scored (read on its own
+typing what it shows, in his box (``calibration_box``, else the labelled box or the whole crop),
+retrying a tenth larger or without the leading blanks when refused. Every other photo of the device
+is then read with that model in the box the robot finds there (the finder's Locator, ORB features
+from the calibration photo; $BENCH_DISPLAYS_BOX=label: carried by the labelled boxes instead)
+(``cross``). A device with one photo is not scored (read on its own
 picture it would only check its calibration). $BENCH_DISPLAYS_PART: the parts scored (default
 both). ssocr reads the same rectified crop, told the polarity the calibration learned (its -f/-b),
 iterative threshold, digits found by itself.
@@ -35,68 +35,52 @@ from benchlib import percentile, report  # noqa: E402
 
 from inspection_robot.inspection.digital import learn_display, parse_shown, read_display  # noqa: E402
 from inspection_robot.inspection.drum import learn_drum, read_drum  # noqa: E402
-from inspection_robot.inspection.geometry import rectify  # noqa: E402
+from inspection_robot.inspection.geometry import rectify, sub_quad  # noqa: E402
+from inspection_robot.inspection.locate import LocateError, Locator  # noqa: E402
 from inspection_robot.inspection.readers import ReadFailed  # noqa: E402
 from inspection_robot.lazy import lazy_import  # noqa: E402
 
 cv2 = lazy_import("cv2")
 PHOTOS = os.environ.get("REAL_DISPLAYS_DIR") or os.path.join(os.path.expanduser("~"), ".cache", "inspection_robot",
                                                              "real_displays")
-TRIMS = (0.0, 0.03, 0.06, 0.1, 0.15, 0.2, 0.25)   # share of the box the operator may take off a side
 PARTS = os.environ.get("BENCH_DISPLAYS_PART", "tuning,test").split(",")
+BOX_SOURCE = os.environ.get("BENCH_DISPLAYS_BOX", "find")   # or "label": carried by the labelled boxes
+LOCATOR = Locator("orb")
 SSOCR_HEIGHT = 80                                   # px of the crop ssocr gets (its segment pixel counts assume it)
 
 
-def box_quad(photo, image):
-    """The photo's labelled box as a quad TL, TR, BR, BL in the digits' own orientation."""
+def box_quad(photo, image, key="box"):
+    """The photo's labelled box (``key``: "box", or "calibration_box", the operator's) as a quad TL,
+    TR, BR, BL in the digits' own orientation."""
     height, width = image.shape[:2]
-    x, y, w, h = photo.get("box") or (0, 0, width, height)
+    x, y, w, h = photo.get(key) or photo.get("box") or (0, 0, width, height)
     corners = [[x, y], [x + w, y], [x + w, y + h], [x, y + h]]
     turns = int(round(photo.get("rotation_ccw_deg", 0) / 90.0)) % 4   # the digits' top-left corner first
     return np.array(corners[turns:] + corners[:turns], dtype=float)
 
 
-def trimmed(quad, left, right, top, bottom):
-    """``quad`` with shares of its width / height taken off each side (in its own frame)."""
-    tl, tr, br, bl = quad
-
-    def at(u, v):
-        return (1 - v) * ((1 - u) * tl + u * tr) + v * ((1 - u) * bl + u * br)
-    return np.array([at(left, top), at(1 - right, top), at(1 - right, 1 - bottom), at(left, 1 - bottom)])
-
-
 def learn(photo, image, quad):
-    """(model, the operator's box) for the calibration photo, or (None, reason)."""
-    cells, decimals, _value = parse_shown(photo["shown"])
-
-    def attempt(box):
-        try:
-            if photo["kind"] == "drum":
-                model = learn_drum(image, box, cells, decimals)
-                back = read_drum(image, box, model)
-                score = model.contrast
-            else:
-                model = learn_display(image, box, photo["shown"])
-                back = read_display(image, box, model)
-                score = model.contrast
-        except ReadFailed as err:
-            return None, str(err)
-        if back.detail.get("reason") or abs(back.value - parse_shown(photo["shown"])[2]) > 1e-9:
-            return None, "reads back %s" % back.detail.get("text")
-        return (score, model, box), ""
-
-    sides = [0.0, 0.0, 0.0, 0.0]
-    best, why = attempt(quad)
-    for _round in range(2):   # one side at a time, twice round
-        for side in range(4):
-            for share in TRIMS:
-                trial = list(sides)
-                trial[side] = share
-                found, reason = attempt(trimmed(quad, *trial))
-                if found is not None and (best is None or found[0] > best[0]):
-                    best, sides = found, trial
-                why = why or reason
-    return (best[1], best[2]) if best is not None else (None, why)
+    """(model, the operator's box) for the calibration photo, or (None, reason). The operator draws
+    the labelled box, or one a tenth larger each side when that is refused, and types what it
+    shows, or without its leading blanks when his box leaves the blank digits out."""
+    cells, decimals, value = parse_shown(photo["shown"])
+    why = ""
+    for box in (quad, sub_quad(quad, (-0.1, -0.1, 1.1, 1.1))):
+        for text in sorted(set([photo["shown"], photo["shown"].lstrip()]), key=len, reverse=True):
+            try:
+                if photo["kind"] == "drum":
+                    model = learn_drum(image, box, list(text.replace(".", "")), decimals)
+                    back = read_drum(image, box, model)
+                else:
+                    model = learn_display(image, box, text)
+                    back = read_display(image, box, model)
+            except ReadFailed as err:
+                why = why or str(err)
+                continue
+            if not back.detail.get("reason") and abs(back.value - value) < 1e-9:
+                return model, box
+            why = why or "reads back %s" % back.detail.get("text")
+    return None, why
 
 
 def carried(box, calibration_quad, live_quad):
@@ -147,10 +131,9 @@ def score(doc, tmp):
             cal_path = next(os.path.join(PHOTOS, n) for n in os.listdir(PHOTOS)
                             if os.path.splitext(n)[0] == calibration["id"])
             cal_image = cv2.imread(cal_path, cv2.IMREAD_COLOR)
-            cal_quad = box_quad(calibration, cal_image)
-            model, box = learn(calibration, cal_image, cal_quad)
-            by_device[device] = (model, box, cal_quad)
-        model, box, cal_quad = by_device[device]
+            model, box = learn(calibration, cal_image, box_quad(calibration, cal_image, "calibration_box"))
+            by_device[device] = (model, box, box_quad(calibration, cal_image), cal_image)
+        model, box, cal_quad, cal_image = by_device[device]
         if role == "calibration":
             continue
         row = {"id": photo["id"], "role": role, "kind": photo["kind"], "device": device,
@@ -158,8 +141,15 @@ def score(doc, tmp):
         if model is None:
             out.append(dict(row, refused=box))
             continue
-        quad = carried(box, cal_quad, box_quad(photo, image)) if role == "cross" else box
         t0 = time.perf_counter()
+        if BOX_SOURCE == "label":
+            quad = carried(box, cal_quad, box_quad(photo, image))
+        else:   # the robot's way: the calibration's box found in this picture by feature matching
+            try:
+                quad = LOCATOR.locate(cal_image, image, [box]).quads[0]
+            except LocateError as err:
+                out.append(dict(row, find_failed=str(err)))
+                continue
         try:
             reading = (read_drum if photo["kind"] == "drum" else read_display)(image, quad, model)
             row.update(value=reading.value, uncertain=bool(reading.detail.get("reason")),
@@ -175,7 +165,7 @@ def score(doc, tmp):
 
 def figures(rows):
     """The counts of one group of result rows."""
-    read = [r for r in rows if "refused" not in r]
+    read = [r for r in rows if "refused" not in r and "find_failed" not in r]
     right = [r for r in read if "value" in r and abs(r["value"] - r["truth"]) < 1e-9]
     wrong = [r for r in read if "value" in r and abs(r["value"] - r["truth"]) >= 1e-9]
     with_ssocr = [r for r in read if "ssocr" in r]
@@ -184,7 +174,8 @@ def figures(rows):
            "wrong_flagged": len([r for r in wrong if r["uncertain"]]),
            "wrong_unflagged": len([r for r in wrong if not r["uncertain"]]),
            "failed": len([r for r in read if "failed" in r]),
-           "calibration_refused": len(rows) - len(read),
+           "calibration_refused": len([r for r in rows if "refused" in r]),
+           "not_found": len([r for r in rows if "find_failed" in r]),
            "devices_refused": len(set(r["device"] for r in rows if "refused" in r))}
     out["exactly_right_pct"] = round(100.0 * out["exactly_right"] / max(1, len(rows)), 1)
     if with_ssocr:

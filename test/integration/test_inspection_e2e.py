@@ -45,12 +45,13 @@ EXPECTED = {"cabinet_2": {"cabinet_2/ammeter", "cabinet_2/position"},
                           "cabinet_1/temp_controller", "cabinet_1/operation_counter"},
             "transformer_1": {"transformer_1/oil_temp", "transformer_1/winding_temp", "transformer_1/oil_level"},
             "breaker_2": {"breaker_2/sf6_pressure", "breaker_2/position", "breaker_2/lamp_closed",
-                          "breaker_2/lamp_open"},
+                          "breaker_2/lamp_open", "breaker_2/arrester_counter"},
             "breaker_1": {"breaker_1/sf6_pressure", "breaker_1/position", "breaker_1/lamp_closed",
                           "breaker_1/lamp_open", "breaker_1/terminal"}}
 DISPLAY = "cabinet_1/temp_controller"   # a seven-segment display (sim_world.yaml: 4 digits, 1 decimal)
 DISPLAY_AFTER = "-7.3"                   # what it shows after the change: a minus, a blank leading digit
 COUNTER = "cabinet_1/operation_counter"  # a dark seven-segment counter
+ARRESTER, ARRESTER_AFTER = "breaker_2/arrester_counter", "18"   # a drum counter: 007 -> 018 (an 8: the 6|8 case)
 GAUGE_FRACTIONS = {"cabinet_2/ammeter": 0.83, "cabinet_1/ammeter": 0.27, "cabinet_1/voltmeter": 0.64,
                    "transformer_1/oil_temp": 0.41, "transformer_1/winding_temp": 0.18, "transformer_1/oil_level": 0.9,
                    "breaker_2/sf6_pressure": 0.33, "breaker_1/sf6_pressure": 0.71}
@@ -204,7 +205,7 @@ class TestInspectionAcceptance(unittest.TestCase):
             if name in GAUGE_FRACTIONS:
                 face_range = self.gauge_ranges[name]
                 out[name] = (float(value), face_range[1] - face_range[0])
-            elif name in (HOT_SPOT, DISPLAY, COUNTER):
+            elif name in (HOT_SPOT, DISPLAY, COUNTER, ARRESTER):
                 out[name] = float(value)
             elif "lamp" in name:
                 out[name] = float(LAMP_CODES[self.lamp_colours[name]]) if value == "on" else 0.0
@@ -238,6 +239,7 @@ class TestInspectionAcceptance(unittest.TestCase):
                 self.call(self.set_value, name, "open" if face.value == "closed" else "closed")
         self.call(self.set_value, HOT_SPOT, "%g" % HOT_C)
         self.call(self.set_value, DISPLAY, DISPLAY_AFTER)
+        self.call(self.set_value, ARRESTER, ARRESTER_AFTER)
         # breaker_1 (where the robot stands): drive away and come back 0.3 m to the side, 5 deg turned
         directory, pose = self.presets["breaker_1"]
         self.drive(pose[0] + 1.5, pose[1] + 1.5, pose[2])

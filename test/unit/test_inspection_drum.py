@@ -100,6 +100,7 @@ def test_the_schema_keeps_a_drums_model_apart_from_a_displays():
             "font": "duplex", "glyph": 0.55}
     assert schema.check_params("digital", drum)["font"] == "duplex"
     for bad, words in [(dict(drum, slant=0.0), "slant does not apply to a drum display"),
+                       (dict(drum, window=[0, 0, 1, 1]), "window does not apply to a drum display"),
                        (dict(drum, font="gothic"), "font must be one of"),
                        (dict((k, v) for k, v in drum.items() if k != "glyph"),
                         "missing key(s) glyph (a digital (drum)"),

@@ -3,6 +3,7 @@
 The split must not drift: a source whose recorded part differs from the rule, or a photo whose
 source is not listed, would let a tuned-on photo into the test part."""
 import copy
+import json
 import os
 import sys
 
@@ -50,3 +51,17 @@ def test_unlisted_source_and_bad_marks_are_refused():
     bad["photos"][0]["marks"] = [[0, 1, 1], [2, 2, 2], [1, 3, 3]]
     with pytest.raises(real_set.LabelError, match="monotonic"):
         real_set.check(bad)
+
+
+def test_display_labels_follow_the_split_rule_and_are_well_formed(tmp_path):
+    doc = real_set.load_displays()
+    assert all(s["part"] == real_set.split_part(s["repo"]) for s in doc["sources"])
+    roles = real_set.plan(doc, real_set.device_of)
+    test_cross = [p for p in doc["photos"] if roles[p["id"]] == "cross" and real_set.part_of(doc, p) == "test"]
+    assert len(test_cross) >= 100   # issue #42: at least 100 readings in the test part
+    broken = copy.deepcopy(doc)
+    broken["photos"][0]["shown"] = "2x"
+    path = tmp_path / "labels.json"
+    path.write_text(json.dumps(broken))
+    with pytest.raises(real_set.LabelError, match="is not what a seven-segment display shows"):
+        real_set.load_displays(str(path))

@@ -19,7 +19,7 @@ from inspection_robot.files import write_atomic, write_json_atomic
 from inspection_robot.inspection import calibration_schema as schema
 from inspection_robot.inspection.preset import (TARGET_KINDS, PresetError, Target, load_info, write_calibration,
                                                 zoom_picture_name)
-from inspection_robot.inspection.digital import learn_display, parse_shown, read_display
+from inspection_robot.inspection.digital import FULL_BOX, learn_display, parse_shown, read_display
 from inspection_robot.inspection.drum import learn_drum, read_drum
 from inspection_robot.inspection.geometry import quad_inside
 from inspection_robot.inspection.lamp import lamp_patch
@@ -144,6 +144,8 @@ def _learned_display(spec, index, image, width, height):
         spec.update(font=model.font, glyph=model.glyph)
     else:
         spec.update(slant=model.slant_deg, fill=model.fill)
+        if tuple(model.window) != FULL_BOX:
+            spec["window"] = list(model.window)
     return spec
 
 

@@ -127,6 +127,15 @@ def _fractions(value, key):
     return _numbers(value, 2, key, 0.0, 1.0)
 
 
+def _window(value, key):
+    """left, top, right, bottom fractions of a box (a little beyond it allowed), left < right, top < bottom."""
+    left, top, right, bottom = _numbers(value, 4, key, -0.5, 1.5)
+    if not (left < right and top < bottom):
+        raise SchemaError("%s must be [left, top, right, bottom] with left < right and top < bottom, got %s"
+                          % (key, _short(value)))
+    return [left, top, right, bottom]
+
+
 def _quad(value, key):
     """8 finite numbers, a convex TL, TR, BR, BL quad (inside the picture: checked with its size)."""
     corners = _numbers(value, 8, key, -MAX_PICTURE_PX, MAX_PICTURE_PX)
@@ -298,6 +307,7 @@ FIELDS = {
     "fill": Field(("digital",), lambda v, k: number(v, k, 0.3, 1.0), "number"),
     "decimals": Field(("digital",), lambda v, k: _whole(v, k, 0, MAX_DISPLAY_DIGITS - 1), "number"),
     "contrast": Field(("digital",), lambda v, k: number(v, k, 0.0, 255.0), "number"),
+    "window": Field(("digital",), _window, "numbers"),   # where the cells sit in the box (digital.DisplayModel)
     # a counter (discharges of an arrester, breaker operations): its increment since the last patrol is
     # stored, and a count that went down is an alarm (task.patrol)
     "counter": Field(("digital",), _flag, "flag"),
@@ -373,7 +383,8 @@ def check_params(kind, params, thermal_size=None):
     elif kind == "digital":
         if out["decimals"] >= out["digit_count"]:
             raise SchemaError("decimals %d must be fewer than digit_count %d" % (out["decimals"], out["digit_count"]))
-        other = [k for k in set(REQUIRED["digital"]) ^ set(REQUIRED["drum"]) if k in out and k not in required]
+        other = [k for k in set(REQUIRED["digital"] + ("window",)) ^ set(REQUIRED["drum"])
+                 if k in out and k not in required and not (k == "window" and not drum)]
         if other:
             raise SchemaError("%s does not apply to a %s display"
                               % (", ".join(sorted(other)), "drum" if drum else "seven-segment"))

@@ -65,6 +65,17 @@ def rectify(image, quad, size, height=None):
                                borderMode=cv2.BORDER_REPLICATE)
 
 
+def sub_quad(quad, window):
+    """The part of ``quad`` (TL, TR, BR, BL) between fractions ``window`` (left, top, right, bottom)
+    of its own width and height, bilinear in its corners (fractions outside 0..1 reach beyond it)."""
+    tl, tr, br, bl = np.asarray(quad, dtype=np.float64).reshape(4, 2)
+    left, top, right, bottom = window
+
+    def at(u, v):
+        return (1 - v) * ((1 - u) * tl + u * tr) + v * ((1 - u) * bl + u * br)
+    return np.array([at(left, top), at(right, top), at(right, bottom), at(left, bottom)])
+
+
 def transform_quad(homography, quad):
     pts = np.asarray(quad, dtype=np.float64).reshape(-1, 1, 2)
     return cv2.perspectiveTransform(pts, np.asarray(homography, dtype=np.float64)).reshape(-1, 2)
