@@ -104,8 +104,10 @@ def test_the_model_file_round_trips_and_garbage_is_not_a_model(world):
     assert NeedleModel.decode(other_shape.tobytes(), reader.inner_band.step_deg) is None
 
 
-def _preset(root, face, value, check):
-    """A one-picture preset of ``face`` at ``value`` calibrated with ``check``; its directory."""
+def _preset(root, face, value, check, pointer=None, others=(), files=None):
+    """A one-picture preset of ``face`` at ``value`` calibrated with ``check`` (``pointer``: keys
+    added to its spec, ``others``: more target specs, ``files``: {name: bytes} put in the directory
+    first); its directory."""
     image, quad, scale, centre, radius, aspect = painted_dial(face, value)
     h, w = image.shape[:2]
     with PresetDirWriter(str(root), "dial", "20260101_000000") as writer:
@@ -113,11 +115,31 @@ def _preset(root, face, value, check):
         info = PresetInfo("dial", "visible", False, "20260101_000000", 0.0, 0.0, 1.0, 0x4000, (0.0, 0.0, 0.0),
                           [1.0], w, h)
         write_atomic(writer.file("preset.ini"), info.to_ini())
+        for name, data in (files or {}).items():
+            write_atomic(writer.file(name), data)
         spec = {"kind": "pointer", "name": face.id, "box": [0, 0, w - 1, 0, w - 1, h - 1, 0, h - 1],
                 "centre": list(centre), "radius": radius, "aspect": aspect, "start_angle": face.start_angle,
                 "end_angle": face.end_angle, "start_value": face.range[0], "end_value": face.range[1]}
-        calibrate(writer.path, [spec], linear_optics(w, h), check=check)
+        calibrate(writer.path, [dict(spec, **(pointer or {}))] + list(others), linear_optics(w, h), check=check)
         return writer.commit()
+
+
+def test_a_needle_reference_the_reader_cannot_decode_is_refused_at_upload(world, tmp_path):
+    ok, picture = cv2.imencode(".png", np.zeros((10, 10, 3), np.uint8))   # a picture, not a needle model
+    with pytest.raises(PresetError, match="target 0: needle_reference lamp.png is not a needle model the reader "
+                                          "can decode"):
+        _preset(tmp_path / "a", world.faces["breaker_1/sf6_pressure"], 0.3, None,
+                pointer={"needle_reference": "lamp.png"}, files={"lamp.png": picture.tobytes()})
+
+
+def test_an_uploaded_reference_named_as_a_learned_model_is_refused(world, tmp_path):
+    ok, picture = cv2.imencode(".png", np.full((8, 8, 3), 200, np.uint8))
+    lamp = {"kind": "lamp", "name": "run", "box": [2, 2, 20, 2, 20, 20, 2, 20], "colour": "green",
+            "on_reference": "target_0_needle.png", "off_reference": "off.png"}
+    with pytest.raises(PresetError, match="target 1: on_reference target_0_needle.png is the name of a file "
+                                          "calibration writes for target 0"):
+        _preset(tmp_path / "a", world.faces["breaker_1/sf6_pressure"], 0.3, SelfCheck([0.3, None]), others=[lamp],
+                files={"target_0_needle.png": picture.tobytes(), "off.png": picture.tobytes()})
 
 
 def test_calibration_learns_the_model_from_the_value_shown_and_the_reader_uses_it(world, tmp_path):

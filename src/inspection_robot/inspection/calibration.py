@@ -10,6 +10,7 @@ Boxes in the wider zoom pictures follow from the zoom levels and the camera's op
 share the optical centre).
 """
 import os
+import re
 
 import numpy as np
 
@@ -23,6 +24,8 @@ from inspection_robot.inspection.digital import FULL_BOX, learn_display, parse_s
 from inspection_robot.inspection.drum import learn_drum, read_drum
 from inspection_robot.inspection.geometry import quad_inside
 from inspection_robot.inspection.lamp import lamp_patch
+from inspection_robot.inspection.needle import ANGLE_STEP_DEG
+from inspection_robot.inspection.needle_model import NeedleModel
 from inspection_robot.inspection.pointer import GENERIC, PointerReader
 from inspection_robot.inspection.readers import ReadFailed
 from inspection_robot.inspection.switch import switch_patch
@@ -160,9 +163,25 @@ def _check_reference(preset_dir, index, kind, state, name):
     if len(data) > MAX_REFERENCE_BYTES:
         raise PresetError("target %d: %s_reference %s is larger than %d bytes: not a reference patch"
                           % (index, state, name, MAX_REFERENCE_BYTES))
-    if decode_reference(data, kind) is None:
+    if state == "needle":   # decoded as the reader decodes it: a picture of the wrong shape is no model
+        if NeedleModel.decode(data, ANGLE_STEP_DEG) is None:
+            raise PresetError("target %d: needle_reference %s is not a needle model the reader can decode (it is "
+                              "learned at calibration: give the value shown instead)" % (index, name))
+    elif decode_reference(data, kind) is None:
         raise PresetError("target %d: %s_reference %s is not a picture the reader can decode (PNG, JPEG, ...)"
                           % (index, state, name))
+
+
+def _refuse_shared_files(targets, written):
+    """A file calibration writes for target i (``target_<i>_<what>.png``: a patch cut from its
+    picture, its learned needle model) must be named by no other target: an uploaded lamp reference
+    called ``target_2_needle.png`` would be overwritten by target 2's model and read as a lamp."""
+    for i, target in enumerate(targets):
+        for key, name in sorted(target.params.items()):
+            owner = re.match(r"target_(\d+)_", str(name)) if key.endswith("_reference") else None
+            if owner and name in written and int(owner.group(1)) != i:
+                raise PresetError("target %d: %s %s is the name of a file calibration writes for target %s: "
+                                  "choose another name" % (i, key, name, owner.group(1)))
 
 
 def calibrate(preset_dir, specs, optics, draft=None, check=None):
@@ -179,6 +198,7 @@ def calibrate(preset_dir, specs, optics, draft=None, check=None):
     if check is not None:
         check(preset_dir, targets)
     encoded = dict(check.patches) if check is not None else {}   # the needle models it learned
+    _refuse_shared_files(targets, list(encoded) + list(patches))
     for name, patch in sorted(patches.items()):
         ok, data = cv2.imencode(".png", patch)
         if not ok:
