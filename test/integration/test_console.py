@@ -822,6 +822,9 @@ class ConsoleTest(unittest.TestCase):
                              ("preset-panel", "本预置位的阈值"), ("patrol-panel", "巡检与历史"),
                              ("alarm-panel", "未确认告警"), ("review-panel", "待复核")):
             self.assertIn(words, self.page.inner_text("#" + panel), panel)
+        days = self.page.inner_text("#schedule-days")   # three-letter words escape the check below
+        self.assertIn("周一", days)
+        self.assertNotIn("mon", days)
         # static words left in English: none but names, units and symbols
         leftovers = self.page.evaluate("""() => {
             const out = [];

@@ -135,7 +135,7 @@ export function init() {
     box.type = 'checkbox';
     box.value = day;
     box.checked = !['sat', 'sun'].includes(day);
-    label.append(box, ' ' + day);
+    label.append(box, ' ' + t(day));   // the value stays the interface's (mon, tue, ...)
     days.appendChild(label);
   }
   $('schedule-form').addEventListener('submit', saveSchedule);
