@@ -141,6 +141,18 @@ def test_air_absorbs_more_over_a_longer_and_wetter_path():
     assert 0.96 < transmission(10.0, 20.0) < 0.99                # FLIR's model: ~0.97 at 10 m, 20 C, 50 %
 
 
+def test_an_ambient_box_far_from_air_temperatures_is_refused_or_used_never_a_crash():
+    # a hot plate taken for the ambient box: the vapour formula is held to the air's range
+    assert transmission(30.0, 600.0) == transmission(30.0, 60.0) > 0.8
+    for ambient in (300.0, 600.0, -200.0):
+        try:
+            value = object_temperature(90.0, 0.9, ambient, 30.0)
+        except DiagnosisError as err:
+            assert "below what emissivity 0.90 reflects" in str(err)
+        else:
+            assert value == value and abs(value) < 1e4
+
+
 def test_distance_correction_inverts_the_path_through_the_air():
     k = 273.15
     true, air, e, d = 85.0, 25.0, 0.8, 30.0

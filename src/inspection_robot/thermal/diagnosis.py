@@ -95,13 +95,16 @@ ATMOSPHERE_X = 1.9
 DEFAULT_HUMIDITY = 50.0     # % relative: the robot does not measure it (20 % or 90 %: 1.2 K apart at 80 C, 20 m)
 MIN_EMISSIVITY = 0.1        # below, a surface's own radiance drowns in its reflection: not measurable
 MAX_DISTANCE = 100.0        # m from the imager: past it a substation box is a few pixels and the model is stretched
+AIR_RANGE_C = (-50.0, 60.0)  # the outdoor air the vapour formula holds for; an "ambient" box beyond it is no air
 
 
 def transmission(distance, air, humidity=DEFAULT_HUMIDITY):
     """The share (0..1] of a surface's radiance that crosses ``distance`` m of air at ``air`` degC
-    and ``humidity`` % relative humidity; 1 at 0 m."""
+    (taken within AIR_RANGE_C: a hot plate chosen as the ambient box must not overflow the vapour
+    formula) and ``humidity`` % relative humidity; 1 at 0 m."""
     if distance <= 0.0:
         return 1.0
+    air = min(AIR_RANGE_C[1], max(AIR_RANGE_C[0], air))
     vapour = humidity / 100.0 * math.exp(1.5587 + 0.06939 * air - 0.00027816 * air ** 2 + 0.00000068455 * air ** 3)
     half = math.sqrt(distance / 2.0)   # the path in two halves (the model's optics-window form, no window)
     x = ATMOSPHERE_X
