@@ -69,7 +69,7 @@ def learn(photo, image, quad):
         for text in sorted(set([photo["shown"], photo["shown"].lstrip()]), key=len, reverse=True):
             try:
                 if photo["kind"] == "drum":
-                    model = learn_drum(image, box, list(text.replace(".", "")), decimals)
+                    model = learn_drum(image, box, parse_shown(text)[0], decimals)
                     back = read_drum(image, box, model)
                 else:
                     model = learn_display(image, box, text)
@@ -112,25 +112,22 @@ def ssocr(image, quad, polarity, tmp):
 
 
 def score(doc, tmp):
-    """One result dict per photo read (role cross or same)."""
+    """One result dict per photo read with another photo's calibration (role cross)."""
     roles = real_set.plan(doc, real_set.device_of)
+    found = dict((os.path.splitext(n)[0], os.path.join(PHOTOS, n)) for n in os.listdir(PHOTOS))
     by_device = {}
     out = []
     for photo in doc["photos"]:
         role = roles.get(photo["id"])
         if role in (None, "same") or real_set.part_of(doc, photo) not in PARTS:
             continue
-        path = next((os.path.join(PHOTOS, n) for n in os.listdir(PHOTOS) if os.path.splitext(n)[0] == photo["id"]),
-                    None)
-        image = cv2.imread(path, cv2.IMREAD_COLOR) if path else None
+        image = cv2.imread(found[photo["id"]], cv2.IMREAD_COLOR) if photo["id"] in found else None
         if image is None:
             continue
         calibration = real_set.calibration_photo(doc, photo, real_set.device_of)
         device = photo["device"]
         if device not in by_device:
-            cal_path = next(os.path.join(PHOTOS, n) for n in os.listdir(PHOTOS)
-                            if os.path.splitext(n)[0] == calibration["id"])
-            cal_image = cv2.imread(cal_path, cv2.IMREAD_COLOR)
+            cal_image = cv2.imread(found[calibration["id"]], cv2.IMREAD_COLOR)
             model, box = learn(calibration, cal_image, box_quad(calibration, cal_image, "calibration_box"))
             by_device[device] = (model, box, box_quad(calibration, cal_image), cal_image)
         model, box, cal_quad, cal_image = by_device[device]

@@ -320,6 +320,7 @@ REQUIRED = {"pointer": ("start_angle", "end_angle", "start_value", "end_value"),
             "switch": ("open_reference", "closed_reference"), "thermal": ("thermal_box",),
             "digital": ("digit_count", "polarity", "slant", "fill", "decimals", "contrast"),
             "drum": ("digit_count", "polarity", "font", "glyph", "decimals", "contrast")}   # a digital style: drum
+STYLE_ONLY = {"segments": ("fill", "slant", "window"), "drum": ("font", "glyph")}   # a digital model's own keys
 PICTURE_STATES = {"lamp": ("on", "off"), "switch": ("open", "closed")}
 # written to the INI even when empty or defaulted (the file's long-standing layout)
 ALWAYS_WRITTEN = ("centre", "radius", "aspect", "start_angle", "end_angle", "start_value", "end_value", "unit",
@@ -383,8 +384,7 @@ def check_params(kind, params, thermal_size=None):
     elif kind == "digital":
         if out["decimals"] >= out["digit_count"]:
             raise SchemaError("decimals %d must be fewer than digit_count %d" % (out["decimals"], out["digit_count"]))
-        other = [k for k in set(REQUIRED["digital"] + ("window",)) ^ set(REQUIRED["drum"])
-                 if k in out and k not in required and not (k == "window" and not drum)]
+        other = [k for k in STYLE_ONLY["segments" if drum else "drum"] if k in out]
         if other:
             raise SchemaError("%s does not apply to a %s display"
                               % (", ".join(sorted(other)), "drum" if drum else "seven-segment"))

@@ -21,7 +21,7 @@ from functools import lru_cache
 import numpy as np
 
 from inspection_robot.lazy import lazy_import
-from inspection_robot.inspection.geometry import rectify, sub_quad
+from inspection_robot.inspection.geometry import quad_size, rectify, sub_quad
 from inspection_robot.inspection.readers import ReadFailed, Reading, clip_confidence
 
 cv2 = lazy_import("cv2")
@@ -88,7 +88,7 @@ def parse_shown(text):
     return list(body), decimals, float(body.replace(" ", "")) / 10 ** decimals
 
 
-def _gray(image):
+def gray(image):
     return cv2.cvtColor(image, cv2.COLOR_BGR2GRAY) if image.ndim == 3 else image
 
 
@@ -96,7 +96,7 @@ def _face(image, quad, digit_count, window=FULL_BOX):
     """The digits' window of the box rectified: CELL_HEIGHT tall, cells about 0.6 of it wide, as
     float grey levels."""
     width = max(8, int(round(CELL_HEIGHT * 0.62 * digit_count)))
-    face = rectify(_gray(image), sub_quad(quad, window), width, CELL_HEIGHT).astype(np.float32)
+    face = rectify(gray(image), sub_quad(quad, window), width, CELL_HEIGHT).astype(np.float32)
     return cv2.GaussianBlur(face, (3, 3), 0)
 
 
@@ -108,7 +108,7 @@ def _ink_box(image, quad, polarity):
     aspect = np.linalg.norm(q[1] - q[0]) / max(np.linalg.norm(q[3] - q[0]), 1e-6)
     height = 4 * CELL_HEIGHT
     width = max(16, int(round(height * aspect)))
-    face = cv2.GaussianBlur(rectify(_gray(image), q, width, height), (5, 5), 0)
+    face = cv2.GaussianBlur(rectify(gray(image), q, width, height), (5, 5), 0)
     ink = face if polarity == "lit" else 255 - face
     _t, mask = cv2.threshold(ink, 0, 255, cv2.THRESH_BINARY + cv2.THRESH_OTSU)
     count, _labels, stats, _centres = cv2.connectedComponentsWithStats(mask)
@@ -203,9 +203,7 @@ def learn_display(image, quad, shown):
     makes the picture show it."""
     cells, decimals, value = parse_shown(shown)
     count = len(cells)
-    q = np.asarray(quad, dtype=float).reshape(4, 2)
-    width = (np.linalg.norm(q[1] - q[0]) + np.linalg.norm(q[2] - q[3])) / 2.0
-    height = (np.linalg.norm(q[3] - q[0]) + np.linalg.norm(q[2] - q[1])) / 2.0
+    width, height = quad_size(quad)
     aspect = width / max(height, 1e-6) / count
     if not CELL_ASPECT[0] <= aspect <= CELL_ASPECT[1]:
         raise ReadFailed("a box %.0f x %.0f px holds %d digit(s) %.2f as wide as tall each: seven-segment digits are "
@@ -305,13 +303,13 @@ def _unexplained_ink(face, model, cells):
     lit = np.zeros_like(mask)
     thick = max(2, int(round(0.22 * CELL_HEIGHT)))
     for (k, seg), (xs, ys) in _sample_points(model.digit_count, face.shape[1], model.slant_deg, model.fill).items():
-        on = seg == "dp" or (seg in SEGMENTS and DECODE.get(CODE[cells[k]]) is not None
-                             and (CODE[cells[k]][SEGMENTS.index(seg)] or seg == VARIANTS.get(cells[k])))
-        if on and len(xs) > 1:   # the samples span 0.1..0.9 of a segment: its whole length and its corners
+        lights = seg == "dp" or (seg in SEGMENTS and (CODE[cells[k]][SEGMENTS.index(seg)]
+                                                      or seg == VARIANTS.get(cells[k])))
+        if lights and len(xs) > 1:   # the samples span 0.1..0.9 of a segment: its whole length and its corners
             ends = [(xs[0] - 0.15 * (xs[-1] - xs[0]), ys[0] - 0.15 * (ys[-1] - ys[0])),
                     (xs[-1] + 0.15 * (xs[-1] - xs[0]), ys[-1] + 0.15 * (ys[-1] - ys[0]))]
             cv2.line(lit, tuple(int(round(v)) for v in ends[0]), tuple(int(round(v)) for v in ends[1]), 255, thick)
-        elif on:
+        elif lights:
             cv2.circle(lit, (int(round(xs[0])), int(round(ys[0]))), thick // 2, 255, -1)
     strokes, stray = mask > 0, (mask > 0) & (lit == 0)
     pitch = face.shape[1] / float(model.digit_count)
@@ -386,7 +384,7 @@ def read_display(image, quad, model):
         raise ReadFailed("display box unreadable: %s" % "; ".join(doubts))
     value = float(stripped.replace(" ", "0")) / 10 ** model.decimals
     confidence = min(d["confidence"] for d in digits)
-    detail = {"text": _with_point(text, model.decimals), "digits": digits}
+    detail = {"text": with_point(text, model.decimals), "digits": digits}
     if doubts:
         detail["reason"] = "; ".join(doubts)
         confidence = min(confidence, 40.0)
@@ -406,7 +404,8 @@ def _candidates(code, margins):
     return out
 
 
-def _with_point(text, decimals):
+def with_point(text, decimals):
+    """``text`` (digits, one per cell) with the point before its last ``decimals`` digits."""
     return text if not decimals else text[:len(text) - decimals] + "." + text[len(text) - decimals:]
 
 

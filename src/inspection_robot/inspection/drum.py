@@ -12,15 +12,18 @@ convention), three quarters of the way the next digit is read; within DOUBT of t
 reading is uncertain with both digits named, as it is when two positions match near-equally; a
 wheel half-way while the wheel below it is not passing 9 to 0 cannot be, and is doubted too.
 
-Pure image logic (OpenCV, NumPy); digital.py holds what drums share with seven-segment displays.
+Pure image logic (OpenCV, NumPy); digital.py holds what drums share with seven-segment displays
+(the typed value's parser, the grey picture, the point in the text).
 """
 import math
 from collections import namedtuple
+from functools import lru_cache
 
 import numpy as np
 
 from inspection_robot.lazy import lazy_import
-from inspection_robot.inspection.geometry import rectify
+from inspection_robot.inspection.digital import gray, with_point
+from inspection_robot.inspection.geometry import quad_size, rectify
 from inspection_robot.inspection.readers import ReadFailed, Reading, clip_confidence
 
 cv2 = lazy_import("cv2")
@@ -71,35 +74,28 @@ def _glyphs(font_name):
     return out
 
 
-_STRIPS = {}
-
-
+@lru_cache(maxsize=512)   # a node reads each preset's wheels at one width: bounded, not one per picture ever seen
 def _strip(font_name, pitch, width):
     """The wheel's strip: digits 9, 0, 1, ..., 9, 0, 1 top to bottom, ``pitch`` digit heights apart,
-    centred in ``width`` px; digit k's centre is at (k + 1.5) * pitch * GLYPH_PX."""
-    key = (font_name, pitch, width)
-    if key not in _STRIPS:
-        glyphs = _glyphs(font_name)
-        step = pitch * GLYPH_PX
-        strip = np.zeros((int(math.ceil(13 * step)), width), np.float32)
-        for k, digit in enumerate([9] + list(range(10)) + [0, 1]):
-            glyph = glyphs[digit][:, :width]
-            top = int(round((k + 0.5) * step - GLYPH_PX / 2.0))
-            left = (width - glyph.shape[1]) // 2
-            strip[top:top + GLYPH_PX, left:left + glyph.shape[1]] = glyph
-        _STRIPS[key] = strip
-    return _STRIPS[key]
+    centred in ``width`` px; digit k's centre is at (k + 1.5) * pitch * GLYPH_PX (read-only: shared)."""
+    glyphs = _glyphs(font_name)
+    step = pitch * GLYPH_PX
+    strip = np.zeros((int(math.ceil(13 * step)), width), np.float32)
+    for k, digit in enumerate([9] + list(range(10)) + [0, 1]):
+        glyph = glyphs[digit][:, :width]
+        top = int(round((k + 0.5) * step - GLYPH_PX / 2.0))
+        left = (width - glyph.shape[1]) // 2
+        strip[top:top + GLYPH_PX, left:left + glyph.shape[1]] = glyph
+    strip.setflags(write=False)
+    return strip
 
 
 def _windows(image, quad, digit_count, glyph):
     """Each wheel's window rectified so that a digit is GLYPH_PX tall: float grey levels."""
     height = int(round(GLYPH_PX / glyph))
-    q = np.asarray(quad, dtype=float).reshape(4, 2)
-    box_w = (np.linalg.norm(q[1] - q[0]) + np.linalg.norm(q[2] - q[3])) / 2.0
-    box_h = (np.linalg.norm(q[3] - q[0]) + np.linalg.norm(q[2] - q[1])) / 2.0
+    box_w, box_h = quad_size(quad)
     cell = max(4, int(round(height * box_w / max(box_h, 1e-6) / digit_count)))
-    grey = cv2.cvtColor(image, cv2.COLOR_BGR2GRAY) if image.ndim == 3 else image
-    face = rectify(grey, quad, cell * digit_count, height).astype(np.float32)
+    face = rectify(gray(image), quad, cell * digit_count, height).astype(np.float32)
     return [face[:, k * cell:(k + 1) * cell] for k in range(digit_count)]
 
 
@@ -132,13 +128,12 @@ def _wheel(window, model, pitches=PITCHES):
     has and the other lacks decides)."""
     ink, margin = _ink(window, model.polarity)
     best, fits = None, []
-    for font in (model.font,):
-        for pitch in pitches:
-            scores, positions, columns, strip = _profile(ink, margin, font, pitch)
-            fits.append((scores, positions))
-            k = int(np.argmax(scores))
-            if best is None or scores[k] > best[0]:
-                best = (float(scores[k]), float(positions[k]), int(k), int(columns[k]), pitch, strip)
+    for pitch in pitches:
+        scores, positions, columns, strip = _profile(ink, margin, model.font, pitch)
+        fits.append((scores, positions))
+        k = int(np.argmax(scores))
+        if best is None or scores[k] > best[0]:
+            best = (float(scores[k]), float(positions[k]), int(k), int(columns[k]), pitch, strip)
     score, position, row, column, pitch, strip = best
     other, other_score = int(round(position)) % 10, -2.0
     for scores, positions in fits:
@@ -235,8 +230,7 @@ def read_drum(image, quad, model):
     text = "".join(d["char"] for d in digits)
     value = float(text) / 10 ** model.decimals
     confidence = min(d["confidence"] for d in digits)
-    detail = {"text": text if not model.decimals else text[:-model.decimals] + "." + text[-model.decimals:],
-              "digits": digits}
+    detail = {"text": with_point(text, model.decimals), "digits": digits}
     if rolled:
         detail["rolled"] = "; ".join(rolled)
     if doubts:

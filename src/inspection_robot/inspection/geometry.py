@@ -65,6 +65,13 @@ def rectify(image, quad, size, height=None):
                                borderMode=cv2.BORDER_REPLICATE)
 
 
+def quad_size(quad):
+    """(width, height) of a quad TL, TR, BR, BL: the means of its opposite sides."""
+    q = np.asarray(quad, dtype=np.float64).reshape(4, 2)
+    return ((np.linalg.norm(q[1] - q[0]) + np.linalg.norm(q[2] - q[3])) / 2.0,
+            (np.linalg.norm(q[3] - q[0]) + np.linalg.norm(q[2] - q[1])) / 2.0)
+
+
 def sub_quad(quad, window):
     """The part of ``quad`` (TL, TR, BR, BL) between fractions ``window`` (left, top, right, bottom)
     of its own width and height, bilinear in its corners (fractions outside 0..1 reach beyond it)."""
