@@ -157,8 +157,9 @@ def _wheel(window, model, pitches=PITCHES):
 
 def learn_drum(image, quad, cells, decimals):
     """The DrumModel under which the box shows the digits ``cells`` (digit_count characters, the
-    text the operator typed, parsed by digital.parse_shown); ReadFailed when no font and digit
-    size makes every wheel's best position the digit typed."""
+    text the operator typed, parsed by digital.parse_shown) and the picture reads back as them
+    without doubt; ReadFailed when no font and digit size makes every wheel's best position the
+    digit typed, or the reading back doubts or differs."""
     if any(not c.isdigit() for c in cells):
         raise ReadFailed("a drum counter shows a digit on every wheel: type them all (no blanks, no minus)")
 
@@ -191,7 +192,13 @@ def learn_drum(image, quad, cells, decimals):
                          "type every wheel's digit" % "".join(cells))
     windows = _windows(image, quad, len(cells), best.glyph)
     contrast = float(np.median([np.percentile(w, 95) - np.percentile(w, 5) for w in windows]))
-    return best._replace(glyph=round(best.glyph, 3), contrast=round(contrast, 1))
+    best = best._replace(glyph=round(best.glyph, 3), contrast=round(contrast, 1))
+    back = read_drum(image, quad, best)   # every wheel at its digit is not yet a reading without doubt
+    if back.detail.get("reason") or back.detail["text"] != with_point("".join(cells), decimals):
+        raise ReadFailed("the learned counter reads '%s' on the calibration picture, not '%s'%s"
+                         % (back.detail["text"], with_point("".join(cells), decimals),
+                            ": " + back.detail["reason"] if back.detail.get("reason") else ""))
+    return best
 
 
 def read_drum(image, quad, model):
