@@ -116,8 +116,12 @@ class NavigationTest(unittest.TestCase):
                               feedback_cb=self.on_feedback)
 
     def finish(self, timeout):
-        self.assertTrue(self.client.wait_for_result(rospy.Duration(timeout)), "result within %.0f s" % timeout)
-        result = self.client.get_result()
+        """The goal's result, from its goal handle: SimpleActionClient.wait_for_result never returns for
+        a goal the server ends before send_goal has stored its handle (a bad goal refused at once,
+        on a loaded machine: "Got a transition callback on a goal handle that we're not tracking")."""
+        wait_for(lambda: self.client.gh is not None and self.client.gh.get_comm_state() == actionlib.CommState.DONE,
+                 timeout, "result within %.0f s" % timeout)
+        result = self.client.gh.get_result()
         return result.ret_code, json.loads(result.data)
 
     def codes(self):
