@@ -33,7 +33,8 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import real_set  # noqa: E402
 from benchlib import percentile, report  # noqa: E402
 
-from inspection_robot.inspection.digital import learn_display, parse_shown, read_display  # noqa: E402
+from inspection_robot.inspection.digital import parse_shown, read_display  # noqa: E402
+from inspection_robot.inspection.digital_learn import learn_display  # noqa: E402
 from inspection_robot.inspection.drum import learn_drum, read_drum  # noqa: E402
 from inspection_robot.inspection.geometry import rectify, sub_quad  # noqa: E402
 from inspection_robot.inspection.locate import LocateError, Locator  # noqa: E402

@@ -12,8 +12,8 @@ import pytest
 from inspection_robot.camera.optics import ZoomOptics
 from inspection_robot.files import write_atomic
 from inspection_robot.inspection.calibration_commands import CalibrationCommands
-from inspection_robot.inspection.digital import display_model, learn_display, parse_shown, read_display, \
-    render_display
+from inspection_robot.inspection.digital import display_model, parse_shown, read_display, render_display
+from inspection_robot.inspection.digital_learn import learn_display
 from inspection_robot.inspection.preset import PresetInfo, load_preset
 from inspection_robot.inspection.readers import ReadFailed
 from inspection_robot.inspection.reading import ScaleReader
@@ -102,6 +102,41 @@ def test_a_decimal_point_seen_elsewhere_makes_the_reading_uncertain():
     model = learn_display(scene("23.5"), QUAD, "23.5")
     reading = read_display(scene("2.35"), QUAD, model)
     assert reading.detail["reason"] == "decimal point after digit 1, calibrated after digit 2"
+
+
+@pytest.mark.parametrize("shift,scale", [(0.35, 1.0), (-0.3, 1.12), (0.0, 0.85), (0.2, 1.2)])
+def test_a_box_off_the_digits_is_registered_where_they_are(shift, scale):
+    """The box found in a live picture (or on another unit of the meter) sits off the digits by a
+    share of a cell and a few per cent of scale: the cells move to the digits; without the move
+    (the window as calibrated) the same pictures do not read."""
+    model = learn_display(scene("23.5"), QUAD, "23.5")
+    width, height = int(round(W * scale)), int(round(H * scale))
+    x0 = 80 + int(round(shift * W / 3.0)) - (width - W) // 2
+    y0 = 60 - (height - H) // 2
+    unmoved = 0
+    for seed, text in enumerate(("18.7", "-4.2", " 7.0", "61.9")):
+        picture = np.full((360, 640, 3), 128, np.uint8)
+        picture[y0:y0 + height, x0:x0 + width] = render_display(text, width, height)
+        noise = np.random.RandomState(seed).normal(0.0, 4.0, picture.shape)
+        picture = np.clip(picture + noise, 0, 255).astype(np.uint8)
+        reading = read_display(picture, QUAD, model)
+        assert reading.detail["text"] == text and "reason" not in reading.detail, (text, reading)
+        try:
+            unmoved += read_display(picture, QUAD, model, register=False).detail["text"] == text
+        except ReadFailed:
+            pass
+    assert unmoved < 4
+
+
+def test_a_minus_after_the_first_digit_is_refused_not_a_crash():
+    """'12-' is no number: the reading is refused with the reason (it raised ValueError before)."""
+    model = learn_display(scene("23.5"), QUAD, "23.5")
+    picture = scene("12.8")
+    picture[60:60 + H, 80 + 2 * W // 3:80 + W] = 20
+    middle = 80 + int(W / 3 * 2.5)
+    cv2.line(picture, (middle - 20, 60 + H // 2), (middle + 20, 60 + H // 2), (60, 60, 235), 10)   # a lone g
+    with pytest.raises(ReadFailed, match="'12-' is not a number"):
+        read_display(picture, QUAD, model, register=False)
 
 
 def test_learning_refuses_a_picture_that_does_not_show_the_typed_text():

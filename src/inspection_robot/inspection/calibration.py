@@ -20,7 +20,8 @@ from inspection_robot.files import write_atomic, write_json_atomic
 from inspection_robot.inspection import calibration_schema as schema
 from inspection_robot.inspection.preset import (TARGET_KINDS, PresetError, Target, load_info, write_calibration,
                                                 zoom_picture_name)
-from inspection_robot.inspection.digital import FULL_BOX, learn_display, parse_shown
+from inspection_robot.inspection.digital import FULL_BOX, parse_shown
+from inspection_robot.inspection.digital_learn import learn_display
 from inspection_robot.inspection.drum import learn_drum
 from inspection_robot.inspection.geometry import quad_inside
 from inspection_robot.inspection.lamp import lamp_patch
@@ -112,7 +113,7 @@ def build_targets(preset_dir, specs, optics):
 
 def _learned_display(spec, index, image, width, height):
     """A digital target spec whose ``shown`` (the text the display shows in zoom0.jpg) is replaced by
-    the display model learned from the picture (inspection.digital.learn_display, or learn_drum for
+    the display model learned from the picture (inspection.digital_learn.learn_display, or learn_drum for
     ``style: drum``: a model the picture reads back under as that text). PresetError names what
     failed."""
     spec = dict(spec)

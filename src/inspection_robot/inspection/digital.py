@@ -1,16 +1,16 @@
 """Seven-segment displays (LED and LCD): read the digits of a calibrated display box.
 
 The operator draws the box tight around the digits and types the value shown now. Calibration
-(``learn_display``) finds the display's geometry from that picture and that text: lit segments
+(inspection.digital_learn) finds the display's model from that picture and that text: lit segments
 brighter or darker than the face (LED / LCD), the slant of an italic font, the share of each digit
-cell the digit's strokes fill; it keeps the model under which every segment that must be on is
-clearly brighter than every segment that must be off, and refuses when none separates them. A
-reading (``read_display``) rectifies the box, samples each segment along its centre line, splits on
-from off by the widest gap between the samples (with the calibration's contrast as the floor of a
-real gap), and maps each cell to a digit, a minus or a blank. A pattern that is no digit, or a
-segment close to the split (an 8 that might be a 0), makes the reading uncertain and names the
-candidates. The decimal places come from the calibration (panel meters are fixed-point); a
-decimal point seen elsewhere in the picture makes the reading uncertain.
+cell the digit's strokes fill, where the cells sit in the box. A reading (``read_display``)
+rectifies the box, moves the cells to where the digits are (``_registered``), samples each segment
+along its centre line, splits on from off by the widest gap between the samples (with the
+calibration's contrast as the floor of a real gap), and maps each cell to a digit, a minus or a
+blank. A pattern that is no digit, or a segment close to the split (an 8 that might be a 0), makes
+the reading uncertain and names the candidates. The decimal places come from the calibration
+(panel meters are fixed-point); a decimal point seen elsewhere in the picture makes the reading
+uncertain.
 
 Pure image logic (OpenCV, NumPy): the task and ROS sides see a Reading.
 """
@@ -21,7 +21,7 @@ from functools import lru_cache
 import numpy as np
 
 from inspection_robot.lazy import lazy_import
-from inspection_robot.inspection.geometry import quad_size, rectify, sub_quad
+from inspection_robot.inspection.geometry import rectify, sub_quad
 from inspection_robot.inspection.readers import ReadFailed, Reading, clip_confidence
 
 cv2 = lazy_import("cv2")
@@ -43,14 +43,18 @@ LINES = {"a": (0.22, 0.07, 0.78, 0.07), "b": (0.88, 0.17, 0.88, 0.41), "c": (0.8
 CELL_HEIGHT = 48            # px of a digit's height once rectified
 SAMPLES = 7                 # points along each segment's centre line
 POLARITIES = ("lit", "dark")   # lit: segments brighter than the face (LED, backlit LCD); dark: plain LCD
-SLANTS_DEG = tuple(range(-14, 15, 1))
-FILLS = (0.55, 0.6, 0.65, 0.7, 0.75, 0.8, 0.85, 0.9)   # share of a digit's cell (its pitch) its strokes span
-CELL_ASPECT = (0.3, 1.3)    # width / height of one digit's cell (its pitch) on real displays, with margin
-MIN_CONTRAST = 12.0         # grey levels between on and off segments: less is no display to read
 MIN_MARGIN = 0.5            # a segment within the middle half between its cell's dark and lit levels is doubtful
 MAX_DIGITS = 12
-MAX_STRAY_INK = 0.08          # share of a digit's strokes a learned model may leave unexplained
-SHIFTS = (-0.08, -0.04, 0.0, 0.04, 0.08)   # how far the cells may begin or end from the box's sides (its share)
+# a reading moves the cells' window by up to these shares of a cell's pitch (sideways) and of the
+# digits' height (up and down), and scales it by up to these factors, to where the picture fits best
+REGISTER_SHIFT = 0.6
+REGISTER_LIFT = 0.2
+REGISTER_SCALE = (0.7, 1.3)
+REGISTER_COST = 0.02  # fit (correlation) a move must win per unit of shift to be taken
+REGISTER_GAIN = 0.05  # and what it must win over the window as calibrated
+REGISTER_KEEP = 4     # coarse moves searched finely about
+REGISTER_STEPS = 11   # scales tried between REGISTER_SCALE's two (evenly on a log scale)
+STROKE = 0.16         # a segment's thickness, share of the digits' height, where a reading's strokes are drawn
 
 FULL_BOX = (0.0, 0.0, 1.0, 1.0)
 # ``window``: where the digits' cells sit in the box drawn (left, top, right, bottom fractions of it),
@@ -98,46 +102,6 @@ def _face(image, quad, digit_count, window=FULL_BOX):
     width = max(8, int(round(CELL_HEIGHT * 0.62 * digit_count)))
     face = rectify(gray(image), sub_quad(quad, window), width, CELL_HEIGHT).astype(np.float32)
     return cv2.GaussianBlur(face, (3, 3), 0)
-
-
-def _ink_box(image, quad, polarity):
-    """(left, top, right, bottom) fractions of the box its digits' strokes span: the pixels on the
-    ink side of Otsu's split, in pieces that do not touch the box's edge (a bezel, a frame, the
-    next reading) and lie among the tallest ones, or None when nothing is left."""
-    q = np.asarray(quad, dtype=float).reshape(4, 2)
-    aspect = np.linalg.norm(q[1] - q[0]) / max(np.linalg.norm(q[3] - q[0]), 1e-6)
-    height = 4 * CELL_HEIGHT
-    width = max(16, int(round(height * aspect)))
-    face = cv2.GaussianBlur(rectify(gray(image), q, width, height), (5, 5), 0)
-    ink = face if polarity == "lit" else 255 - face
-    _t, mask = cv2.threshold(ink, 0, 255, cv2.THRESH_BINARY + cv2.THRESH_OTSU)
-    count, _labels, stats, _centres = cv2.connectedComponentsWithStats(mask)
-    kept = [s for s in stats[1:] if s[0] > 0 and s[1] > 0 and s[0] + s[2] < width and s[1] + s[3] < height
-            and s[4] >= 0.0005 * width * height]
-    if not kept:
-        return None
-    # the digits are the tallest things in the box; a unit, a label or a scratch is smaller: the
-    # strokes are the pieces at least half as tall as the tallest and what lies among them
-    tall = [s for s in kept if s[3] >= 0.5 * max(k[3] for k in kept)]
-    rows = (min(s[1] for s in tall), max(s[1] + s[3] for s in tall))
-    columns = (min(s[0] for s in tall), max(s[0] + s[2] for s in tall))
-    kept = [s for s in kept if s[1] >= rows[0] - 2 and s[1] + s[3] <= rows[1] + 2
-            and columns[0] <= s[0] + s[2] / 2.0 <= columns[1]]
-    x0, y0 = min(s[0] for s in kept), min(s[1] for s in kept)
-    x1, y1 = max(s[0] + s[2] for s in kept), max(s[1] + s[3] for s in kept)
-    return x0 / float(width), y0 / float(height), x1 / float(width), y1 / float(height)
-
-
-def _window(ink, cells, fill):
-    """The cells' window (box fractions) for strokes spanning ``ink`` when a digit's strokes take
-    ``fill`` of its cell: blank leading cells left of the first stroke, a 1's strokes on its right."""
-    left, top, right, bottom = ink
-    first = next(k for k, ch in enumerate(cells) if ch != " ")
-    start = {"1": 0.75, "-": 0.15}.get(cells[first], 0.0)    # where the first character's ink begins
-    end = {"-": 0.85}.get(cells[-1], 1.0)                     # and where the last one's ends
-    pitch = (right - left) / ((len(cells) - 1 - first) + fill * (end - start))
-    cell_left = left - start * fill * pitch - first * pitch - (1.0 - fill) * pitch / 2.0
-    return (cell_left, top, cell_left + len(cells) * pitch, bottom)
 
 
 def _sample_points(digit_count, width, slant_deg, fill):
@@ -197,139 +161,141 @@ def _split(values, floor):
     return float(ordered[k] + gaps[k] / 2.0), float(gaps[k])
 
 
-def learn_display(image, quad, shown):
-    """The DisplayModel of a display box showing ``shown`` (the text the operator typed), one the
-    picture reads back under as that text; ReadFailed when no window, polarity, slant and fill
-    makes the picture show it."""
-    cells, decimals, value = parse_shown(shown)
-    count = len(cells)
-    width, height = quad_size(quad)
-    aspect = width / max(height, 1e-6) / count
-    if not CELL_ASPECT[0] <= aspect <= CELL_ASPECT[1]:
-        raise ReadFailed("a box %.0f x %.0f px holds %d digit(s) %.2f as wide as tall each: seven-segment digits are "
-                         "%.1f to %.1f; type every digit shown (blank leading digits as spaces) and draw the box "
-                         "tight around them" % (width, height, count, aspect, CELL_ASPECT[0], CELL_ASPECT[1]))
-    want = dict(((k, s), on) for k, ch in enumerate(cells) for s, on in zip(SEGMENTS, CODE[ch])
-                if s != VARIANTS.get(ch))
-
-    def fit(windows, polarities, fills, slants, keep=4):
-        """The ``keep`` best (score, gap, model) over the windows, polarities, fills and slants, best first."""
-        found = []
-        for window in windows:
-            face = _face(image, quad, count, window)
-            for polarity in polarities:
-                for fill in fills:
-                    for slant in slants:
-                        model = DisplayModel(count, polarity, float(slant), fill, decimals, 0.0, window)
-                        levels = _levels(face, model)
-                        # each digit is split by itself when read (light falls unevenly): in every cell
-                        # with a lit segment the worst pair must separate; among the models where they
-                        # do, the centre lines that sit on the strokes (the largest mean contrast) win
-                        gaps, contrasts = [], []
-                        for k in range(count):
-                            on = [levels[(k, s)] for s in SEGMENTS if want.get((k, s))]
-                            off = [levels[(k, s)] for s in SEGMENTS if want.get((k, s)) is False] + \
-                                [levels[(k, "hole")]]
-                            if on:
-                                gaps.append(min(on) - max(off))
-                                contrasts.append(np.mean(on) - np.mean(off))
-                        gap = min(gaps) if gaps else -np.inf
-                        score = gap + (np.mean(contrasts) if contrasts else 0.0)
-                        found.append((score, gap, model))
-                    found = sorted(found, key=lambda f: -f[0])[:keep]
-        return found
-
-    # an operator's box is seldom tight or centred: the cells may start and end a little inside or
-    # outside it, and the strokes found in it may place them (coarse slants first, then every one)
-    windows = [(left, 0.0, right, 1.0) for left in SHIFTS for right in (1.0 + d for d in SHIFTS)]
-    for polarity in POLARITIES:
-        ink = _ink_box(image, quad, polarity) if cells.count(" ") < count else None
-        if ink is not None:
-            windows += [tuple(round(float(v), 4) for v in _window(ink, cells, fill)) for fill in FILLS]
-    candidates = []
-    for _score, _gap, coarse in fit(windows, POLARITIES, FILLS, SLANTS_DEG[::4], keep=3):
-        left, top, right, bottom = coarse.window
-        step = (SHIFTS[1] - SHIFTS[0]) / 2.0   # the sides to half the grid's step, then the top and bottom
-        _s, _g, fine = fit([(left + dl, top, right + dr, bottom) for dl in (-step, 0, step) for dr in (-step, 0, step)],
-                           (coarse.polarity,), FILLS, SLANTS_DEG[::2], keep=1)[0]
-        left, top, right, bottom = fine.window
-        candidates += fit([(left, top + dt, right, bottom + db) for dt in SHIFTS[1:-1] for db in SHIFTS[1:-1]],
-                          (coarse.polarity,), FILLS, SLANTS_DEG)
-    # the best model the picture reads back under as typed (a decimal point, a glare the score misses)
-    best_gap, why = max(c[1] for c in candidates), ""
-    for _score, gap, model in sorted(candidates, key=lambda c: -c[0]):
-        if gap < MIN_CONTRAST:
-            continue
-        model = model._replace(contrast=round(float(gap), 1))
-        try:
-            back = read_display(image, quad, model)
-        except ReadFailed as err:
-            why = why or str(err)
-            continue
-        stray = _unexplained_ink(_face(image, quad, count, model.window), model, cells)
-        if stray > MAX_STRAY_INK:
-            why = why or "leaves %.0f %% of a digit's strokes unexplained" % (100.0 * stray)
-            continue
-        if not back.detail.get("reason") and abs(back.value - value) < 1e-9:
-            return model
-        doubt = ": " + back.detail["reason"] if back.detail.get("reason") else ""
-        why = why or "reads '%s'%s" % (back.detail["text"], doubt)
-    if best_gap < MIN_CONTRAST:
-        raise ReadFailed("the picture does not show '%s' in the box as seven segments (best contrast between the "
-                         "segments that must be lit and those that must be dark: %.0f grey levels, %.0f needed): draw "
-                         "the box tight around the digits and type exactly what the display shows"
-                         % (shown, best_gap, MIN_CONTRAST))
-    raise ReadFailed("no model learned from the picture reads it back as '%s' (the best %s): draw the box tight "
-                     "around the digits and type exactly what the display shows" % (shown, why))
+def _decode_cell(values, face_level, floor):
+    """(code, margins, threshold, fit) of one cell's segment levels ``values`` against the face
+    inside its loops: split on from off by itself (light falls unevenly on a display); ``fit`` is how
+    clearly a digit stands there in contrasts (the gap between its dimmest lit and brightest dark
+    segment; 0 for a blank, -1 for a pattern that is no character)."""
+    threshold, _gap = _split(values + [face_level], floor)
+    if threshold is None:
+        return CODE[" "], [1.0] * len(SEGMENTS), None, 0.0
+    on = [v for v in values if v > threshold]
+    if not on:   # only the face stands above the split: nothing lit
+        return CODE[" "], [1.0] * len(SEGMENTS), None, 0.0
+    off = [v for v in values if v <= threshold] + [face_level]
+    low, high = float(np.median(off)), float(np.median(on))
+    code = tuple(v > threshold for v in values)
+    margins = [min(1.0, abs((v - low) / (high - low) - 0.5) * 2.0) for v in values]
+    fit = (min(on) - max(off)) / (2.0 * floor) if code in DECODE else -1.0
+    return code, margins, threshold, fit
 
 
-def _unexplained_ink(face, model, cells):
-    """The largest share, over the digits, of a digit cell's strokes (ink pixels: half-way between
-    the model's lit and dark segments) that lie on no segment the typed text lights: a model
-    contorted into reading an 8 as a 2 leaves the 8's other strokes over."""
-    ink = face if model.polarity == "lit" else 255.0 - face
-    levels = _levels(face, model)
-    on = [levels[(k, s)] for k, ch in enumerate(cells) for s, lit in zip(SEGMENTS, CODE[ch]) if lit]
-    off = [levels[(k, s)] for k, ch in enumerate(cells) for s, lit in zip(SEGMENTS, CODE[ch]) if not lit]
-    if not on:
-        return 0.0
-    # ink: brighter than half-way between the model's lit and dark segments (a faint unlit segment is not)
-    mask = (ink > (np.median(on) + np.median(off + [levels[(k, "hole")] for k in range(len(cells))])) / 2.0)
-    mask = mask.astype(np.uint8) * 255
-    count, labels, stats, _centres = cv2.connectedComponentsWithStats(mask)
-    for label in range(1, count):   # a bezel or the next reading at the window's side is not a stroke
-        if stats[label, 0] == 0 or stats[label, 0] + stats[label, 2] >= mask.shape[1]:
-            mask[labels == label] = 0
-    lit = np.zeros_like(mask)
-    thick = max(2, int(round(0.22 * CELL_HEIGHT)))
-    for (k, seg), (xs, ys) in _sample_points(model.digit_count, face.shape[1], model.slant_deg, model.fill).items():
-        lights = seg == "dp" or (seg in SEGMENTS and (CODE[cells[k]][SEGMENTS.index(seg)]
-                                                      or seg == VARIANTS.get(cells[k])))
-        if lights and len(xs) > 1:   # the samples span 0.1..0.9 of a segment: its whole length and its corners
-            ends = [(xs[0] - 0.15 * (xs[-1] - xs[0]), ys[0] - 0.15 * (ys[-1] - ys[0])),
-                    (xs[-1] + 0.15 * (xs[-1] - xs[0]), ys[-1] + 0.15 * (ys[-1] - ys[0]))]
-            cv2.line(lit, tuple(int(round(v)) for v in ends[0]), tuple(int(round(v)) for v in ends[1]), 255, thick)
-        elif lights:
-            cv2.circle(lit, (int(round(xs[0])), int(round(ys[0]))), thick // 2, 255, -1)
-    strokes, stray = mask > 0, (mask > 0) & (lit == 0)
-    pitch = face.shape[1] / float(model.digit_count)
-    shares = []
-    for k in range(model.digit_count):   # the worst digit: a wrong one leaves whole segments over
-        cols = slice(int(round(k * pitch)), int(round((k + 1) * pitch)))
-        ink_k = np.count_nonzero(strokes[:, cols])
-        if ink_k >= 0.03 * strokes[:, cols].size:
-            shares.append(np.count_nonzero(stray[:, cols]) / float(ink_k))
-    return max(shares) if shares else 0.0
+def _drawn(points, cells, codes, shape):
+    """A mask of ``shape`` with the lit segments of ``codes`` (one per cell) drawn along their
+    centre lines (``points``, _sample_points), as thick as a real segment is."""
+    drawn = np.zeros(shape, np.uint8)
+    thick = max(2, int(round(STROKE * CELL_HEIGHT)))
+    for k, code in zip(cells, codes):
+        for s in (s for s, on in zip(SEGMENTS, code) if on):
+            xs, ys = points[(k, s)]
+            ends = [(xs[i] + 0.15 * (xs[i] - xs[j]), ys[i] + 0.15 * (ys[i] - ys[j])) for i, j in ((0, -1), (-1, 0))]
+            cv2.line(drawn, tuple(int(round(v)) for v in ends[0]), tuple(int(round(v)) for v in ends[1]), 1, thick)
+    return drawn.ravel().astype(np.float32)
 
 
-def read_display(image, quad, model):
+def _registered(image, quad, model):
+    """(face, levels) of the box with the cells' window moved and scaled to where the digits are: a
+    box found in another picture (or on another unit of the same meter) sits off them, and a cell
+    half on its neighbour's strokes reads a blank or no digit. A move is judged by the correlation
+    of its window's picture with segments drawn: first every segment (an 8 in each cell: where the
+    strokes can be, whatever they show) over a coarse grid of moves, then, about the best few and
+    finer about the best of those, the segments the move's reading lights (a 7 read as a 1 leaves
+    its bar unexplained, a pattern that is no digit explains nothing). The window as calibrated is
+    kept unless a move wins clearly, and when nothing is lit in it (a display off is not searched
+    for digits)."""
+    grey = gray(image)
+    left, top, right, bottom = model.window
+    pitch, height = (right - left) / model.digit_count, bottom - top
+    floor = 0.5 * model.contrast
+    cells = range(model.digit_count)
+    faces = {}
+
+    def face_at(move):
+        if move not in faces:
+            dx, dy, scale = move
+            centre_x, centre_y = (left + right) / 2.0 + dx * pitch, (top + bottom) / 2.0 + dy * height
+            half_x, half_y = (right - left) * scale / 2.0, height * scale / 2.0
+            window = (centre_x - half_x, centre_y - half_y, centre_x + half_x, centre_y + half_y)
+            face = _face(grey, quad, model.digit_count, window)
+            faces[move] = (face, (face if model.polarity == "lit" else 255.0 - face).ravel())
+        return faces[move]
+
+    face0 = face_at((0.0, 0.0, 1.0))[0]
+    points = _sample_points(model.digit_count, face0.shape[1], model.slant_deg, model.fill)
+    eights_face = _drawn(points, cells, [CODE["8"]] * model.digit_count, face0.shape).reshape(face0.shape)
+
+    def cost(move):
+        return REGISTER_COST * (abs(move[0]) + abs(move[1]) + abs(math.log(move[2])))
+
+    def where(scale):
+        """The best moves at one scale by the correlation of an 8 in every cell with the picture, at
+        every shift at once (one picture with room around the window, matchTemplate): the best
+        shift and the best one at least half a cell from it (the pattern repeats with the cells)."""
+        reach_x, reach_y = REGISTER_SHIFT * pitch, REGISTER_LIFT * height
+        half_x, half_y = (right - left) * scale / 2.0, height * scale / 2.0
+        centre_x, centre_y = (left + right) / 2.0, (top + bottom) / 2.0
+        px_x, px_y = face0.shape[1] / (2.0 * half_x), (CELL_HEIGHT - 1) / (2.0 * half_y)
+        room = (centre_x - half_x - reach_x, centre_y - half_y - reach_y,
+                centre_x + half_x + reach_x, centre_y + half_y + reach_y)
+        size = (face0.shape[1] + 2 * int(round(reach_x * px_x)), CELL_HEIGHT + 2 * int(round(reach_y * px_y)))
+        room_face = cv2.GaussianBlur(rectify(grey, sub_quad(quad, room), size[0], size[1]), (3, 3), 0)
+        ink = (room_face if model.polarity == "lit" else 255 - room_face).astype(np.float32)
+        scores = cv2.matchTemplate(ink, eights_face, cv2.TM_CCOEFF_NORMED)
+        moves = []
+        for _pick in range(2):
+            row, col = np.unravel_index(int(np.argmax(scores)), scores.shape)
+            if not np.isfinite(scores[row, col]) or scores[row, col] <= -1.0:
+                break
+            move = (round((col / px_x - reach_x) / pitch, 4), round((row / px_y - reach_y) / height, 4), scale)
+            moves.append((float(scores[row, col]) - cost(move), move))
+            scores[:, max(0, col - int(0.5 * pitch * px_x)):col + int(0.5 * pitch * px_x) + 1] = -2.0
+        return moves
+
+    def reads(move):   # (correlation with what the move reads, face, levels)
+        face, ink = face_at(move)
+        levels = _levels(face, model)
+        codes = [_decode_cell([levels[(k, s)] for s in SEGMENTS], levels[(k, "hole")], floor)[0] for k in cells]
+        if not any(any(c) for c in codes):
+            return None, face, levels
+        drawn = _drawn(points, cells, [c if c in DECODE else CODE[" "] for c in codes], face.shape)
+        fit = float(np.corrcoef(ink, drawn)[0, 1]) if drawn.any() else -1.0
+        return fit - cost(move), face, levels
+
+    def grid(centre, steps, counts):
+        axes = [c + st * np.arange(-n, n + 1) for c, st, n in zip(centre, steps, counts)]
+        return [(round(dx, 4), round(dy, 4), round(sc, 4)) for dx in axes[0] for dy in axes[1] for sc in axes[2]
+                if abs(dx) <= REGISTER_SHIFT and abs(dy) <= REGISTER_LIFT
+                and REGISTER_SCALE[0] <= sc <= REGISTER_SCALE[1]]
+
+    calibrated = reads((0.0, 0.0, 1.0))
+    if calibrated[0] is None:   # nothing lit where the digits were: a display off or covered, not moved
+        return calibrated[1], calibrated[2]
+    scales = np.exp(np.linspace(math.log(REGISTER_SCALE[0]), math.log(REGISTER_SCALE[1]), REGISTER_STEPS))
+    coarse = [move for _fit, move in sorted((m for scale in scales for m in where(round(float(scale), 4))),
+                                            reverse=True)[:REGISTER_KEEP]]
+
+    def best(moves):
+        return max((reads(move) + (move,) for move in moves), key=lambda r: -2.0 if r[0] is None else r[0])
+
+    fine = best([move for centre in coarse for move in grid(centre, (0.04, 0.025, 0.025), (1, 1, 1))])
+    fine = best(grid(fine[3], (0.015, 0.01, 0.01), (1, 1, 1)))
+    if fine[0] is None or fine[0] < calibrated[0] + REGISTER_GAIN:   # the box is where calibration put it
+        return calibrated[1], calibrated[2]
+    return fine[1], fine[2]
+
+
+def read_display(image, quad, model, register=True):
     """Reading of a display box under its calibrated DisplayModel: value, confidence (the weakest
     digit's), detail {"text", "digits": [{"char", "confidence", "candidates"}], "reason" when
     uncertain}. Each cell is split on from off by itself (light falls unevenly on a display), a
     cell whose face is far brighter than the others' is glare, not a blank. ReadFailed when no
-    segment is lit anywhere (display off, covered) or no digit can be read at all."""
-    face = _face(image, quad, model.digit_count, model.window)
-    levels = _levels(face, model)
+    segment is lit anywhere (display off, covered) or no digit can be read at all. ``register``: move
+    the cells to where the digits are (``_registered``); calibration reads its own fitted window."""
+    if register:
+        face, levels = _registered(image, quad, model)
+    else:
+        face = _face(image, quad, model.digit_count, model.window)
+        levels = _levels(face, model)
     floor = 0.5 * model.contrast
     faces = [levels[(k, "hole")] for k in range(model.digit_count)]
     face_level = float(np.median(faces))
@@ -342,9 +308,8 @@ def read_display(image, quad, model):
             chars.append("?")
             digits.append({"char": "?", "confidence": 0.0, "candidates": []})
             continue
-        threshold, _gap = _split(values + [faces[k]], floor)
+        code, margins, threshold, _fit = _decode_cell(values, faces[k], floor)
         if threshold is None:   # nothing lit in this cell: a blank, unless a segment stands half out
-            code, margins = CODE[" "], [1.0] * len(SEGMENTS)
             brightest = int(np.argmax(values))
             if values[brightest] - faces[k] > floor / 2.0:   # a dim 1 must not vanish from a number's front
                 doubts.append("digit %d: blank or lit (segment %s stands %.0f grey levels out)"
@@ -352,11 +317,6 @@ def read_display(image, quad, model):
                 margins = [0.0] * len(SEGMENTS)
         else:
             lit_any = True
-            on = [v for v in values if v > threshold]
-            off = [v for v in values if v <= threshold] + [faces[k]]
-            low, high = float(np.median(off)), float(np.median(on))
-            code = tuple(v > threshold for v in values)
-            margins = [min(1.0, abs((v - low) / (high - low) - 0.5) * 2.0) for v in values]
         char = DECODE.get(code)
         candidates = _candidates(code, margins)
         confidence = 100.0 * min(margins)
@@ -380,7 +340,7 @@ def read_display(image, quad, model):
     if dots and dots != [calibrated_dot]:
         where = "after digit %d" % (calibrated_dot + 1) if calibrated_dot is not None else "without one"
         doubts.append("decimal point after digit %s, calibrated %s" % (",".join(str(k + 1) for k in dots), where))
-    if "?" in stripped or not stripped.replace("-", ""):
+    if "?" in stripped or "-" in stripped[1:] or not stripped.replace("-", ""):
         raise ReadFailed("display box unreadable: %s" % "; ".join(doubts))
     value = float(stripped.replace(" ", "0")) / 10 ** model.decimals
     confidence = min(d["confidence"] for d in digits)
