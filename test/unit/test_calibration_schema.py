@@ -15,7 +15,8 @@ GOOD = {"name": "oil", "digits": 2, "normal": [0.2, 1.4], "start_angle": -135.0,
         "thermal_box": [5.0, 5.0, 30.5, 5.0, 30.5, 30.0, 5.0, 30.0], "phase": "B", "device": "T1 bay 3",
         "equipment_class": "breaker", "emissivity": 0.9, "distance": 12.5, "digit_count": 4, "polarity": "dark",
         "slant": -6.0, "fill": 0.75, "style": "drum", "font": "duplex_bold", "glyph": 0.55, "decimals": 1,
-        "contrast": 77.5, "window": [-0.04, 0.0, 1.04, 0.96], "counter": True, "alarm_band": [0.0, 1.6]}
+        "contrast": 77.5, "window": [-0.04, 0.0, 1.04, 0.96], "cell_shifts": [-0.1, 0.25, 0.0],
+        "split": "face", "counter": True, "alarm_band": [0.0, 1.6]}
 
 
 @pytest.mark.parametrize("key", sorted(k for k, f in schema.FIELDS.items() if f.stored))
@@ -62,6 +63,9 @@ def test_a_whole_pointer_round_trips_with_defaults():
     ("distance", 0.0, "distance must be in (0, 100], got 0.0"),
     ("window", [0.5, 0.0, 0.4, 1.0], "window must be [left, top, right, bottom] with left < right"),
     ("window", [0.0, 0.0, 2.0, 1.0], "window must be in [-0.5, 1.5], got 2.0"),
+    ("cell_shifts", [0.0, 0.7], "cell_shifts must be in [-0.5, 0.5], got 0.7"),
+    ("cell_shifts", [], "cell_shifts must be a list of 1 to 12 numbers"),
+    ("split", "middle", "split must be one of gap|face"),
     ("distance", 150, "distance must be in (0, 100], got 150.0"),
     ("distance", "10 m", "distance must be a finite number"),
     ("counter", 1, "counter must be true or false, got 1"),

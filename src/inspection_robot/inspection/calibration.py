@@ -141,6 +141,10 @@ def _learned_display(spec, index, image, width, height):
         spec.update(slant=model.slant_deg, fill=model.fill)
         if tuple(model.window) != FULL_BOX:
             spec["window"] = list(model.window)
+        if any(model.shifts):
+            spec["cell_shifts"] = list(model.shifts)
+        if model.split != "gap":
+            spec["split"] = model.split
     return spec
 
 

@@ -29,7 +29,8 @@ import re
 
 import numpy as np
 
-from inspection_robot.inspection.digital import MAX_DIGITS as MAX_DISPLAY_DIGITS, POLARITIES, parse_shown
+from inspection_robot.inspection.digital import MAX_CELL_SHIFT, MAX_DIGITS as MAX_DISPLAY_DIGITS, POLARITIES, \
+    SPLITS, parse_shown
 from inspection_robot.inspection.drum import FONT_NAMES as DRUM_FONTS
 from inspection_robot.inspection.gauge import GaugeScale
 from inspection_robot.inspection.geometry import quad_inside, quad_is_convex
@@ -134,6 +135,14 @@ def _window(value, key):
         raise SchemaError("%s must be [left, top, right, bottom] with left < right and top < bottom, got %s"
                           % (key, _short(value)))
     return [left, top, right, bottom]
+
+
+def _cell_shifts(value, key):
+    """Each digit cell's shift from even spacing, in cells (digit_count of them: checked with it)."""
+    items = _list(value, key, "a list of numbers")
+    if not 1 <= len(items) <= MAX_DISPLAY_DIGITS:
+        raise SchemaError("%s must be a list of 1 to %d numbers, got %s" % (key, MAX_DISPLAY_DIGITS, _short(value)))
+    return [number(v, key, -MAX_CELL_SHIFT, MAX_CELL_SHIFT) for v in items]
 
 
 def _quad(value, key):
@@ -308,6 +317,8 @@ FIELDS = {
     "decimals": Field(("digital",), lambda v, k: _whole(v, k, 0, MAX_DISPLAY_DIGITS - 1), "number"),
     "contrast": Field(("digital",), lambda v, k: number(v, k, 0.0, 255.0), "number"),
     "window": Field(("digital",), _window, "numbers"),   # where the cells sit in the box (digital.DisplayModel)
+    "cell_shifts": Field(("digital",), _cell_shifts, "numbers"),   # and each one's shift from even spacing
+    "split": Field(("digital",), _choice(SPLITS, optional=True)),   # how lit segments are told from dark
     # a counter (discharges of an arrester, breaker operations): its increment since the last patrol is
     # stored, and a count that went down is an alarm (task.patrol)
     "counter": Field(("digital",), _flag, "flag"),
@@ -320,7 +331,8 @@ REQUIRED = {"pointer": ("start_angle", "end_angle", "start_value", "end_value"),
             "switch": ("open_reference", "closed_reference"), "thermal": ("thermal_box",),
             "digital": ("digit_count", "polarity", "slant", "fill", "decimals", "contrast"),
             "drum": ("digit_count", "polarity", "font", "glyph", "decimals", "contrast")}   # a digital style: drum
-STYLE_ONLY = {"segments": ("fill", "slant", "window"), "drum": ("font", "glyph")}   # a digital model's own keys
+# a digital model's own keys
+STYLE_ONLY = {"segments": ("fill", "slant", "window", "cell_shifts", "split"), "drum": ("font", "glyph")}
 PICTURE_STATES = {"lamp": ("on", "off"), "switch": ("open", "closed")}
 # written to the INI even when empty or defaulted (the file's long-standing layout)
 ALWAYS_WRITTEN = ("centre", "radius", "aspect", "start_angle", "end_angle", "start_value", "end_value", "unit",
@@ -384,6 +396,9 @@ def check_params(kind, params, thermal_size=None):
     elif kind == "digital":
         if out["decimals"] >= out["digit_count"]:
             raise SchemaError("decimals %d must be fewer than digit_count %d" % (out["decimals"], out["digit_count"]))
+        if "cell_shifts" in out and len(out["cell_shifts"]) != out["digit_count"]:
+            raise SchemaError("cell_shifts has %d numbers for %d digits"
+                              % (len(out["cell_shifts"]), out["digit_count"]))
         other = [k for k in STYLE_ONLY["segments" if drum else "drum"] if k in out]
         if other:
             raise SchemaError("%s does not apply to a %s display"

@@ -45,6 +45,7 @@ SAMPLES = 7                 # points along each segment's centre line
 POLARITIES = ("lit", "dark")   # lit: segments brighter than the face (LED, backlit LCD); dark: plain LCD
 MIN_MARGIN = 0.5            # a segment within the middle half between its cell's dark and lit levels is doubtful
 MAX_DIGITS = 12
+MAX_CELL_SHIFT = 0.5        # cells a digit's cell may sit from even spacing (DisplayModel.shifts)
 # a reading moves the cells' window by up to these shares of a cell's pitch (sideways) and of the
 # digits' height (up and down), and scales it by up to these factors, to where the picture fits best
 REGISTER_SHIFT = 0.6
@@ -59,14 +60,20 @@ STROKE = 0.16         # a segment's thickness, share of the digits' height, wher
 FULL_BOX = (0.0, 0.0, 1.0, 1.0)
 # ``window``: where the digits' cells sit in the box drawn (left, top, right, bottom fractions of it),
 # found at calibration: an operator's box is seldom tight
-DisplayModel = namedtuple("DisplayModel", "digit_count polarity slant_deg fill decimals contrast window")
+# ``shifts``: each digit cell's shift from even spacing, in cells (a decimal point with a column of its
+# own pushes the digits after it right), learned at calibration; () is even spacing
+# ``split``: how a cell's segments are told lit from dark (_decode_cell): "gap" or "face", learned
+DisplayModel = namedtuple("DisplayModel", "digit_count polarity slant_deg fill decimals contrast window shifts split")
+DisplayModel.__new__.__defaults__ = ((), "gap")
+SPLITS = ("gap", "face")
 
 
 def display_model(params):
     """The DisplayModel of a digital target's checked calibration parameters."""
     return DisplayModel(int(params["digit_count"]), params["polarity"], float(params["slant"]), float(params["fill"]),
                         int(params["decimals"]), float(params["contrast"]),
-                        tuple(params.get("window") or FULL_BOX))
+                        tuple(params.get("window") or FULL_BOX), tuple(params.get("cell_shifts") or ()),
+                        params.get("split") or "gap")
 
 
 def parse_shown(text):
@@ -104,14 +111,15 @@ def _face(image, quad, digit_count, window=FULL_BOX):
     return cv2.GaussianBlur(face, (3, 3), 0)
 
 
-def _sample_points(digit_count, width, slant_deg, fill):
-    """{(cell, segment): (xs, ys)} of the centre-line sample points, and the decimal point's per gap."""
+def _sample_points(digit_count, width, slant_deg, fill, shifts=()):
+    """{(cell, segment): (xs, ys)} of the centre-line sample points, and the decimal point's per gap;
+    cell k moved ``shifts[k]`` cells right of even spacing."""
     pitch = width / float(digit_count)
     shear = math.tan(math.radians(slant_deg)) * CELL_HEIGHT
     t = np.linspace(0.1, 0.9, SAMPLES)
     points = {}
     for k in range(digit_count):
-        left = k * pitch + (1.0 - fill) * pitch / 2.0
+        left = (k + (shifts[k] if shifts else 0.0)) * pitch + (1.0 - fill) * pitch / 2.0
         for seg, (u0, v0, u1, v1) in LINES.items():
             u, v = u0 + (u1 - u0) * t, v0 + (v1 - v0) * t
             points[(k, seg)] = (left + u * fill * pitch + (0.5 - v) * shear, v * (CELL_HEIGHT - 1))
@@ -125,11 +133,11 @@ def _sample_points(digit_count, width, slant_deg, fill):
 
 
 @lru_cache(maxsize=4096)
-def _sample_index(digit_count, width, slant_deg, fill):
+def _sample_index(digit_count, width, slant_deg, fill, shifts=()):
     """The sample points of _sample_points as (keys, flat pixel indices into a CELL_HEIGHT x width
     face, each key's first index, each key's count): one gather per model, not one per segment."""
     keys, flat, starts, counts = [], [], [], []
-    for key, (xs, ys) in _sample_points(digit_count, width, slant_deg, fill).items():
+    for key, (xs, ys) in _sample_points(digit_count, width, slant_deg, fill, shifts).items():
         xi = np.clip(np.round(xs).astype(int), 0, width - 1)
         yi = np.clip(np.round(ys).astype(int), 0, CELL_HEIGHT - 1)
         keys.append(key)
@@ -143,7 +151,8 @@ def _levels(face, model):
     """{(cell, segment): mean grey level along it}, segments brighter when on (dark displays inverted);
     also each cell's "dp" (its decimal point) and "hole" (the face inside its loops)."""
     face = face if model.polarity == "lit" else 255.0 - face
-    keys, flat, starts, counts = _sample_index(model.digit_count, face.shape[1], model.slant_deg, model.fill)
+    keys, flat, starts, counts = _sample_index(model.digit_count, face.shape[1], model.slant_deg, model.fill,
+                                               tuple(model.shifts))
     means = np.add.reduceat(face.ravel()[flat], starts) / counts
     return dict(zip(keys, means.tolist()))
 
@@ -161,23 +170,48 @@ def _split(values, floor):
     return float(ordered[k] + gaps[k] / 2.0), float(gaps[k])
 
 
-def _decode_cell(values, face_level, floor):
-    """(code, margins, threshold, fit) of one cell's segment levels ``values`` against the face
-    inside its loops: split on from off by itself (light falls unevenly on a display); ``fit`` is how
-    clearly a digit stands there in contrasts (the gap between its dimmest lit and brightest dark
-    segment; 0 for a blank, -1 for a pattern that is no character)."""
-    threshold, _gap = _split(values + [face_level], floor)
-    if threshold is None:
-        return CODE[" "], [1.0] * len(SEGMENTS), None, 0.0
+def _decode_cell(values, face_level, floor, split="gap"):
+    """(code, margins, threshold, other) of one cell's segment levels ``values`` against the face
+    inside its loops (``face_level``), split on from off by itself by two rules: at the widest gap
+    ("gap": light falls unevenly on a display) and at ``floor`` (half the calibrated contrast) above
+    the face ("face": the segments of one digit lit unevenly, an LCD's thin bars or an LED's dim
+    corner, split inside the lit ones at the widest gap, a 7 with a faint bar reads as a 1). The
+    calibrated rule (``split``) decides; when it gives no character and the other gives one, the
+    other decides and a segment close to its split makes the cell doubtful (``other`` "?"); under
+    "gap", ``other`` is the face rule's character when it is one and differs (the cell is then in
+    doubt). A segment's margin: its distance from the split, 1 at either end of the cell's levels or
+    half the floor from it (nothing lit: a blank, threshold None)."""
+    gap_threshold, _gap = _split(values + [face_level], floor)
+    if gap_threshold is None or not any(v > gap_threshold for v in values):
+        return CODE[" "], [1.0] * len(SEGMENTS), None, None
+    rules = {"gap": gap_threshold, "face": face_level + floor}
+    codes = dict((rule, tuple(v > t for v in values)) for rule, t in rules.items())
+    used = split
+    if codes[split] not in DECODE or not any(codes[split]):
+        alternative = "face" if split == "gap" else "gap"
+        if codes[alternative] in DECODE and any(codes[alternative]):
+            used = alternative
+    code, threshold = codes[used], rules[used]
+    if not any(code):
+        return CODE[" "], [1.0] * len(SEGMENTS), None, None
+    if used == "gap":
+        margins = _margins(values, face_level, threshold)
+    else:
+        margins = [min(1.0, abs(v - threshold) / floor) for v in values]
+    other = None
+    if used != split:
+        other = "?" if min(margins) < MIN_MARGIN else None
+    elif split == "gap" and codes["face"] in DECODE and any(codes["face"]) and codes["face"] != code:
+        other = DECODE[codes["face"]]
+    return code, margins, threshold, other
+
+
+def _margins(values, face_level, threshold):
+    """Each segment's distance from the split, 0 at it and 1 at the median of its side."""
     on = [v for v in values if v > threshold]
-    if not on:   # only the face stands above the split: nothing lit
-        return CODE[" "], [1.0] * len(SEGMENTS), None, 0.0
     off = [v for v in values if v <= threshold] + [face_level]
     low, high = float(np.median(off)), float(np.median(on))
-    code = tuple(v > threshold for v in values)
-    margins = [min(1.0, abs((v - low) / (high - low) - 0.5) * 2.0) for v in values]
-    fit = (min(on) - max(off)) / (2.0 * floor) if code in DECODE else -1.0
-    return code, margins, threshold, fit
+    return [min(1.0, abs((v - low) / (high - low) - 0.5) * 2.0) for v in values]
 
 
 def _drawn(points, cells, codes, shape):
@@ -221,7 +255,7 @@ def _registered(image, quad, model):
         return faces[move]
 
     face0 = face_at((0.0, 0.0, 1.0))[0]
-    points = _sample_points(model.digit_count, face0.shape[1], model.slant_deg, model.fill)
+    points = _sample_points(model.digit_count, face0.shape[1], model.slant_deg, model.fill, model.shifts)
     eights_face = _drawn(points, cells, [CODE["8"]] * model.digit_count, face0.shape).reshape(face0.shape)
 
     def cost(move):
@@ -251,10 +285,12 @@ def _registered(image, quad, model):
             scores[:, max(0, col - int(0.5 * pitch * px_x)):col + int(0.5 * pitch * px_x) + 1] = -2.0
         return moves
 
-    def reads(move):   # (correlation with what the move reads, face, levels)
+    def reads(move):
+        """(correlation with what the move reads, None when nothing is lit; face; levels)."""
         face, ink = face_at(move)
         levels = _levels(face, model)
-        codes = [_decode_cell([levels[(k, s)] for s in SEGMENTS], levels[(k, "hole")], floor)[0] for k in cells]
+        codes = [_decode_cell([levels[(k, s)] for s in SEGMENTS], levels[(k, "hole")], floor, model.split)[0]
+                 for k in cells]
         if not any(any(c) for c in codes):
             return None, face, levels
         drawn = _drawn(points, cells, [c if c in DECODE else CODE[" "] for c in codes], face.shape)
@@ -267,16 +303,15 @@ def _registered(image, quad, model):
                 if abs(dx) <= REGISTER_SHIFT and abs(dy) <= REGISTER_LIFT
                 and REGISTER_SCALE[0] <= sc <= REGISTER_SCALE[1]]
 
+    def best(moves):
+        return max((reads(move) + (move,) for move in moves), key=lambda r: -2.0 if r[0] is None else r[0])
+
     calibrated = reads((0.0, 0.0, 1.0))
     if calibrated[0] is None:   # nothing lit where the digits were: a display off or covered, not moved
         return calibrated[1], calibrated[2]
     scales = np.exp(np.linspace(math.log(REGISTER_SCALE[0]), math.log(REGISTER_SCALE[1]), REGISTER_STEPS))
     coarse = [move for _fit, move in sorted((m for scale in scales for m in where(round(float(scale), 4))),
                                             reverse=True)[:REGISTER_KEEP]]
-
-    def best(moves):
-        return max((reads(move) + (move,) for move in moves), key=lambda r: -2.0 if r[0] is None else r[0])
-
     fine = best([move for centre in coarse for move in grid(centre, (0.04, 0.025, 0.025), (1, 1, 1))])
     fine = best(grid(fine[3], (0.015, 0.01, 0.01), (1, 1, 1)))
     if fine[0] is None or fine[0] < calibrated[0] + REGISTER_GAIN:   # the box is where calibration put it
@@ -308,7 +343,7 @@ def read_display(image, quad, model, register=True):
             chars.append("?")
             digits.append({"char": "?", "confidence": 0.0, "candidates": []})
             continue
-        code, margins, threshold, _fit = _decode_cell(values, faces[k], floor)
+        code, margins, threshold, other = _decode_cell(values, faces[k], floor, model.split)
         if threshold is None:   # nothing lit in this cell: a blank, unless a segment stands half out
             brightest = int(np.argmax(values))
             if values[brightest] - faces[k] > floor / 2.0:   # a dim 1 must not vanish from a number's front
@@ -320,7 +355,10 @@ def read_display(image, quad, model, register=True):
         char = DECODE.get(code)
         candidates = _candidates(code, margins)
         confidence = 100.0 * min(margins)
-        if char is None or (len(candidates) > 1 and min(margins) < MIN_MARGIN):
+        if other is not None:   # split at the widest gap and above the face, the cell shows two digits
+            candidates = [c for c in candidates if c != other][:1] + ([other] if other != "?" else [])
+            margins = [0.0] * len(SEGMENTS)
+        if char is None or other is not None or (len(candidates) > 1 and min(margins) < MIN_MARGIN):
             doubts.append("digit %d: %s" % (k + 1, "|".join(candidates) if candidates else "no digit"))
             confidence = min(confidence, 40.0)
         chars.append(char if char is not None else (candidates[0] if candidates else "?"))

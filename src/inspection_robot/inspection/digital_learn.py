@@ -4,14 +4,16 @@ one picture of its box and the text the operator typed.
 It tries both polarities, every slant, stroke span and window (the cells seldom fill an operator's
 box exactly) for the models under which every segment the typed text needs lit is brighter than
 every one it needs dark, and keeps the best one the picture reads back under as typed with no
-digit's strokes left unexplained; it refuses with the reason when none does. Reading is
+digit's strokes left unexplained: evenly spaced cells split at the widest gap first, then each
+cell moved to its own digit (``cell_shifts``), then the segments split above the face (``split``
+"face": a display lit unevenly). It refuses with the reason when none reads back. Reading is
 inspection.digital's.
 """
 import numpy as np
 
 from inspection_robot.lazy import lazy_import
-from inspection_robot.inspection.digital import CELL_HEIGHT, CODE, DisplayModel, POLARITIES, SEGMENTS, VARIANTS, \
-    _face, _levels, _sample_points, gray, parse_shown, read_display
+from inspection_robot.inspection.digital import CELL_HEIGHT, CODE, MAX_CELL_SHIFT, DisplayModel, POLARITIES, \
+    SEGMENTS, VARIANTS, _face, _levels, _sample_points, gray, parse_shown, read_display
 from inspection_robot.inspection.geometry import quad_size, rectify
 from inspection_robot.inspection.readers import ReadFailed
 
@@ -21,6 +23,8 @@ SLANTS_DEG = tuple(range(-14, 15, 1))
 FILLS = (0.55, 0.6, 0.65, 0.7, 0.75, 0.8, 0.85, 0.9)   # share of a digit's cell (its pitch) its strokes span
 CELL_ASPECT = (0.3, 1.3)    # width / height of one digit's cell (its pitch) on real displays, with margin
 MIN_CONTRAST = 12.0         # grey levels between on and off segments: less is no display to read
+CELL_SHIFTS = tuple(np.round(np.arange(-MAX_CELL_SHIFT, MAX_CELL_SHIFT + 0.01, 0.05), 2))   # a cell's moves tried
+MIN_CELL_GAP = 0.6            # cells (their pitch) between one cell's start and the next's, at least
 MAX_STRAY_INK = 0.08          # share of a digit's strokes a learned model may leave unexplained
 SHIFTS = (-0.08, -0.04, 0.0, 0.04, 0.08)   # how far the cells may begin or end from the box's sides (its share)
 
@@ -80,6 +84,24 @@ def learn_display(image, quad, shown):
     want = dict(((k, s), on) for k, ch in enumerate(cells) for s, on in zip(SEGMENTS, CODE[ch])
                 if s != VARIANTS.get(ch))
 
+    def cell_fits(levels):
+        """{cell: (gap, contrast)} of the cells with a lit segment: each digit is split by itself when
+        read (light falls unevenly), so in every such cell the worst pair must separate; among the
+        models where they do, the centre lines that sit on the strokes (the largest contrast) win."""
+        out = {}
+        for k in range(count):
+            on = [levels[(k, s)] for s in SEGMENTS if want.get((k, s))]
+            off = [levels[(k, s)] for s in SEGMENTS if want.get((k, s)) is False] + [levels[(k, "hole")]]
+            if on:
+                out[k] = (min(on) - max(off), np.mean(on) - np.mean(off))
+        return out
+
+    def scored(model, face):
+        """(score, gap, model): the worst cell's gap plus the mean contrast."""
+        fits = cell_fits(_levels(face, model))
+        gap = min(g for g, _c in fits.values()) if fits else -np.inf
+        return gap + (np.mean([c for _g, c in fits.values()]) if fits else 0.0), gap, model
+
     def fit(windows, polarities, fills, slants, keep=4):
         """The ``keep`` best (score, gap, model) over the windows, polarities, fills and slants, best first."""
         found = []
@@ -87,25 +109,27 @@ def learn_display(image, quad, shown):
             face = _face(image, quad, count, window)
             for polarity in polarities:
                 for fill in fills:
-                    for slant in slants:
-                        model = DisplayModel(count, polarity, float(slant), fill, decimals, 0.0, window)
-                        levels = _levels(face, model)
-                        # each digit is split by itself when read (light falls unevenly): in every cell
-                        # with a lit segment the worst pair must separate; among the models where they
-                        # do, the centre lines that sit on the strokes (the largest mean contrast) win
-                        gaps, contrasts = [], []
-                        for k in range(count):
-                            on = [levels[(k, s)] for s in SEGMENTS if want.get((k, s))]
-                            off = [levels[(k, s)] for s in SEGMENTS if want.get((k, s)) is False] + \
-                                [levels[(k, "hole")]]
-                            if on:
-                                gaps.append(min(on) - max(off))
-                                contrasts.append(np.mean(on) - np.mean(off))
-                        gap = min(gaps) if gaps else -np.inf
-                        score = gap + (np.mean(contrasts) if contrasts else 0.0)
-                        found.append((score, gap, model))
+                    found += [scored(DisplayModel(count, polarity, float(slant), fill, decimals, 0.0, window), face)
+                              for slant in slants]
                     found = sorted(found, key=lambda f: -f[0])[:keep]
         return found
+
+    def shifted(model):
+        """(score, gap, model) with each digit cell moved where its own digit fits best, within
+        CELL_SHIFTS of even spacing (a blank cell as the nearest digit after it), cells kept apart."""
+        face = _face(image, quad, count, model.window)
+        per_shift = [(d, cell_fits(_levels(face, model._replace(shifts=(d,) * count)))) for d in CELL_SHIFTS]
+        best = {}
+        for k in range(count):
+            tried = [(sum(fits[k]), d) for d, fits in per_shift if k in fits]
+            if tried:
+                best[k] = max(tried)[1]
+        if not best:
+            return scored(model, face)
+        shifts = [best.get(k, best[min((j for j in best if j > k), default=max(best))]) for k in range(count)]
+        if any(shifts[k + 1] + 1.0 - shifts[k] < MIN_CELL_GAP for k in range(count - 1)):
+            return scored(model, face)
+        return scored(model._replace(shifts=tuple(round(float(d), 3) for d in shifts)), face)
 
     # an operator's box is seldom tight or centred: the cells may start and end a little inside or
     # outside it, and the strokes found in it may place them (coarse slants first, then every one)
@@ -114,41 +138,61 @@ def learn_display(image, quad, shown):
         ink = _ink_box(image, quad, polarity) if cells.count(" ") < count else None
         if ink is not None:
             windows += [tuple(round(float(v), 4) for v in _window(ink, cells, fill)) for fill in FILLS]
-    candidates = []
-    for _score, _gap, coarse in fit(windows, POLARITIES, FILLS, SLANTS_DEG[::4], keep=3):
-        left, top, right, bottom = coarse.window
-        step = (SHIFTS[1] - SHIFTS[0]) / 2.0   # the sides to half the grid's step, then the top and bottom
-        _s, _g, fine = fit([(left + dl, top, right + dr, bottom) for dl in (-step, 0, step) for dr in (-step, 0, step)],
-                           (coarse.polarity,), FILLS, SLANTS_DEG[::2], keep=1)[0]
-        left, top, right, bottom = fine.window
-        candidates += fit([(left, top + dt, right, bottom + db) for dt in SHIFTS[1:-1] for db in SHIFTS[1:-1]],
-                          (coarse.polarity,), FILLS, SLANTS_DEG)
-    # the best model the picture reads back under as typed (a decimal point, a glare the score misses)
-    best_gap, why = max(c[1] for c in candidates), ""
-    for _score, gap, model in sorted(candidates, key=lambda c: -c[0]):
-        if gap < MIN_CONTRAST:
-            continue
-        model = model._replace(contrast=round(float(gap), 1))
-        try:
-            back = read_display(image, quad, model, register=False)
-        except ReadFailed as err:
-            why = why or str(err)
-            continue
-        stray = _unexplained_ink(_face(image, quad, count, model.window), model, cells)
-        if stray > MAX_STRAY_INK:
-            why = why or "leaves %.0f %% of a digit's strokes unexplained" % (100.0 * stray)
-            continue
-        if not back.detail.get("reason") and abs(back.value - value) < 1e-9:
-            return model
-        doubt = ": " + back.detail["reason"] if back.detail.get("reason") else ""
-        why = why or "reads '%s'%s" % (back.detail["text"], doubt)
+
+    def refined(seeds):
+        """The seeds' models polished: the sides to half the window grid's step, then the top and
+        bottom, every fill and slant (coarse slants first)."""
+        out = []
+        for coarse in seeds:
+            left, top, right, bottom = coarse.window
+            step = (SHIFTS[1] - SHIFTS[0]) / 2.0
+            sides = [(left + dl, top, right + dr, bottom) for dl in (-step, 0, step) for dr in (-step, 0, step)]
+            _s, _g, fine = fit(sides, (coarse.polarity,), FILLS, SLANTS_DEG[::2], keep=1)[0]
+            left, top, right, bottom = fine.window
+            out += fit([(left, top + dt, right, bottom + db) for dt in SHIFTS[1:-1] for db in SHIFTS[1:-1]],
+                       (coarse.polarity,), FILLS, SLANTS_DEG)
+        # evenly spaced cells first, then each model with its cells moved to their digits
+        out = sorted(out, key=lambda c: -c[0])
+        return out + sorted((shifted(c[2]) for c in out), key=lambda c: -c[0])
+
+    why = []
+
+    def accepted(candidates):
+        """The best model the picture reads back under as typed (a decimal point, a glare the score
+        misses), without doubt and with no digit's strokes left unexplained; None (``why`` says).
+        Each digit's segments split at the widest gap first, then at half the contrast above the face
+        (a display whose segments are lit unevenly)."""
+        for _score, gap, model in candidates + [c[:2] + (c[2]._replace(split="face"),) for c in candidates]:
+            if gap < MIN_CONTRAST:
+                continue
+            model = model._replace(contrast=round(float(gap), 1))
+            try:
+                back = read_display(image, quad, model, register=False)
+            except ReadFailed as err:
+                why.append(str(err))
+                continue
+            stray = _unexplained_ink(_face(image, quad, count, model.window), model, cells)
+            if stray > MAX_STRAY_INK:
+                why.append("leaves %.0f %% of a digit's strokes unexplained" % (100.0 * stray))
+                continue
+            if not back.detail.get("reason") and abs(back.value - value) < 1e-9:
+                return model
+            why.append("reads '%s'%s" % (back.detail["text"], ": " + back.detail["reason"]
+                                         if back.detail.get("reason") else ""))
+        return None
+
+    candidates = refined([c[2] for c in fit(windows, POLARITIES, FILLS, SLANTS_DEG[::4], keep=3)])
+    model = accepted(candidates)
+    if model is not None:
+        return model
+    best_gap = max(c[1] for c in candidates)
     if best_gap < MIN_CONTRAST:
         raise ReadFailed("the picture does not show '%s' in the box as seven segments (best contrast between the "
                          "segments that must be lit and those that must be dark: %.0f grey levels, %.0f needed): draw "
                          "the box tight around the digits and type exactly what the display shows"
                          % (shown, best_gap, MIN_CONTRAST))
     raise ReadFailed("no model learned from the picture reads it back as '%s' (the best %s): draw the box tight "
-                     "around the digits and type exactly what the display shows" % (shown, why))
+                     "around the digits and type exactly what the display shows" % (shown, why[0]))
 
 
 def _unexplained_ink(face, model, cells):
@@ -170,7 +214,8 @@ def _unexplained_ink(face, model, cells):
             mask[labels == label] = 0
     lit = np.zeros_like(mask)
     thick = max(2, int(round(0.22 * CELL_HEIGHT)))
-    for (k, seg), (xs, ys) in _sample_points(model.digit_count, face.shape[1], model.slant_deg, model.fill).items():
+    points = _sample_points(model.digit_count, face.shape[1], model.slant_deg, model.fill, model.shifts)
+    for (k, seg), (xs, ys) in points.items():
         lights = seg == "dp" or (seg in SEGMENTS and (CODE[cells[k]][SEGMENTS.index(seg)]
                                                       or seg == VARIANTS.get(cells[k])))
         if lights and len(xs) > 1:   # the samples span 0.1..0.9 of a segment: its whole length and its corners
@@ -183,7 +228,8 @@ def _unexplained_ink(face, model, cells):
     pitch = face.shape[1] / float(model.digit_count)
     shares = []
     for k in range(model.digit_count):   # the worst digit: a wrong one leaves whole segments over
-        cols = slice(int(round(k * pitch)), int(round((k + 1) * pitch)))
+        start = (k + (model.shifts[k] if model.shifts else 0.0)) * pitch
+        cols = slice(max(0, int(round(start))), max(0, int(round(start + pitch))))
         ink_k = np.count_nonzero(strokes[:, cols])
         if ink_k >= 0.03 * strokes[:, cols].size:
             shares.append(np.count_nonzero(stray[:, cols]) / float(ink_k))
