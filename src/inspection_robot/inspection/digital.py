@@ -3,14 +3,15 @@
 The operator draws the box tight around the digits and types the value shown now. Calibration
 (inspection.digital_learn) finds the display's model from that picture and that text: lit segments
 brighter or darker than the face (LED / LCD), the slant of an italic font, the share of each digit
-cell the digit's strokes fill, where the cells sit in the box. A reading (``read_display``)
-rectifies the box, moves the cells to where the digits are (``_registered``), samples each segment
-along its centre line, splits on from off by the widest gap between the samples (with the
-calibration's contrast as the floor of a real gap), and maps each cell to a digit, a minus or a
-blank. A pattern that is no digit, or a segment close to the split (an 8 that might be a 0), makes
-the reading uncertain and names the candidates. The decimal places come from the calibration
-(panel meters are fixed-point); a decimal point seen elsewhere in the picture makes the reading
-uncertain.
+cell the digit's strokes fill, where the cells sit in the box, how lit segments are told from dark.
+A reading (``read_display``) rectifies the box, moves the cells to where the digits are
+(``_registered``), samples each segment along its centre line, splits each cell's segments on from
+off (``_decode_cell``: at the widest gap between them, with the calibration's contrast as the floor
+of a real gap, or at half that contrast above the face for a display lit unevenly), and maps each
+cell to a digit, a minus or a blank. A pattern that is no digit, or a segment close to the split
+(an 8 that might be a 0), makes the reading uncertain and names the candidates. The decimal places
+come from the calibration (panel meters are fixed-point); a decimal point seen elsewhere in the
+picture makes the reading uncertain.
 
 Pure image logic (OpenCV, NumPy): the task and ROS sides see a Reading.
 """
