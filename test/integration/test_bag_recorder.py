@@ -68,8 +68,14 @@ class BagRecorderTest(unittest.TestCase):
             return not os.path.exists(first) and not os.path.exists(first[:-len(".active")] if
                                                                     first.endswith(".active") else first)
         wait_for(first_deleted, 60.0, "the oldest bag deleted by the budget", period=0.05)
+
+        # between two splits rosbag has closed one bag and not yet opened the next: no bag is active
+        # for that moment (seen on a loaded machine), so recording on is an active bag again, waited for
+        def recording():
+            self.blob.publish(String(data=payload))
+            return any(b[3] for b in list_bags(self.bags))
+        wait_for(recording, 30.0, "an active bag after the budget's deletion", period=0.05)
         bags = list_bags(self.bags)
-        self.assertTrue(any(b[3] for b in bags), "the bag being written is kept: %s" % bags)
         total = sum(b[1] for b in bags)
         self.assertLessEqual(total, 3 * MB + 2 * MB, bags)   # budget + what was written since the last check
 

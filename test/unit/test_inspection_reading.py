@@ -60,6 +60,22 @@ def _picture_with_value(scene, value, name):
     return name
 
 
+def test_a_picture_out_of_focus_is_uncertain_and_a_dim_one_is_not(setup):
+    """The same view blurred (the camera's focus lost, the head shaking) reads a value but is
+    uncertain with the reason; the same view at half the light is as sharp and reads as before."""
+    reader, path, picture, roi, _scene = setup
+    image = cv2.imread(picture)
+    blurred = picture.replace("_01.jpg", "_01_blur.jpg")
+    cv2.imwrite(blurred, cv2.GaussianBlur(image, (0, 0), 2.5), [cv2.IMWRITE_JPEG_QUALITY, 95])
+    out = reader.read(path, 0, [blurred], [], roi, [], STAMP)
+    assert "picture out of focus or shaken" in out.uncertain[0] and out.possibility[0] <= 40, out
+    assert out.uncertain[1:] == ["", ""]   # a lamp and a switch are not needles
+    dim = picture.replace("_01.jpg", "_01_dim.jpg")
+    cv2.imwrite(dim, (image * 0.5).astype(np.uint8), [cv2.IMWRITE_JPEG_QUALITY, 95])
+    out = reader.read(path, 0, [dim], [], roi, [], STAMP)
+    assert "out of focus" not in out.uncertain[0] and abs(out.scale[0] - 1.234) / 1.6 * 100 < 1.0, out
+
+
 def test_a_second_look_that_agrees_gives_the_mean(setup):
     reader, path, picture, roi, scene = setup
     one = reader.read(path, 0, [picture], [], roi, [], STAMP)

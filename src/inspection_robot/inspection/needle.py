@@ -34,6 +34,7 @@ JOINED_PX = 0.5
 SIDE_GAP = 0.08     # of the dial radius: beyond a needle's shadow, within an object that hides it
 SIDE_RATIO = 0.5
 MIN_NEEDLE_DIST = 8.0
+MIN_FOCUS_RATIO = 0.5   # a box less sharp than this share of its calibration picture is out of focus (focus_ratio)
 
 # The radial profiles along the rays from the calibrated pivot (NeedleFinder.profile), their median
 # over the radius (``full``, its median ``base``), the pointer candidates and each ray's distance
@@ -53,6 +54,30 @@ def check_face(face):
         raise ReadFailed("underexposed picture in the box")
     if float(gray.std()) < 4.0:
         raise ReadFailed("blank picture in the box (no contrast)")
+
+
+def sharpness(image, quad, size):
+    """Fine detail of the box rectified to ``size`` px: the mean absolute Laplacian over the grey
+    levels' spread (a darker or flatter picture is not a blurred one)."""
+    face = rectify(image, quad, size)
+    grey = (face if face.ndim == 2 else cv2.cvtColor(face, cv2.COLOR_BGR2GRAY)).astype(np.float32)
+    return float(np.mean(np.abs(cv2.Laplacian(grey, cv2.CV_32F, ksize=3))) / (float(grey.std()) + 1.0))
+
+
+def focus_ratio(image, quad, reference, reference_quad):
+    """The box's sharpness against the calibration picture's at the coarser of the two resolutions
+    (a gauge seen from farther is not out of focus for that): about 1 for the same focus, under
+    MIN_FOCUS_RATIO for a picture out of focus or shaken (chosen on the real set's tuning part: a
+    blur of 1.5 % of the dial radius gives 0.1-0.6, sharp cross photos 0.7-1.3)."""
+    size = int(min(GAUGE_SIZE, _side(quad), _side(reference_quad)))
+    if size < 16:
+        return 1.0
+    return sharpness(image, quad, size) / max(sharpness(reference, reference_quad, size), 1e-6)
+
+
+def _side(quad):
+    q = np.asarray(quad, dtype=np.float64).reshape(4, 2)
+    return min(np.linalg.norm(q[1] - q[0]), np.linalg.norm(q[3] - q[0]))
 
 
 def meets_circle(line, centre, r):

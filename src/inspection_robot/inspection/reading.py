@@ -27,7 +27,7 @@ from inspection_robot.inspection.locate import LocateError, Locator
 from inspection_robot.inspection.looks import combine_looks
 from inspection_robot.inspection.preset import PresetError, load_preset, zoom_picture_name
 from inspection_robot.inspection.lamp import read_lamp
-from inspection_robot.inspection.needle import check_face
+from inspection_robot.inspection.needle import MIN_FOCUS_RATIO, check_face, focus_ratio
 from inspection_robot.inspection.needle_model import NeedleModel
 from inspection_robot.inspection.pointer import PointerReader
 from inspection_robot.inspection.readers import Reading, ReadFailed
@@ -231,8 +231,9 @@ class ScaleReader(object):
         bench's replay of a reviewed reading); ReadFailed when it cannot be read."""
         p = target.params
         if target.kind == "pointer":
-            self._check_same_gauge(preset, target, image, quad)
-            return read_pointer(self.pointer, target, image, quad, self._needle_model(preset, p))
+            reference = self._check_same_gauge(preset, target, image, quad)
+            reading = read_pointer(self.pointer, target, image, quad, self._needle_model(preset, p))
+            return reading if reference is None else _doubt_focus(reading, image, quad, reference, target.boxes[0])
         if target.kind == "digital" and p.get("style") == "drum":
             return read_drum(image, quad, drum_model(p))
         if target.kind == "digital":
@@ -250,15 +251,17 @@ class ScaleReader(object):
     @staticmethod
     def _check_same_gauge(preset, target, image, quad):
         """A box that shows something else than the calibrated gauge (a wrong picture, the head
-        pointing elsewhere, a covered meter) fails rather than giving a number."""
+        pointing elsewhere, a covered meter) fails rather than giving a number. The calibration
+        picture, None when the preset has none."""
         reference = cv2.imread(preset.picture(0), cv2.IMREAD_COLOR) if 0 in target.boxes else None
         if reference is None:
-            return
+            return None
         check_face(rectify(image, quad, 128))
         similarity = face_similarity(image, quad, reference, target.boxes[0])
         if similarity < MIN_FACE_SIMILARITY:
             raise ReadFailed("the box does not show the calibrated gauge (similarity %.2f to the preset's "
                              "picture, %.2f needed)" % (similarity, MIN_FACE_SIMILARITY))
+        return reference
 
     def _needle_model(self, preset, params):
         """The target's NeedleModel, None when its calibration has none; a model named but missing or
@@ -347,6 +350,18 @@ def _pictures_per_box(files, targets, thermal_ids):
                         "for all, or [picture, thermal frame]; or one of these followed by the same form for "
                         "the second look" % (len(files), count, len(thermal_ids)))
     return first, [s if t.kind == "pointer" else "" for t, s in zip(targets, second)]
+
+
+def _doubt_focus(reading, image, quad, reference, reference_quad):
+    """``reading`` made uncertain when its box is far less sharp than in the calibration picture: a
+    needle out of focus or shaken is read where its blur is darkest, not where it is."""
+    ratio = focus_ratio(image, quad, reference, reference_quad)
+    if ratio >= MIN_FOCUS_RATIO:
+        return reading
+    why = "picture out of focus or shaken: %.0f %% of the calibration picture's sharpness" % (100.0 * ratio)
+    reason = reading.detail.get("reason")
+    detail = dict(reading.detail, reason="%s; %s" % (reason, why) if reason else why)
+    return Reading(reading.value, min(reading.confidence, 40.0), detail)
 
 
 def read_pointer(reader, target, image, quad, model=None):
