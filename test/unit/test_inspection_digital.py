@@ -26,12 +26,16 @@ QUAD = [(80, 60), (80 + W - 1, 60), (80 + W - 1, 60 + H - 1), (80, 60 + H - 1)]
 MODEL = {"digit_count": 3, "polarity": "lit", "slant": 0.0, "fill": 0.75, "decimals": 1, "contrast": 50.0}
 
 
+def with_noise(picture, seed, noise=4.0):
+    """``picture`` with sensor noise (``noise`` grey levels, seeded) on top."""
+    return np.clip(picture + np.random.RandomState(seed).normal(0.0, noise, picture.shape), 0, 255).astype(np.uint8)
+
+
 def scene(text, polarity="lit", slant=0.0, noise=4.0, seed=0):
     """A 640 x 360 picture with the display at QUAD on a grey panel, sensor noise on top."""
     picture = np.full((360, 640, 3), 128, np.uint8)
     picture[60:60 + H, 80:80 + W] = render_display(text, W, H, polarity=polarity, slant_deg=slant)
-    noisy = picture + np.random.RandomState(seed).normal(0.0, noise, picture.shape)
-    return np.clip(noisy, 0, 255).astype(np.uint8)
+    return with_noise(picture, seed, noise)
 
 
 @pytest.mark.parametrize("polarity,slant", [("lit", 0.0), ("lit", 8.0), ("dark", 0.0), ("dark", -6.0)])
@@ -121,8 +125,7 @@ def test_a_box_off_the_digits_is_registered_where_they_are(shift, scale):
     for seed, text in enumerate(("18.7", "-4.2", " 7.0", "61.9")):
         picture = np.full((360, 640, 3), 128, np.uint8)
         picture[y0:y0 + height, x0:x0 + width] = render_display(text, width, height)
-        noise = np.random.RandomState(seed).normal(0.0, 4.0, picture.shape)
-        picture = np.clip(picture + noise, 0, 255).astype(np.uint8)
+        picture = with_noise(picture, seed)
         reading = read_display(picture, QUAD, model)
         assert reading.detail["text"] == text and "reason" not in reading.detail, (text, reading)
         try:
@@ -165,7 +168,7 @@ def test_segments_lit_unevenly_read_and_a_faint_bar_is_doubted():
             for segment in "adg":
                 if segment in PATTERNS[ch]:
                     paint_segment(picture, cell, segment, (60, 60, 60))
-        return np.clip(picture + np.random.RandomState(seed).normal(0.0, 3.0, picture.shape), 0, 255).astype(np.uint8)
+        return with_noise(picture, seed, 3.0)
     model = learn_display(lcd("23.5", 0), QUAD, "23.5")
     assert model.split == "face"
     for seed, text in enumerate(("80.8", "26.9", "-4.0", "87.1")):
@@ -189,7 +192,7 @@ def test_digits_not_evenly_spaced_are_learned_cell_by_cell():
         picture[60:60 + H, 80:344] = 20
         picture[60:60 + H, 80:128] = render_display(text[0], 48, H)
         picture[60:60 + H, 152:344] = render_display(text[1:], 192, H)
-        return np.clip(picture + np.random.RandomState(seed).normal(0.0, 4.0, picture.shape), 0, 255).astype(np.uint8)
+        return with_noise(picture, seed)
     box = [(72, 56), (351, 56), (351, 64 + H - 1), (72, 64 + H - 1)]
     model = learn_display(balance("01619", 0), box, "0.1619")
     assert model.shifts and max(model.shifts) - min(model.shifts) > 0.2, model

@@ -215,11 +215,12 @@ def _margins(values, face_level, threshold):
     return [min(1.0, abs((v - low) / (high - low) - 0.5) * 2.0) for v in values]
 
 
-def _drawn(points, cells, codes, shape):
-    """A mask of ``shape`` with the lit segments of ``codes`` (one per cell) drawn along their
-    centre lines (``points``, _sample_points), as thick as a real segment is."""
+def _drawn(points, cells, codes, shape, stroke=STROKE):
+    """A mask of ``shape`` (raveled, 0 or 1) with the lit segments of ``codes`` (one per cell) drawn
+    along their centre lines (``points``, _sample_points) and a little past their ends, ``stroke``
+    of the digits' height thick (a real segment's, by default)."""
     drawn = np.zeros(shape, np.uint8)
-    thick = max(2, int(round(STROKE * CELL_HEIGHT)))
+    thick = max(2, int(round(stroke * CELL_HEIGHT)))
     for k, code in zip(cells, codes):
         for s in (s for s, on in zip(SEGMENTS, code) if on):
             xs, ys = points[(k, s)]

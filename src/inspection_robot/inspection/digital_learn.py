@@ -13,7 +13,7 @@ import numpy as np
 
 from inspection_robot.lazy import lazy_import
 from inspection_robot.inspection.digital import CELL_HEIGHT, CODE, MAX_CELL_SHIFT, DisplayModel, POLARITIES, \
-    SEGMENTS, VARIANTS, _face, _levels, _sample_points, gray, parse_shown, read_display
+    SEGMENTS, VARIANTS, _drawn, _face, _levels, _sample_points, gray, parse_shown, read_display
 from inspection_robot.inspection.geometry import quad_size, rectify
 from inspection_robot.inspection.readers import ReadFailed
 
@@ -25,6 +25,7 @@ CELL_ASPECT = (0.3, 1.3)    # width / height of one digit's cell (its pitch) on 
 MIN_CONTRAST = 12.0         # grey levels between on and off segments: less is no display to read
 CELL_SHIFTS = tuple(np.round(np.arange(-MAX_CELL_SHIFT, MAX_CELL_SHIFT + 0.01, 0.05), 2))   # a cell's moves tried
 MIN_CELL_GAP = 0.6            # cells (their pitch) between one cell's start and the next's, at least
+STRAY_STROKE = 0.22           # share of the digits' height a segment explains strokes across
 MAX_STRAY_INK = 0.08          # share of a digit's strokes a learned model may leave unexplained
 SHIFTS = (-0.08, -0.04, 0.0, 0.04, 0.08)   # how far the cells may begin or end from the box's sides (its share)
 
@@ -212,18 +213,16 @@ def _unexplained_ink(face, model, cells):
     for label in range(1, count):   # a bezel or the next reading at the window's side is not a stroke
         if stats[label, 0] == 0 or stats[label, 0] + stats[label, 2] >= mask.shape[1]:
             mask[labels == label] = 0
-    lit = np.zeros_like(mask)
-    thick = max(2, int(round(0.22 * CELL_HEIGHT)))
+    # the segments the typed text lights (a font's other form of a 7, 6 or 9 too), drawn a little
+    # thicker than a real segment, and every gap's decimal point
+    codes = [tuple(on or s == VARIANTS.get(ch) for s, on in zip(SEGMENTS, CODE[ch])) for ch in cells]
     points = _sample_points(model.digit_count, face.shape[1], model.slant_deg, model.fill, model.shifts)
-    for (k, seg), (xs, ys) in points.items():
-        lights = seg == "dp" or (seg in SEGMENTS and (CODE[cells[k]][SEGMENTS.index(seg)]
-                                                      or seg == VARIANTS.get(cells[k])))
-        if lights and len(xs) > 1:   # the samples span 0.1..0.9 of a segment: its whole length and its corners
-            ends = [(xs[0] - 0.15 * (xs[-1] - xs[0]), ys[0] - 0.15 * (ys[-1] - ys[0])),
-                    (xs[-1] + 0.15 * (xs[-1] - xs[0]), ys[-1] + 0.15 * (ys[-1] - ys[0]))]
-            cv2.line(lit, tuple(int(round(v)) for v in ends[0]), tuple(int(round(v)) for v in ends[1]), 255, thick)
-        elif lights:
-            cv2.circle(lit, (int(round(xs[0])), int(round(ys[0]))), thick // 2, 255, -1)
+    lit = (_drawn(points, range(model.digit_count), codes, mask.shape, STRAY_STROKE).reshape(mask.shape) > 0)
+    lit = lit.astype(np.uint8) * 255
+    thick = max(2, int(round(STRAY_STROKE * CELL_HEIGHT)))
+    for k in range(model.digit_count):
+        xs, ys = points[(k, "dp")]
+        cv2.circle(lit, (int(round(xs[0])), int(round(ys[0]))), thick // 2, 255, -1)
     strokes, stray = mask > 0, (mask > 0) & (lit == 0)
     pitch = face.shape[1] / float(model.digit_count)
     shares = []

@@ -11,7 +11,7 @@ from collections import namedtuple
 import numpy as np
 
 from inspection_robot.lazy import lazy_import
-from inspection_robot.inspection.geometry import rectify
+from inspection_robot.inspection.geometry import quad_size, rectify
 from inspection_robot.inspection.gauge import wrap360
 from inspection_robot.inspection.readers import ReadFailed
 
@@ -69,15 +69,10 @@ def focus_ratio(image, quad, reference, reference_quad):
     (a gauge seen from farther is not out of focus for that): about 1 for the same focus, under
     MIN_FOCUS_RATIO for a picture out of focus or shaken (chosen on the real set's tuning part: a
     blur of 1.5 % of the dial radius gives 0.1-0.6, sharp cross photos 0.7-1.3)."""
-    size = int(min(GAUGE_SIZE, _side(quad), _side(reference_quad)))
+    size = int(min((GAUGE_SIZE,) + quad_size(quad) + quad_size(reference_quad)))
     if size < 16:
         return 1.0
     return sharpness(image, quad, size) / max(sharpness(reference, reference_quad, size), 1e-6)
-
-
-def _side(quad):
-    q = np.asarray(quad, dtype=np.float64).reshape(4, 2)
-    return min(np.linalg.norm(q[1] - q[0]), np.linalg.norm(q[3] - q[0]))
 
 
 def meets_circle(line, centre, r):
