@@ -147,7 +147,8 @@ class TestInspectionAcceptance(unittest.TestCase):
 
     def read(self, preset_dir, found, foreign_detect=2):
         trans_id = self.next_id()
-        files = request_filenames(found["filename"], found["infrared_filename"], found["second_filename"])
+        files = request_filenames([t.kind for t in load_preset(preset_dir).targets], found["filename"],
+                                  found["infrared_filename"], found["second_filename"])
         foreign = [found["foreign_filename"]] if foreign_detect else []
         self.read_pub.publish(ReadScaleCmd(sender="server", trans_id=trans_id, directory=preset_dir,
                                            foreign_detect=foreign_detect, filename=files, foreign_filename=foreign,

@@ -278,3 +278,23 @@ def test_the_finder_accepts_a_pointer_box_reaching_out_when_its_dial_is_inside()
     assert not readable_in(lamp, corner_out, (270, 480, 3))
     assert not readable_in(pointer, arc_out, (270, 480, 3))
     assert readable_in(lamp, corner_out + 20.0, (270, 480, 3))
+
+
+@pytest.mark.parametrize("kinds", [["pointer"], ["pointer", "switch"], ["switch", "pointer"], ["pointer", "thermal"],
+                                   ["thermal", "pointer"], ["pointer", "lamp", "switch", "thermal"],
+                                   ["pointer", "pointer", "thermal", "lamp"]])
+def test_task_managers_filenames_give_every_target_its_own_pictures(kinds):
+    """request_filenames as task_manager sends it, parsed as read_scale parses it: every target
+    reads the found picture (a thermal one its frame) and only pointers the second look, whatever
+    the count (a 2-target preset's [picture, second] once read the switch in the second picture,
+    taken later with the robot still turning, at the box found in the first)."""
+    from collections import namedtuple
+    from inspection_robot.inspection.reading import _pictures_per_box, request_filenames
+    Kind = namedtuple("Kind", "kind")
+    targets = [Kind(k) for k in kinds]
+    thermal_ids = [i for i, k in enumerate(kinds) if k == "thermal"]
+    for second in ("look2.jpg", ""):
+        files = request_filenames(kinds, "found.jpg", "frame.png" if thermal_ids else "", second)
+        first, again = _pictures_per_box(files, targets, thermal_ids)
+        assert first == ["frame.png" if k == "thermal" else "found.jpg" for k in kinds], files
+        assert again == [second if k == "pointer" else "" for k in kinds], files

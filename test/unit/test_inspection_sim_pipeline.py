@@ -199,8 +199,8 @@ def test_panel_meters_read_within_half_a_percent_after_the_patrol_stop(tmp_path)
         head = RenderedHead(Renderer(world, seed=100 + k), optics, back, world.sensor_height, 1920, 1080)
         found = Finder(head, optics, Locator("orb"), str(tmp_path / "pic"), max_moves=3).find(
             preset, "find_scale", math.degrees(stop[2] - back[2]), "20260102_%06d" % k, cv2.imread)
-        out = reader.read(path, 0, request_filenames(found.filename, "", found.second_filename), [],
-                          found.roi_vertex, [], "20260102_%06d" % k)
+        files = request_filenames([t.kind for t in preset.targets], found.filename, "", found.second_filename)
+        out = reader.read(path, 0, files, [], found.roi_vertex, [], "20260102_%06d" % k)
         for target, value, why in zip(preset.targets, out.scale, out.uncertain):
             face = world.faces[target.name]
             if face.type == "gauge":

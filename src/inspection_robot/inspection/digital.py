@@ -56,6 +56,16 @@ REGISTER_COST = 0.02  # fit (correlation) a move must win per unit of shift to b
 REGISTER_GAIN = 0.05  # and what it must win over the window as calibrated
 REGISTER_KEEP = 4     # coarse moves searched finely about
 REGISTER_STEPS = 11   # scales tried between REGISTER_SCALE's two (evenly on a log scale)
+# the three bars' (a, g, d) level is the brightest of SLACK_LINES lines parallel to their centre
+# line, up to this share of the digits' height above and below it: digits a pixel taller or lower
+# than the window (registration keeps the calibrated window unless a move fits clearly better) put
+# a lit bar's centre line on its edge. The upright segments are sampled on their centre line only:
+# sideways slack made a 0 with its lower-left side dim a confident 7 with its top-left bar, and
+# 0.04 of the height reaches past a blank cell's top into the bezel (chosen on the real set's
+# tuning part: 45 readings right, 52 with this, 56 with every segment but one confident error)
+SEGMENT_SLACK = 0.021
+SLACK_LINES = 3
+SLACK_SEGMENTS = "adg"
 STROKE = 0.16         # a segment's thickness, share of the digits' height, where a reading's strokes are drawn
 
 FULL_BOX = (0.0, 0.0, 1.0, 1.0)
@@ -134,28 +144,36 @@ def _sample_points(digit_count, width, slant_deg, fill, shifts=()):
 
 
 @lru_cache(maxsize=4096)
-def _sample_index(digit_count, width, slant_deg, fill, shifts=()):
+def _sample_index(digit_count, width, slant_deg, fill, shifts=(), slack=0.0):
     """The sample points of _sample_points as (keys, flat pixel indices into a CELL_HEIGHT x width
-    face, each key's first index, each key's count): one gather per model, not one per segment."""
-    keys, flat, starts, counts = [], [], [], []
+    face, each line's first index, each line's count, each key's first line): one gather per model,
+    not one per segment. The bars (SLACK_SEGMENTS) have SLACK_LINES lines, ``slack`` of the digits'
+    height above and below their centre line (a bar's level is the brightest line's); every other
+    key one."""
+    keys, flat, starts, counts, groups = [], [], [], [], []
+    offsets = np.linspace(-slack, slack, SLACK_LINES if slack else 1) * CELL_HEIGHT
     for key, (xs, ys) in _sample_points(digit_count, width, slant_deg, fill, shifts).items():
-        xi = np.clip(np.round(xs).astype(int), 0, width - 1)
-        yi = np.clip(np.round(ys).astype(int), 0, CELL_HEIGHT - 1)
         keys.append(key)
-        starts.append(len(flat))
-        counts.append(len(xi))
-        flat.extend((yi * width + xi).tolist())
-    return tuple(keys), np.array(flat), np.array(starts), np.array(counts, dtype=float)
+        groups.append(len(starts))
+        for offset in (offsets if key[1] in SLACK_SEGMENTS else [0.0]):
+            xi = np.clip(np.round(xs).astype(int), 0, width - 1)
+            yi = np.clip(np.round(ys + offset).astype(int), 0, CELL_HEIGHT - 1)
+            starts.append(len(flat))
+            counts.append(len(xi))
+            flat.extend((yi * width + xi).tolist())
+    return tuple(keys), np.array(flat), np.array(starts), np.array(counts, dtype=float), np.array(groups)
 
 
-def _levels(face, model):
+def _levels(face, model, slack=0.0):
     """{(cell, segment): mean grey level along it}, segments brighter when on (dark displays inverted);
-    also each cell's "dp" (its decimal point) and "hole" (the face inside its loops)."""
+    also each cell's "dp" (its decimal point) and "hole" (the face inside its loops). ``slack``: the
+    bars' level is the brightest line within this share of the digits' height of their centre
+    line (a reading: SEGMENT_SLACK); 0 for learning, which fits the centre lines."""
     face = face if model.polarity == "lit" else 255.0 - face
-    keys, flat, starts, counts = _sample_index(model.digit_count, face.shape[1], model.slant_deg, model.fill,
-                                               tuple(model.shifts))
-    means = np.add.reduceat(face.ravel()[flat], starts) / counts
-    return dict(zip(keys, means.tolist()))
+    keys, flat, starts, counts, groups = _sample_index(model.digit_count, face.shape[1], model.slant_deg, model.fill,
+                                                       tuple(model.shifts), slack)
+    lines = np.add.reduceat(face.ravel()[flat], starts) / counts
+    return dict(zip(keys, np.maximum.reduceat(lines, groups).tolist()))
 
 
 def _split(values, floor):
@@ -290,7 +308,7 @@ def _registered(image, quad, model):
     def reads(move):
         """(correlation with what the move reads, None when nothing is lit; face; levels)."""
         face, ink = face_at(move)
-        levels = _levels(face, model)
+        levels = _levels(face, model, SEGMENT_SLACK)
         codes = [_decode_cell([levels[(k, s)] for s in SEGMENTS], levels[(k, "hole")], floor, model.split)[0]
                  for k in cells]
         if not any(any(c) for c in codes):
@@ -332,7 +350,7 @@ def read_display(image, quad, model, register=True):
         face, levels = _registered(image, quad, model)
     else:
         face = _face(image, quad, model.digit_count, model.window)
-        levels = _levels(face, model)
+        levels = _levels(face, model, SEGMENT_SLACK)
     floor = 0.5 * model.contrast
     faces = [levels[(k, "hole")] for k in range(model.digit_count)]
     face_level = float(np.median(faces))

@@ -42,7 +42,7 @@ ReadOutcome = namedtuple("ReadOutcome", "scale possibility picture_path foreign_
 
 RESULT_UNCERTAIN = "uncertain"
 MIN_FACE_SIMILARITY = 0.2   # below: the box does not show the calibrated gauge
-DOUBTING_KINDS = ("pointer", "digital")   # readers whose detail may carry a "reason" to doubt the value
+DOUBTING_KINDS = ("pointer", "digital", "switch")   # readers whose detail may carry a "reason" to doubt the value
 
 
 def result_text(outcome, success):
@@ -69,11 +69,14 @@ def uncertain_reasons(result, count, success):
     return reasons
 
 
-def request_filenames(picture, thermal_frame="", second_look=""):
-    """ReadScaleCmd.filename for a find result: [picture] or [picture, thermal frame], followed by
-    the same form with the second look's picture when find_scale took one."""
-    thermal = [thermal_frame] if thermal_frame else []
-    return [picture] + thermal + ([second_look] + thermal if second_look else [])
+def request_filenames(kinds, picture, thermal_frame="", second_look=""):
+    """ReadScaleCmd.filename for a find result of a preset whose targets are of ``kinds``: one entry
+    per target (a thermal target's the thermal frame), followed by one per target again with the
+    second look's picture when find_scale took one. Always one per target: a shorter form can fit
+    two readings (``[picture, second]`` is also one picture per target of a 2-target preset, which
+    then reads its second target in the later picture with boxes found in the first)."""
+    looks = [picture] + ([second_look] if second_look else [])
+    return [thermal_frame if kind == "thermal" else look for look in looks for kind in kinds]
 
 
 class ReadError(Exception):

@@ -9,6 +9,9 @@ from inspection_robot.inspection.readers import Reading, clip_confidence
 cv2 = lazy_import("cv2")   # on first use: a node registers before its ~360 libraries load
 
 SWITCH_SIZE = 64
+# a switch in its box matches its reference at 100 (correlations ~0.98 against ~0.08); a box a
+# sixth of its size off it, under 20 (test_inspection_readers)
+SWITCH_MIN_CONFIDENCE = 50.0
 
 
 def edge_signature(gray):
@@ -41,7 +44,9 @@ def switch_patch(image, quad):
 
 
 def read_switch(image, quad, open_ref, closed_ref):
-    """Switch position: value 1 closed, 0 open, by edge correlation with the two reference patches."""
+    """Switch position: value 1 closed, 0 open, by edge correlation with the two reference patches;
+    uncertain (``detail["reason"]``) under SWITCH_MIN_CONFIDENCE: the box matches neither reference
+    well or both alike."""
     sig = edge_signature(switch_patch(image, quad))
     score_open = float((sig * edge_signature(_as_gray(open_ref))).sum())
     score_closed = float((sig * edge_signature(_as_gray(closed_ref))).sum())
@@ -49,7 +54,11 @@ def read_switch(image, quad, open_ref, closed_ref):
     best = max(score_open, score_closed)
     confidence = 100.0 * min(1.0, margin / 0.3) * min(1.0, max(best, 0.0) / 0.5)
     value = 1.0 if score_closed > score_open else 0.0
-    return Reading(value, clip_confidence(confidence), {"open": score_open, "closed": score_closed})
+    detail = {"open": score_open, "closed": score_closed}
+    if confidence < SWITCH_MIN_CONFIDENCE:
+        detail["reason"] = ("switch unclear: the box matches the closed reference %.2f and the open one %.2f "
+                            "(box off the switch, or neither position)" % (score_closed, score_open))
+    return Reading(value, clip_confidence(confidence), detail)
 
 
 def _as_gray(patch):

@@ -121,7 +121,8 @@ class StepRunner(object):
             return OUTCOME_FAILED, "find_scale: %s" % reason_of(result.data), timings
         try:
             found = parse_find_result(result.data)
-            files = request_filenames(found["filename"], found["infrared_filename"], found["second_filename"])
+            files = request_filenames([t["kind"] for t in preset["targets"]], found["filename"],
+                                      found["infrared_filename"], found["second_filename"])
             cmd = ReadScaleCmd(sender=self._node_name, trans_id=next(self._trans_ids), directory=preset["directory"],
                                foreign_detect=FOREIGN_DETECT_BOTH if preset["foreign"] else 0, filename=files,
                                foreign_filename=[found["foreign_filename"]] if preset["foreign"] else [],
