@@ -13,7 +13,9 @@ with the simulated renderer). Steps for find_scale | find_foreign | find_both:
    its dial's pivot and scale arc are inside: readable_in), turn the head by the pixel offset
    converted to angles through the field of view, up to ``max_moves`` moves;
 4. presets with a pointer target: a second picture at once from the same pose,
-   ``zoom0_<stamp>_<xx>_look2.jpg``, for read_scale's second look (inspection.looks);
+   ``zoom0_<stamp>_<xx>_look2.jpg``, for read_scale's second look (inspection.looks); when it
+   shows the view moved (the robot or the head still settling), the targets are located in it, it
+   becomes the found picture (``zoom0_<stamp>_<xx>_still<k>.jpg``) and one more is taken;
 5. thermal presets: thermal picture + radiometric frame, boxes moved by the same angles;
    foreign detection: one more picture at the first wider zoom.
 """
@@ -26,10 +28,15 @@ from inspection_robot.lazy import lazy_import
 from inspection_robot.inspection.gauge import angle_diff
 from inspection_robot.inspection.dial_frame import dial_outside
 from inspection_robot.inspection.geometry import flat_from_quads, quad_center, quad_inside, transform_quad
-from inspection_robot.inspection.locate import LocateError
+from inspection_robot.inspection.locate import LocateError, view_shift
 from inspection_robot.interface import FIND_GOAL_BOTH, FIND_GOAL_FOREIGN
 
 cv2 = lazy_import("cv2")   # on first use: a node registers before its ~360 libraries load
+
+# two pictures of a view at rest differ by a fraction of a pixel; in simulated patrols 4 of 762
+# second looks were 45-83 px over (1920 px wide) after the robot's arrival
+STILL_SHIFT = 0.003   # share of the picture's width
+STILL_TRIES = 3       # pictures taken for a second look before the view is given up as moving
 
 FindResult = namedtuple("FindResult", "filename infrared_filename foreign_filename roi_vertex infrared_roi_vertex "
                                       "moves second_filename")
@@ -171,7 +178,7 @@ class Finder(object):
                 inside = all(readable_in(t, q, image.shape) for t, q in zip(preset.targets, quads))
                 centre = np.mean([quad_center(q) for q in quads], axis=0)
                 offset = np.abs(centre - ref_centre) / [image.shape[1], image.shape[0]]
-                last = (path, quads, image.shape) if inside else last
+                last = (path, quads, image) if inside else last
                 if inside and (offset.max() <= self.centre_tolerance or moves >= self.max_moves):
                     break
                 if moves >= self.max_moves:
@@ -185,12 +192,12 @@ class Finder(object):
             pan, tilt = angle_diff(pan + d_pan, 0.0), min(max(tilt + d_tilt, -90.0), 90.0)
             self.head.set_angles(pan, tilt)
             moves += 1
-        filename, quads, shape = last
-        roi = flat_from_quads(quads)
+        filename, quads, image = last
         second_filename = ""
         if kind != FIND_GOAL_FOREIGN and any(t.kind == "pointer" for t in preset.targets):
             self._check_cancel()
-            second_filename = self._second_look(filename)
+            filename, quads, image, second_filename = self._second_look(preset, filename, quads, image, read_image)
+        roi, shape = flat_from_quads(quads), image.shape
         infrared_filename, infrared_roi = "", []
         if preset.info.infrared and self.thermal is not None:
             self._check_cancel()
@@ -207,14 +214,30 @@ class Finder(object):
             roi, filename = [], ""
         return FindResult(filename, infrared_filename, foreign_filename, roi, infrared_roi, moves, second_filename)
 
-    def _second_look(self, filename):
-        """A second picture of the found view for read_scale's two looks (inspection.looks), taken
-        at once: the loop ends on the picture just taken, so the head has not moved and the found
-        boxes hold for it too."""
-        stem, ext = os.path.splitext(filename)
-        second = "%s_look2%s" % (stem, ext)
-        self.head.capture(second)
-        return second
+    def _second_look(self, preset, filename, quads, image, read_image):
+        """(filename, quads, image, second): a second picture of the found view for read_scale's two
+        looks (inspection.looks), taken at once, so the found boxes hold for it too. When it shows
+        the view moved (more than STILL_SHIFT: the robot or the head still settling), the targets
+        are located in it, it becomes the found picture and one more is taken; a view still moving
+        after STILL_TRIES pictures, or whose targets are lost, gives no second look ("")."""
+        base, ext = os.path.splitext(filename)
+        stem = base
+        for attempt in range(1, STILL_TRIES + 1):
+            second = "%s_look2%s" % (stem, ext)
+            look = self.head.capture(second)
+            if view_shift(image, look) <= STILL_SHIFT * image.shape[1]:
+                return filename, quads, image, second
+            try:
+                moved = self.locator.locate(self._reference(preset, 0, read_image), look,
+                                            [t.boxes[0] for t in preset.targets]).quads
+            except LocateError:
+                break
+            if not all(readable_in(t, q, look.shape) for t, q in zip(preset.targets, moved)):
+                break
+            filename = "%s_still%d%s" % (base, attempt, ext)
+            os.replace(second, filename)
+            stem, quads, image = "%s_still%d" % (base, attempt), moved, look
+        return filename, quads, image, ""
 
     def _coarse(self, preset, folder, stamp, moves, read_image, reason):
         """Step out through the wider references; the head turn that brings the targets back."""

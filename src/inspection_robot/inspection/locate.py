@@ -188,3 +188,14 @@ def _plausible(matrix):
     matrix = matrix / matrix[2, 2]
     det = np.linalg.det(matrix[:2, :2])
     return bool(0.01 < det < 100.0 and abs(matrix[2, 0]) < 0.01 and abs(matrix[2, 1]) < 0.01)
+
+
+def view_shift(first, second, side=480):
+    """How far (px of ``first``) the view moved between two pictures of it: the phase correlation
+    of the two, grey and ``side`` px wide. A view at rest gives a fraction of a pixel."""
+    scale = min(1.0, float(side) / max(first.shape[:2]))
+    grey = [cv2.resize(image if image.ndim == 2 else cv2.cvtColor(image, cv2.COLOR_BGR2GRAY),
+                       (int(round(first.shape[1] * scale)), int(round(first.shape[0] * scale))),
+                       interpolation=cv2.INTER_AREA).astype(np.float32) for image in (first, second)]
+    (dx, dy), _response = cv2.phaseCorrelate(grey[0], grey[1])
+    return float(np.hypot(dx, dy)) / scale
