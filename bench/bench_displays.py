@@ -141,13 +141,14 @@ def score(doc, tmp):
             except LocateError as err:
                 out.append(dict(row, find_failed=str(err)))
                 continue
+        t1 = time.perf_counter()
         try:
             reading = (read_drum if photo["kind"] == "drum" else read_display)(image, quad, model)
             row.update(value=reading.value, uncertain=bool(reading.detail.get("reason")),
                        reason=reading.detail.get("reason", ""))
         except ReadFailed as err:
             row.update(failed=str(err))
-        row["t"] = time.perf_counter() - t0
+        row["t_find"], row["t"] = t1 - t0, time.perf_counter() - t1
         if photo["kind"] != "drum":
             row["ssocr"] = ssocr(image, quad, model.polarity, tmp)
         out.append(row)
@@ -174,10 +175,11 @@ def figures(rows):
         out["ssocr_exactly_right"] = len(ssocr_right)
         out["ssocr_exactly_right_pct"] = round(100.0 * len(ssocr_right) / max(1, len(rows)), 1)
         out["ssocr_no_number"] = len([r for r in with_ssocr if r["ssocr"] is None])
-    times = [r["t"] for r in read if "t" in r]
-    if times:
-        out["read_ms_p50"] = round(1000.0 * percentile(times, 0.5), 1)
-        out["read_ms_max"] = round(1000.0 * max(times), 1)
+    for key, name in (("t", "read_ms"), ("t_find", "find_ms")):   # the reader alone; finding its box
+        times = [r[key] for r in read if key in r]
+        if times:
+            out[name + "_p50"] = round(1000.0 * percentile(times, 0.5), 1)
+            out[name + "_max"] = round(1000.0 * max(times), 1)
     return out
 
 
@@ -196,7 +198,7 @@ def main():
                     report(bench="displays_real", part=part, protocol=role, kind=name, **figures(group))
     wrong = [r for r in rows if r["part"] == "test" and "value" in r and abs(r["value"] - r["truth"]) >= 1e-9]
     for r in wrong:
-        report(bench="displays_real_wrong", **dict((k, v) for k, v in r.items() if k != "t"))
+        report(bench="displays_real_wrong", **dict((k, v) for k, v in r.items() if k not in ("t", "t_find")))
     if os.environ.get("BENCH_DISPLAYS_ROWS"):
         with open(os.environ["BENCH_DISPLAYS_ROWS"], "w") as f:
             json.dump(rows, f, indent=1)

@@ -194,10 +194,15 @@ def learn_drum(image, quad, cells, decimals):
     contrast = float(np.median([np.percentile(w, 95) - np.percentile(w, 5) for w in windows]))
     best = best._replace(glyph=round(best.glyph, 3), contrast=round(contrast, 1))
     back = read_drum(image, quad, best)   # every wheel at its digit is not yet a reading without doubt
-    if back.detail.get("reason") or back.detail["text"] != with_point("".join(cells), decimals):
+    typed = with_point("".join(cells), decimals)
+    if back.detail["text"] != typed:
         raise ReadFailed("the learned counter reads '%s' on the calibration picture, not '%s'%s"
-                         % (back.detail["text"], with_point("".join(cells), decimals),
+                         % (back.detail["text"], typed,
                             ": " + back.detail["reason"] if back.detail.get("reason") else ""))
+    if back.detail.get("reason"):
+        raise ReadFailed("the learned counter reads '%s' on the calibration picture only in doubt (%s): draw "
+                         "the box tight around the windows, with every wheel's digit centred in them"
+                         % (typed, back.detail["reason"]))
     return best
 
 
