@@ -4,6 +4,7 @@ picture does not show the typed text; uploaded through calibration_control and r
 reads. Synthetic displays (render_display) with noise, slant, both polarities and a moved
 decimal point; real photographs are the bench's (issue #42)."""
 import json
+import os
 
 import cv2
 import numpy as np
@@ -285,3 +286,21 @@ def test_display_calibrations_that_cannot_hold_are_refused_and_write_nothing(dis
     ack, data = upload(commands, [dict(spec, kind="digital", box=box)])
     assert ack == "failed" and reason in data, data
     assert not (preset_dir / "preset_calib_info.ini").exists()
+
+
+def test_digits_a_pixel_taller_than_the_window_read_their_bottom_bar_lit(monkeypatch):
+    """inspection_e2e's temperature controller showing -7.3, as the simulated camera saw it from a
+    patrol stop (a crop of the found picture, the found box, the calibration's model): the digits
+    sit about a pixel taller than the calibrated window, the bottom bar's centre line on its edge.
+    Read on their centre lines only, that bar was 15 grey levels dimmer than the top one and the 3
+    read at confidence 63 (in another run, doubted: 'digit 4: 3'); the bars' slack reads it lit."""
+    from inspection_robot.inspection import digital
+    picture = cv2.imread(os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "fixtures",
+                                      "sim_display_minus_7_3.jpg"))
+    quad = np.array([[68.0, 52.0], [292.0, 54.0], [293.0, 125.0], [68.0, 123.0]])
+    model = display_model({"digit_count": 4, "polarity": "lit", "slant": 4.0, "fill": 0.75, "decimals": 1,
+                           "contrast": 70.6, "window": [-0.02, 0.0, 1.0, 0.96]})
+    reading = read_display(picture, quad, model)
+    assert reading.detail["text"] == " -7.3" and "reason" not in reading.detail and reading.confidence >= 85, reading
+    monkeypatch.setattr(digital, "SEGMENT_SLACK", 0.0)   # the centre lines alone
+    assert read_display(picture, quad, model).confidence < 70
