@@ -17,6 +17,7 @@ from geometry_msgs.msg import PoseWithCovarianceStamped
 from inspection_robot.camera.optics import ZoomOptics
 from inspection_robot.inspection.calibration import calibrate
 from inspection_robot.inspection.preset import load_preset
+from inspection_robot.inspection.reading import request_filenames
 from inspection_robot.msg import (GeneralAction, GeneralGoal, NavStatus, PresetScaleAck, PresetScaleCmd,
                                   ReadScaleAck, ReadScaleCmd)
 from inspection_robot.sim.inspection_sim import RenderedHead, world_specs
@@ -119,11 +120,14 @@ class TestInspectionSim(unittest.TestCase):
         self.assertEqual(sorted(data), ["filename", "foreign_filename", "infrared_filename", "infrared_roi_vertex",
                                         "roi_vertex", "second_filename"])
         self.assertEqual(len(data["roi_vertex"]), 8 * len(specs))
-        self.assertRegex(os.path.basename(data["filename"]), r"^zoom0_\d{8}_\d{6}_\d{2}\.jpg$")
+        # "_still<k>": a second look showed the view moved, the later picture was found again
+        self.assertRegex(os.path.basename(data["filename"]), r"^zoom0_\d{8}_\d{6}_\d{2}(_still\d)?\.jpg$")
         self.assertEqual(data["second_filename"], data["filename"].replace(".jpg", "_look2.jpg"))
 
+        files = request_filenames([t.kind for t in load_preset(preset_dir).targets], data["filename"], "",
+                                  data["second_filename"])
         self.read_pub.publish(ReadScaleCmd(sender="server", trans_id=9, directory=preset_dir, foreign_detect=2,
-                                           filename=[data["filename"], data["second_filename"]],
+                                           filename=files,
                                            foreign_filename=[data["foreign_filename"]],
                                            roi_vertex=data["roi_vertex"]))
         read = self.read_acks.wait(lambda a: a.trans_id == 9, timeout=60.0, what="read_scale_ack")
