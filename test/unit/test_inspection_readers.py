@@ -5,7 +5,7 @@ import pytest
 
 from inspection_robot_testing import fixtures as S
 from inspection_robot.inspection.gauge import GaugeScale
-from inspection_robot.inspection.lamp import LAMP_CODES, read_lamp
+from inspection_robot.inspection.lamp import LAMP_CODES, lamp_patch, read_lamp
 from inspection_robot.inspection.pointer import PointerReader
 from inspection_robot.inspection.switch import read_switch, switch_patch
 from inspection_robot.inspection.thermal_max import read_thermal_max
@@ -67,6 +67,24 @@ def test_lamp_on_off_and_colour(name, bgr):
     assert reading.value == LAMP_CODES[name], reading
     assert reading.confidence > 50
     assert read_lamp(off, quad_off, name).value == 0.0
+    assert "reason" not in reading.detail and "reason" not in read_lamp(off, quad_off, name).detail
+
+
+def test_a_lamp_halfway_between_its_references_is_uncertain():
+    """Against its calibrated lit and dark pictures, a lamp clearly in either state reads sure; one
+    as near the one as the other (a lit lamp seen through glare, a box half off it) is uncertain."""
+    rng = np.random.default_rng(4)
+    bgr = (30, 30, 230)
+    on, quad = _scene(S.draw_lamp(bgr, True), rng, side=60, yaw=0, pitch=0, roll=0)
+    off, _ = _scene(S.draw_lamp(bgr, False), rng, side=60, yaw=0, pitch=0, roll=0)
+    references = (lamp_patch(on, quad), lamp_patch(off, quad))
+    for picture in (on, off):
+        assert "reason" not in read_lamp(picture, quad, "red", references=references).detail
+    halfway = cv2.addWeighted(on, 0.5, off, 0.5, 0)
+    reading = read_lamp(halfway, quad, "red", references=references)
+    assert reading.detail["reason"] == "lamp unclear: halfway between its lit and its dark calibration picture", \
+        reading
+    assert reading.confidence < 50
 
 
 def test_switch_position_against_references():
