@@ -42,7 +42,8 @@ ReadOutcome = namedtuple("ReadOutcome", "scale possibility picture_path foreign_
 
 RESULT_UNCERTAIN = "uncertain"
 MIN_FACE_SIMILARITY = 0.2   # below: the box does not show the calibrated gauge
-DOUBTING_KINDS = ("pointer", "digital", "switch", "lamp")   # readers whose detail may carry a "reason" to doubt the value
+# readers whose detail may carry a "reason" to doubt the value
+DOUBTING_KINDS = ("pointer", "digital", "switch", "lamp")
 
 
 def result_text(outcome, success):
