@@ -22,7 +22,7 @@ from functools import lru_cache
 import numpy as np
 
 from inspection_robot.lazy import lazy_import
-from inspection_robot.inspection.geometry import rectify, sub_quad
+from inspection_robot.inspection.geometry import grey, rectify, sub_quad
 from inspection_robot.inspection.readers import ReadFailed, Reading, clip_confidence
 
 cv2 = lazy_import("cv2")
@@ -110,15 +110,11 @@ def parse_shown(text):
     return list(body), decimals, float(body.replace(" ", "")) / 10 ** decimals
 
 
-def gray(image):
-    return cv2.cvtColor(image, cv2.COLOR_BGR2GRAY) if image.ndim == 3 else image
-
-
 def _face(image, quad, digit_count, window=FULL_BOX):
     """The digits' window of the box rectified: CELL_HEIGHT tall, cells about 0.6 of it wide, as
     float grey levels."""
     width = max(8, int(round(CELL_HEIGHT * 0.62 * digit_count)))
-    face = rectify(gray(image), sub_quad(quad, window), width, CELL_HEIGHT).astype(np.float32)
+    face = rectify(grey(image), sub_quad(quad, window), width, CELL_HEIGHT).astype(np.float32)
     return cv2.GaussianBlur(face, (3, 3), 0)
 
 
@@ -257,7 +253,7 @@ def _registered(image, quad, model):
     its bar unexplained, a pattern that is no digit explains nothing). The window as calibrated is
     kept unless a move wins clearly, and when nothing is lit in it (a display off is not searched
     for digits)."""
-    grey = gray(image)
+    grey_image = grey(image)
     left, top, right, bottom = model.window
     pitch, height = (right - left) / model.digit_count, bottom - top
     floor = 0.5 * model.contrast
@@ -270,7 +266,7 @@ def _registered(image, quad, model):
             centre_x, centre_y = (left + right) / 2.0 + dx * pitch, (top + bottom) / 2.0 + dy * height
             half_x, half_y = (right - left) * scale / 2.0, height * scale / 2.0
             window = (centre_x - half_x, centre_y - half_y, centre_x + half_x, centre_y + half_y)
-            face = _face(grey, quad, model.digit_count, window)
+            face = _face(grey_image, quad, model.digit_count, window)
             faces[move] = (face, (face if model.polarity == "lit" else 255.0 - face).ravel())
         return faces[move]
 
@@ -292,7 +288,7 @@ def _registered(image, quad, model):
         room = (centre_x - half_x - reach_x, centre_y - half_y - reach_y,
                 centre_x + half_x + reach_x, centre_y + half_y + reach_y)
         size = (face0.shape[1] + 2 * int(round(reach_x * px_x)), CELL_HEIGHT + 2 * int(round(reach_y * px_y)))
-        room_face = cv2.GaussianBlur(rectify(grey, sub_quad(quad, room), size[0], size[1]), (3, 3), 0)
+        room_face = cv2.GaussianBlur(rectify(grey_image, sub_quad(quad, room), size[0], size[1]), (3, 3), 0)
         ink = (room_face if model.polarity == "lit" else 255 - room_face).astype(np.float32)
         scores = cv2.matchTemplate(ink, eights_face, cv2.TM_CCOEFF_NORMED)
         moves = []

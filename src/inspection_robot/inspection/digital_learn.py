@@ -13,8 +13,8 @@ import numpy as np
 
 from inspection_robot.lazy import lazy_import
 from inspection_robot.inspection.digital import CELL_HEIGHT, CODE, MAX_CELL_SHIFT, DisplayModel, POLARITIES, \
-    SEGMENTS, VARIANTS, _drawn, _face, _levels, _sample_points, gray, parse_shown, read_display
-from inspection_robot.inspection.geometry import quad_size, rectify
+    SEGMENTS, VARIANTS, _drawn, _face, _levels, _sample_points, parse_shown, read_display
+from inspection_robot.inspection.geometry import grey, quad_size, rectify
 from inspection_robot.inspection.readers import ReadFailed
 
 cv2 = lazy_import("cv2")
@@ -38,7 +38,7 @@ def _ink_box(image, quad, polarity):
     aspect = np.linalg.norm(q[1] - q[0]) / max(np.linalg.norm(q[3] - q[0]), 1e-6)
     height = 4 * CELL_HEIGHT
     width = max(16, int(round(height * aspect)))
-    face = cv2.GaussianBlur(rectify(gray(image), q, width, height), (5, 5), 0)
+    face = cv2.GaussianBlur(rectify(grey(image), q, width, height), (5, 5), 0)
     ink = face if polarity == "lit" else 255 - face
     _t, mask = cv2.threshold(ink, 0, 255, cv2.THRESH_BINARY + cv2.THRESH_OTSU)
     count, _labels, stats, _centres = cv2.connectedComponentsWithStats(mask)

@@ -22,8 +22,8 @@ from functools import lru_cache
 import numpy as np
 
 from inspection_robot.lazy import lazy_import
-from inspection_robot.inspection.digital import gray, with_point
-from inspection_robot.inspection.geometry import quad_size, rectify
+from inspection_robot.inspection.digital import with_point
+from inspection_robot.inspection.geometry import grey, quad_size, rectify
 from inspection_robot.inspection.readers import ReadFailed, Reading, clip_confidence
 
 cv2 = lazy_import("cv2")
@@ -95,7 +95,7 @@ def _windows(image, quad, digit_count, glyph):
     height = int(round(GLYPH_PX / glyph))
     box_w, box_h = quad_size(quad)
     cell = max(4, int(round(height * box_w / max(box_h, 1e-6) / digit_count)))
-    face = rectify(gray(image), quad, cell * digit_count, height).astype(np.float32)
+    face = rectify(grey(image), quad, cell * digit_count, height).astype(np.float32)
     return [face[:, k * cell:(k + 1) * cell] for k in range(digit_count)]
 
 

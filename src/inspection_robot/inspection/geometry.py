@@ -56,6 +56,11 @@ def quad_center(quad):
     return np.asarray(quad, dtype=np.float64).mean(axis=0)
 
 
+def grey(image):
+    """``image`` as one grey channel (BGR converted, a grey image as it is)."""
+    return image if image.ndim == 2 else cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
+
+
 def rectify(image, quad, size, height=None):
     """Warp the quad of ``image`` to a frontal ``size`` x ``height`` (default square) view, TL at (0, 0)."""
     height = size if height is None else height

@@ -15,7 +15,7 @@ from collections import namedtuple
 import numpy as np
 
 from inspection_robot.lazy import lazy_import
-from inspection_robot.inspection.geometry import quad_center, quad_is_convex, transform_quad
+from inspection_robot.inspection.geometry import grey, quad_center, quad_is_convex, transform_quad
 
 cv2 = lazy_import("cv2")   # on first use: a node registers before its ~360 libraries load
 
@@ -62,13 +62,13 @@ class Locator(object):
         self.local_radius = local_radius
 
     def features(self, image):
-        gray = image if image.ndim == 2 else cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
+        gray = grey(image)
         scale = min(1.0, float(self.max_side) / max(gray.shape[:2]))
         if scale < 1.0:
             gray = cv2.resize(gray, None, fx=scale, fy=scale, interpolation=cv2.INTER_AREA)
         keypoints, descriptors = self._detector.detectAndCompute(gray, None)
         return Features(keypoints, descriptors, scale, image.shape[:2],
-                        image if image.ndim == 2 else cv2.cvtColor(image, cv2.COLOR_BGR2GRAY))
+                        grey(image))
 
     def _matches(self, ref, new):
         if ref.descriptors is None or new.descriptors is None or len(ref.keypoints) < 2 \
@@ -194,8 +194,8 @@ def view_shift(first, second, side=480):
     """How far (px of ``first``) the view moved between two pictures of it: the phase correlation
     of the two, grey and ``side`` px wide. A view at rest gives a fraction of a pixel."""
     scale = min(1.0, float(side) / max(first.shape[:2]))
-    grey = [cv2.resize(image if image.ndim == 2 else cv2.cvtColor(image, cv2.COLOR_BGR2GRAY),
-                       (int(round(first.shape[1] * scale)), int(round(first.shape[0] * scale))),
-                       interpolation=cv2.INTER_AREA).astype(np.float32) for image in (first, second)]
-    (dx, dy), _response = cv2.phaseCorrelate(grey[0], grey[1])
+    size = (int(round(first.shape[1] * scale)), int(round(first.shape[0] * scale)))
+    small = [cv2.resize(grey(image), size, interpolation=cv2.INTER_AREA).astype(np.float32)
+             for image in (first, second)]
+    (dx, dy), _response = cv2.phaseCorrelate(small[0], small[1])
     return float(np.hypot(dx, dy)) / scale

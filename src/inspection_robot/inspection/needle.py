@@ -11,7 +11,7 @@ from collections import namedtuple
 import numpy as np
 
 from inspection_robot.lazy import lazy_import
-from inspection_robot.inspection.geometry import quad_size, rectify
+from inspection_robot.inspection.geometry import grey, quad_size, rectify
 from inspection_robot.inspection.gauge import wrap360
 from inspection_robot.inspection.readers import ReadFailed
 
@@ -47,7 +47,7 @@ Face = namedtuple("Face", "bgr lab rad centre ring inside")
 
 def check_face(face):
     """Raise ReadFailed for a picture that cannot hold a reading: blank, over- or underexposed."""
-    gray = face if face.ndim == 2 else cv2.cvtColor(face, cv2.COLOR_BGR2GRAY)
+    gray = grey(face)
     if float((gray >= 250).mean()) > 0.95:   # a saturated dial with a visible needle still reads
         raise ReadFailed("overexposed picture in the box")
     if float((gray <= 5).mean()) > 0.95:
@@ -60,8 +60,8 @@ def sharpness(image, quad, size):
     """Fine detail of the box rectified to ``size`` px: the mean absolute Laplacian over the grey
     levels' spread (a darker or flatter picture is not a blurred one)."""
     face = rectify(image, quad, size)
-    grey = (face if face.ndim == 2 else cv2.cvtColor(face, cv2.COLOR_BGR2GRAY)).astype(np.float32)
-    return float(np.mean(np.abs(cv2.Laplacian(grey, cv2.CV_32F, ksize=3))) / (float(grey.std()) + 1.0))
+    grey_face = grey(face).astype(np.float32)
+    return float(np.mean(np.abs(cv2.Laplacian(grey_face, cv2.CV_32F, ksize=3))) / (float(grey_face.std()) + 1.0))
 
 
 def focus_ratio(image, quad, reference, reference_quad):

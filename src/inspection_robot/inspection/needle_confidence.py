@@ -10,10 +10,9 @@ import math
 
 import numpy as np
 
-from inspection_robot.lazy import lazy_import
 from inspection_robot.inspection.gauge import angle_diff
+from inspection_robot.inspection.geometry import grey
 
-cv2 = lazy_import("cv2")   # on first use: a node registers before its ~360 libraries load
 
 UNCERTAIN_BELOW = 50.0    # confidence under which a reading is reported "uncertain" with its reason
 CLEAR_CONTRAST = 1.5      # contrast ratio under which no needle stands out of the face
@@ -51,7 +50,7 @@ def rival(prof, described, pool, i, step_deg, background_deg, hinted):
 
 def weak_reason(face_bgr, contrast, disagreement):
     """Why a confidence is low when no rival pointer explains it."""
-    glare = float((cv2.cvtColor(face_bgr, cv2.COLOR_BGR2GRAY) >= 245).mean())
+    glare = float((grey(face_bgr) >= 245).mean())
     if glare > 0.05:
         return "glare over %.0f %% of the dial" % (100.0 * glare)
     if contrast < CLEAR_CONTRAST:

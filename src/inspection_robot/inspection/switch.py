@@ -3,7 +3,7 @@ similarity of two boxes (is the box still showing the calibrated gauge?)."""
 import numpy as np
 
 from inspection_robot.lazy import lazy_import
-from inspection_robot.inspection.geometry import rectify
+from inspection_robot.inspection.geometry import grey, rectify
 from inspection_robot.inspection.readers import Reading, clip_confidence
 
 cv2 = lazy_import("cv2")   # on first use: a node registers before its ~360 libraries load
@@ -31,16 +31,13 @@ def face_similarity(image, quad, reference, reference_quad, size=96):
     ticks, numbers and rim outweigh its needle, so the same gauge at another value stays high."""
     def signature(img, q):
         patch = rectify(img, q, size)
-        return edge_signature(patch if patch.ndim == 2 else cv2.cvtColor(patch, cv2.COLOR_BGR2GRAY))
+        return edge_signature(grey(patch))
     return float((signature(image, quad) * signature(reference, reference_quad)).sum())
 
 
 def switch_patch(image, quad):
     """Rectified grey patch of a switch box, as stored for references."""
-    patch = rectify(image, quad, SWITCH_SIZE)
-    if patch.ndim == 3:
-        patch = cv2.cvtColor(patch, cv2.COLOR_BGR2GRAY)
-    return patch
+    return grey(rectify(image, quad, SWITCH_SIZE))
 
 
 def read_switch(image, quad, open_ref, closed_ref):
@@ -62,7 +59,4 @@ def read_switch(image, quad, open_ref, closed_ref):
 
 
 def _as_gray(patch):
-    patch = cv2.resize(np.asarray(patch), (SWITCH_SIZE, SWITCH_SIZE), interpolation=cv2.INTER_AREA)
-    if patch.ndim == 3:
-        patch = cv2.cvtColor(patch, cv2.COLOR_BGR2GRAY)
-    return patch
+    return grey(cv2.resize(np.asarray(patch), (SWITCH_SIZE, SWITCH_SIZE), interpolation=cv2.INTER_AREA))
