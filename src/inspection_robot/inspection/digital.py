@@ -151,8 +151,8 @@ def _sample_index(digit_count, width, slant_deg, fill, shifts=(), slack=0.0):
     for key, (xs, ys) in _sample_points(digit_count, width, slant_deg, fill, shifts).items():
         keys.append(key)
         groups.append(len(starts))
+        xi = np.clip(np.round(xs).astype(int), 0, width - 1)
         for offset in (offsets if key[1] in SLACK_SEGMENTS else [0.0]):
-            xi = np.clip(np.round(xs).astype(int), 0, width - 1)
             yi = np.clip(np.round(ys + offset).astype(int), 0, CELL_HEIGHT - 1)
             starts.append(len(flat))
             counts.append(len(xi))

@@ -106,6 +106,11 @@ def readable_in(target, quad, shape):
                         p.get("aspect", 1.0), target.scale) == 0.0
 
 
+def _readable(preset, quads, shape):
+    """Every target of ``preset`` readable at its found box in a picture of ``shape`` (readable_in)."""
+    return all(readable_in(t, q, shape) for t, q in zip(preset.targets, quads))
+
+
 class Finder(object):
     def __init__(self, head, optics, locator, picture_root, max_moves=3, centre_tolerance=0.05,
                  thermal=None, is_cancelled=lambda: False, feedback=lambda code, data: None):
@@ -169,13 +174,12 @@ class Finder(object):
             path = os.path.join(folder, "zoom0_%s_%02d.jpg" % (stamp, moves))
             image = self.head.capture(path)
             try:
-                located = self.locator.locate(self._reference(preset, 0, read_image), image, ref_quads)
-                quads = located.quads
+                quads = self._locate(preset, image, read_image)
             except LocateError as err:
                 quads = None
                 reason = str(err)
             if quads is not None:
-                inside = all(readable_in(t, q, image.shape) for t, q in zip(preset.targets, quads))
+                inside = _readable(preset, quads, image.shape)
                 centre = np.mean([quad_center(q) for q in quads], axis=0)
                 offset = np.abs(centre - ref_centre) / [image.shape[1], image.shape[0]]
                 last = (path, quads, image) if inside else last
@@ -221,23 +225,26 @@ class Finder(object):
         are located in it, it becomes the found picture and one more is taken; a view still moving
         after STILL_TRIES pictures, or whose targets are lost, gives no second look ("")."""
         base, ext = os.path.splitext(filename)
-        stem = base
         for attempt in range(1, STILL_TRIES + 1):
-            second = "%s_look2%s" % (stem, ext)
+            second = "%s_look2%s" % (os.path.splitext(filename)[0], ext)
             look = self.head.capture(second)
             if view_shift(image, look) <= STILL_SHIFT * image.shape[1]:
                 return filename, quads, image, second
             try:
-                moved = self.locator.locate(self._reference(preset, 0, read_image), look,
-                                            [t.boxes[0] for t in preset.targets]).quads
+                moved = self._locate(preset, look, read_image)
             except LocateError:
                 break
-            if not all(readable_in(t, q, look.shape) for t, q in zip(preset.targets, moved)):
+            if not _readable(preset, moved, look.shape):
                 break
             filename = "%s_still%d%s" % (base, attempt, ext)
             os.replace(second, filename)
-            stem, quads, image = "%s_still%d" % (base, attempt), moved, look
+            quads, image = moved, look
         return filename, quads, image, ""
+
+    def _locate(self, preset, image, read_image):
+        """The preset's target boxes found in ``image`` against its final zoom's reference; LocateError."""
+        return self.locator.locate(self._reference(preset, 0, read_image), image,
+                                   [t.boxes[0] for t in preset.targets]).quads
 
     def _coarse(self, preset, folder, stamp, moves, read_image, reason):
         """Step out through the wider references; the head turn that brings the targets back."""

@@ -42,8 +42,6 @@ ReadOutcome = namedtuple("ReadOutcome", "scale possibility picture_path foreign_
 
 RESULT_UNCERTAIN = "uncertain"
 MIN_FACE_SIMILARITY = 0.2   # below: the box does not show the calibrated gauge
-# readers whose detail may carry a "reason" to doubt the value
-DOUBTING_KINDS = ("pointer", "digital", "switch", "lamp")
 
 
 def result_text(outcome, success):
@@ -208,7 +206,7 @@ class ScaleReader(object):
                 draw_quad = quad
             outcome.scale.append(float(reading.value))
             outcome.possibility.append(round(float(reading.confidence), 1))
-            why = reading.detail.get("reason", "") if target.kind in DOUBTING_KINDS else ""
+            why = reading.detail.get("reason", "")   # every reader but the thermal one may doubt its value
             outcome.uncertain.append(why)
             # a needle on its stop pin reads the scale's end: the picture says so (pointer.py, step 4)
             stop = (reading.detail or {}).get("stop", "").split(" (")[0] if target.kind == "pointer" else ""
