@@ -35,7 +35,7 @@ from benchlib import percentile, report  # noqa: E402
 
 from inspection_robot.inspection.digital import parse_shown, read_display  # noqa: E402
 from inspection_robot.inspection.digital_learn import learn_display  # noqa: E402
-from inspection_robot.inspection.drum import learn_drum, read_drum  # noqa: E402
+from inspection_robot.inspection.drum import learn_drum, own_digits, read_drum  # noqa: E402
 from inspection_robot.inspection.geometry import rectify, sub_quad  # noqa: E402
 from inspection_robot.inspection.locate import LocateError, Locator  # noqa: E402
 from inspection_robot.inspection.readers import ReadFailed  # noqa: E402
@@ -143,7 +143,10 @@ def score(doc, tmp):
                 continue
         t1 = time.perf_counter()
         try:
-            reading = (read_drum if photo["kind"] == "drum" else read_display)(image, quad, model)
+            if photo["kind"] == "drum":   # as read_scale: with the counter's own print from its calibration picture
+                reading = read_drum(image, quad, model, own_digits(cal_image, box, model))
+            else:
+                reading = read_display(image, quad, model)
             row.update(value=reading.value, uncertain=bool(reading.detail.get("reason")),
                        reason=reading.detail.get("reason", ""))
         except ReadFailed as err:

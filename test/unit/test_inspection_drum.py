@@ -1,14 +1,16 @@
 """Drum counters (inspection.drum): learned from a picture and the typed value, read at rest and
 between digits, doubted where a wheel cannot be told, refused when nothing shows; and the simulated
 yard's arrester counter calibrated from the world and read at every count."""
+import cv2
 import numpy as np
 import pytest
 
 from inspection_robot.inspection import calibration_schema as schema
 from inspection_robot.inspection.calibration import calibrate
-from inspection_robot.inspection.drum import ROLLED, drum_model, learn_drum, read_drum, render_drum
+from inspection_robot.inspection.drum import ROLLED, drum_model, learn_drum, own_digits, read_drum, render_drum
 from inspection_robot.inspection.preset import PresetError, load_preset
 from inspection_robot.inspection.readers import ReadFailed
+from inspection_robot.inspection.reading import ScaleReader
 from inspection_robot.sim.inspection_sim import world_specs
 from inspection_robot.sim.world import World
 from inspection_robot_testing.world_views import recorded_preset
@@ -98,6 +100,54 @@ def test_nothing_to_read_and_what_cannot_be_learned_are_refused():
     assert "the learned counter reads '03471' on the calibration picture only in doubt (wheel 5 at" in str(err.value)
 
 
+def printed(text, four, blur=0.0):
+    """A 5-wheel counter showing ``text`` (at rest) in QUAD, its 4 printed open-topped like a water
+    meter's (``four``: the diagonal's top x, the stem's x, the stem's top y in a 40 x 60 window) and
+    its other digits in OpenCV's simplex font; ``blur``: the lens's Gaussian sigma in px."""
+    image = np.full((200, 400, 3), 128, np.uint8)
+    for k, char in enumerate(text):
+        cell = np.full((60, 40), 30, np.uint8)
+        if char == "4":
+            top, stem, stem_top = four
+            cv2.polylines(cell, [np.array([[top, 12], [8, 36], [32, 36]])], False, 230, 3, cv2.LINE_AA)
+            cv2.line(cell, (stem, stem_top), (stem, 48), 230, 3, cv2.LINE_AA)
+        else:
+            (w, h), _ = cv2.getTextSize(char, cv2.FONT_HERSHEY_SIMPLEX, 1.2, 2)
+            cv2.putText(cell, char, ((40 - w) // 2, (60 + h) // 2), cv2.FONT_HERSHEY_SIMPLEX, 1.2, 230, 2,
+                        cv2.LINE_AA)
+        image[70:130, 100 + 40 * k:140 + 40 * k] = cell[..., None]
+    return cv2.GaussianBlur(image, (0, 0), blur) if blur else image
+
+
+def test_a_digit_printed_unlike_the_fonts_is_read_by_its_own_print_or_doubted():
+    """The stroke fonts misread a meter's own 4 once the lens softens it; the 4 shown at calibration
+    reads it (its print near-identical, the font's digit's print clearly less like it), or doubts
+    it when the font's digit was never seen printed (two digits of one print can be 0.9 alike)."""
+    for four, font_reads, own_reads, reason in [
+            ((16, 26, 12), 817, 817, "wheel 3: 8|4 (like the 4 printed at calibration, match 0.9"),
+            ((20, 28, 12), 17, 417, None)]:
+        model = learn_drum(printed("00401", four), QUAD, list("00401"), 0)
+        own = own_digits(printed("00401", four), QUAD, model)
+        assert sorted(own) == ["0", "1", "4"]
+        live = printed("00417", four, blur=1.5)
+        font_alone, with_own = read_drum(live, QUAD, model), read_drum(live, QUAD, model, own)
+        assert font_alone.value == font_reads   # the font alone is wrong: confidently for the first 4
+        assert (with_own.value, with_own.detail.get("reason", "")[:len(reason or "")] or None) == (own_reads, reason)
+        if reason:
+            assert with_own.detail["digits"][2]["candidates"] == ["8", "4"] and with_own.confidence <= 40.0
+        else:
+            assert "wheel 3 read 4, as printed at calibration (match 0.9" in with_own.detail["own"]
+            assert with_own.detail["digits"][2]["candidates"] == ["4", "0"] and with_own.confidence > 40.0
+
+
+def test_the_own_print_is_not_used_when_the_calibration_picture_reads_otherwise():
+    model = learn_drum(picture([0, 3, 4, 7, 2]), QUAD, list("03472"), 0)
+    assert sorted(own_digits(picture([0, 3, 4, 7, 2]), QUAD, model)) == ["0", "2", "3", "4", "7"]
+    assert sorted(own_digits(picture([0, 3, 4, 7, 2.5]), QUAD, model)) == ["0", "3", "4", "7"]   # no half 2
+    assert own_digits(picture([0, 3, 4.5, 7, 2]), QUAD, model) is None   # half-way above a wheel at rest: doubt
+    assert own_digits(np.full((200, 400, 3), 128, np.uint8), QUAD, model) is None   # nothing shown
+
+
 def test_the_schema_keeps_a_drums_model_apart_from_a_displays():
     drum = {"digit_count": 3, "polarity": "lit", "decimals": 0, "contrast": 150.0, "style": "drum",
             "font": "duplex", "glyph": 0.55}
@@ -122,11 +172,15 @@ def test_the_yards_arrester_counter_is_read_at_every_count(tmp_path):
     (target,) = load_preset(path).targets
     assert sorted(target.params) == ["contrast", "counter", "decimals", "digit_count", "font", "glyph", "polarity",
                                      "style", "unit"]
-    box, model = np.reshape(spec["box"], (4, 2)), drum_model(target.params)
+    box = np.reshape(spec["box"], (4, 2))
+    preset = load_preset(path)
+    assert own_digits(cv2.imread(preset.picture(0)), target.boxes[0], drum_model(target.params))   # its 0 and 7
+    reader = ScaleReader(str(tmp_path), [str(tmp_path)], [str(tmp_path)], str(tmp_path))
     for count in list(range(0, 1000, 53)) + [8, 386, 654, 888, 666, 555, 999]:
         world.set_value("breaker_2/arrester_counter", count)
-        reading = read_drum(head.capture(None), box, model)
-        assert (reading.value, reading.detail.get("reason")) == (count, None), (count, reading.detail)
+        reading = reader.read_target(preset, target, head.capture(None), box)   # as read_scale: with its own print
+        assert (reading.value, reading.detail.get("reason"), reading.detail.get("own")) == (count, None, None), \
+            (count, reading.detail)
 
 
 def test_a_drum_calibration_that_cannot_hold_is_refused(tmp_path):

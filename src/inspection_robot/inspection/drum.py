@@ -12,6 +12,12 @@ convention), three quarters of the way the next digit is read; within DOUBT of t
 reading is uncertain with both digits named, as it is when two positions match near-equally; a
 wheel half-way while the wheel below it is not passing 9 to 0 cannot be, and is doubted too.
 
+A stroke font is only like a meter's print: a water meter's 4 reads as the font's 2. So a reading
+also takes the counter's own digits (``own_digits``), cut from its calibration picture where the
+operator's value names them: a window near-identical to one of them, and clearly less like the
+print of the digit the font reads, is that digit; one much like a printed digit but read as another
+is doubted.
+
 Pure image logic (OpenCV, NumPy); digital.py holds what drums share with seven-segment displays
 (the typed value's parser, the grey picture, the point in the text).
 """
@@ -40,6 +46,9 @@ MIN_MATCH = 0.35             # a window matching no position better is no digit 
 MIN_LEAD = 0.06              # the best position must lead the best other digit by this much, else uncertain
 ROLLED = 0.25                # a wheel more than this far past a digit, or short of the next, is between two
 DOUBT = 0.1                  # within this of the point where the next digit is read, the wheel is doubtful
+OWN_READ = 0.9               # a window this like one digit the counter showed at calibration, and OWN_LEAD
+OWN_LEAD = 0.05              # less like the font's digit's print, seen too: the printed digit is read
+OWN_DOUBT = 0.85             # this like a digit printed at calibration while the font reads another: uncertain
 
 DrumModel = namedtuple("DrumModel", "digit_count polarity font glyph decimals contrast")
 
@@ -99,10 +108,15 @@ def _windows(image, quad, digit_count, glyph):
     return [face[:, k * cell:(k + 1) * cell] for k in range(digit_count)]
 
 
+def _bright(window, polarity):
+    """The window with its digit's ink bright."""
+    return window if polarity == "lit" else 255.0 - window
+
+
 def _ink(window, polarity):
     """The window's digit as bright ink, with a margin left out either side (a digit need not sit
     in its window's middle): (ink, margin)."""
-    ink = window if polarity == "lit" else 255.0 - window
+    ink = _bright(window, polarity)
     margin = max(2, ink.shape[1] // 6)
     return (ink[:, margin:-margin] if ink.shape[1] > 2 * margin + 4 else ink), margin
 
@@ -206,30 +220,112 @@ def learn_drum(image, quad, cells, decimals):
     return best
 
 
-def read_drum(image, quad, model):
+def _own_template(window, polarity):
+    """A wheel's digit as the calibration picture shows it: its ink with a sixth of the height and a
+    fifth of the width left out each side, so that it slides a little over a window read later."""
+    ink = _bright(window, polarity)
+    height, width = ink.shape
+    return np.ascontiguousarray(ink[height // 6:height - height // 6, width // 5:width - width // 5], np.float32)
+
+
+def own_digits(picture, quad, model):
+    """The counter's own print: {digit: [templates]} cut from its calibration ``picture`` (its box
+    ``quad``), each wheel's window at rest under the digit the picture reads under ``model``;
+    calibration keeps only a model it reads back under as typed, without doubt, so these are the
+    operator's digits. None when the picture reads in doubt or not at all (replaced since): the font
+    alone reads then."""
+    try:
+        back = read_drum(picture, quad, model)
+    except ReadFailed:
+        return None
+    if back.detail.get("reason"):
+        return None
+    own = {}
+    for shown, window in zip(back.detail["digits"], _windows(picture, quad, model.digit_count, model.glyph)):
+        if abs(shown["position"] - round(shown["position"])) < ROLLED:   # a wheel between two digits is no print
+            own.setdefault(shown["char"], []).append(_own_template(window, model.polarity))
+    return own
+
+
+def _likeness(window, polarity, own):
+    """{digit: how like its own print the window is (best normalised cross-correlation)}."""
+    ink = _bright(window, polarity).astype(np.float32)
+    likes = {}
+    for digit, templates in own.items():
+        scores = [float(cv2.matchTemplate(ink, t, cv2.TM_CCOEFF_NORMED).max()) for t in templates
+                  if t.shape[0] <= ink.shape[0] and t.shape[1] <= ink.shape[1] and float(t.std()) > 1e-3]
+        if scores:
+            likes[digit] = max(scores)
+    return likes
+
+
+def _own_verdict(window, model, own, digit, font_rival):
+    """What the counter's own print says of a wheel the font reads ``digit`` (``font_rival``: the
+    font's near-equal runner-up, or None), as (verdict, digit, match):
+
+    - "read" another digit: the window is near-identical to its print and clearly less like the
+      print of ``digit`` (two prints of one meter compared: a fair contest);
+    - "doubt": much like another digit's print, ``digit``'s print unseen or not clearly better (two
+      digits of one print can be 0.9 alike: an unseen digit is never overruled, only doubted);
+    - "settled": near-identical to ``digit``'s print and clearly less like its rival's;
+    - "": nothing to add."""
+    likes = _likeness(window, model.polarity, own)
+    if not likes:
+        return "", digit, 0.0
+    mine = max(likes, key=likes.get)
+    if mine == str(digit):
+        settles = (font_rival is not None and likes[mine] >= OWN_READ
+                   and likes[mine] - likes.get(str(font_rival), -1.0) >= OWN_LEAD)
+        return ("settled" if settles else ""), digit, likes[mine]
+    if likes[mine] - likes.get(str(digit), -1.0) < OWN_LEAD:
+        return "", digit, likes[mine]
+    if str(digit) in likes and likes[mine] >= OWN_READ:
+        return "read", int(mine), likes[mine]
+    if likes[mine] >= OWN_DOUBT:
+        return "doubt", int(mine), likes[mine]
+    return "", digit, likes[mine]
+
+
+def read_drum(image, quad, model, own=None):
     """Reading of a drum counter's box: value, confidence (the weakest wheel's), detail {"text",
     "digits": [{"char", "position", "confidence", "candidates"}], "rolled" (the wheels between two
-    digits, read as the lower), "reason" when uncertain}. ReadFailed when no wheel shows a digit."""
-    wheels = [_wheel(w, model) for w in _windows(image, quad, model.digit_count, model.glyph)]
+    digits, read as the lower), "own" (wheels the counter's own print read, ``own`` from own_digits),
+    "reason" when uncertain}. ReadFailed when no wheel shows a digit."""
+    windows = _windows(image, quad, model.digit_count, model.glyph)
+    wheels = [_wheel(w, model) for w in windows]
     if all(w[1] < MIN_MATCH for w in wheels):
         raise ReadFailed("no drum wheel shows a digit in the box (best match %.2f, %.2f needed): counter covered, "
                          "dirty or the box off its windows" % (max(w[1] for w in wheels), MIN_MATCH))
-    digits, doubts, rolled = [], [], []
+    digits, doubts, rolled, notes = [], [], [], []
     for k, (position, score, other, _lead, lead) in enumerate(wheels):
         lower = int(math.floor(position + ROLLED)) % 10   # 3.9 shows 4; 3.5 is between 3 and 4: read 3
         between = abs(position - round(position)) >= ROLLED
         candidates = [str(lower)]
         confidence = 100.0 * min(1.0, max(0.0, lead / (2 * MIN_LEAD)))
+        rival = other if score >= MIN_MATCH and lead < MIN_LEAD and other != lower else None
+        verdict = ""
+        if own and score >= MIN_MATCH and not between:
+            verdict, printed, match = _own_verdict(windows[k], model, own, lower, rival)
+            if verdict == "read":
+                notes.append("wheel %d read %d, as printed at calibration (match %.2f; the font read %d)"
+                             % (k + 1, printed, match, lower))
+                candidates, lower, rival, confidence = [str(printed), str(lower)], printed, None, 100.0
+            elif verdict == "settled":
+                rival, confidence = None, 100.0
+            elif verdict == "doubt":
+                candidates.append(str(printed))
+                doubts.append("wheel %d: %d|%d (like the %d printed at calibration, match %.2f)"
+                              % (k + 1, lower, printed, printed, match))
         if score < MIN_MATCH:
             doubts.append("wheel %d: no digit (match %.2f)" % (k + 1, score))
             confidence = 0.0
-        elif lead < MIN_LEAD and other != lower:
-            candidates.append(str(other))
+        elif rival is not None:
+            candidates.append(str(rival))
             doubts.append("wheel %d: %s" % (k + 1, "|".join(candidates)))
         if between:
             rolled.append("wheel %d between %d and %d, read %d" % (k + 1, lower, (lower + 1) % 10, lower))
         past = (position + ROLLED) % 1.0   # 0 where the next digit is read from
-        if min(past, 1.0 - past) < DOUBT and score >= MIN_MATCH:
+        if min(past, 1.0 - past) < DOUBT and score >= MIN_MATCH and verdict != "read":   # the font's position
             near = (lower + (1 if past > 0.5 else -1)) % 10
             candidates.append(str(near))
             doubts.append("wheel %d at %.2f: %d|%d" % (k + 1, position, lower, near))
@@ -245,6 +341,8 @@ def read_drum(image, quad, model):
     detail = {"text": with_point(text, model.decimals), "digits": digits}
     if rolled:
         detail["rolled"] = "; ".join(rolled)
+    if notes:
+        detail["own"] = "; ".join(notes)
     if doubts:
         detail["reason"] = "; ".join(doubts)
         confidence = min(confidence, 40.0)

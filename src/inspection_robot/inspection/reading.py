@@ -19,7 +19,7 @@ from inspection_robot.lazy import lazy_import
 from inspection_robot.files import PUBLIC_FILE_MODE, FileError, confine_path, write_atomic
 from inspection_robot.command import CommandError
 from inspection_robot.inspection.digital import display_model, read_display
-from inspection_robot.inspection.drum import drum_model, read_drum
+from inspection_robot.inspection.drum import drum_model, own_digits, read_drum
 from inspection_robot.inspection.foreign import detect_foreign
 from inspection_robot.inspection.geometry import quad_inside, quad_is_convex, quad_overlap, quads_from_flat, \
     rectify, transform_quad
@@ -237,7 +237,7 @@ class ScaleReader(object):
             reading = read_pointer(self.pointer, target, image, quad, self._needle_model(preset, p))
             return reading if reference is None else _doubt_focus(reading, image, quad, reference, target.boxes[0])
         if target.kind == "digital" and p.get("style") == "drum":
-            return read_drum(image, quad, drum_model(p))
+            return self._read_drum(preset, target, image, quad)
         if target.kind == "digital":
             return read_display(image, quad, display_model(p))
         if target.kind == "lamp":
@@ -249,6 +249,19 @@ class ScaleReader(object):
         refs = [self._reference_patch(preset, p[key], "switch")
                 for key in ("open_reference", "closed_reference")]
         return read_switch(image, quad, refs[0], refs[1])
+
+    @staticmethod
+    def _read_drum(preset, target, image, quad):
+        """A drum counter read with its own print, cut from the calibration picture (drum.own_digits);
+        the stroke font alone, and the detail says why, when that picture is gone or reads otherwise."""
+        model = drum_model(target.params)
+        reference = cv2.imread(preset.picture(0), cv2.IMREAD_COLOR) if 0 in target.boxes else None
+        own = own_digits(reference, target.boxes[0], model) if reference is not None else None
+        reading = read_drum(image, quad, model, own)
+        if own is None:
+            why = "the calibration picture no longer reads as calibrated" if reference is not None else "no picture"
+            reading.detail["own"] = "not used: " + why
+        return reading
 
     @staticmethod
     def _check_same_gauge(preset, target, image, quad):
