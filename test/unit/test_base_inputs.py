@@ -16,21 +16,14 @@ from inspection_robot.motion.base_inputs import BaseInputs, SettingsError, batte
 from inspection_robot.motion.status import control_status_fields
 from inspection_robot.motion.safety import SafetyLatch
 from inspection_robot.motion.velocity import VelocityLimits
+from inspection_robot_testing.clock import FakeClock
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 
-class FakeClock(object):
-    def __init__(self):
-        self.now = 100.0
-
-    def __call__(self):
-        return self.now
-
-
 @pytest.fixture
 def clock():
-    return FakeClock()
+    return FakeClock(100.0)
 
 
 def inputs(clock, **settings):

@@ -18,17 +18,10 @@ from inspection_robot.data_layout import STAGED_RESERVE_BYTES, CaptureQuota
 from inspection_robot.files import FileError, staged_name
 from inspection_robot.thermal.commands import NO_DATA_COMMANDS as THERMAL_NO_DATA
 from inspection_robot.thermal.commands import ThermalCommands, load_radiometric, save_radiometric
+from inspection_robot_testing.clock import FakeClock
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 TABLE = [[1.0, 59.8], [2.0, 31.6], [4.0, 16.2], [8.0, 8.2], [16.0, 4.1], [30.0, 2.2]]
-
-
-class FakeClock(object):
-    def __init__(self):
-        self.now = 100.0
-
-    def __call__(self):
-        return self.now
 
 
 class ManualTimer(object):
@@ -57,7 +50,7 @@ def world():
 
 @pytest.fixture
 def camera(world, tmp_path):
-    clock = FakeClock()
+    clock = FakeClock(100.0)
     optics = ZoomOptics(TABLE, 1920, 1080)
     driver = SimulatedCamera(Renderer(world, noise_sigma=0), optics, lambda: (world.start_pose, 0.0, 0.0),
                              world.sensor_height, zoom_rate=2.0, clock=clock)

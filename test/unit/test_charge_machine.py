@@ -9,19 +9,12 @@ from inspection_robot.charge.dock import parse_dock
 from inspection_robot.interface import BATTERY_CHARGING, LIGHT_CHARGE_RELAY, MODE_SERVER, MODE_TASK
 from inspection_robot.status.merge import STALE_CONTROL_STATUS, STALE_NAV_STATUS
 from inspection_robot.voice.phrases import BUILTIN_PHRASES
+from inspection_robot_testing.clock import FakeClock
 
 DOCK = parse_dock({"pose": [2.2, 5.0, 3.1416], "approach_pose": [3.7, 5.0, 3.1416]})
 AWAY = (10.0, 5.0, 0.0)
 CONFIG = cp.ChargeConfig(low_level=20, full_level=80, retries=1, pause_timeout=30.0, relay_timeout=3.0,
                          current_timeout=5.0, current_lost_timeout=5.0, status_timeout=3.0)
-
-
-class FakeClock(object):
-    def __init__(self):
-        self.now = 100.0
-
-    def __call__(self):
-        return self.now
 
 
 class Ports(cp.ChargePorts):
@@ -64,7 +57,7 @@ class Ports(cp.ChargePorts):
 
 class Rig(object):
     def __init__(self, config=CONFIG):
-        self.clock = FakeClock()
+        self.clock = FakeClock(100.0)
         self.ports = Ports()
         self.machine = m.ChargeMachine(config, DOCK, self.ports, self.clock)
         self.quantity, self.charging, self.relay, self.mode, self.pose = 50, False, False, MODE_TASK, AWAY

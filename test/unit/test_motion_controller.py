@@ -6,14 +6,7 @@ from inspection_robot.interface import (LIGHT_CHARGE_RELAY, LIGHT_SOFT_ESTOP, MO
 from inspection_robot.motion.controller import MAX_PENDING, OFFLINE_RECHECK, MotionController
 from inspection_robot.motion.velocity import VelocityLimits
 from inspection_robot.sim.chassis import SimChassis
-
-
-class FakeClock(object):
-    def __init__(self):
-        self.now = 0.0
-
-    def __call__(self):
-        return self.now
+from inspection_robot_testing.clock import FakeClock
 
 
 class Recorder(object):

@@ -8,22 +8,12 @@ from inspection_robot.interface import (BATTERY_CHARGING, BATTERY_DISCHARGING, B
                                         MOTOR_INFO_DISCONNECTED, SERVO_DISCONNECTED, WHEEL_STEER, WHEEL_STRAIGHT)
 from inspection_robot.motion.chassis import ChassisDriver, ChassisError
 from inspection_robot.sim.chassis import FAULTS, SimChassis
-
-
-class FakeClock(object):
-    def __init__(self):
-        self.now = 100.0
-
-    def __call__(self):
-        return self.now
-
-    def advance(self, seconds):
-        self.now += seconds
+from inspection_robot_testing.clock import FakeClock
 
 
 @pytest.fixture
 def clock():
-    return FakeClock()
+    return FakeClock(100.0)
 
 
 def sim(clock, **params):

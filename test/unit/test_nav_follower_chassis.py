@@ -16,16 +16,9 @@ from inspection_robot.nav.follower import DONE, Approach, FollowerParams, PathFo
 from inspection_robot.nav.goal import MoveGoal
 from inspection_robot.angles import wrap_angle
 from inspection_robot.sim.chassis import SimChassis
+from inspection_robot_testing.clock import FakeClock
 
 TICK = 0.01  # s of simulated time per step; follower every 5 steps, controller every 2
-
-
-class FakeClock(object):
-    def __init__(self):
-        self.now = 0.0
-
-    def __call__(self):
-        return self.now
 
 
 def drive(path, goal, start, timeout=90.0, params=None):

@@ -4,14 +4,7 @@ import math
 import pytest
 
 from inspection_robot.sim.diff_drive import DiffDriveBase
-
-
-class FakeClock(object):
-    def __init__(self):
-        self.now = 10.0
-
-    def __call__(self):
-        return self.now
+from inspection_robot_testing.clock import FakeClock
 
 
 def base(clock, **params):
@@ -28,7 +21,7 @@ def run(clock, drive, seconds, vx, wz=0.0, period=0.02):
 
 
 def test_command_takes_effect_after_the_latency():
-    clock = FakeClock()
+    clock = FakeClock(10.0)
     drive = base(clock, latency=0.05, max_accel_x=100.0)
     drive.command(0.5, 0.0)
     clock.now += 0.049
@@ -38,7 +31,7 @@ def test_command_takes_effect_after_the_latency():
 
 
 def test_acceleration_and_velocity_limits():
-    clock = FakeClock()
+    clock = FakeClock(10.0)
     drive = base(clock, latency=0.0, max_accel_x=1.0, max_velocity_x=0.8, max_accel_yaw=2.0, max_velocity_yaw=1.0)
     run(clock, drive, 0.4, 5.0, 5.0)
     _x, _y, _yaw, vx, wz = drive.odometry()
@@ -48,7 +41,7 @@ def test_acceleration_and_velocity_limits():
 
 
 def test_cmd_timeout_brings_it_to_rest():
-    clock = FakeClock()
+    clock = FakeClock(10.0)
     drive = base(clock, latency=0.0, max_accel_x=1.0, cmd_timeout=0.5)
     run(clock, drive, 1.0, 0.5)
     clock.now += 0.45                                   # 0.47 s after the last command
@@ -58,7 +51,7 @@ def test_cmd_timeout_brings_it_to_rest():
 
 
 def test_odometry_drifts_by_the_configured_scale():
-    clock = FakeClock()
+    clock = FakeClock(10.0)
     drive = DiffDriveBase(clock, latency=0.0, max_accel_x=100.0, odom_scale_error=0.02, odom_yaw_error=0.0)
     run(clock, drive, 2.0, 0.5)
     x, _y, _yaw, vx, _wz = drive.odometry()
@@ -68,7 +61,7 @@ def test_odometry_drifts_by_the_configured_scale():
 
 
 def test_turning_integrates_the_heading():
-    clock = FakeClock()
+    clock = FakeClock(10.0)
     drive = base(clock, latency=0.0, max_accel_x=100.0, max_accel_yaw=100.0)
     run(clock, drive, 2 * math.pi / 0.5, 0.5, 0.5)   # a full circle of radius 1 m
     x, y, yaw, _vx, _wz = drive.odometry()
@@ -77,7 +70,7 @@ def test_turning_integrates_the_heading():
 
 
 def test_estop_cuts_the_motors_and_ignores_commands():
-    clock = FakeClock()
+    clock = FakeClock(10.0)
     drive = base(clock, latency=0.0, max_accel_x=100.0, estop_decel=2.0)
     run(clock, drive, 0.2, 1.0)
     drive.set_estop(True)
@@ -88,7 +81,7 @@ def test_estop_cuts_the_motors_and_ignores_commands():
 
 
 def test_battery_drains_and_charges_with_the_relay():
-    clock = FakeClock()
+    clock = FakeClock(10.0)
     drive = base(clock, battery_soc=50.0, battery_time_scale=100.0)
     clock.now += 60.0
     voltage, current, soc, charging = drive.battery()
@@ -100,7 +93,7 @@ def test_battery_drains_and_charges_with_the_relay():
 
 
 def test_bad_input_and_parameters_refused():
-    clock = FakeClock()
+    clock = FakeClock(10.0)
     drive = base(clock)
     assert not drive.command(float("nan"), 0.0)
     with pytest.raises(ValueError, match="unknown diff drive parameter"):

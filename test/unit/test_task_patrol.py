@@ -12,6 +12,7 @@ from inspection_robot.task.patrol import (OUTCOME_FAILED, OUTCOME_INTERRUPTED, O
 from inspection_robot.task.report import REPORT_FILES, write_reports
 from inspection_robot.task.spec import ResolvedPreset, parse_task
 from inspection_robot.task.store import ResultStore
+from inspection_robot_testing.clock import FakeClock
 
 CONFIG = PatrolConfig(retry_delay_s=5.0, home_pose=(5.0, 5.0, 0.0), move_estimate_s=20.0, preset_estimate_s=10.0,
                       uncertain_retries=1)
@@ -34,18 +35,10 @@ def task(task_id, stops=2, priority="routine", retries=1):
                   for i in range(stops)]}), resolve, lambda x, y: None, 1)
 
 
-class Clock(object):
-    def __init__(self):
-        self.t = 1000.0
-
-    def __call__(self):
-        return self.t
-
-
 @pytest.fixture
 def env(tmp_path):
     store = ResultStore(str(tmp_path / "results.sqlite"))
-    clock = Clock()
+    clock = FakeClock(1000.0)
     finished = []
     patrol = Patrol(store, CONFIG, clock(), on_finished=finished.append)
     patrol.set_mode(0)
@@ -62,7 +55,7 @@ def run_step(patrol, clock, outcome=OUTCOME_OK, value=0.5, seconds=3.0):
     step = patrol.next_step(clock())
     assert step is not None
     started = clock()
-    clock.t += seconds
+    clock.now += seconds
     detail = reading_for(step, value) if (outcome == OUTCOME_OK and step.kind == STEP_INSPECT) else (
         "" if outcome == OUTCOME_OK else "it broke")
     patrol.step_done(step, outcome, detail, started, clock())
@@ -100,7 +93,7 @@ def test_failed_step_is_retried_after_the_delay_then_recorded_failed(env):
     run_step(patrol, clock)                              # drive
     run_step(patrol, clock, OUTCOME_FAILED)              # inspect fails once
     assert patrol.next_step(clock()) is None             # waiting retry_delay_s
-    clock.t += 5.0
+    clock.now += 5.0
     step = run_step(patrol, clock, OUTCOME_FAILED)       # the retry fails: recorded as failed
     assert (step.kind, step.preset_index) == (STEP_INSPECT, 0)
     rows = store.readings(task_id="t1")
@@ -138,7 +131,7 @@ def test_pause_finishes_the_preset_and_resume_drives_back_to_the_stop(env):
     assert patrol.status()["state"] == "running"
     patrol.step_done(step, OUTCOME_OK, reading_for(step), clock(), clock())
     assert patrol.status()["state"] == "paused" and patrol.status()["holds"] == ["operator"]
-    clock.t += 36000.0                                   # ten hours paused: nothing times out
+    clock.now += 36000.0                                   # ten hours paused: nothing times out
     assert patrol.next_step(clock()) is None
     patrol.resume("")
     step = patrol.next_step(clock())
@@ -196,7 +189,7 @@ def test_mode_change_pauses_and_task_mode_resumes_at_the_same_place(env):
     patrol.set_mode(1)                                   # the backend takes over
     patrol.step_done(step, OUTCOME_OK, reading_for(step), clock(), clock())
     assert patrol.status()["state"] == "paused" and patrol.status()["holds"] == ["mode"]
-    clock.t += 600.0
+    clock.now += 600.0
     patrol.set_mode(0)
     step = run_step(patrol, clock)
     assert (step.kind, step.stop) == (STEP_MOVE, 1)      # stop 1 is complete: on to stop 2

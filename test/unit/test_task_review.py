@@ -14,7 +14,8 @@ from inspection_robot.task.report import picture_link, render_html, summary, wri
 from inspection_robot.task.client_view import client_row
 from inspection_robot.task.review import parse_query, review
 from inspection_robot.task.store import ResultStore
-from test_task_patrol import CONFIG, Clock, run_step, task
+from inspection_robot_testing.clock import FakeClock
+from test_task_patrol import CONFIG, run_step, task
 
 REASON = "two pointers 37 deg apart (set pointer_colour / ignore_colour in the calibration)"
 
@@ -41,7 +42,7 @@ INSERT INTO readings (task_id, stop, stop_name, preset_index, preset, target, ta
 @pytest.fixture
 def env(tmp_path):
     store = ResultStore(str(tmp_path / "results.sqlite"))
-    clock = Clock()
+    clock = FakeClock(1000.0)
     patrol = Patrol(store, CONFIG, clock())
     patrol.set_mode(0)
     return store, clock, patrol
@@ -52,7 +53,7 @@ def inspect(patrol, clock, value, reason, outcome=OUTCOME_OK):
     step = patrol.next_step(clock())
     assert step is not None and step.kind == STEP_INSPECT
     started = clock()
-    clock.t += 2.0
+    clock.now += 2.0
     n = len(step.preset["targets"])
     detail = Inspection([value] * n, [30.0] * n, ["/pic/read_%d.jpg" % k for k in range(n)], (1.0, 2.0, 0.0), None,
                         [reason] + [""] * (n - 1), [{"picture": "/cap/zoom0.jpg", "roi": [1, 2, 3, 4, 5, 6, 7, 8]}] * n
@@ -62,7 +63,7 @@ def inspect(patrol, clock, value, reason, outcome=OUTCOME_OK):
 
 
 def settle_retry(clock):
-    clock.t += CONFIG.retry_delay_s
+    clock.now += CONFIG.retry_delay_s
 
 
 def test_an_uncertain_reading_is_tried_again_then_kept_with_its_reason_and_a_check_alarm(env):

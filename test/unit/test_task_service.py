@@ -15,7 +15,8 @@ from inspection_robot.task.rows import reading_rows
 from inspection_robot.task.schedule import Scheduler
 from inspection_robot.task.service import ServiceConfig, TaskService
 from inspection_robot.task.store import ResultStore, StoreError
-from test_task_patrol import CONFIG, Clock
+from inspection_robot_testing.clock import FakeClock
+from test_task_patrol import CONFIG
 
 UTC = datetime.timezone.utc
 NOW = datetime.datetime(2026, 11, 27, 12, 0, tzinfo=UTC).timestamp()   # a Friday
@@ -88,8 +89,8 @@ class Rig(object):
         make_lamp_preset(self.root, PRESET)
         os.makedirs(os.path.join(self.root, "tasks"))
         self.store = ResultStore(os.path.join(self.root, "tasks", "results.sqlite"))
-        self.clock, self.monotonic = Clock(), Clock()
-        self.clock.t = NOW
+        self.clock, self.monotonic = FakeClock(1000.0), FakeClock(1000.0)
+        self.clock.now = NOW
         self.published, self.logs = [], []
         self.service = TaskService(
             ServiceConfig(CONFIG, self.root, os.path.join(self.root, "presets"), 1, 1.0), self.store,
@@ -112,7 +113,7 @@ class Rig(object):
         """Run the loop one step at a time, ``count`` steps or until no task is left."""
         done = 0
         while self.service.patrol.active is not None and (count is None or done < count):
-            self.clock.t += 5.0
+            self.clock.now += 5.0
             self.service.once()
             done += 1
 
@@ -180,7 +181,7 @@ def test_status_json_is_published_on_change_and_every_status_period(rig):
     rig.service.publish_status()
     rig.service.status_tick()
     assert len(rig.published) == 1   # nothing changed within status_period
-    rig.monotonic.t += 1.01          # status_period passed: the same text again
+    rig.monotonic.now += 1.01          # status_period passed: the same text again
     rig.service.status_tick()
     rig.service.publish_status(force=True)
     assert len(rig.published) == 3
@@ -196,7 +197,7 @@ def test_a_due_schedule_starts_its_routine_and_a_busy_one_is_missed_after_its_gr
                                                     "weekdays": ["fri"]}))
     assert ack == "success" and row["next_run"] == NOW + 60
     assert rig.status()["next_scheduled"] == {"at": NOW + 60, "schedule": "s1", "routine": "r1"}
-    rig.clock.t = NOW + 65
+    rig.clock.now = NOW + 65
     rig.service.schedule_tick(rig.clock())
     assert (rig.status()["task_id"], rig.status()["state"]) == ("r1_20261127_1201", "running")
     assert ("info", "schedule 's1' started task r1_20261127_1201") in rig.logs
@@ -250,7 +251,7 @@ def test_a_virtual_map_of_another_size_is_refused_and_logged_once_per_period(rig
         rig.service.on_virtual_map(3, 2, 0.05, [0] * 6)
     errors = [text for level, text in rig.logs if level == "error"]
     assert len(errors) == 1 and errors[0].startswith("virtual_obstacle_map is 3x2 at 0.050 m, the map ")
-    rig.monotonic.t += 30.0
+    rig.monotonic.now += 30.0
     rig.service.on_virtual_map(3, 2, 0.05, [0] * 6)
     assert len([level for level, _ in rig.logs if level == "error"]) == 2
 
@@ -274,7 +275,7 @@ def test_open_alarms_are_listed_acknowledged_and_counted_in_the_status(rig):
     ack, rows = rig.call("alarms")
     assert ack == "success" and [(r["target_name"], r["display"]) for r in rows] == [("oil", "118.0 C")]
     ack, row = rig.call("acknowledge", json.dumps({"id": rows[0]["id"], "by": "li"}))
-    assert ack == "success" and (row["ack_by"], row["ack_time"]) == ("li", rig.clock.t)
+    assert ack == "success" and (row["ack_by"], row["ack_time"]) == ("li", rig.clock.now)
     assert ("info", "alarm of reading %d (oil, alarm) acknowledged by li" % row["id"]) in rig.logs
     assert rig.status()["open_alarms"] == 0 and rig.call("alarms")[1] == []
     assert rig.call("alarms", '{"acknowledged": true}')[1][0]["ack_by"] == "li"

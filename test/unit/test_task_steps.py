@@ -9,6 +9,7 @@ import pytest
 
 from inspection_robot.task import ros_steps
 from inspection_robot.task.patrol import OUTCOME_FAILED, OUTCOME_INTERRUPTED
+from inspection_robot_testing.clock import FakeClock
 
 
 class Endpoint(object):
@@ -35,17 +36,9 @@ class LateServer(object):
         return False
 
 
-class Clock(object):
-    def __init__(self):
-        self.now = 1000.0
-
-    def monotonic(self):
-        return self.now
-
-
 @pytest.fixture
 def clock(monkeypatch):
-    simulated = Clock()
+    simulated = FakeClock(1000.0)
     monkeypatch.setattr(ros_steps, "time", types.SimpleNamespace(monotonic=simulated.monotonic))
     return simulated
 
