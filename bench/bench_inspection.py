@@ -474,7 +474,7 @@ def main():
         try:
             report_real(*real_cases(photo_dir, tmp))
             if os.environ.get("BENCH_REAL_OCCLUDED", "1") != "0":
-                rows = real_cases(photo_dir, tmp, occlude=True)[1]
+                rows = real_cases(photo_dir, tempfile.mkdtemp(dir=tmp), occlude=True)[1]   # presets of its own
                 for part in real_set.PARTS:
                     print(json.dumps(_accuracy("inspection_real_%s_synthetic_occluder" % part,
                                                [r for r in rows if r["part"] == part])))
