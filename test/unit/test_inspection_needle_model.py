@@ -10,6 +10,7 @@ import cv2
 import numpy as np
 import pytest
 
+from inspection_robot.command import CommandError
 from inspection_robot.files import write_atomic
 from inspection_robot.inspection.calibration import SelfCheck, calibrate
 from inspection_robot.inspection.needle_model import NeedleModel
@@ -19,6 +20,7 @@ from inspection_robot.inspection.reading import ReadError, ScaleReader
 from inspection_robot.inspection.readers import ReadFailed
 from inspection_robot.inspection.geometry import flat_from_quads
 from inspection_robot.sim.world import World
+from inspection_robot.task.checks import resolve_preset
 from inspection_robot_testing.fixtures import linear_optics
 from inspection_robot_testing.world_views import painted_dial
 
@@ -164,6 +166,14 @@ def test_calibration_learns_the_model_from_the_value_shown_and_the_reader_uses_i
         f.write(b"corrupt")
     with pytest.raises(ReadError, match="needle model missing or corrupt"):
         reader.read(path, 0, [live], [], flat, [], "20260102_000001")
+    # ... and a task naming the preset is refused at submission, before the robot drives there
+    root = str(tmp_path / "presets")
+    with pytest.raises(CommandError, match="unknown preset directory 'dial': target 0: needle_reference "
+                                           "target_0_needle.png is not a needle model the reader can decode"):
+        resolve_preset(root, "dial")
+    os.remove(os.path.join(path, "target_0_needle.png"))
+    with pytest.raises(CommandError, match="target 0: needle_reference target_0_needle.png is not in the preset"):
+        resolve_preset(root, "dial")
 
 
 def test_calibration_refuses_a_value_no_needle_shows_unless_forced(world, tmp_path):

@@ -18,8 +18,8 @@ from inspection_robot.lazy import lazy_import
 from inspection_robot.dir_update import DirUpdate
 from inspection_robot.files import write_atomic, write_json_atomic
 from inspection_robot.inspection import calibration_schema as schema
-from inspection_robot.inspection.preset import (TARGET_KINDS, PresetError, Target, load_info, write_calibration,
-                                                zoom_picture_name)
+from inspection_robot.inspection.preset import (REFERENCE_KEYS, TARGET_KINDS, PresetError, Target, load_info,
+                                                write_calibration, zoom_picture_name)
 from inspection_robot.inspection.digital import FULL_BOX, parse_shown
 from inspection_robot.inspection.digital_learn import learn_display
 from inspection_robot.inspection.drum import learn_drum
@@ -155,6 +155,13 @@ def _check_reference(preset_dir, index, kind, state, name):
         with open(os.path.join(preset_dir, name), "rb") as f:
             data = f.read(MAX_REFERENCE_BYTES + 1)
     except OSError:
+        data = None
+    _check_reference_data(index, kind, state, name, data)
+
+
+def _check_reference_data(index, kind, state, name, data):
+    """The check of _check_reference on a file's bytes (None: not there)."""
+    if data is None:
         raise PresetError("target %d: %s_reference %s is not in the preset directory" % (index, state, name))
     if len(data) > MAX_REFERENCE_BYTES:
         raise PresetError("target %d: %s_reference %s is larger than %d bytes: not a reference patch"
@@ -166,6 +173,18 @@ def _check_reference(preset_dir, index, kind, state, name):
     elif decode_reference(data, kind) is None:
         raise PresetError("target %d: %s_reference %s is not a picture the reader can decode (PNG, JPEG, ...)"
                           % (index, state, name))
+
+
+def check_references(preset):
+    """Every reference file a loaded preset's calibration names (a lamp's or switch's patches, a
+    needle model) is in its snapshot and decodes as the reader decodes it; PresetError naming the
+    first that does not. task_manager checks this when a task is submitted, so a file lost or
+    damaged since calibration refuses the task before the robot drives to the stop."""
+    for i, target in enumerate(preset.targets):
+        for key in REFERENCE_KEYS:
+            name = target.params.get(key)
+            if name:
+                _check_reference_data(i, target.kind, key[:-len("_reference")], name, preset.reference(name))
 
 
 def _refuse_shared_files(targets, written):

@@ -7,6 +7,7 @@ import numpy as np
 
 from inspection_robot.command import CommandError
 from inspection_robot.files import confine_data_path, root_relative
+from inspection_robot.inspection.calibration import check_references
 from inspection_robot.inspection.preset import PRESET_INI, PresetError, load_preset
 from inspection_robot.nav.costmap import Costmap
 from inspection_robot.nav.gridmap import MapError, load_map
@@ -36,6 +37,7 @@ def resolve_preset(preset_root, name, data_root=None):
             path = os.path.join(path, recordings[-1])
     try:
         preset = load_preset(path)
+        check_references(preset)   # a file lost or damaged since calibration: refused now, not at the stop
     except PresetError as err:
         raise CommandError("unknown preset directory '%s': %s" % (name, err))
     targets = [_target_entry(t) for t in preset.targets]
