@@ -263,7 +263,7 @@ def _own_verdict(window, model, own, digit, font_rival):
     """What the counter's own print says of a wheel the font reads ``digit`` (``font_rival``: the
     font's near-equal runner-up, or None), as (verdict, digit, match):
 
-    - "read" another digit: the window is near-identical to its print and clearly less like the
+    - "printed": another digit, the window being near-identical to its print and clearly less like the
       print of ``digit`` (two prints of one meter compared: a fair contest);
     - "doubt": much like another digit's print, ``digit``'s print unseen or not clearly better (two
       digits of one print can be 0.9 alike: an unseen digit is never overruled, only doubted);
@@ -280,7 +280,7 @@ def _own_verdict(window, model, own, digit, font_rival):
     if likes[mine] - likes.get(str(digit), -1.0) < OWN_LEAD:
         return "", digit, likes[mine]
     if str(digit) in likes and likes[mine] >= OWN_READ:
-        return "read", int(mine), likes[mine]
+        return "printed", int(mine), likes[mine]
     if likes[mine] >= OWN_DOUBT:
         return "doubt", int(mine), likes[mine]
     return "", digit, likes[mine]
@@ -306,7 +306,7 @@ def read_drum(image, quad, model, own=None):
         verdict = ""
         if own and score >= MIN_MATCH and not between:
             verdict, printed, match = _own_verdict(windows[k], model, own, lower, rival)
-            if verdict == "read":
+            if verdict == "printed":
                 notes.append("wheel %d read %d, as printed at calibration (match %.2f; the font read %d)"
                              % (k + 1, printed, match, lower))
                 candidates, lower, rival, confidence = [str(printed), str(lower)], printed, None, 100.0
@@ -325,7 +325,7 @@ def read_drum(image, quad, model, own=None):
         if between:
             rolled.append("wheel %d between %d and %d, read %d" % (k + 1, lower, (lower + 1) % 10, lower))
         past = (position + ROLLED) % 1.0   # 0 where the next digit is read from
-        if min(past, 1.0 - past) < DOUBT and score >= MIN_MATCH and verdict != "read":   # the font's position
+        if min(past, 1.0 - past) < DOUBT and score >= MIN_MATCH and verdict != "printed":   # the font's position
             near = (lower + (1 if past > 0.5 else -1)) % 10
             candidates.append(str(near))
             doubts.append("wheel %d at %.2f: %d|%d" % (k + 1, position, lower, near))
