@@ -107,6 +107,28 @@ def test_glare_over_a_digit_and_a_dark_display_are_refused_not_read():
         read_display(dark, QUAD, model)
 
 
+def test_a_display_dimmer_than_at_calibration_still_reads_and_one_nearly_off_is_never_read_confidently():
+    """Another exposure or a darker backlight than at calibration: the segments stand half as far
+    above the face, so half the calibrated contrast no longer splits them (every digit a blank
+    before); the split follows what this picture shows, down to DIM_FLOOR of the calibration."""
+    model = learn_display(scene("23.5"), QUAD, "23.5")
+
+    def lit(text, on, seed):
+        picture = np.full((360, 640, 3), 128, np.uint8)
+        picture[60:60 + H, 80:80 + W] = render_display(text, W, H, on=on)
+        return with_noise(picture, seed)
+
+    for seed, text in enumerate(("18.7", "88.8", "40.6")):
+        reading = read_display(lit(text, (45, 45, 130), seed), QUAD, model)   # about 60 % of the calibrated contrast
+        assert (reading.detail["text"], reading.detail.get("reason")) == (text, None), reading.detail
+    for seed, text in enumerate(("18.7", "88.8")):   # nearly off: a quarter of it
+        try:
+            reading = read_display(lit(text, (30, 30, 70), seed), QUAD, model)
+        except ReadFailed:
+            continue
+        assert reading.detail.get("reason") and reading.confidence <= 40.0, reading.detail
+
+
 def test_a_decimal_point_seen_elsewhere_makes_the_reading_uncertain():
     model = learn_display(scene("23.5"), QUAD, "23.5")
     reading = read_display(scene("2.35"), QUAD, model)

@@ -66,6 +66,7 @@ REGISTER_STEPS = 11   # scales tried between REGISTER_SCALE's two (evenly on a l
 SEGMENT_SLACK = 0.021
 SLACK_LINES = 3
 SLACK_SEGMENTS = "adg"
+DIM_FLOOR = 0.5      # a display may show this share of its calibrated contrast and still read (see _floor)
 STROKE = 0.16         # a segment's thickness, share of the digits' height, where a reading's strokes are drawn
 
 FULL_BOX = (0.0, 0.0, 1.0, 1.0)
@@ -172,6 +173,15 @@ def _levels(face, model, slack=0.0):
     return dict(zip(keys, np.maximum.reduceat(lines, groups).tolist()))
 
 
+def _floor(levels, model):
+    """Half the contrast that splits lit from dark segments in this picture: the calibrated
+    contrast's half, or, on a display dimmer than at calibration (another exposure, a darker
+    backlight), half the range its segments stand above their faces here, down to DIM_FLOOR of the
+    calibrated contrast (a display off must not read its own noise)."""
+    live = max(levels[(k, s)] - levels[(k, "hole")] for k in range(model.digit_count) for s in SEGMENTS)
+    return 0.5 * min(model.contrast, max(live, DIM_FLOOR * model.contrast))
+
+
 def _split(values, floor):
     """(threshold, gap) of the widest gap in the sorted ``values`` not narrower than ``floor``; a
     display all on or all off has no such gap: (None, 0)."""
@@ -256,7 +266,6 @@ def _registered(image, quad, model):
     grey_image = grey(image)
     left, top, right, bottom = model.window
     pitch, height = (right - left) / model.digit_count, bottom - top
-    floor = 0.5 * model.contrast
     cells = range(model.digit_count)
     faces = {}
 
@@ -305,6 +314,7 @@ def _registered(image, quad, model):
         """(correlation with what the move reads, None when nothing is lit; face; levels)."""
         face, ink = face_at(move)
         levels = _levels(face, model, SEGMENT_SLACK)
+        floor = _floor(levels, model)
         codes = [_decode_cell([levels[(k, s)] for s in SEGMENTS], levels[(k, "hole")], floor, model.split)[0]
                  for k in cells]
         if not any(any(c) for c in codes):
@@ -347,7 +357,7 @@ def read_display(image, quad, model, register=True):
     else:
         face = _face(image, quad, model.digit_count, model.window)
         levels = _levels(face, model, SEGMENT_SLACK)
-    floor = 0.5 * model.contrast
+    floor = _floor(levels, model)
     faces = [levels[(k, "hole")] for k in range(model.digit_count)]
     face_level = float(np.median(faces))
     chars, digits, doubts, lit_any = [], [], [], False
@@ -362,7 +372,9 @@ def read_display(image, quad, model, register=True):
         code, margins, threshold, other = _decode_cell(values, faces[k], floor, model.split)
         if threshold is None:   # nothing lit in this cell: a blank, unless a segment stands half out
             brightest = int(np.argmax(values))
-            if values[brightest] - faces[k] > floor / 2.0:   # a dim 1 must not vanish from a number's front
+            # a dim 1 must not vanish from a number's front; against the calibrated contrast, not the
+            # dim picture's floor: an LCD's unlit segments show faintly, more so on a dim picture
+            if values[brightest] - faces[k] > model.contrast / 4.0:
                 doubts.append("digit %d: blank or lit (segment %s stands %.0f grey levels out)"
                               % (k + 1, SEGMENTS[brightest], values[brightest] - faces[k]))
                 margins = [0.0] * len(SEGMENTS)
