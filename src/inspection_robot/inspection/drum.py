@@ -19,7 +19,7 @@ print of the digit the font reads, is that digit; one much like a printed digit 
 is doubted.
 
 Pure image logic (OpenCV, NumPy); digital.py holds what drums share with seven-segment displays
-(the typed value's parser, the grey picture, the point in the text).
+(the typed value's parser, the point in the text).
 """
 import math
 from collections import namedtuple

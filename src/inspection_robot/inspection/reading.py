@@ -44,6 +44,12 @@ RESULT_UNCERTAIN = "uncertain"
 MIN_FACE_SIMILARITY = 0.2   # below: the box does not show the calibrated gauge
 
 
+def _calibration_picture(preset, target):
+    """The picture ``target`` was calibrated on (the preset's zoom0.jpg, where its box was drawn), None
+    when it has no box there or the picture is gone."""
+    return cv2.imread(preset.picture(0), cv2.IMREAD_COLOR) if 0 in target.boxes else None
+
+
 def result_text(outcome, success):
     """ReadScaleAck.result for a served request: ``success``, or ``uncertain: box <i>: <why>; ...``
     when a reading's confidence is under the reader's threshold."""
@@ -255,7 +261,7 @@ class ScaleReader(object):
         """A drum counter read with its own print, cut from the calibration picture (drum.own_digits);
         the stroke font alone, and the detail says why, when that picture is gone or reads otherwise."""
         model = drum_model(target.params)
-        reference = cv2.imread(preset.picture(0), cv2.IMREAD_COLOR) if 0 in target.boxes else None
+        reference = _calibration_picture(preset, target)
         own = own_digits(reference, target.boxes[0], model) if reference is not None else None
         reading = read_drum(image, quad, model, own)
         if own is None:
@@ -268,7 +274,7 @@ class ScaleReader(object):
         """A box that shows something else than the calibrated gauge (a wrong picture, the head
         pointing elsewhere, a covered meter) fails rather than giving a number. The calibration
         picture, None when the preset has none."""
-        reference = cv2.imread(preset.picture(0), cv2.IMREAD_COLOR) if 0 in target.boxes else None
+        reference = _calibration_picture(preset, target)
         if reference is None:
             return None
         check_face(rectify(image, quad, 128))
