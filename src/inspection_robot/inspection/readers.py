@@ -2,8 +2,8 @@
 
 The readers, one module each: pointer (a pointer gauge: dial_frame, needle, needle_confidence),
 lamp (an indicator lamp), switch (a switch's position; the box-still-shows-the-gauge check),
-thermal_max (the hottest pixel of a thermal box). Each takes the picture and the target's quad
-(TL, TR, BR, BL in picture pixels) and returns a Reading(value, confidence 0..100, detail).
+thermal_max (the hottest pixel of a thermal box, an ambient box's median). Each takes the picture
+and the target's quad (TL, TR, BR, BL in picture pixels) and returns a Reading(value, confidence 0..100, detail).
 Confidence comes from measurable evidence (contrast, agreement of two estimates, margin between
 references), never a constant.
 """

@@ -1,4 +1,6 @@
-"""Thermal box reader: the hottest valid pixel of a radiometric frame inside the box."""
+"""Thermal box reader: the hottest valid pixel of a radiometric frame inside the box, or the
+median of an ambient reference box (DL/T 664's T0 is the reference body's temperature, and the
+hottest pixel of a box a little off that body is the warm equipment around it)."""
 import numpy as np
 
 from inspection_robot.lazy import lazy_import
@@ -8,8 +10,9 @@ from inspection_robot.inspection.readers import Reading, clip_confidence
 cv2 = lazy_import("cv2")   # on first use: a node registers before its ~360 libraries load
 
 
-def read_thermal_max(frame, quad):
-    """Maximum temperature (deg C) of a radiometric frame inside the quad.
+def read_thermal_max(frame, quad, reference=False):
+    """Maximum temperature (deg C) of a radiometric frame inside the quad; with ``reference``, the
+    median (an ambient box: half its pixels may fall off the plate and it still reads the plate).
 
     Confidence falls with the share of the quad outside the frame and with non-finite pixels.
     """
@@ -24,4 +27,6 @@ def read_thermal_max(frame, quad):
     area = abs(cv2.contourArea(np.asarray(quad, dtype=np.float32))) + 1.0
     inside = min(1.0, mask.sum() / area)
     confidence = 100.0 * inside * finite.size / float(values.size)
-    return Reading(float(finite.max()), clip_confidence(confidence), {"pixels": int(finite.size)})
+    value = float(np.median(finite)) if reference else float(finite.max())
+    return Reading(value, clip_confidence(confidence),
+                   {"pixels": int(finite.size), "statistic": "median" if reference else "max"})
