@@ -68,21 +68,31 @@ class RecordingHandler(object):
         return 1, "", 0
 
 
+SENTINEL = ("/sentinel", "http://sentinel:1/")
+
+
 def connects_after_the_race():
     """What a real RegManager connects to when the master's publisherUpdate [pub] and the subscriber's
-    older registerSubscriber reply [] are both queued, in that order, before its thread runs (it is busy)."""
+    older registerSubscriber reply [] are both queued, in that order, before its thread runs (it is busy).
+    Its thread takes the newest update first: a sentinel queued before them all is connected last, so
+    once it is, every connect thread of theirs has started, and they are joined (no wait for a
+    connect that never comes)."""
     handler = RecordingHandler()
     manager = registration.RegManager(handler)
+    manager.publisher_update(SENTINEL[0], [SENTINEL[1]])
     manager.publisher_update("/move_action/result", ["http://vm:36127/"])  # the master's publisherUpdate
     manager.publisher_update("/move_action/status", ["http://vm:36127/"])
     manager.publisher_update("/move_action/result", [])  # registerSubscriber's reply, queued late
     thread = threading.Thread(target=manager.run, daemon=True)
     thread.start()
     with handler.asked:  # the connects come from RegManager's own short-lived threads
-        handler.asked.wait_for(lambda: len(handler.connects) >= 2, timeout=20.0)
+        assert handler.asked.wait_for(lambda: SENTINEL in handler.connects, timeout=20.0), handler.connects
     handler.done = True
+    for started in threading.enumerate():
+        if getattr(started, "_target", None) == manager._connect_topic_thread:
+            started.join(5.0)
     thread.join(5.0)
-    return sorted(handler.connects)
+    return sorted(c for c in handler.connects if c != SENTINEL)
 
 
 @pytest.fixture
