@@ -129,10 +129,16 @@ def test_a_display_dimmer_than_at_calibration_still_reads_and_one_nearly_off_is_
         assert reading.detail.get("reason") and reading.confidence <= 40.0, reading.detail
 
 
-def test_a_decimal_point_seen_elsewhere_makes_the_reading_uncertain():
+def test_a_decimal_point_seen_elsewhere_makes_the_reading_uncertain_with_the_value_as_shown():
     model = learn_display(scene("23.5"), QUAD, "23.5")
     reading = read_display(scene("2.35"), QUAD, model)
     assert reading.detail["reason"] == "decimal point after digit 1, calibrated after digit 2"
+    assert reading.value == pytest.approx(2.35) and reading.detail["text"] == "2.35" and reading.confidence <= 40.0
+    # an auto-ranging meter calibrated without a point
+    model = learn_display(scene("235"), QUAD, "235")
+    reading = read_display(scene("23.5"), QUAD, model)
+    assert reading.detail["reason"] == "decimal point after digit 2, calibrated without one"
+    assert reading.value == pytest.approx(23.5) and reading.confidence <= 40.0
 
 
 @pytest.mark.parametrize("shift,scale", [(0.35, 1.0), (-0.3, 1.12), (0.0, 0.85), (0.2, 1.2)])

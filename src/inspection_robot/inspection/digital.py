@@ -408,9 +408,12 @@ def read_display(image, quad, model, register=True):
         doubts.append("decimal point after digit %s, calibrated %s" % (",".join(str(k + 1) for k in dots), where))
     if "?" in stripped or "-" in stripped[1:] or not stripped.replace("-", ""):
         raise ReadFailed("display box unreadable: %s" % "; ".join(doubts))
-    value = float(stripped.replace(" ", "0")) / 10 ** model.decimals
+    # a point seen elsewhere than calibrated (an auto-ranging meter, or a speck): the value as the
+    # display shows it, and the reading uncertain above
+    decimals = model.digit_count - 1 - dots[0] if len(dots) == 1 else model.decimals
+    value = float(stripped.replace(" ", "0")) / 10 ** decimals
     confidence = min(d["confidence"] for d in digits)
-    detail = {"text": with_point(text, model.decimals), "digits": digits}
+    detail = {"text": with_point(text, decimals), "digits": digits}
     if doubts:
         detail["reason"] = "; ".join(doubts)
         confidence = min(confidence, 40.0)
