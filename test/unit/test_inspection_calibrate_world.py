@@ -158,8 +158,8 @@ def test_the_transformer_bushings_calibrate_as_three_phases_and_grade_as_the_wor
     assert phases == {"transformer_1/bushing_a": "A", "transformer_1/bushing_b": "B", "transformer_1/bushing_c": "C",
                       "transformer_1/ambient_plate": "ambient"}
     frame = load_frame(os.path.join(path, preset.info.thermal_frame))
-    values = [read_thermal_max(frame, t.params["thermal_box"]).value if t.kind == "thermal" else None
-              for t in preset.targets]
+    values = [read_thermal_max(frame, t.params["thermal_box"], t.params.get("phase", "")).value
+              if t.kind == "thermal" else None for t in preset.targets]
     truth = {"transformer_1/bushing_a": 78.0, "transformer_1/bushing_b": 48.0, "transformer_1/bushing_c": 47.0,
              "transformer_1/ambient_plate": 25.0}
     for entry, value in zip(entries, values):

@@ -33,7 +33,7 @@ def frame(phases, ambient, background=None):
 def read_device(image, phases=("A", "B", "C")):
     """The box maxima a patrol stores: {phase: degC}, ambient."""
     values = dict((p, read_thermal_max(image, BOXES[p]).value) for p in phases)
-    return values, read_thermal_max(image, BOXES["ambient"], reference=True).value
+    return values, read_thermal_max(image, BOXES["ambient"], "ambient").value
 
 
 def test_an_ambient_box_partly_off_its_plate_reads_the_plate_not_the_warm_equipment_beside_it():
@@ -41,9 +41,9 @@ def test_an_ambient_box_partly_off_its_plate_reads_the_plate_not_the_warm_equipm
     image = np.full((100, 160), 45.0, np.float32)
     image[60:100, 0:100] = 25.0
     box = [(40, 70), (140, 70), (140, 95), (40, 95)]
-    plate = read_thermal_max(image, box, reference=True)
+    plate = read_thermal_max(image, box, "ambient")
     assert plate.value == pytest.approx(25.0) and plate.detail["statistic"] == "median"
-    assert read_thermal_max(image, box).value == pytest.approx(45.0)   # a phase box: its hottest pixel
+    assert read_thermal_max(image, box, "A").value == pytest.approx(45.0)   # a phase box: its hottest pixel
 
 
 def graded(phases, ambient, rule=CONNECTOR):
@@ -212,7 +212,7 @@ def rows_for(values, targets=THREE_PHASE, alarms=None, reasons=None):
 
 def test_the_hot_phase_row_is_an_alarm_with_its_grade_and_every_phase_carries_the_diagnosis():
     image = frame({"A": 30.0, "B": 55.0, "C": 30.2}, 25.0)
-    values = [read_thermal_max(image, BOXES[p], reference=p == "ambient").value for p in ("A", "B", "C", "ambient")]
+    values = [read_thermal_max(image, BOXES[p], p).value for p in ("A", "B", "C", "ambient")]
     rows = rows_for(values, alarms={"clamp_b": [-20.0, 90.0]})   # its own band calls 55 C normal
     a, b, c, air = rows
     assert b["grade"] == GRADE_SERIOUS and b["alarm"] == ALARM_ALARM

@@ -49,8 +49,8 @@ def test_each_day_is_graded_as_its_true_temperatures_are(view):
         for day in range(0, 13):
             assert world.set_value("day", str(day)) == day
             frame = head.thermal_renderer.render(head.thermal_camera())
-            values = [read_thermal_max(frame, quads_from_flat(t["thermal_box"])[0],
-                                       reference=t["phase"] == "ambient").value for t in targets]
+            values = [read_thermal_max(frame, quads_from_flat(t["thermal_box"])[0], t["phase"]).value
+                      for t in targets]
             for target, value in zip(targets, values):
                 assert abs(value - world.hot_spots[target["name"]].temperature) < 0.5, (day, target["name"], value)
             findings = thermal_findings(targets, values)

@@ -34,7 +34,6 @@ from inspection_robot.inspection.readers import Reading, ReadFailed
 from inspection_robot.inspection.switch import face_similarity, read_switch
 from inspection_robot.inspection.thermal_max import read_thermal_max
 from inspection_robot.interface import FOREIGN_DETECT_BOTH, FOREIGN_DETECT_FOREIGN, FOREIGN_DETECT_READ
-from inspection_robot.thermal.diagnosis import AMBIENT
 
 cv2 = lazy_import("cv2")   # on first use: a node registers before its ~360 libraries load
 
@@ -192,7 +191,7 @@ class ScaleReader(object):
                 tquad = next(thermal_iter)
                 _check_quad(tquad, frame.shape, "thermal box %d" % i)
                 try:
-                    reading = read_thermal_max(frame, tquad, reference=target.params.get("phase") == AMBIENT)
+                    reading = read_thermal_max(frame, tquad, target.params.get("phase", ""))
                 except ValueError as err:
                     raise ReadError("thermal box %d: %s" % (i, err))
                 annotated = cv2.applyColorMap(_to_u8(frame), cv2.COLORMAP_INFERNO)

@@ -6,13 +6,15 @@ import numpy as np
 from inspection_robot.lazy import lazy_import
 from inspection_robot.inspection.geometry import polygon_mask
 from inspection_robot.inspection.readers import Reading, clip_confidence
+from inspection_robot.thermal.diagnosis import AMBIENT
 
 cv2 = lazy_import("cv2")   # on first use: a node registers before its ~360 libraries load
 
 
-def read_thermal_max(frame, quad, reference=False):
-    """Maximum temperature (deg C) of a radiometric frame inside the quad; with ``reference``, the
-    median (an ambient box: half its pixels may fall off the plate and it still reads the plate).
+def read_thermal_max(frame, quad, phase=""):
+    """Maximum temperature (deg C) of a radiometric frame inside the quad; for a box whose calibrated
+    ``phase`` is the ambient reference, the median (half its pixels may fall off the plate and it
+    still reads the plate).
 
     Confidence falls with the share of the quad outside the frame and with non-finite pixels.
     """
@@ -27,6 +29,7 @@ def read_thermal_max(frame, quad, reference=False):
     area = abs(cv2.contourArea(np.asarray(quad, dtype=np.float32))) + 1.0
     inside = min(1.0, mask.sum() / area)
     confidence = 100.0 * inside * finite.size / float(values.size)
+    reference = phase == AMBIENT
     value = float(np.median(finite)) if reference else float(finite.max())
     return Reading(value, clip_confidence(confidence),
                    {"pixels": int(finite.size), "statistic": "median" if reference else "max"})
